@@ -1,0 +1,82 @@
+"""The reduced (one-coordinate) model of a mechanism driven by its crank (seed 000 eqs. 13-16).
+
+For links j with mass m_j, central inertia I_j, mass-centre transfer functions t, p, tt, pp and
+angle transfer functions q, qq (eq. 11):
+
+    J(phi1)       = I_flywheel + sum m_j (t^2 + p^2) + I_j q^2          (= -S2, kg.m^2)
+    0.5 J'(phi1)  = sum m_j (t tt + p pp) + I_j q qq                     (= -S3, kg.m^2/rad)
+    Q(phi1, w1)   = sum F_jx t + F_jy p + M_j q                          (=  S1, N.m)
+
+The crank's own inertia I_1 enters through its link; the flywheel adds a constant.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..mechanisms import Kinematics, Mechanism
+
+
+@dataclass
+class LinkInertia:
+    name: str
+    centre: str       # point name
+    mass: float       # kg
+    inertia: float    # kg.m^2 about the mass centre
+
+
+class ReducedModel:
+    """J, 0.5*J' and the reduced load Q of a mechanism at any crank angle."""
+
+    def __init__(self, mechanism: Mechanism, links: list[LinkInertia], J_flywheel: float, loads: list):
+        self.mechanism = mechanism
+        self.links = links
+        self.J_flywheel = float(J_flywheel)        # kg.m^2
+        self.loads = loads
+        self.velocity_dependent = any(not load.position_only for load in loads)
+
+    def coefficients(self, phi1, kin: Kinematics | None = None):
+        """(J, half_dJ, Q_position) at each crank angle, and the kinematics used.
+
+        J in kg.m^2, half_dJ = 0.5 dJ/dphi1 in kg.m^2/rad, Q_position (the loads that depend on
+        the position only) in N.m.
+        """
+        if kin is None:
+            kin = self.mechanism.kinematics(phi1)
+        J = np.full_like(kin.phi1, self.J_flywheel)
+        half_dJ = np.zeros_like(kin.phi1)
+        for link in self.links:
+            _, _, t, p, tt, pp = kin.point(link.centre)
+            _, q, qq = kin.link_angle(link.name)
+            J += link.mass * (t * t + p * p) + link.inertia * q * q
+            half_dJ += link.mass * (t * tt + p * pp) + link.inertia * q * qq
+        Q = np.zeros_like(kin.phi1)
+        for load in self.loads:
+            if load.position_only:
+                Q += load.torque(kin)
+        return J, half_dJ, Q, kin
+
+    def velocity_load(self, kin: Kinematics, omega1):
+        """The velocity-dependent part of Q (N.m); zero when no load depends on omega1."""
+        Q = np.zeros_like(kin.phi1)
+        for load in self.loads:
+            if not load.position_only:
+                Q += load.torque(kin, omega1)
+        return Q
+
+    def kinetic_energy_of_links(self, phi1, omega1):
+        """E_kin (J) summed link by link from mass-centre and angular velocities, flywheel included.
+
+        An independent path to 0.5*J*omega1^2, used to check the reduced inertia.
+        """
+        kin = self.mechanism.kinematics(phi1)
+        omega1 = np.asarray(omega1, dtype=float)
+        E = 0.5 * self.J_flywheel * omega1 ** 2
+        for link in self.links:
+            _, _, t, p, _, _ = kin.point(link.centre)
+            vx, vy = t * omega1, p * omega1
+            w = kin.link_angle(link.name)[1] * omega1
+            E = E + 0.5 * link.mass * (vx * vx + vy * vy) + 0.5 * link.inertia * w * w
+        return E

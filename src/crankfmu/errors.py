@@ -1,0 +1,32 @@
+"""Errors crankfmu raises. Every message names the offending item and what is valid."""
+
+
+class CrankfmuError(Exception):
+    """Base class of every error crankfmu raises on purpose."""
+
+
+class DefinitionError(CrankfmuError, ValueError):
+    """A mechanism or scenario file is malformed (unknown name, bad expression, ...)."""
+
+
+class ParameterError(CrankfmuError, ValueError):
+    """A parameter value is outside its valid range, or the name is unknown.
+
+    ``parameter`` is the offending name (or a comma-separated list of names).
+    """
+
+    def __init__(self, message: str, parameter: str | None = None):
+        super().__init__(message)
+        self.parameter = parameter
+
+
+class AssemblyError(ParameterError):
+    """The geometry cannot be assembled over the whole crank turn."""
+
+
+class ScenarioNotFound(CrankfmuError, LookupError):
+    """No scenario of that name or path."""
+
+
+class SchemeError(CrankfmuError, RuntimeError):
+    """A numerical scheme cannot run this case (e.g. a crank-angle scheme at omega1 <= 0)."""

@@ -1,0 +1,111 @@
+"""Small, safe arithmetic expressions for data files.
+
+Mechanism and scenario files write lengths, masses and closed-form positions as
+expressions of named parameters (``"q1*l1**3/12"``, ``"atan2(dy, dx)"``). They are
+parsed with :mod:`ast` and only arithmetic, numbers, names and a fixed set of
+numpy functions are accepted, so a data file can never run arbitrary code.
+Evaluation is vectorised: names may be bound to numpy arrays.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from typing import Mapping
+
+import numpy as np
+
+from .errors import DefinitionError
+
+FUNCTIONS = {
+    "sin": np.sin,
+    "cos": np.cos,
+    "tan": np.tan,
+    "asin": np.arcsin,
+    "acos": np.arccos,
+    "atan": np.arctan,
+    "atan2": np.arctan2,
+    "sqrt": np.sqrt,
+    "hypot": np.hypot,
+    "exp": np.exp,
+    "log": np.log,
+    "abs": np.abs,
+    "sign": np.sign,
+    "radians": np.radians,
+    "degrees": np.degrees,
+    "min": np.minimum,
+    "max": np.maximum,
+}
+CONSTANTS = {"pi": math.pi}
+
+_ALLOWED = (
+    ast.Expression, ast.BinOp, ast.UnaryOp, ast.Constant, ast.Name, ast.Load, ast.Call,
+    ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd,
+)
+
+
+def parse(source: str, where: str = "expression") -> ast.Expression:
+    """Parse ``source`` and reject anything that is not plain arithmetic."""
+    if isinstance(source, (int, float)):
+        source = repr(float(source))
+    if not isinstance(source, str):
+        raise DefinitionError(f"{where}: expected a number or an expression string, got {source!r}")
+    try:
+        tree = ast.parse(source.strip(), mode="eval")
+    except SyntaxError as exc:
+        raise DefinitionError(f"{where}: cannot parse {source!r}: {exc.msg}") from None
+    for node in ast.walk(tree):
+        if not isinstance(node, _ALLOWED):
+            raise DefinitionError(f"{where}: {type(node).__name__} is not allowed in {source!r}")
+        if isinstance(node, ast.Constant) and not isinstance(node.value, (int, float)):
+            raise DefinitionError(f"{where}: only numeric constants are allowed in {source!r}")
+        if isinstance(node, ast.Call):
+            if not isinstance(node.func, ast.Name) or node.keywords:
+                raise DefinitionError(f"{where}: only plain calls like sin(x) are allowed in {source!r}")
+    return tree
+
+
+def free_names(tree: ast.AST) -> set[str]:
+    """Names an expression reads, functions and constants excluded."""
+    called = {n.func.id for n in ast.walk(tree) if isinstance(n, ast.Call)}
+    names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+    return names - called - set(CONSTANTS)
+
+
+class Expression:
+    """A compiled expression; ``evaluate(env)`` binds its names from ``env``."""
+
+    def __init__(self, source, where: str = "expression", functions: Mapping | None = None):
+        self.source = source if isinstance(source, str) else repr(float(source))
+        self.where = where
+        tree = parse(source, where)
+        self.functions = dict(FUNCTIONS if functions is None else functions)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and node.func.id not in self.functions:
+                raise DefinitionError(
+                    f"{where}: unknown function {node.func.id!r} in {self.source!r} "
+                    f"(known: {', '.join(sorted(self.functions))})"
+                )
+        self.names = free_names(tree)
+        self._code = compile(tree, f"<{where}>", "eval")
+
+    def evaluate(self, env: Mapping[str, object]):
+        missing = self.names - env.keys()
+        if missing:
+            raise DefinitionError(
+                f"{self.where}: {self.source!r} uses undefined name(s) {', '.join(sorted(missing))}"
+            )
+        scope = dict(CONSTANTS)
+        scope.update(self.functions)
+        scope.update({name: env[name] for name in self.names})
+        return eval(self._code, {"__builtins__": {}}, scope)  # noqa: S307 - tree checked in parse()
+
+    def __repr__(self) -> str:
+        return f"Expression({self.source!r})"
+
+
+def evaluate(source, env: Mapping[str, object], where: str = "expression") -> float:
+    """Evaluate a scalar expression (a number passes through)."""
+    if isinstance(source, (int, float)) and not isinstance(source, bool):
+        return float(source)
+    return float(Expression(source, where).evaluate(env))

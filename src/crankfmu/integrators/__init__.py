@@ -1,0 +1,34 @@
+"""Integrators of the movement equation, all behind ``Integrator.run``."""
+
+from __future__ import annotations
+
+import math
+
+from ..errors import ParameterError
+from .base import Integrator, Trajectory
+from .crank_angle import BadoiuEq17, CrankAngleScheme, LvEq3
+from .time_domain import SolveIvpIntegrator, radau, reference
+
+METHODS = ("reference", "radau", "badoiu-eq17", "lv-eq3")
+
+
+def make_integrator(method: str, rtol: float | None = None, angle_step: float | None = None) -> Integrator:
+    """The integrator called ``method`` (one of METHODS).
+
+    rtol applies to the time-domain methods; angle_step (rad, default 0.1 deg) to the
+    crank-angle schemes.
+    """
+    if method == "reference":
+        return reference(rtol)
+    if method == "radau":
+        return radau(rtol)
+    step = math.radians(0.1) if angle_step is None else angle_step
+    if method == "badoiu-eq17":
+        return BadoiuEq17(step)
+    if method == "lv-eq3":
+        return LvEq3(step)
+    raise ParameterError(f"unknown method {method!r}; valid methods: {', '.join(METHODS)}", "method")
+
+
+__all__ = ["METHODS", "BadoiuEq17", "CrankAngleScheme", "Integrator", "LvEq3", "SolveIvpIntegrator",
+           "Trajectory", "make_integrator", "radau", "reference"]

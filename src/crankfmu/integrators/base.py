@@ -1,0 +1,50 @@
+"""One interface for every integrator: ``run(equation, t0, y0, t_end) -> Trajectory``."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..dynamics.equation import MovementEquation
+
+
+@dataclass
+class Trajectory:
+    """What an integrator produced.
+
+    ``t`` (s) and ``y`` (state rows phi1 rad, omega1 rad/s, W_motor J, W_load J, W_ext J) at the
+    integrator's own nodes; ``dense(t)`` evaluates the state anywhere in the run (None for the
+    crank-angle schemes, which are interpolated linearly between nodes: they are first order);
+    ``epsilon`` holds the scheme's own angular acceleration at the nodes (eq. 10) when the scheme
+    defines one; ``events`` lists (time s, description) of the located switches.
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    dense: Callable[[np.ndarray], np.ndarray] | None = None
+    epsilon: np.ndarray | None = None
+    events: list[tuple[float, str]] = field(default_factory=list)
+    n_rhs: int = 0
+    n_steps: int = 0
+
+    def sample(self, times) -> np.ndarray:
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        if self.dense is not None:
+            return self.dense(times)
+        return np.vstack([np.interp(times, self.t, row) for row in self.y])
+
+
+class Integrator(ABC):
+    """An integrator of the movement equation."""
+
+    name: str = "?"
+    #: whether ``run`` can pass omega1 <= 0 (time domain) or not (crank-angle schemes)
+    time_domain: bool = True
+
+    @abstractmethod
+    def run(self, equation: MovementEquation, t0: float, y0: np.ndarray, t_end: float,
+            progress: Callable[[float], None] | None = None) -> Trajectory:
+        """Integrate from (t0, y0) to t_end (s)."""

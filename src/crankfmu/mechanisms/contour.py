@@ -1,0 +1,640 @@
+"""The contour engine: planar one-degree-of-freedom mechanisms described as data.
+
+A mechanism is the set of its independent contours, each a closed vector sum
+projected on x and y (seed 000 eq. 19, seed 001 eqs. 2-4, seed 004 eqs. 1-2)::
+
+    l1*u(phi1) + l2*u(phi2) + l3*u(phi3) - l0*u(0) = 0
+
+with ``u(a) = (cos a, sin a)``. Every term is ``coefficient * [displacement] * u(angle + offset)``
+where the coefficient is a product of parameters, the optional displacement is an unknown slider
+coordinate and the angle is the crank angle ``phi1``, an unknown link angle or a constant.
+
+With ``q = (phi1, unknowns...)`` and primes for d/dphi1, one term ``r = L u(theta)`` gives
+
+    r'  = L' u + L theta' n                                   (n = u(theta + pi/2))
+    r'' = L'' u + L theta'' n + 2 L' theta' n - L theta'^2 u
+
+so the contour equations F(q) = 0 give the transfer functions by two linear solves with the
+same Jacobian F_u (no finite differences):
+
+    F_u u'  = -F_phi1
+    F_u u'' = -(2 L' theta' n - L theta'^2 u summed over the terms)
+
+Mass centres and any other point are vector chains of the same terms, so their coordinates and
+first and second derivatives (eq. 11's t, tt, p, pp) come out of the same formulas; link angles
+give q and qq directly.
+
+Positions are solved in closed form where the mechanism file gives one (an ordered list of
+assignments), otherwise by Newton's method started from a continuation table built once over the
+whole turn from the file's assembly guess, which also fixes the assembly branch.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from ..errors import AssemblyError, DefinitionError
+from ..expressions import Expression, parse
+
+TWO_PI = 2.0 * math.pi
+
+
+# --------------------------------------------------------------------------------------------
+# parsing vector chains
+# --------------------------------------------------------------------------------------------
+
+@dataclass
+class _TermSource:
+    sign: float
+    coefficient: str          # scalar expression of parameters
+    length: str | None        # name of a displacement unknown, or None
+    angle: str | None         # "phi1", an angle unknown, or None (constant direction)
+    offset: str               # scalar expression of parameters (rad)
+
+
+def _flatten_sum(node: ast.AST, sign: float, out: list):
+    if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Add, ast.Sub)):
+        _flatten_sum(node.left, sign, out)
+        _flatten_sum(node.right, sign if isinstance(node.op, ast.Add) else -sign, out)
+    elif isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        _flatten_sum(node.operand, -sign if isinstance(node.op, ast.USub) else sign, out)
+    else:
+        out.append((sign, node))
+
+
+def _flatten_product(node: ast.AST, out: list, divide: bool = False):
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult):
+        _flatten_product(node.left, out, divide)
+        _flatten_product(node.right, out, divide)
+    elif isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div):
+        _flatten_product(node.left, out, divide)
+        _flatten_product(node.right, out, not divide)
+    else:
+        out.append((node, divide))
+
+
+def _parse_chain(source: str, where: str, variables: Mapping[str, str], points: Mapping[str, object]):
+    """Split ``source`` into vector terms and named points it starts from.
+
+    ``variables`` maps each name of q to its kind ("angle" or "length"); ``points`` holds the
+    names that may stand alone as a base point (fixed points and points defined earlier).
+    Returns (terms, base_points) with base_points a list of (sign, name).
+    """
+    tree = parse(source, where)
+    flat: list = []
+    _flatten_sum(tree.body, 1.0, flat)
+    terms, bases = [], []
+    for sign, node in flat:
+        if isinstance(node, ast.Name) and node.id in points:
+            bases.append((sign, node.id))
+            continue
+        factors: list = []
+        _flatten_product(node, factors)
+        unit = [f for f in factors if isinstance(f[0], ast.Call) and f[0].func.id == "u"]
+        if len(unit) != 1 or unit[0][1]:
+            raise DefinitionError(
+                f"{where}: each term must be [coefficient *] [displacement *] u(angle), "
+                f"got {ast.unparse(node)!r} in {source!r}"
+            )
+        call = unit[0][0]
+        if len(call.args) != 1:
+            raise DefinitionError(f"{where}: u() takes one angle, got {ast.unparse(call)!r}")
+        length = None
+        scalar_parts = []
+        for f, divide in factors:
+            if f is call:
+                continue
+            if isinstance(f, ast.Name) and f.id in variables:
+                if variables[f.id] != "length" or divide or length is not None:
+                    raise DefinitionError(
+                        f"{where}: {f.id!r} cannot multiply u() in {source!r}: only one slider "
+                        "displacement (a 'length' unknown) may scale a term"
+                    )
+                length = f.id
+                continue
+            text = ast.unparse(f)
+            if any(isinstance(n, ast.Name) and n.id in variables for n in ast.walk(f)):
+                raise DefinitionError(
+                    f"{where}: unknowns may appear only as the displacement or inside u(); "
+                    f"got {text!r} in {source!r}"
+                )
+            scalar_parts.append(f"/({text})" if divide else f"*({text})")
+        coefficient = "1" + "".join(scalar_parts)
+        # angle: [variable] [+/- constant]
+        angle_flat: list = []
+        _flatten_sum(call.args[0], 1.0, angle_flat)
+        angle = None
+        offset_parts = []
+        for asign, anode in angle_flat:
+            if isinstance(anode, ast.Name) and anode.id in variables:
+                if variables[anode.id] != "angle" or asign < 0 or angle is not None:
+                    raise DefinitionError(
+                        f"{where}: u() takes one angle variable with a + sign plus constants, "
+                        f"got {ast.unparse(call)!r}"
+                    )
+                angle = anode.id
+            else:
+                if any(isinstance(n, ast.Name) and n.id in variables for n in ast.walk(anode)):
+                    raise DefinitionError(f"{where}: bad angle {ast.unparse(call)!r}")
+                offset_parts.append(("+" if asign > 0 else "-") + f"({ast.unparse(anode)})")
+        offset = "0" + "".join(offset_parts)
+        terms.append(_TermSource(sign, coefficient, length, angle, offset))
+    return terms, bases
+
+
+# --------------------------------------------------------------------------------------------
+# the definition (a parsed mechanism file) and the mechanism bound to parameter values
+# --------------------------------------------------------------------------------------------
+
+@dataclass
+class LinkDefinition:
+    name: str
+    number: int
+    angle: str           # "phi1", an angle unknown, or a constant expression
+    centre: str          # point name
+    mass: str            # expression
+    inertia: str         # expression (about the centre)
+
+
+@dataclass
+class MechanismDefinition:
+    """A mechanism file, parsed and checked, not yet bound to parameter values."""
+
+    name: str
+    title: str
+    unknowns: dict[str, str]                      # name -> "angle" | "length"
+    fixed_points: dict[str, tuple[str, str]]
+    contours: list[tuple[str, list[_TermSource]]]
+    points: dict[str, tuple[list[_TermSource], tuple[str, str]]]  # flattened terms, constant
+    links: dict[str, LinkDefinition]
+    branch: str
+    closed_form: list[tuple[str, Expression]] | None
+    guess: dict[str, str] | None
+    constants: dict[str, float] = field(default_factory=dict)
+    source: str = ""
+
+    @property
+    def variables(self) -> list[str]:
+        return ["phi1", *self.unknowns]
+
+    @property
+    def geometry_parameters(self) -> list[str]:
+        """Parameters the positions depend on (used to name them in assembly errors)."""
+        names: set[str] = set()
+        for _, terms in self.contours:
+            for t in terms:
+                names |= Expression(t.coefficient).names | Expression(t.offset).names
+        if self.closed_form:
+            assigned = {n for n, _ in self.closed_form}
+            for _, expr in self.closed_form:
+                names |= expr.names - assigned
+        names -= set(self.variables) | set(self.constants)
+        return sorted(names)
+
+    @classmethod
+    def from_dict(cls, data: Mapping, where: str = "mechanism") -> "MechanismDefinition":
+        try:
+            name = data["name"]
+            unknowns = dict(data["unknowns"])
+            contour_list = data["contours"]
+        except KeyError as exc:
+            raise DefinitionError(f"{where}: missing section {exc.args[0]!r}") from None
+        for u, kind in unknowns.items():
+            if kind not in ("angle", "length"):
+                raise DefinitionError(f"{where}: unknown {u!r} has kind {kind!r}; use 'angle' or 'length'")
+        if "phi1" in unknowns:
+            raise DefinitionError(f"{where}: phi1 is the crank angle, not an unknown")
+        variables = {"phi1": "angle", **unknowns}
+
+        fixed = {}
+        for p, xy in data.get("fixed_points", {}).items():
+            if not isinstance(xy, (list, tuple)) or len(xy) != 2:
+                raise DefinitionError(f"{where}: fixed point {p!r} must be [x, y]")
+            fixed[p] = (str(xy[0]), str(xy[1]))
+
+        contours = []
+        for i, c in enumerate(contour_list):
+            cname = c.get("name", f"contour {i + 1}")
+            terms, bases = _parse_chain(c["equation"], f"{where}: contour {cname}", variables, {})
+            if bases:
+                raise DefinitionError(f"{where}: contour {cname} must be a sum of u() terms")
+            contours.append((cname, terms))
+        n_equations = 2 * len(contours)
+        if n_equations != len(unknowns):
+            raise DefinitionError(
+                f"{where}: {len(contours)} contour(s) give {n_equations} equations for "
+                f"{len(unknowns)} unknowns ({', '.join(unknowns)}); they must match"
+            )
+
+        points: dict = {p: ([], xy) for p, xy in fixed.items()}
+        for p, src in data.get("points", {}).items():
+            if p in points:
+                raise DefinitionError(f"{where}: point {p!r} defined twice")
+            terms, bases = _parse_chain(src, f"{where}: point {p}", variables, points)
+            if len(bases) != 1 or bases[0][0] < 0:
+                raise DefinitionError(
+                    f"{where}: point {p} = {src!r} must start from exactly one known point "
+                    f"(one of {', '.join(points)}) with a + sign"
+                )
+            base_terms, base_xy = points[bases[0][1]]
+            points[p] = (base_terms + terms, base_xy)
+
+        links = {}
+        for lname, ld in data.get("links", {}).items():
+            for key in ("centre", "mass", "inertia"):
+                if key not in ld:
+                    raise DefinitionError(f"{where}: link {lname!r} needs {key!r}")
+            if ld["centre"] not in points:
+                raise DefinitionError(f"{where}: link {lname!r}: centre {ld['centre']!r} is not a point")
+            angle = str(ld.get("angle", "0"))
+            if angle not in variables:
+                Expression(angle, f"{where}: link {lname} angle")  # a constant expression
+            elif variables[angle] != "angle":
+                raise DefinitionError(f"{where}: link {lname!r}: {angle!r} is not an angle")
+            links[lname] = LinkDefinition(
+                lname, int(ld.get("number", len(links) + 1)), angle, ld["centre"],
+                str(ld["mass"]), str(ld["inertia"]),
+            )
+
+        assembly = data.get("assembly", {})
+        branch = assembly.get("branch", "")
+        if not branch:
+            raise DefinitionError(f"{where}: [assembly] must state the branch in words ('branch = ...')")
+        constants = {k: float(v) for k, v in assembly.get("constants", {}).items()}
+        closed_form = None
+        if "closed_form" in assembly:
+            closed_form = []
+            for line in assembly["closed_form"]:
+                if "=" not in line:
+                    raise DefinitionError(f"{where}: closed-form step {line!r} is not 'name = expression'")
+                lhs, rhs = (s.strip() for s in line.split("=", 1))
+                closed_form.append((lhs, Expression(rhs, f"{where}: closed form {lhs}")))
+            missing = set(unknowns) - {n for n, _ in closed_form}
+            if missing:
+                raise DefinitionError(f"{where}: the closed form does not assign {', '.join(sorted(missing))}")
+        guess = assembly.get("guess")
+        if closed_form is None and guess is None:
+            raise DefinitionError(
+                f"{where}: [assembly] needs a closed_form or a guess (unknown values at a crank angle)"
+            )
+        if guess is not None:
+            guess = {k: str(v) for k, v in guess.items()}
+            missing = set(unknowns) - set(guess)
+            if missing:
+                raise DefinitionError(f"{where}: the assembly guess lacks {', '.join(sorted(missing))}")
+        return cls(
+            name=name, title=data.get("title", name), unknowns=unknowns, fixed_points=fixed,
+            contours=contours, points=points, links=links, branch=branch,
+            closed_form=closed_form, guess=guess, constants=constants, source=data.get("source", ""),
+        )
+
+    def bind(self, parameters: Mapping[str, float], *, use_closed_form: bool = True) -> "Mechanism":
+        return Mechanism(self, parameters, use_closed_form=use_closed_form)
+
+
+# --------------------------------------------------------------------------------------------
+
+@dataclass
+class Kinematics:
+    """Positions and transfer functions at an array of crank angles.
+
+    ``q[name]``, ``dq[name]``, ``ddq[name]``: each unknown (rad or m) and its first and second
+    derivative with respect to phi1 (rad/rad, m/rad, ...). ``point(name)`` gives
+    (x, y, dx/dphi1, dy/dphi1, d2x/dphi1^2, d2y/dphi1^2) in m, m/rad, m/rad^2: eq. 11's
+    t, p, tt, pp for mass centres. ``link_angle(link)`` gives (phi_j, q_j, qq_j).
+    """
+
+    phi1: np.ndarray
+    q: dict[str, np.ndarray]
+    dq: dict[str, np.ndarray]
+    ddq: dict[str, np.ndarray]
+    points: dict[str, tuple[np.ndarray, ...]]
+    link_angles: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+    def point(self, name: str):
+        return self.points[name]
+
+    def link_angle(self, link: str):
+        return self.link_angles[link]
+
+    def subset(self, index) -> "Kinematics":
+        """The same kinematics at some of the angles (an index or slice keeps array shapes)."""
+        sel = np.atleast_1d(np.arange(self.phi1.size)[index])
+        pick = lambda d: {k: v[sel] for k, v in d.items()}  # noqa: E731
+        return Kinematics(
+            phi1=self.phi1[sel], q=pick(self.q), dq=pick(self.dq), ddq=pick(self.ddq),
+            points={k: tuple(a[sel] for a in v) for k, v in self.points.items()},
+            link_angles={k: tuple(a[sel] for a in v) for k, v in self.link_angles.items()},
+        )
+
+
+class Mechanism:
+    """A mechanism definition bound to numeric parameter values.
+
+    All methods take an array (or scalar) of crank angles phi1 in rad.
+    """
+
+    def __init__(self, definition: MechanismDefinition, parameters: Mapping[str, float],
+                 *, use_closed_form: bool = True):
+        self.definition = definition
+        self.parameters = dict(parameters)
+        env = {**self.parameters, **definition.constants}
+        names = definition.variables
+        self._index = {n: i for i, n in enumerate(names)}
+        self.n_unknowns = len(definition.unknowns)
+        self.unknown_names = list(definition.unknowns)
+
+        # chains: contours first (their rows form F), then points
+        chain_terms: list[list[_TermSource]] = [t for _, t in definition.contours]
+        self.point_names = list(definition.points)
+        chain_terms += [definition.points[p][0] for p in self.point_names]
+        coef, li, ai, off, owner = [], [], [], [], []
+        for c, terms in enumerate(chain_terms):
+            for t in terms:
+                coef.append(t.sign * _scalar(t.coefficient, env, f"{definition.name}: coefficient"))
+                li.append(self._index[t.length] if t.length else -1)
+                ai.append(self._index[t.angle] if t.angle else -1)
+                off.append(_scalar(t.offset, env, f"{definition.name}: angle offset"))
+                owner.append(c)
+        n_terms, n_chains, n_q = len(coef), len(chain_terms), len(names)
+        self._coef = np.array(coef, dtype=float)
+        self._offset = np.array(off, dtype=float)
+        self._len_idx = np.array(li, dtype=int)
+        self._ang_idx = np.array(ai, dtype=int)
+        self._has_len = self._len_idx >= 0
+        self._has_ang = self._ang_idx >= 0
+        # incidence matrices turn per-term values into per-chain sums with one matmul
+        self._sum = np.zeros((n_terms, n_chains))
+        self._sum[np.arange(n_terms), owner] = 1.0
+        self._len_incidence = np.zeros((n_terms, n_q))
+        self._len_incidence[self._has_len, self._len_idx[self._has_len]] = 1.0
+        self._ang_incidence = np.zeros((n_terms, n_q))
+        self._ang_incidence[self._has_ang, self._ang_idx[self._has_ang]] = 1.0
+        self._n_contour_rows = len(definition.contours)
+        self._n_q = n_q
+        # (term, contour, q) incidences flattened so the Jacobian is two matmuls
+        k = self._n_contour_rows
+        S = self._sum[:, :k]
+        self._jac_len = (S[:, :, None] * self._len_incidence[:, None, :]).reshape(n_terms, k * n_q)
+        self._jac_ang = (S[:, :, None] * self._ang_incidence[:, None, :]).reshape(n_terms, k * n_q)
+        const = [(_scalar(xy[0], env, "fixed point"), _scalar(xy[1], env, "fixed point"))
+                 for xy in [("0", "0")] * self._n_contour_rows
+                 + [definition.points[p][1] for p in self.point_names]]
+        self._const = np.array(const).T  # (2, n_chains)
+        self.length_scale = float(np.max(np.abs(self._coef))) if n_terms else 1.0
+
+        self._links = {}
+        for lname, ld in definition.links.items():
+            if ld.angle in self._index:
+                self._links[lname] = (self._index[ld.angle], 0.0)
+            else:
+                self._links[lname] = (-1, _scalar(ld.angle, env, f"link {lname} angle"))
+
+        self._closed_form = definition.closed_form if use_closed_form else None
+        self._env = env
+        self._table = None
+        if self._closed_form is None:
+            self._table = self._continuation_table()
+
+    # ---------------------------------------------------------------- terms
+    def _terms(self, q):
+        L = self._coef * np.where(self._has_len, q[:, self._len_idx], 1.0)
+        theta = np.where(self._has_ang, q[:, self._ang_idx], 0.0) + self._offset
+        return L, np.cos(theta), np.sin(theta)
+
+    def _chain_sums(self, L, c, s, dq=None, ddq=None):
+        """Positions, and with dq (and ddq) first (and second) derivatives, of every chain."""
+        x = (L * c) @ self._sum + self._const[0]
+        y = (L * s) @ self._sum + self._const[1]
+        if dq is None:
+            return x, y
+        dL = self._coef * (dq @ self._len_incidence.T)
+        dth = dq @ self._ang_incidence.T
+        dx = (dL * c - L * dth * s) @ self._sum
+        dy = (dL * s + L * dth * c) @ self._sum
+        if ddq is None:
+            ddL = ddth = 0.0
+        else:
+            ddL = self._coef * (ddq @ self._len_incidence.T)
+            ddth = ddq @ self._ang_incidence.T
+        # r'' = L'' u + L th'' n + 2 L' th' n - L th'^2 u
+        along = ddL - L * dth * dth
+        across = L * ddth + 2.0 * dL * dth
+        ddx = (along * c - across * s) @ self._sum
+        ddy = (along * s + across * c) @ self._sum
+        return x, y, dx, dy, ddx, ddy
+
+    def _jacobian(self, L, c, s):
+        """dF/dq for the contour rows: shape (N, 2k, n_q)."""
+        # d(x_term)/dq_j = coef cos(th) [j is its length] - L sin(th) [j is its angle]
+        # d(y_term)/dq_j = coef sin(th) [j is its length] + L cos(th) [j is its angle]
+        n = L.shape[0]
+        jx = (self._coef * c) @ self._jac_len - (L * s) @ self._jac_ang
+        jy = (self._coef * s) @ self._jac_len + (L * c) @ self._jac_ang
+        J = np.empty((n, self._n_contour_rows, 2, self._n_q))
+        J[:, :, 0] = jx.reshape(n, self._n_contour_rows, self._n_q)
+        J[:, :, 1] = jy.reshape(n, self._n_contour_rows, self._n_q)
+        return J.reshape(n, 2 * self._n_contour_rows, self._n_q)
+
+    def residual(self, q):
+        """Contour equations F(q) (rows x1, y1, x2, y2, ...), m."""
+        L, c, s = self._terms(q)
+        x, y = self._chain_sums(L, c, s)
+        k = self._n_contour_rows
+        F = np.empty((q.shape[0], 2 * k))
+        F[:, 0::2] = x[:, :k]
+        F[:, 1::2] = y[:, :k]
+        return F
+
+    # ---------------------------------------------------------------- positions
+    def positions(self, phi1) -> np.ndarray:
+        """q = (phi1, unknowns...) at each crank angle, shape (N, 1 + n_unknowns).
+
+        Raises AssemblyError where the mechanism cannot be assembled.
+        """
+        phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
+        if self._closed_form is not None:
+            env = dict(self._env)
+            env["phi1"] = phi1
+            with np.errstate(invalid="ignore", divide="ignore"):
+                for name, expr in self._closed_form:
+                    env[name] = np.broadcast_to(expr.evaluate(env), phi1.shape)
+            q = np.column_stack([phi1] + [env[u] for u in self.unknown_names])
+            bad = ~np.all(np.isfinite(q), axis=1)
+            if np.any(bad):
+                raise self._assembly_error(phi1[bad][0], "the contour equations have no real solution")
+            return q
+        return self._newton_from_table(phi1)
+
+    def _newton(self, q, max_iter=50):
+        tol = 1e-13 * self.length_scale
+        for _ in range(max_iter):
+            F = self.residual(q)
+            if np.max(np.abs(F)) <= tol:
+                return q, True
+            L, c, s = self._terms(q)
+            Ju = self._jacobian(L, c, s)[:, :, 1:]
+            try:
+                step = np.linalg.solve(Ju, F[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                return q, False
+            q = q.copy()
+            q[:, 1:] -= step
+        return q, np.max(np.abs(self.residual(q))) <= 1e3 * tol
+
+    def _continuation_table(self, n=720):
+        """Newton continuation over one turn from the file's assembly guess."""
+        g = self.definition.guess
+        env = dict(self._env)
+        phi_start = _scalar(g.get("phi1", "0"), env, "assembly guess phi1")
+        q = np.array([[phi_start] + [_scalar(g[u], env, f"assembly guess {u}") for u in self.unknown_names]])
+        q, ok = self._newton(q)
+        if not ok:
+            raise self._assembly_error(phi_start, "Newton's method did not converge from the file's guess")
+        grid = phi_start + np.linspace(0.0, TWO_PI, n + 1)
+        table = np.empty((n + 1, q.shape[1]))
+        table[0] = q[0]
+        h = grid[1] - grid[0]
+        for i in range(1, n + 1):
+            k = self.kinematics_from_q(table[i - 1:i])
+            d = np.array([[1.0] + [k.dq[u][0] for u in self.unknown_names]])
+            dd = np.array([[0.0] + [k.ddq[u][0] for u in self.unknown_names]])
+            guess = table[i - 1:i] + h * d + 0.5 * h * h * dd
+            qi, ok = self._newton(guess)
+            if not ok:
+                raise self._assembly_error(grid[i], "the continuation lost the assembly")
+            table[i] = qi[0]
+        # one turn of the crank must bring every unknown back (angles modulo 2 pi)
+        for j, u in enumerate(self.unknown_names, start=1):
+            delta = table[-1, j] - table[0, j]
+            if self.definition.unknowns[u] == "angle":
+                delta = (delta + math.pi) % TWO_PI - math.pi
+            if abs(delta) > 1e-8 * max(1.0, self.length_scale):
+                raise self._assembly_error(
+                    grid[-1], f"after one crank turn {u} does not return to its start (branch change)")
+        return grid, table
+
+    def _newton_from_table(self, phi1):
+        grid, table = self._table
+        h = grid[1] - grid[0]
+        rel = np.mod(phi1 - grid[0], TWO_PI)
+        idx = np.rint(rel / h).astype(int)
+        idx = np.clip(idx, 0, len(grid) - 1)
+        dphi = rel - (grid[idx] - grid[0])
+        base = table[idx].copy()
+        kin = self.kinematics_from_q(base)
+        d = np.column_stack([np.ones_like(dphi)] + [kin.dq[u] for u in self.unknown_names])
+        dd = np.column_stack([np.zeros_like(dphi)] + [kin.ddq[u] for u in self.unknown_names])
+        q = base + dphi[:, None] * d + 0.5 * (dphi ** 2)[:, None] * dd
+        q[:, 0] = phi1
+        q, ok = self._newton(q)
+        if not ok:
+            raise self._assembly_error(phi1[0], "Newton's method did not converge")
+        return q
+
+    # ---------------------------------------------------------------- derivatives
+    def kinematics(self, phi1) -> Kinematics:
+        """Positions and first and second transfer functions at each crank angle."""
+        return self.kinematics_from_q(self.positions(phi1))
+
+    def kinematics_from_q(self, q) -> Kinematics:
+        L, c, s = self._terms(q)
+        J = self._jacobian(L, c, s)
+        Ju, Jphi = J[:, :, 1:], J[:, :, 0]
+        n = q.shape[0]
+        dq = np.zeros_like(q)
+        dq[:, 0] = 1.0
+        try:
+            dq[:, 1:] = np.linalg.solve(Ju, -Jphi[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            raise self._assembly_error(q[0, 0], "the contour Jacobian is singular (dead point)") from None
+        k = self._n_contour_rows
+        _, _, _, _, ddx0, ddy0 = self._chain_sums(L, c, s, dq)  # ddq = 0: the quadratic part
+        rhs = np.empty((n, 2 * k))
+        rhs[:, 0::2] = ddx0[:, :k]
+        rhs[:, 1::2] = ddy0[:, :k]
+        ddq = np.zeros_like(q)
+        ddq[:, 1:] = np.linalg.solve(Ju, -rhs[..., None])[..., 0]
+        x, y, dx, dy, ddx, ddy = self._chain_sums(L, c, s, dq, ddq)
+        points = {p: (x[:, k + i], y[:, k + i], dx[:, k + i], dy[:, k + i], ddx[:, k + i], ddy[:, k + i])
+                  for i, p in enumerate(self.point_names)}
+        names = self.unknown_names
+        links = {}
+        for lname, (idx, const) in self._links.items():
+            if idx >= 0:
+                links[lname] = (q[:, idx], dq[:, idx], ddq[:, idx])
+            else:
+                z = np.zeros(n)
+                links[lname] = (np.full(n, const), z, z)
+        return Kinematics(
+            phi1=q[:, 0],
+            q={u: q[:, j + 1] for j, u in enumerate(names)},
+            dq={u: dq[:, j + 1] for j, u in enumerate(names)},
+            ddq={u: ddq[:, j + 1] for j, u in enumerate(names)},
+            points=points,
+            link_angles=links,
+        )
+
+    # ---------------------------------------------------------------- assembly
+    def conditioning(self, phi1) -> np.ndarray:
+        """Smallest singular value of the column-normalised contour Jacobian (1 = well posed, 0 = dead point).
+
+        For the four-bar it is |sin(phi3 - phi2)|, the sine of the transmission angle.
+        """
+        q = self.positions(phi1)
+        L, c, s = self._terms(q)
+        Ju = self._jacobian(L, c, s)[:, :, 1:]
+        Ju = Ju / np.linalg.norm(Ju, axis=1, keepdims=True)
+        return np.linalg.svd(Ju, compute_uv=False)[:, -1]
+
+    def check_assembly(self, n_grid: int = 3600, min_conditioning: float = 1e-6):
+        """Refuse a geometry that cannot be assembled over the whole turn, or locks at a dead point.
+
+        Returns (worst conditioning, crank angle where it occurs in rad).
+        """
+        grid = np.linspace(0.0, TWO_PI, n_grid, endpoint=False)
+        cond = self.conditioning(grid)
+        q = self.positions(grid)
+        scale = np.max(np.abs(self.residual(q)))
+        if scale > 1e-9 * self.length_scale:
+            raise DefinitionError(
+                f"{self.definition.name}: the closed form does not satisfy the contour equations "
+                f"(residual {scale:.3g} m); check the mechanism file")
+        i = int(np.argmin(cond))
+        # refine the minimum between grid points: a lock can hide between two of them
+        from scipy.optimize import minimize_scalar
+        h = grid[1] - grid[0]
+        try:
+            res = minimize_scalar(lambda a: float(self.conditioning(a)[0]),
+                                  bounds=(grid[i] - h, grid[i] + h), method="bounded",
+                                  options={"xatol": 1e-12})
+            worst, at = min((float(res.fun), float(res.x)), (float(cond[i]), float(grid[i])))
+        except AssemblyError:
+            raise
+        if worst < min_conditioning:
+            raise self._assembly_error(
+                at, f"the mechanism locks at a dead point (conditioning {worst:.2e} < {min_conditioning:g})")
+        return worst, at
+
+    def _assembly_error(self, phi1, reason):
+        params = self.definition.geometry_parameters
+        values = ", ".join(f"{p} = {self.parameters[p]:g}" for p in params if p in self.parameters)
+        return AssemblyError(
+            f"{self.definition.name}: the geometry cannot be assembled over the whole crank turn: "
+            f"at phi1 = {math.degrees(float(phi1)) % 360:.3f} deg {reason} "
+            f"(branch: {self.definition.branch}; geometry parameters {values})",
+            parameter=", ".join(params),
+        )
+
+
+def _scalar(source: str, env: Mapping[str, float], where: str) -> float:
+    value = Expression(source, where).evaluate(env)
+    value = float(np.asarray(value))
+    if not math.isfinite(value):
+        raise DefinitionError(f"{where}: {source!r} is not finite")
+    return value

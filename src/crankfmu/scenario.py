@@ -1,0 +1,263 @@
+"""Scenarios: a paper's example as a data file (geometry, masses, loads, motor, flywheel, start,
+duration), read by the CLI, the tests and the FMU alike.
+
+``load_scenario("seed000")`` (a packaged name or a path to a .toml file) returns a
+:class:`Scenario`; ``scenario.with_params(A=380, J_flywheel=0.5)`` returns a copy with parameters
+overridden by name (each checked against its declared range at once); ``scenario.build()``
+returns the :class:`Model` (mechanism, reduced model, motor, movement equation, initial state)
+after checking that the geometry assembles over the whole crank turn.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from importlib import resources
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation, ReducedModel,
+                       Weights)
+from .dynamics.equation import STATE_SIZE
+from .errors import AssemblyError, DefinitionError, ParameterError, ScenarioNotFound
+from .expressions import evaluate
+from .mechanisms import Mechanism, MechanismDefinition, load_mechanism
+
+_SCENARIOS = resources.files(__package__) / "scenarios"
+
+#: parameters every scenario must declare (shared/FMU_CONTRACT.md)
+CONTRACT_PARAMETERS = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel",
+                       "phi1_start", "omega1_start", "g")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A named scenario parameter with its SI unit and valid range."""
+
+    name: str
+    value: float
+    unit: str
+    description: str = ""
+    min: float | None = None
+    max: float | None = None
+    min_inclusive: bool = True
+    max_inclusive: bool = True
+    tunable: bool = False
+
+    def range_text(self) -> str:
+        lo = "(-inf" if self.min is None else ("[" if self.min_inclusive else "(") + f"{self.min:g}"
+        hi = "inf)" if self.max is None else f"{self.max:g}" + ("]" if self.max_inclusive else ")")
+        return f"{lo}, {hi} {self.unit}".rstrip()
+
+    def check(self, value) -> float:
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ParameterError(f"parameter {self.name} must be a number, got {value!r}", self.name) from None
+        ok = math.isfinite(v)
+        if ok and self.min is not None:
+            ok = v >= self.min if self.min_inclusive else v > self.min
+        if ok and self.max is not None:
+            ok = v <= self.max if self.max_inclusive else v < self.max
+        if not ok:
+            raise ParameterError(
+                f"parameter {self.name} = {value!r} is out of range: valid range {self.range_text()} "
+                f"({self.description})", self.name)
+        return v
+
+
+@dataclass(frozen=True)
+class Experiment:
+    start_time: float = 0.0          # s
+    stop_time: float = 1.0           # s
+    output_interval: float = 1e-3    # s
+    tolerance: float = 1e-10         # 1
+    cycles: int = 5
+    summary_cycle: int = 4
+
+
+class Scenario:
+    """A scenario file, with parameter overrides."""
+
+    def __init__(self, data: Mapping, where: str, path: str | None = None,
+                 overrides: Mapping[str, float] | None = None):
+        self.data = data
+        self.where = where
+        self.path = path
+        try:
+            self.name = data["name"]
+            self.mechanism_name = data["mechanism"]
+            raw = data["parameters"]
+        except KeyError as exc:
+            raise DefinitionError(f"{where}: missing {exc.args[0]!r}") from None
+        self.title = data.get("title", self.name)
+        params = {}
+        for pname, spec in raw.items():
+            if not isinstance(spec, Mapping) or "value" not in spec or "unit" not in spec:
+                raise DefinitionError(f"{where}: parameter {pname} needs at least value and unit")
+            p = Parameter(pname, float(spec["value"]), spec["unit"], spec.get("description", ""),
+                          spec.get("min"), spec.get("max"), spec.get("min_inclusive", True),
+                          spec.get("max_inclusive", True), bool(spec.get("tunable", False)))
+            p.check(p.value)
+            params[pname] = p
+        missing = [n for n in CONTRACT_PARAMETERS if n not in params]
+        if missing:
+            raise DefinitionError(f"{where}: missing contract parameter(s) {', '.join(missing)}")
+        self.parameters: dict[str, Parameter] = params
+        self.overrides: dict[str, float] = {}
+        for k, v in (overrides or {}).items():
+            self.overrides[k] = self._param(k).check(v)
+        exp = data.get("experiment", {})
+        self.experiment = Experiment(**{k: exp[k] for k in Experiment.__dataclass_fields__ if k in exp})
+        if not self.experiment.stop_time > self.experiment.start_time:
+            raise DefinitionError(f"{where}: experiment stop_time must exceed start_time")
+
+    def _param(self, name: str) -> Parameter:
+        if name not in self.parameters:
+            raise ParameterError(
+                f"unknown parameter {name!r} for scenario {self.name}; valid names: "
+                f"{', '.join(self.parameters)}", name)
+        return self.parameters[name]
+
+    @property
+    def values(self) -> dict[str, float]:
+        """Every parameter's value (SI), overrides applied."""
+        out = {n: p.value for n, p in self.parameters.items()}
+        out.update(self.overrides)
+        return out
+
+    def __getitem__(self, name: str) -> float:
+        self._param(name)
+        return self.values[name]
+
+    def with_params(self, **values) -> "Scenario":
+        """A copy with parameters overridden by name; each value is range-checked now."""
+        return Scenario(self.data, self.where, self.path, {**self.overrides, **values})
+
+    def __repr__(self) -> str:
+        extra = f", overrides={self.overrides}" if self.overrides else ""
+        return f"Scenario({self.name!r}{extra})"
+
+    # ------------------------------------------------------------------ building the model
+    def mechanism_definition(self) -> MechanismDefinition:
+        return load_mechanism(self.mechanism_name)
+
+    def build(self) -> "Model":
+        """Mechanism, reduced model, motor and equation of motion for these parameter values."""
+        values = self.values
+        definition = self.mechanism_definition()
+        mechanism = definition.bind(values)
+        try:
+            worst, at = mechanism.check_assembly()
+        except AssemblyError as exc:
+            raise self._explain_assembly(exc, definition) from None
+        links = []
+        for lname, ld in definition.links.items():
+            mass = evaluate(ld.mass, values, f"{self.name}: mass of {lname}")
+            inertia = evaluate(ld.inertia, values, f"{self.name}: inertia of {lname}")
+            for what, v in (("mass", mass), ("inertia", inertia)):
+                if not (v >= 0 and math.isfinite(v)):
+                    raise ParameterError(
+                        f"{self.name}: the {what} of link {lname} ({ld.mass if what == 'mass' else ld.inertia}"
+                        f" = {v:g}) must be >= 0", lname)
+            links.append(LinkInertia(lname, ld.centre, mass, inertia))
+        loads = [self._make_load(spec, mechanism, links, values) for spec in self.data.get("loads", [])]
+        reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads)
+        J = reduced.coefficients(np.linspace(0, 2 * math.pi, 721))[0]
+        if not np.min(J) > 0:
+            raise ParameterError(
+                f"{self.name}: the reduced inertia J(phi1) must be > 0 at every angle (min {np.min(J):g} "
+                "kg.m2): give the links mass or add a flywheel (J_flywheel > 0)", "J_flywheel")
+        motor = MotorLine(values["A"], values["B"], values["A_low"], values["B_low"], values["omega_switch"])
+        equation = MovementEquation(reduced, motor)
+        y0 = np.zeros(STATE_SIZE)
+        y0[0], y0[1] = values["phi1_start"], values["omega1_start"]
+        return Model(self, mechanism, reduced, motor, equation, y0, worst, at)
+
+    def _make_load(self, spec, mechanism: Mechanism, links, values):
+        kind = spec.get("kind")
+        if kind == "weights":
+            return Weights({l.name: l.mass for l in links}, {l.name: l.centre for l in links}, values["g"])
+        if kind == "dead_point_moment":
+            amplitude = evaluate(spec["amplitude"], values, f"{self.name}: load amplitude")
+            return DeadPointMoment.from_geometry(mechanism, spec["link"], amplitude)
+        raise DefinitionError(f"{self.where}: unknown load kind {kind!r} (known: weights, dead_point_moment)")
+
+    def _explain_assembly(self, exc: AssemblyError, definition: MechanismDefinition) -> AssemblyError:
+        """Add, for each geometry parameter the user changed, the bound it must respect."""
+        changed = [p for p in definition.geometry_parameters if p in self.overrides]
+        hints = []
+        for p in changed:
+            bound = self._assembly_bound(p, definition)
+            if bound is not None:
+                side = "at most" if bound < self.overrides[p] else "at least"
+                hints.append(f"with the other parameters as given, {p} must be {side} {bound:.6g} "
+                             f"{self.parameters[p].unit} (asked {self.overrides[p]:g})")
+        message = str(exc)
+        if hints:
+            message += "; " + "; ".join(hints)
+        return AssemblyError(message, parameter=", ".join(changed) or exc.parameter)
+
+    def _assembly_bound(self, name: str, definition: MechanismDefinition, iterations: int = 40):
+        """Bisect between the file's value (assembles) and the asked value (does not)."""
+        good, bad = self.parameters[name].value, self.overrides[name]
+
+        def assembles(v):
+            try:
+                definition.bind({**self.values, name: v}).check_assembly(n_grid=720)
+                return True
+            except AssemblyError:
+                return False
+
+        if not assembles(good):
+            return None
+        for _ in range(iterations):
+            mid = 0.5 * (good + bad)
+            if assembles(mid):
+                good = mid
+            else:
+                bad = mid
+        return good
+
+
+@dataclass
+class Model:
+    """A scenario built into numbers: what the integrators run."""
+
+    scenario: Scenario
+    mechanism: Mechanism
+    reduced: ReducedModel
+    motor: MotorLine
+    equation: MovementEquation
+    y0: np.ndarray                 # phi1 rad, omega1 rad/s, works J
+    conditioning: float            # worst Jacobian conditioning over the turn (1 good, 0 dead point)
+    conditioning_at: float         # crank angle where it occurs, rad
+    notes: list[str] = field(default_factory=list)
+
+
+def available_scenarios() -> list[str]:
+    return sorted(p.name[:-5] for p in _SCENARIOS.iterdir() if p.name.endswith(".toml"))
+
+
+def load_scenario(name_or_path: str | Path) -> Scenario:
+    """A packaged scenario by name (``"seed000"``) or a scenario file by path."""
+    if isinstance(name_or_path, Scenario):
+        return name_or_path
+    path = Path(name_or_path)
+    if path.suffix == ".toml" and path.exists():
+        text, where, origin = path.read_text(), str(path), str(path)
+    else:
+        res = _SCENARIOS / f"{name_or_path}.toml"
+        if not res.is_file():
+            raise ScenarioNotFound(
+                f"unknown scenario {str(name_or_path)!r}: give a packaged name "
+                f"({', '.join(available_scenarios())}) or the path of a .toml scenario file")
+        text, where, origin = res.read_text(), f"scenario {name_or_path}", str(res)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise DefinitionError(f"{where}: {exc}") from None
+    return Scenario(data, where, origin)
