@@ -234,7 +234,7 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
             raise ParameterError(f"output_times must be increasing and within [{t0:g}, {t_end:g}] s",
                                  "output_times")
     y = trajectory.sample(times)
-    out = model.equation.outputs(y[PHI], y[OMEGA])
+    out = model.equation.outputs(y[PHI], y[OMEGA], trajectory.sliding(times))
     if trajectory.epsilon is not None:
         # the scheme's own acceleration (eq. 10), not the time-domain formula
         out["epsilon1"] = np.interp(times, trajectory.t, trajectory.epsilon)

@@ -19,7 +19,8 @@ class Trajectory:
     integrator's own nodes; ``dense(t)`` evaluates the state anywhere in the run (None for the
     crank-angle schemes, which are interpolated linearly between nodes: they are first order);
     ``epsilon`` holds the scheme's own angular acceleration at the nodes (eq. 10) when the scheme
-    defines one; ``events`` lists (time s, description) of the located switches.
+    defines one; ``events`` lists (time s, description) of the located switches and ``modes``
+    (start time s, mode) of the segments between them.
     """
 
     t: np.ndarray
@@ -27,8 +28,17 @@ class Trajectory:
     dense: Callable[[np.ndarray], np.ndarray] | None = None
     epsilon: np.ndarray | None = None
     events: list[tuple[float, str]] = field(default_factory=list)
+    modes: list[tuple[float, str]] = field(default_factory=list)
     n_rhs: int = 0
     n_steps: int = 0
+
+    def sliding(self, times) -> np.ndarray | None:
+        """Boolean array: where the motor was holding omega1 on its switch (see MovementEquation)."""
+        if not any(m == "slide" for _, m in self.modes):
+            return None
+        starts = np.array([t for t, _ in self.modes])
+        idx = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(starts) - 1)
+        return np.array([self.modes[i][1] == "slide" for i in idx])
 
     def sample(self, times) -> np.ndarray:
         times = np.atleast_1d(np.asarray(times, dtype=float))

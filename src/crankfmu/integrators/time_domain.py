@@ -57,29 +57,26 @@ class SolveIvpIntegrator(Integrator):
     def run(self, equation, t0, y0, t_end, progress=None):
         y = np.array(y0, dtype=float)
         t = float(t0)
-        mode = equation.mode_at(t, y)
+        mode = equation.initial_mode(t, y)
         dense = _PiecewiseDense()
-        ts, ys, events = [np.array([t])], [y[:, None]], []
+        ts, ys, events, modes = [np.array([t])], [y[:, None]], [], [(t, mode)]
         n_steps = 0
         equation.n_rhs = 0
         for _ in range(self.max_segments):
             evs = []
-            for i, sw in enumerate(equation.switches):
-                ev = (lambda s: (lambda tt, yy: s(tt, yy)))(sw)
+            surfaces = equation.events(mode)
+            for g, direction, _ in surfaces:
+                ev = (lambda g: (lambda tt, yy: g(tt, yy)))(g)
                 ev.terminal = True
-                # leave the side we are on: the surface is crossed downwards when above it
-                ev.direction = -1.0 if mode[i] else 1.0
+                ev.direction = direction
                 evs.append(ev)
             current = mode
-            if progress is None:
-                fun = lambda tt, yy: equation.rhs(tt, yy, current)  # noqa: E731
-            else:
-                def fun(tt, yy, current=current):
-                    if equation.n_rhs % 500 == 0:
-                        progress(float(tt))
-                    return equation.rhs(tt, yy, current)
-            sol = solve_ivp(fun, (t, t_end), y,
-                            method=self.method, rtol=self.rtol, atol=self.atol,
+
+            def fun(tt, yy, current=current):
+                if progress is not None and equation.n_rhs % 500 == 0:
+                    progress(float(tt))
+                return equation.rhs(tt, yy, current)
+            sol = solve_ivp(fun, (t, t_end), y, method=self.method, rtol=self.rtol, atol=self.atol,
                             dense_output=True, events=evs)
             if sol.status == -1:
                 raise SchemeError(f"{self.name}: solve_ivp failed at t = {sol.t[-1]:.6g} s: {sol.message}")
@@ -91,21 +88,18 @@ class SolveIvpIntegrator(Integrator):
                 progress(float(sol.t[-1]))
             if sol.status != 1:
                 break
-            fired = [i for i, te in enumerate(sol.t_events) if len(te)]
-            i = fired[0]
+            i = next(k for k, te in enumerate(sol.t_events) if len(te))
             t = float(sol.t_events[i][0])
             y = np.array(sol.y_events[i][0], dtype=float)
-            events.append((t, equation.switches[i].name))
-            mode = tuple(not m if j == i else m for j, m in enumerate(mode))
-            if ts[-1].size == 0 or ts[-1][-1] != t:
-                ts.append(np.array([t]))
-                ys.append(y[:, None])
+            mode = equation.transition(mode, i, t, y)
+            events.append((t, surfaces[i][2]))
+            modes.append((t, mode))
             if t >= t_end:
                 break
         else:
-            raise SchemeError(f"{self.name}: more than {self.max_segments} switches (chattering?)")
+            raise SchemeError(f"{self.name}: more than {self.max_segments} mode switches before t = {t:.6g} s")
         return Trajectory(t=np.concatenate(ts), y=np.hstack(ys), dense=dense, events=events,
-                          n_rhs=equation.n_rhs, n_steps=n_steps)
+                          modes=modes, n_rhs=equation.n_rhs, n_steps=n_steps)
 
 
 def reference(rtol: float | None = None) -> SolveIvpIntegrator:

@@ -219,7 +219,7 @@ class MechanismDefinition:
 
         contours = []
         for i, c in enumerate(contour_list):
-            cname = c.get("name", f"contour {i + 1}")
+            cname = c.get("name", str(i + 1))
             terms, bases = _parse_chain(c["equation"], f"{where}: contour {cname}", variables, {})
             if bases:
                 raise DefinitionError(f"{where}: contour {cname} must be a sum of u() terms")
@@ -582,15 +582,16 @@ class Mechanism:
 
     # ---------------------------------------------------------------- assembly
     def conditioning(self, phi1) -> np.ndarray:
-        """Smallest singular value of the column-normalised contour Jacobian (1 = well posed, 0 = dead point).
+        """|det| of the column-normalised contour Jacobian: 1 = orthogonal columns, 0 = dead point.
 
-        For the four-bar it is |sin(phi3 - phi2)|, the sine of the transmission angle.
+        By Hadamard's inequality it lies in [0, 1]; for the four-bar it is |sin(phi3 - phi2)|,
+        the sine of the transmission angle.
         """
         q = self.positions(phi1)
         L, c, s = self._terms(q)
         Ju = self._jacobian(L, c, s)[:, :, 1:]
         Ju = Ju / np.linalg.norm(Ju, axis=1, keepdims=True)
-        return np.linalg.svd(Ju, compute_uv=False)[:, -1]
+        return np.abs(np.linalg.det(Ju))
 
     def check_assembly(self, n_grid: int = 3600, min_conditioning: float = 1e-6):
         """Refuse a geometry that cannot be assembled over the whole turn, or locks at a dead point.
