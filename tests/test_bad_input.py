@@ -36,20 +36,19 @@ def test_out_of_range_parameters(scenario, name, value, expected):
 
 
 def test_geometry_that_cannot_be_assembled_names_the_parameter_and_its_bound(scenario):
-    """A crank of 0.5 m: the loop cannot close at phi1 = 180 deg; the crank must stay below
-    l0 + l3 - l2 ... here the binding limit is l1 <= l2 + l3 - l0 = 0.3 m and |l2 - l3| <= l0 - l1,
-    i.e. l1 <= 0.7 m; so 0.3 m is the bound."""
+    """A crank of 0.5 m cannot turn fully: the loop needs l0 + l1 <= l2 + l3 (l1 <= 0.3 m) and
+    |l2 - l3| <= l0 - l1 (l1 <= 0.7 m); the message gives the binding bound, 0.3 m."""
     with pytest.raises(AssemblyError) as info:
         scenario.with_params(l1=0.5).build()
     msg = str(info.value)
     assert "cannot be assembled over the whole crank turn" in msg
-    assert "l1 must be at most 0.3" in msg
+    assert "the crank turns fully only for l1 < 0.3 m (asked 0.5)" in msg
     assert info.value.parameter == "l1"
 
 
 def test_geometry_with_a_lock_inside_the_turn(scenario):
-    """A longer rocker that only just fails (l3 = 0.249 < l0 + l1 - l2 = 0.45?) is refused too."""
-    with pytest.raises(AssemblyError, match="l3 must be at least 0.45"):
+    """A short rocker: l0 + l1 <= l2 + l3 needs l3 >= 0.45 m."""
+    with pytest.raises(AssemblyError, match=r"turns fully only for l3 > 0.45 m \(asked 0.4\)"):
         scenario.with_params(l3=0.40).build()
 
 

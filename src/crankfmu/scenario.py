@@ -193,9 +193,9 @@ class Scenario:
         for p in changed:
             bound = self._assembly_bound(p, definition)
             if bound is not None:
-                side = "at most" if bound < self.overrides[p] else "at least"
-                hints.append(f"with the other parameters as given, {p} must be {side} {bound:.6g} "
-                             f"{self.parameters[p].unit} (asked {self.overrides[p]:g})")
+                side = "<" if bound < self.overrides[p] else ">"
+                hints.append(f"with the other parameters as given the crank turns fully only for "
+                             f"{p} {side} {bound:.6g} {self.parameters[p].unit} (asked {self.overrides[p]:g})")
         message = str(exc)
         if hints:
             message += "; " + "; ".join(hints)

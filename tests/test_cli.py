@@ -1,0 +1,58 @@
+"""The command line writes what the issue promises and fails cleanly on bad input."""
+
+import csv
+import json
+
+import pytest
+
+import crankfmu
+from crankfmu.cli import main
+
+
+def test_simulate_writes_csv_summary_and_plots(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["simulate", "seed000", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "cycle 4" in printed and "omega1 min" in printed and "residual" in printed
+    with open(out / "timeseries.csv") as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["time", "phi1", "omega1", "epsilon1", "M_motor", "M_load", "J_red", "E_kin"]
+    assert len(rows) == 2002        # header + 0..2 s every 1 ms
+    summary = json.loads((out / "summary.json").read_text())
+    for key in ("omega1_min", "omega1_max", "omega1_mean", "delta", "J_red_min", "J_red_max",
+                "energy_residual"):
+        assert isinstance(summary[key], float)
+    assert summary["omega1_min"] < summary["omega1_mean"] < summary["omega1_max"]
+    assert abs(summary["energy_residual"]) < 1e-8
+    assert summary["columns"]["omega1"] == "rad/s"
+    for png in ("omega1_cycles.png", "omega1_cycle4.png"):
+        assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_simulate_with_the_paper_scheme_and_a_set(tmp_path):
+    out = tmp_path / "eq17"
+    assert main(["simulate", "seed000", "--out", str(out), "--method", "badoiu-eq17",
+                 "--set", "J_flywheel=2", "--angle-step-deg", "0.5"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["parameters"]["J_flywheel"] == 2.0
+    assert summary["settings"]["angle_step_deg"] == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["simulate", "seed999"], "unknown scenario 'seed999'"),
+    (["simulate", "seed000", "--set", "nope=1"], "unknown parameter 'nope'"),
+    (["simulate", "seed000", "--set", "l1=-1"], "l1 = -1.0 is out of range"),
+    (["simulate", "seed000", "--set", "l1"], "--set expects NAME=VALUE"),
+    (["simulate", "seed000", "--t-end", "0"], "duration must be > 0"),
+    (["simulate", "seed000", "--set", "omega1_start=0", "--method", "lv-eq3"], "lv-eq3 cannot run this case"),
+])
+def test_bad_input_exits_2_with_a_message(tmp_path, capsys, args, message):
+    assert main(args + ["--out", str(tmp_path / "x")]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_scenario_by_path(tmp_path):
+    src = crankfmu.load_scenario("seed000").path
+    copy = tmp_path / "mine.toml"
+    copy.write_text(open(src).read().replace("value = 1.0, unit = \"kg.m2\"", "value = 3.0, unit = \"kg.m2\""))
+    assert crankfmu.load_scenario(copy)["J_flywheel"] == 3.0
