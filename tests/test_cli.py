@@ -56,3 +56,14 @@ def test_scenario_by_path(tmp_path):
     copy = tmp_path / "mine.toml"
     copy.write_text(open(src).read().replace("value = 1.0, unit = \"kg.m2\"", "value = 3.0, unit = \"kg.m2\""))
     assert crankfmu.load_scenario(copy)["J_flywheel"] == 3.0
+
+
+def test_schemes_study_prints_orders(tmp_path, capsys):
+    out = tmp_path / "schemes"
+    assert main(["schemes", "seed000", "--out", str(out), "--steps-deg", "0.4,0.2"]) == 0
+    printed = capsys.readouterr().out
+    assert "badoiu-eq17" in printed and "lv-eq3" in printed
+    rows = json.loads((out / "schemes.json").read_text())
+    orders = [r["order"] for r in rows if r["order"] is not None]
+    assert len(orders) == 2 and all(0.8 < o < 1.2 for o in orders)
+    assert (out / "startup.png").exists()

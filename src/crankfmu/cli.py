@@ -55,6 +55,29 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+def cmd_schemes(args) -> int:
+    import json
+    from pathlib import Path
+
+    from .scenario import load_scenario
+    from .simulation import simulate
+    from .studies import format_table, plot_startup, scheme_study
+
+    scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
+    steps = [float(s) for s in args.steps_deg.split(",")]
+    if any(not s > 0 for s in steps):
+        raise CrankfmuError(f"--steps-deg must be positive angles in deg, got {args.steps_deg!r}")
+    reference = simulate(scenario)
+    rows = scheme_study(scenario, reference, steps_deg=steps)
+    print(format_table(rows, scenario.experiment.summary_cycle))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "schemes.json").write_text(json.dumps(rows, indent=2) + "\n")
+    plot_startup(scenario, reference, steps, out / "startup.png")
+    print(f"wrote {out}/schemes.json, startup.png")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="crankfmu", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -69,6 +92,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--angle-step-deg", type=float, default=None,
                    help="angle step of the crank-angle schemes in deg (default 0.1)")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("schemes", help="the papers' crank-angle schemes against the reference: "
+                                       "convergence order and start-up")
+    p.add_argument("scenario")
+    p.add_argument("--out", required=True)
+    p.add_argument("--steps-deg", default="1,0.1,0.01", help="comma-separated angle steps in deg")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.set_defaults(func=cmd_schemes)
     return parser
 
 
