@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Mapping
@@ -235,7 +235,6 @@ class Model:
     y0: np.ndarray                 # phi1 rad, omega1 rad/s, works J
     conditioning: float            # worst Jacobian conditioning over the turn (1 good, 0 dead point)
     conditioning_at: float         # crank angle where it occurs, rad
-    notes: list[str] = field(default_factory=list)
 
 
 def available_scenarios() -> list[str]:

@@ -610,13 +610,10 @@ class Mechanism:
         # refine the minimum between grid points: a lock can hide between two of them
         from scipy.optimize import minimize_scalar
         h = grid[1] - grid[0]
-        try:
-            res = minimize_scalar(lambda a: float(self.conditioning(a)[0]),
-                                  bounds=(grid[i] - h, grid[i] + h), method="bounded",
-                                  options={"xatol": 1e-12})
-            worst, at = min((float(res.fun), float(res.x)), (float(cond[i]), float(grid[i])))
-        except AssemblyError:
-            raise
+        res = minimize_scalar(lambda a: float(self.conditioning(a)[0]),
+                              bounds=(grid[i] - h, grid[i] + h), method="bounded",
+                              options={"xatol": 1e-12})
+        worst, at = min((float(res.fun), float(res.x)), (float(cond[i]), float(grid[i])))
         if worst < min_conditioning:
             raise self._assembly_error(
                 at, f"the mechanism locks at a dead point (conditioning {worst:.2e} < {min_conditioning:g})")
