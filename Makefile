@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= build/demo
 
-.PHONY: demo test venv clean
+.PHONY: demo test venv fmu clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version' 
@@ -18,10 +18,13 @@ $(STAMP): pyproject.toml
 
 venv: $(STAMP)
 
-demo: $(STAMP)
+fmu: $(STAMP)
+	$(BIN)/python fmu_build/build.py --dest build/fmus
+
+demo: fmu
 	$(BIN)/crankfmu simulate seed000 --out $(OUT)
 
-test: $(STAMP)
+test: fmu
 	$(BIN)/python -m pytest -q
 
 clean:

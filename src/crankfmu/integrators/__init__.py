@@ -7,9 +7,10 @@ import math
 from ..errors import ParameterError
 from .base import Integrator, Trajectory
 from .crank_angle import BadoiuEq17, CrankAngleScheme, LvEq3
+from .stepper import DormandPrinceIntegrator, DormandPrinceStepper, StepperState
 from .time_domain import SolveIvpIntegrator, radau, reference
 
-METHODS = ("reference", "radau", "badoiu-eq17", "lv-eq3")
+METHODS = ("reference", "radau", "dopri5", "badoiu-eq17", "lv-eq3")
 
 
 def make_integrator(method: str, rtol: float | None = None, angle_step: float | None = None) -> Integrator:
@@ -22,6 +23,8 @@ def make_integrator(method: str, rtol: float | None = None, angle_step: float | 
         return reference(rtol)
     if method == "radau":
         return radau(rtol)
+    if method == "dopri5":
+        return DormandPrinceIntegrator(1e-10 if rtol is None else rtol)
     step = math.radians(0.1) if angle_step is None else angle_step
     if method == "badoiu-eq17":
         return BadoiuEq17(step)
@@ -30,5 +33,5 @@ def make_integrator(method: str, rtol: float | None = None, angle_step: float | 
     raise ParameterError(f"unknown method {method!r}; valid methods: {', '.join(METHODS)}", "method")
 
 
-__all__ = ["METHODS", "BadoiuEq17", "CrankAngleScheme", "Integrator", "LvEq3", "SolveIvpIntegrator",
+__all__ = ["METHODS", "BadoiuEq17", "DormandPrinceIntegrator", "DormandPrinceStepper", "StepperState", "CrankAngleScheme", "Integrator", "LvEq3", "SolveIvpIntegrator",
            "Trajectory", "make_integrator", "radau", "reference"]

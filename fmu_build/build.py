@@ -1,0 +1,160 @@
+"""Build the FMUs: ``python fmu_build/build.py [--dest build/fmus]``.
+
+pythonfmu packs the slave script with crankfmu's own package in the resources (the same model
+code and scenario files as the CLI) and writes a modelDescription without units, unit
+definitions or initial unknowns; this step completes it: each Real gets its SI unit (from the
+scenario file), ``UnitDefinitions`` gives each unit's SI base exponents, ``InitialUnknowns``
+lists the outputs with the parameters they depend on at initialisation, and the
+``DefaultExperiment`` comes from the scenario's experiment.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+from xml.dom.minidom import parseString
+from xml.etree import ElementTree as ET
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(ROOT / "src"))
+sys.path.insert(0, str(HERE))
+
+#: FMU name -> scenario
+FMUS = {"FourBar": "seed000"}
+
+#: SI base-unit exponents of every unit the FMUs declare
+BASE_UNITS = {
+    "1": {},
+    "m": {"m": 1},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "J": {"kg": 1, "m": 2, "s": -2},
+    "kg.m2": {"kg": 1, "m": 2},
+    "kg/m": {"kg": 1, "m": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+    "m/s2": {"m": 1, "s": -2},
+}
+
+#: what each output depends on at initialisation (besides the geometry and mass parameters)
+INITIAL_DEPENDENCIES = {
+    "phi1": ["phi1_start"],
+    "omega1": ["omega1_start"],
+    "J_red": ["phi1_start", "J_flywheel", "*geometry"],
+    "E_kin": ["phi1_start", "omega1_start", "J_flywheel", "*geometry"],
+    "M_motor": ["omega1_start", "A", "B", "A_low", "B_low", "omega_switch"],
+    "M_load": ["phi1_start", "omega1_start", "g", "*geometry", "*loads"],
+    "epsilon1": ["*all"],
+}
+
+
+def complete_model_description(xml_bytes: bytes, units: dict[str, str], scenario) -> bytes:
+    root = ET.fromstring(xml_bytes)
+    variables = root.find("ModelVariables")
+    index = {}
+    for i, sv in enumerate(variables.findall("ScalarVariable"), start=1):
+        name = sv.get("name")
+        index[name] = i
+        real = sv.find("Real")
+        unit = units.get(name)
+        if unit is None:
+            raise SystemExit(f"build: no unit for variable {name}")
+        if real is not None and unit != "1":
+            real.set("unit", unit)
+    # UnitDefinitions must come before ModelVariables (after LogCategories / DefaultExperiment order:
+    # CoSimulation, UnitDefinitions, TypeDefinitions, LogCategories, DefaultExperiment, ...)
+    unit_defs = ET.Element("UnitDefinitions")
+    for unit in sorted({u for u in units.values() if u != "1"}):
+        u = ET.SubElement(unit_defs, "Unit", name=unit)
+        ET.SubElement(u, "BaseUnit", {k: str(v) for k, v in BASE_UNITS[unit].items()})
+    children = list(root)
+    position = [c.tag for c in children].index("CoSimulation") + 1
+    root.insert(position, unit_defs)
+
+    exp = scenario.experiment
+    for old in root.findall("DefaultExperiment"):
+        root.remove(old)
+    default = ET.Element("DefaultExperiment", startTime=repr(exp.start_time), stopTime=repr(exp.stop_time),
+                         tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
+    position = [c.tag for c in root].index("ModelVariables")
+    root.insert(position, default)
+
+    structure = root.find("ModelStructure")
+    for old in structure.findall("InitialUnknowns"):
+        structure.remove(old)
+    definition = scenario.mechanism_definition()
+    geometry = set(definition.geometry_parameters)
+    masses = {n for n in scenario.parameters if n.startswith("q")}
+    loads = {n for n in scenario.parameters if n in ("Mr",)}
+    parameters = [n for n in scenario.parameters]
+    initial = ET.SubElement(structure, "InitialUnknowns")
+    outputs = [sv.get("name") for sv in variables.findall("ScalarVariable") if sv.get("causality") == "output"]
+    for name in outputs:
+        deps = []
+        for d in INITIAL_DEPENDENCIES.get(name, ["*all"]):
+            if d == "*geometry":
+                deps += sorted(geometry | masses)
+            elif d == "*loads":
+                deps += sorted(loads)
+            elif d == "*all":
+                deps += parameters + ["tau_ext"]
+            else:
+                deps.append(d)
+        refs = sorted({index[d] for d in deps if d in index})
+        ET.SubElement(initial, "Unknown", index=str(index[name]), dependencies=" ".join(map(str, refs)))
+    for element in root.iter():           # drop pythonfmu's whitespace before re-indenting
+        if element.text is not None and not element.text.strip():
+            element.text = None
+        element.tail = None
+    text = ET.tostring(root, encoding="UTF-8")
+    return parseString(text).toprettyxml(encoding="UTF-8", indent="  ")
+
+
+def build(name: str, scenario_name: str, dest: Path) -> Path:
+    from pythonfmu import FmuBuilder
+
+    from crankfmu import load_scenario
+
+    dest.mkdir(parents=True, exist_ok=True)
+    scenario = load_scenario(scenario_name)
+    with tempfile.TemporaryDirectory() as tmp:
+        raw = FmuBuilder.build_FMU(HERE / f"{name}.py", dest=Path(tmp) / f"{name}.fmu",
+                                   project_files=[ROOT / "src" / "crankfmu"],
+                                   canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+        slave_units = _units_of(name)
+        out = dest / f"{name}.fmu"
+        with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
+            for item in zin.infolist():
+                data = zin.read(item.filename)
+                if item.filename == "modelDescription.xml":
+                    data = complete_model_description(data, slave_units, scenario)
+                zout.writestr(item, data)
+    return out
+
+
+def _units_of(name: str) -> dict[str, str]:
+    """Units as the slave registered them (one source: crankfmu.fmu and the scenario file)."""
+    import importlib
+
+    module = importlib.import_module(name)
+    slave = getattr(module, name)(instance_name="build")
+    return dict(slave.core.units)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--dest", default=str(ROOT / "build" / "fmus"))
+    args = parser.parse_args(argv)
+    for name, scenario in FMUS.items():
+        path = build(name, scenario, Path(args.dest))
+        print(f"built {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

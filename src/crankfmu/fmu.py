@@ -1,0 +1,203 @@
+"""The FMU's behaviour, kept in the package so the FMU runs the same model code as the CLI.
+
+``FmuCore`` registers the variables of shared/FMU_CONTRACT.md (plus the scenario's geometry,
+mass and load parameters) on a pythonfmu ``Fmi2Slave`` and implements its life cycle. The slave
+scripts in ``fmu_build/`` are thin: ``class FourBar(Fmi2Slave)`` delegating to ``FmuCore``.
+
+Inside ``fmi2DoStep`` the movement equation is integrated by the error-controlled
+Dormand-Prince stepper (rtol honoured, the motor kink located); communication points inside a
+step are served from its dense output, so the trajectory does not depend on the communication
+step. A tunable parameter or the input ``tau_ext`` that changed since the last step restarts the
+stepper at the communication point, so the change takes effect from that step on.
+
+Bad input never raises into the host: the failing call logs a message naming the variable and
+its valid range with fmi2Error, and every later step fails the same way until a valid value is set.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from .dynamics import MotorLine
+from .dynamics.equation import OMEGA, PHI, SLIDE
+from .errors import CrankfmuError, ParameterError
+from .integrators.stepper import DormandPrinceStepper, StepperState
+from .scenario import load_scenario
+
+#: contract outputs: name -> (unit, description)
+OUTPUTS = {
+    "phi1": ("rad", "crank angle, unwrapped (keeps growing past 2*pi)"),
+    "omega1": ("rad/s", "crank angular speed"),
+    "epsilon1": ("rad/s2", "crank angular acceleration"),
+    "M_motor": ("N.m", "motor torque on the crank"),
+    "M_load": ("N.m", "all external loads (weights, technological loads) reduced to the crank"),
+    "J_red": ("kg.m2", "reduced moment of inertia at the crank, flywheel included"),
+    "E_kin": ("J", "kinetic energy of the whole mechanism"),
+}
+INPUTS = {"tau_ext": ("N.m", "extra torque on the crank from outside (the coupling port)")}
+RTOL = ("1", "relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4)), > 0")
+MOTOR = ("A", "B", "A_low", "B_low", "omega_switch")
+
+
+class FmuCore:
+    """Variables and life cycle of a crankfmu FMU for one scenario."""
+
+    def __init__(self, slave, scenario_name: str):
+        from pythonfmu.enums import Fmi2Causality, Fmi2Variability
+        from pythonfmu.variables import Real
+
+        self.slave = slave
+        self.scenario = load_scenario(scenario_name)
+        self.values = self.scenario.values
+        self.values["rtol"] = self.scenario.experiment.tolerance
+        self.tau_ext = 0.0
+        self.outputs = dict.fromkeys(OUTPUTS, 0.0)
+        self.error: str | None = None       # a refused value blocks stepping until corrected
+        self.model = None
+        self.stepper = None
+        self.state: StepperState | None = None
+        self.time = self.scenario.experiment.start_time
+        self.t_limit = math.inf
+        self.pending = False                # a tunable parameter or input changed: restart
+        self.rebuild = False                # the motor line changed
+        self.units = {}
+
+        for name in OUTPUTS:
+            slave.register_variable(Real(name, causality=Fmi2Causality.output,
+                                         variability=Fmi2Variability.continuous,
+                                         description=OUTPUTS[name][1],
+                                         getter=(lambda n=name: self.outputs[n])))
+            self.units[name] = OUTPUTS[name][0]
+        slave.register_variable(Real("tau_ext", causality=Fmi2Causality.input,
+                                     variability=Fmi2Variability.continuous,
+                                     description=INPUTS["tau_ext"][1],
+                                     getter=lambda: self.tau_ext, setter=self._set_input))
+        self.units["tau_ext"] = INPUTS["tau_ext"][0]
+        for name, p in self.scenario.parameters.items():
+            variability = Fmi2Variability.tunable if p.tunable else Fmi2Variability.fixed
+            slave.register_variable(Real(name, causality=Fmi2Causality.parameter, variability=variability,
+                                         description=f"{p.description} (valid range {p.range_text()})",
+                                         getter=(lambda n=name: self.values[n]),
+                                         setter=(lambda v, n=name: self._set_parameter(n, v))))
+            self.units[name] = p.unit
+        slave.register_variable(Real("rtol", causality=Fmi2Causality.parameter,
+                                     variability=Fmi2Variability.fixed, description=RTOL[1],
+                                     getter=lambda: self.values["rtol"],
+                                     setter=lambda v: self._set_parameter("rtol", v)))
+        self.units["rtol"] = RTOL[0]
+
+    # ------------------------------------------------------------------ setters
+    def _refuse(self, message: str, name: str):
+        """Log with fmi2Error status and block stepping. Never raise: pythonfmu turns any Python
+        exception into fmi2Fatal, after which the host must drop the instance."""
+        from pythonfmu.enums import Fmi2Status
+
+        self.error = f"{name}: {message}"
+        self.slave.log(self.error, Fmi2Status.error)
+
+    def _set_parameter(self, name: str, value):
+        try:
+            if name == "rtol":
+                v = float(value)
+                if not (v > 0 and math.isfinite(v)):
+                    raise ParameterError(f"parameter rtol = {value!r} is out of range: valid range (0, 1)", "rtol")
+            else:
+                v = self.scenario.parameters[name].check(value)
+        except ParameterError as exc:
+            self._refuse(str(exc), name)
+            return
+        self.values[name] = v
+        self.error = None
+        if self.model is not None:
+            if name in MOTOR:
+                self.pending = self.rebuild = True
+            # fixed parameters cannot change after initialisation (the host is told so by FMI)
+
+    def _set_input(self, value):
+        v = float(value)
+        if not math.isfinite(v):
+            self._refuse(f"input tau_ext = {value!r} must be a finite torque in N.m", "tau_ext")
+            return
+        if v != self.tau_ext:
+            self.tau_ext = v
+            self.pending = True
+        self.error = None
+
+    # ------------------------------------------------------------------ life cycle
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        self.time = float(start_time)
+        self.t_limit = math.inf if stop_time is None else float(stop_time)
+
+    def exit_initialization_mode(self):
+        """Build the model from the parameters now set; refuse a design that cannot work."""
+        try:
+            scenario = self.scenario.with_params(**{k: v for k, v in self.values.items() if k != "rtol"})
+            self.model = scenario.build()
+            self.model.equation.tau_ext = self.tau_ext
+            self.stepper = DormandPrinceStepper(self.model.equation, self.values["rtol"])
+            y0 = self.model.y0.copy()
+            self.state = self.stepper.start(self.time, y0)
+        except CrankfmuError as exc:
+            self.model = None
+            self._refuse(str(exc), getattr(exc, "parameter", None) or "model")
+            return
+        self._update_outputs(self.state, self.time)
+        self.pending = self.rebuild = False
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        from pythonfmu.enums import Fmi2Status
+
+        if self.error is not None or self.model is None:
+            self.slave.log(f"cannot step: {self.error or 'the model was not initialised'}", Fmi2Status.error)
+            return False
+        try:
+            if self.pending:
+                eq = self.model.equation
+                if self.rebuild:
+                    v = self.values
+                    eq.motor = MotorLine(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
+                eq.tau_ext = self.tau_ext
+                self.state = self.stepper.restart(self.state, current_time)
+                self.pending = self.rebuild = False
+            target = current_time + step_size
+            while self.state.t < target:
+                self.state = self.stepper.step(self.state, max(self.t_limit, target))
+            self._update_outputs(self.state, target)
+            self.time = target
+            return True
+        except CrankfmuError as exc:
+            self.error = str(exc)
+            self.slave.log(f"step from t = {current_time:g} s failed: {exc}", Fmi2Status.error)
+            return False
+
+    def _update_outputs(self, state: StepperState, t: float):
+        y = self.stepper.dense(state, t)
+        sliding = (state.mode if t == state.t else state.step_mode) == SLIDE
+        out = self.model.equation.outputs(y[PHI:PHI + 1], y[OMEGA:OMEGA + 1], [sliding])
+        self.outputs["phi1"] = float(y[PHI])
+        self.outputs["omega1"] = float(y[OMEGA])
+        for name in ("epsilon1", "M_motor", "M_load", "J_red", "E_kin"):
+            self.outputs[name] = float(out[name][0])
+
+    # ------------------------------------------------------------------ FMU state
+    def get_state(self) -> dict:
+        return {
+            "values": dict(self.values), "tau_ext": self.tau_ext, "outputs": dict(self.outputs),
+            "time": self.time, "error": self.error, "pending": self.pending, "rebuild": self.rebuild,
+            "stepper": None if self.state is None else dataclasses.asdict(self.state),
+            "motor": None if self.model is None else dataclasses.asdict(self.model.equation.motor),
+            "equation_tau": None if self.model is None else self.model.equation.tau_ext,
+        }
+
+    def set_state(self, state: dict):
+        self.values = dict(state["values"])
+        self.tau_ext = state["tau_ext"]
+        self.outputs = dict(state["outputs"])
+        self.time = state["time"]
+        self.error = state["error"]
+        self.pending, self.rebuild = state["pending"], state["rebuild"]
+        if state["stepper"] is not None and self.model is not None:
+            self.state = StepperState(**state["stepper"])
+            self.model.equation.motor = MotorLine(**state["motor"])
+            self.model.equation.tau_ext = state["equation_tau"]
