@@ -153,3 +153,15 @@ def test_motor_line_with_a_jump_slides_on_the_switch(scenario):
     assert np.all(result.M_motor[sliding] <= 29.0 + 1e-9) and np.all(result.M_motor[sliding] >= -70.0 - 1e-9)
     assert len(result.trajectory.events) < 100
     assert abs(result.energy_balance()["residual"]) < 1e-8
+
+
+def test_dopri5_stepper_agrees_with_the_reference_and_ends_on_the_kink(reference, scenario):
+    """The FMU's integrator in process: error-controlled, event on omega_switch, rtol honoured."""
+    d = crankfmu.simulate(scenario, method="dopri5", rtol=1e-10)
+    assert np.max(np.abs(d.omega1 - reference.omega1) / np.abs(reference.omega1)) < 1e-7
+    (t_kink, _), = d.trajectory.events
+    assert t_kink == pytest.approx(reference.trajectory.events[0][0], abs=1e-10)
+    coarse = crankfmu.simulate(scenario, method="dopri5", rtol=1e-6)
+    err_coarse = np.max(np.abs(coarse.omega1 - reference.omega1))
+    err_fine = np.max(np.abs(d.omega1 - reference.omega1))
+    assert err_fine < err_coarse / 100        # tightening rtol buys accuracy
