@@ -185,7 +185,7 @@ class FmuCore:
         return {
             "values": dict(self.values), "tau_ext": self.tau_ext, "outputs": dict(self.outputs),
             "time": self.time, "error": self.error, "pending": self.pending, "rebuild": self.rebuild,
-            "stepper": None if self.state is None else dataclasses.asdict(self.state),
+            "stepper": None if self.state is None else self.state.to_dict(),
             "motor": None if self.model is None else dataclasses.asdict(self.model.equation.motor),
             "equation_tau": None if self.model is None else self.model.equation.tau_ext,
         }
@@ -198,6 +198,6 @@ class FmuCore:
         self.error = state["error"]
         self.pending, self.rebuild = state["pending"], state["rebuild"]
         if state["stepper"] is not None and self.model is not None:
-            self.state = StepperState(**state["stepper"])
+            self.state = StepperState.from_dict(state["stepper"])
             self.model.equation.motor = MotorLine(**state["motor"])
             self.model.equation.tau_ext = state["equation_tau"]

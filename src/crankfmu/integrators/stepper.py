@@ -31,18 +31,27 @@ SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 
 @dataclass
 class StepperState:
-    """All that determines the continuation of a run (plain floats and lists: serialisable)."""
+    """All that determines the continuation of a run; ``to_dict``/``from_dict`` serialise it."""
 
     t: float
-    y: list
-    f: list
+    y: np.ndarray
+    f: np.ndarray
     h: float                 # proposed next step, s
     mode: str
     t_prev: float            # the last step, for dense output between t_prev and t
-    y_prev: list
-    K: list                  # (n_stages + 1) x n stage derivatives of the last step
+    y_prev: np.ndarray
+    K: np.ndarray            # (n_stages + 1) x n stage derivatives of the last step
     n_rhs: int = 0
     step_mode: str = ""      # the mode the last step was computed in (inside it, before any event)
+
+    def to_dict(self) -> dict:
+        """Plain floats and lists (JSON); floats round-trip exactly."""
+        return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "StepperState":
+        arrays = ("y", "f", "y_prev", "K")
+        return cls(**{k: (np.array(v, dtype=float) if k in arrays else v) for k, v in data.items()})
 
 
 class DormandPrinceStepper:
@@ -70,7 +79,7 @@ class DormandPrinceStepper:
         K = np.zeros((_N_STAGES + 1, y.size))
         K[-1] = f
         self.modes.append((t, mode))
-        return StepperState(t, list(y), list(f), float(min(h, self.h_max)), mode, t, list(y), K.tolist(), 1, mode)
+        return StepperState(t, y, f, float(min(h, self.h_max)), mode, t, y, K, 1, mode)
 
     def restart(self, state: StepperState, t: float) -> StepperState:
         """Restart at time t within the last step (e.g. after a parameter or input change)."""
@@ -80,13 +89,13 @@ class DormandPrinceStepper:
     def dense(self, state: StepperState, t: float) -> np.ndarray:
         """State at t in [t_prev, t] from the last step's quartic interpolant."""
         if t == state.t:
-            return np.array(state.y)
+            return state.y.copy()
         h = state.t - state.t_prev
         if h == 0.0:
-            return np.array(state.y)
+            return state.y.copy()
         x = (t - state.t_prev) / h
         p = np.array([x, x * x, x ** 3, x ** 4])
-        return np.array(state.y_prev) + h * (np.array(state.K).T @ (_P @ p))
+        return state.y_prev + h * (state.K.T @ (_P @ p))
 
     # ---------------------------------------------------------------- stepping
     def _rk_step(self, t, y, f, h, mode):
@@ -105,7 +114,7 @@ class DormandPrinceStepper:
 
     def step(self, state: StepperState, t_limit: float) -> StepperState:
         """One accepted step, not beyond t_limit, ending on an event surface if one is crossed."""
-        t, y, f, mode = state.t, np.array(state.y), np.array(state.f), state.mode
+        t, y, f, mode = state.t, state.y, state.f, state.mode
         h = min(state.h, self.h_max)
         n_rhs = state.n_rhs
         while True:
@@ -121,7 +130,7 @@ class DormandPrinceStepper:
             h *= max(MIN_FACTOR, SAFETY * err ** _ERROR_EXPONENT)
         factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** _ERROR_EXPONENT)
         h_next = min(h * factor, self.h_max)
-        new = StepperState(t + h, list(y_new), list(K[-1]), h_next, mode, t, list(y), K.tolist(), n_rhs, mode)
+        new = StepperState(t + h, y_new, K[-1].copy(), h_next, mode, t, y, K, n_rhs, mode)
         if t + h == t_limit:
             new.t = t_limit           # exact, not t + (t_limit - t)
         return self._handle_events(state, new)
@@ -130,7 +139,7 @@ class DormandPrinceStepper:
         surfaces = self.equation.events(old.mode)
         if not surfaces:
             return new
-        y0, y1 = np.array(old.y), np.array(new.y)
+        y0, y1 = old.y, new.y
         first = None
         for i, (g, direction, what) in enumerate(surfaces):
             g0, g1 = g(old.t, y0), g(new.t, y1)
@@ -158,7 +167,7 @@ class DormandPrinceStepper:
             return new
         t_event, index, what = first
         # recompute the step so that it ends on the event, then switch mode there
-        y, f = np.array(old.y), np.array(old.f)
+        y, f = old.y, old.f
         h = t_event - old.t
         y_e, K = self._rk_step(old.t, y, f, h, old.mode)
         n_rhs = new.n_rhs + _N_STAGES
@@ -166,8 +175,7 @@ class DormandPrinceStepper:
         f_e = self.equation.rhs(t_event, y_e, mode)   # K keeps the old mode's stages: dense output
         self.events.append((t_event, what))
         self.modes.append((t_event, mode))
-        return StepperState(t_event, list(y_e), list(f_e), max(new.h, h), mode, old.t, list(y), K.tolist(),
-                            n_rhs + 1, old.mode)
+        return StepperState(t_event, y_e, f_e, max(new.h, h), mode, old.t, y, K, n_rhs + 1, old.mode)
 
     def advance(self, state: StepperState, t_target: float) -> StepperState:
         """Step until the state reaches t_target (the last step ends exactly on it)."""
@@ -193,11 +201,11 @@ class DormandPrinceIntegrator(Integrator):
     def run(self, equation, t0, y0, t_end, progress=None):
         stepper = DormandPrinceStepper(equation, self.rtol, self.atol)
         state = stepper.start(t0, y0)
-        ts, ys, states = [state.t], [np.array(state.y)], [state]
+        ts, ys, states = [state.t], [state.y], [state]
         while state.t < t_end:
             state = stepper.step(state, t_end)
             ts.append(state.t)
-            ys.append(np.array(state.y))
+            ys.append(state.y)
             states.append(state)
             if progress is not None and len(ts) % 200 == 0:
                 progress(state.t)
