@@ -66,15 +66,13 @@ class MovementEquation:
             eps = (M + Q + self.tau_ext - half_dJ * omega1 * omega1) / J
         return np.array([omega1, eps, M * omega1, Q * omega1, self.tau_ext * omega1])
 
-    def _acceleration_on_switch(self, y, high: bool):
-        J, half_dJ, Q = self._coefficients(y[PHI], y[OMEGA])
-        M = self.motor.torque(self.motor.omega_switch, high)
-        return (M + Q + self.tau_ext - half_dJ * self.motor.omega_switch ** 2) / J
-
     def _mode_on_switch(self, y):
         """The mode to continue in from a state on omega1 = omega_switch (Filippov's rule)."""
-        up_from_low = self._acceleration_on_switch(y, False) > 0.0
-        up_from_high = self._acceleration_on_switch(y, True) > 0.0
+        ws = self.motor.omega_switch
+        J, half_dJ, Q = self._coefficients(y[PHI], ws)
+        rest = Q + self.tau_ext - half_dJ * ws * ws          # J * domega1/dt less the motor torque
+        up_from_low = self.motor.torque(ws, False) + rest > 0.0
+        up_from_high = self.motor.torque(ws, True) + rest > 0.0
         if up_from_low and up_from_high:
             return HIGH
         if not up_from_low and not up_from_high:

@@ -33,5 +33,6 @@ def make_integrator(method: str, rtol: float | None = None, angle_step: float | 
     raise ParameterError(f"unknown method {method!r}; valid methods: {', '.join(METHODS)}", "method")
 
 
-__all__ = ["METHODS", "BadoiuEq17", "DormandPrinceIntegrator", "DormandPrinceStepper", "StepperState", "CrankAngleScheme", "Integrator", "LvEq3", "SolveIvpIntegrator",
-           "Trajectory", "make_integrator", "radau", "reference"]
+__all__ = ["METHODS", "BadoiuEq17", "CrankAngleScheme", "DormandPrinceIntegrator", "DormandPrinceStepper",
+           "Integrator", "LvEq3", "SolveIvpIntegrator", "StepperState", "Trajectory", "make_integrator",
+           "radau", "reference"]

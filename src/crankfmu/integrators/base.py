@@ -8,7 +8,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..dynamics.equation import MovementEquation
+from ..dynamics.equation import SLIDE, MovementEquation
 
 
 @dataclass
@@ -34,11 +34,11 @@ class Trajectory:
 
     def sliding(self, times) -> np.ndarray | None:
         """Boolean array: where the motor was holding omega1 on its switch (see MovementEquation)."""
-        if not any(m == "slide" for _, m in self.modes):
+        if not any(m == SLIDE for _, m in self.modes):
             return None
         starts = np.array([t for t, _ in self.modes])
         idx = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(starts) - 1)
-        return np.array([self.modes[i][1] == "slide" for i in idx])
+        return np.array([self.modes[i][1] == SLIDE for i in idx])
 
     def sample(self, times) -> np.ndarray:
         times = np.atleast_1d(np.asarray(times, dtype=float))

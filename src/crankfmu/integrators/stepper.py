@@ -55,15 +55,21 @@ class StepperState:
 
 
 class DormandPrinceStepper:
-    """Steps ``equation`` with rtol/atol error control; ``advance(t)`` returns the state at t."""
+    """Steps ``equation`` with rtol/atol error control, one accepted step per ``step`` call.
 
-    def __init__(self, equation, rtol: float, atol: float | None = None, h_max: float = math.inf):
+    With ``record`` the located events and mode changes are kept in ``events`` and ``modes``
+    (for in-process results); the FMU leaves it off, so a long co-simulation does not grow a list.
+    """
+
+    def __init__(self, equation, rtol: float, atol: float | None = None, h_max: float = math.inf,
+                 record: bool = False):
         if not (rtol > 0 and math.isfinite(rtol)):
             raise ParameterError(f"rtol must be > 0, got {rtol!r}", "rtol")
         self.equation = equation
         self.rtol = float(rtol)
         self.atol = float(rtol if atol is None else atol)
         self.h_max = h_max
+        self.record = record
         self.events: list[tuple[float, str]] = []
         self.modes: list[tuple[float, str]] = []
 
@@ -78,7 +84,8 @@ class DormandPrinceStepper:
             h = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
         K = np.zeros((_N_STAGES + 1, y.size))
         K[-1] = f
-        self.modes.append((t, mode))
+        if self.record and (not self.modes or self.modes[-1][1] != mode):
+            self.modes.append((t, mode))
         return StepperState(t, y, f, float(min(h, self.h_max)), mode, t, y, K, 1, mode)
 
     def restart(self, state: StepperState, t: float) -> StepperState:
@@ -173,15 +180,10 @@ class DormandPrinceStepper:
         n_rhs = new.n_rhs + _N_STAGES
         mode = self.equation.transition(old.mode, index, t_event, y_e)
         f_e = self.equation.rhs(t_event, y_e, mode)   # K keeps the old mode's stages: dense output
-        self.events.append((t_event, what))
-        self.modes.append((t_event, mode))
+        if self.record:
+            self.events.append((t_event, what))
+            self.modes.append((t_event, mode))
         return StepperState(t_event, y_e, f_e, max(new.h, h), mode, old.t, y, K, n_rhs + 1, old.mode)
-
-    def advance(self, state: StepperState, t_target: float) -> StepperState:
-        """Step until the state reaches t_target (the last step ends exactly on it)."""
-        while state.t < t_target:
-            state = self.step(state, t_target)
-        return state
 
 
 def _rms(x) -> float:
@@ -199,7 +201,7 @@ class DormandPrinceIntegrator(Integrator):
         self.method = "Dormand-Prince 5(4), located events"
 
     def run(self, equation, t0, y0, t_end, progress=None):
-        stepper = DormandPrinceStepper(equation, self.rtol, self.atol)
+        stepper = DormandPrinceStepper(equation, self.rtol, self.atol, record=True)
         state = stepper.start(t0, y0)
         ts, ys, states = [state.t], [state.y], [state]
         while state.t < t_end:
