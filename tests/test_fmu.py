@@ -154,6 +154,15 @@ def test_bad_parameter_is_refused_with_its_name_in_the_log(unzipped, name, value
     inst.free()
 
 
+def test_a_valid_value_elsewhere_does_not_lift_a_refusal(unzipped):
+    """Refusals are per variable: setting A correctly must not unblock a refused J_flywheel."""
+    inst = Instance(unzipped).init(J_flywheel=-1.0, A=390.0)
+    with pytest.raises(FMICallException):
+        inst.step(0.01)
+    assert any("J_flywheel" in m for s, m in inst.logs if s >= 3)
+    inst.free()
+
+
 def test_nan_input_is_refused(unzipped):
     inst = Instance(unzipped).init()
     inst.step(0.01)

@@ -23,20 +23,20 @@ from .dynamics import MotorLine
 from .dynamics.equation import OMEGA, PHI, SLIDE
 from .errors import CrankfmuError, ParameterError
 from .integrators.stepper import DormandPrinceStepper, StepperState
-from .scenario import load_scenario
+from .scenario import Parameter, load_scenario
+from .simulation import COLUMNS
 
-#: contract outputs: name -> (unit, description)
+#: contract outputs and their descriptions; units come from simulation.COLUMNS (one table)
 OUTPUTS = {
-    "phi1": ("rad", "crank angle, unwrapped (keeps growing past 2*pi)"),
-    "omega1": ("rad/s", "crank angular speed"),
-    "epsilon1": ("rad/s2", "crank angular acceleration"),
-    "M_motor": ("N.m", "motor torque on the crank"),
-    "M_load": ("N.m", "all external loads (weights, technological loads) reduced to the crank"),
-    "J_red": ("kg.m2", "reduced moment of inertia at the crank, flywheel included"),
-    "E_kin": ("J", "kinetic energy of the whole mechanism"),
+    "phi1": "crank angle, unwrapped (keeps growing past 2*pi)",
+    "omega1": "crank angular speed",
+    "epsilon1": "crank angular acceleration",
+    "M_motor": "motor torque on the crank",
+    "M_load": "all external loads (weights, technological loads) reduced to the crank",
+    "J_red": "reduced moment of inertia at the crank, flywheel included",
+    "E_kin": "kinetic energy of the whole mechanism",
 }
-INPUTS = {"tau_ext": ("N.m", "extra torque on the crank from outside (the coupling port)")}
-RTOL = ("1", "relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4)), > 0")
+TAU_EXT = ("N.m", "extra torque on the crank from outside (the coupling port)")
 MOTOR = ("A", "B", "A_low", "B_low", "omega_switch")
 
 
@@ -49,11 +49,15 @@ class FmuCore:
 
         self.slave = slave
         self.scenario = load_scenario(scenario_name)
-        self.values = self.scenario.values
-        self.values["rtol"] = self.scenario.experiment.tolerance
+        self.parameters = dict(self.scenario.parameters)
+        self.parameters["rtol"] = Parameter(
+            "rtol", self.scenario.experiment.tolerance, "1", min=0.0, min_inclusive=False,
+            description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4))")
+        self.values = {n: p.value for n, p in self.parameters.items()}
         self.tau_ext = 0.0
         self.outputs = dict.fromkeys(OUTPUTS, 0.0)
-        self.error: str | None = None       # a refused value blocks stepping until corrected
+        # refused values by variable: stepping is blocked until each is corrected
+        self.errors: dict[str, str] = {}
         self.model = None
         self.stepper = None
         self.state: StepperState | None = None
@@ -63,29 +67,22 @@ class FmuCore:
         self.rebuild = False                # the motor line changed
         self.units = {}
 
-        for name in OUTPUTS:
+        for name, description in OUTPUTS.items():
             slave.register_variable(Real(name, causality=Fmi2Causality.output,
-                                         variability=Fmi2Variability.continuous,
-                                         description=OUTPUTS[name][1],
+                                         variability=Fmi2Variability.continuous, description=description,
                                          getter=(lambda n=name: self.outputs[n])))
-            self.units[name] = OUTPUTS[name][0]
+            self.units[name] = COLUMNS[name]
         slave.register_variable(Real("tau_ext", causality=Fmi2Causality.input,
-                                     variability=Fmi2Variability.continuous,
-                                     description=INPUTS["tau_ext"][1],
+                                     variability=Fmi2Variability.continuous, description=TAU_EXT[1],
                                      getter=lambda: self.tau_ext, setter=self._set_input))
-        self.units["tau_ext"] = INPUTS["tau_ext"][0]
-        for name, p in self.scenario.parameters.items():
+        self.units["tau_ext"] = TAU_EXT[0]
+        for name, p in self.parameters.items():
             variability = Fmi2Variability.tunable if p.tunable else Fmi2Variability.fixed
             slave.register_variable(Real(name, causality=Fmi2Causality.parameter, variability=variability,
                                          description=f"{p.description} (valid range {p.range_text()})",
                                          getter=(lambda n=name: self.values[n]),
                                          setter=(lambda v, n=name: self._set_parameter(n, v))))
             self.units[name] = p.unit
-        slave.register_variable(Real("rtol", causality=Fmi2Causality.parameter,
-                                     variability=Fmi2Variability.fixed, description=RTOL[1],
-                                     getter=lambda: self.values["rtol"],
-                                     setter=lambda v: self._set_parameter("rtol", v)))
-        self.units["rtol"] = RTOL[0]
 
     # ------------------------------------------------------------------ setters
     def _refuse(self, message: str, name: str):
@@ -93,22 +90,17 @@ class FmuCore:
         exception into fmi2Fatal, after which the host must drop the instance."""
         from pythonfmu.enums import Fmi2Status
 
-        self.error = f"{name}: {message}"
-        self.slave.log(self.error, Fmi2Status.error)
+        self.errors[name] = f"{name}: {message}"
+        self.slave.log(self.errors[name], Fmi2Status.error)
 
     def _set_parameter(self, name: str, value):
         try:
-            if name == "rtol":
-                v = float(value)
-                if not (v > 0 and math.isfinite(v)):
-                    raise ParameterError(f"parameter rtol = {value!r} is out of range: valid range (0, 1)", "rtol")
-            else:
-                v = self.scenario.parameters[name].check(value)
+            v = self.parameters[name].check(value)
         except ParameterError as exc:
             self._refuse(str(exc), name)
             return
         self.values[name] = v
-        self.error = None
+        self.errors.pop(name, None)
         if self.model is not None:
             if name in MOTOR:
                 self.pending = self.rebuild = True
@@ -122,7 +114,7 @@ class FmuCore:
         if v != self.tau_ext:
             self.tau_ext = v
             self.pending = True
-        self.error = None
+        self.errors.pop("tau_ext", None)
 
     # ------------------------------------------------------------------ life cycle
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
@@ -140,7 +132,7 @@ class FmuCore:
             self.state = self.stepper.start(self.time, y0)
         except CrankfmuError as exc:
             self.model = None
-            self._refuse(str(exc), getattr(exc, "parameter", None) or "model")
+            self._refuse(str(exc), "model")     # the message names the parameters involved
             return
         self._update_outputs(self.state, self.time)
         self.pending = self.rebuild = False
@@ -148,8 +140,9 @@ class FmuCore:
     def do_step(self, current_time: float, step_size: float) -> bool:
         from pythonfmu.enums import Fmi2Status
 
-        if self.error is not None or self.model is None:
-            self.slave.log(f"cannot step: {self.error or 'the model was not initialised'}", Fmi2Status.error)
+        if self.errors or self.model is None:
+            reason = "; ".join(self.errors.values()) or "the model was not initialised"
+            self.slave.log(f"cannot step: {reason}", Fmi2Status.error)
             return False
         try:
             if self.pending:
@@ -167,8 +160,7 @@ class FmuCore:
             self.time = target
             return True
         except CrankfmuError as exc:
-            self.error = str(exc)
-            self.slave.log(f"step from t = {current_time:g} s failed: {exc}", Fmi2Status.error)
+            self._refuse(f"step from t = {current_time:g} s failed: {exc}", "step")
             return False
 
     def _update_outputs(self, state: StepperState, t: float):
@@ -184,7 +176,7 @@ class FmuCore:
     def get_state(self) -> dict:
         return {
             "values": dict(self.values), "tau_ext": self.tau_ext, "outputs": dict(self.outputs),
-            "time": self.time, "error": self.error, "pending": self.pending, "rebuild": self.rebuild,
+            "time": self.time, "errors": dict(self.errors), "pending": self.pending, "rebuild": self.rebuild,
             "stepper": None if self.state is None else self.state.to_dict(),
             "motor": None if self.model is None else dataclasses.asdict(self.model.equation.motor),
             "equation_tau": None if self.model is None else self.model.equation.tau_ext,
@@ -195,7 +187,7 @@ class FmuCore:
         self.tau_ext = state["tau_ext"]
         self.outputs = dict(state["outputs"])
         self.time = state["time"]
-        self.error = state["error"]
+        self.errors = dict(state["errors"])
         self.pending, self.rebuild = state["pending"], state["rebuild"]
         if state["stepper"] is not None and self.model is not None:
             self.state = StepperState.from_dict(state["stepper"])
