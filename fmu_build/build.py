@@ -41,14 +41,15 @@ BASE_UNITS = {
     "m/s2": {"m": 1, "s": -2},
 }
 
-#: what each output depends on at initialisation (besides the geometry and mass parameters)
+#: what each output depends on at initialisation; *geometry (lengths and masses), *loads and
+#: *all are expanded from the mechanism and scenario files
 INITIAL_DEPENDENCIES = {
     "phi1": ["phi1_start"],
     "omega1": ["omega1_start"],
     "J_red": ["phi1_start", "J_flywheel", "*geometry"],
     "E_kin": ["phi1_start", "omega1_start", "J_flywheel", "*geometry"],
     "M_motor": ["omega1_start", "A", "B", "A_low", "B_low", "omega_switch"],
-    "M_load": ["phi1_start", "omega1_start", "g", "*geometry", "*loads"],
+    "M_load": ["phi1_start", "omega1_start", "*geometry", "*loads"],
     "epsilon1": ["*all"],
 }
 
@@ -88,17 +89,16 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], scenario
     for old in structure.findall("InitialUnknowns"):
         structure.remove(old)
     definition = scenario.mechanism_definition()
-    geometry = set(definition.geometry_parameters)
-    masses = {n for n in scenario.parameters if n.startswith("q")}
-    loads = {n for n in scenario.parameters if n in ("Mr",)}
-    parameters = [n for n in scenario.parameters]
+    geometry = set(definition.geometry_parameters) | set(definition.mass_parameters)
+    loads = set(scenario.load_parameters())
+    parameters = list(scenario.parameters)
     initial = ET.SubElement(structure, "InitialUnknowns")
     outputs = [sv.get("name") for sv in variables.findall("ScalarVariable") if sv.get("causality") == "output"]
     for name in outputs:
         deps = []
         for d in INITIAL_DEPENDENCIES.get(name, ["*all"]):
             if d == "*geometry":
-                deps += sorted(geometry | masses)
+                deps += sorted(geometry)
             elif d == "*loads":
                 deps += sorted(loads)
             elif d == "*all":

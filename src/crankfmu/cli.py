@@ -68,12 +68,12 @@ def cmd_schemes(args) -> int:
     if any(not s > 0 for s in steps):
         raise CrankfmuError(f"--steps-deg must be positive angles in deg, got {args.steps_deg!r}")
     reference = simulate(scenario)
-    rows = scheme_study(scenario, reference, steps_deg=steps)
+    rows, runs = scheme_study(scenario, reference, steps_deg=steps)
     print(format_table(rows, scenario.experiment.summary_cycle))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "schemes.json").write_text(json.dumps(rows, indent=2) + "\n")
-    plot_startup(scenario, reference, steps, out / "startup.png")
+    plot_startup(reference, runs, out / "startup.png")
     print(f"wrote {out}/schemes.json, startup.png")
     return 0
 

@@ -23,7 +23,7 @@ from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation
                        Weights)
 from .dynamics.equation import STATE_SIZE
 from .errors import AssemblyError, DefinitionError, ParameterError, ScenarioNotFound
-from .expressions import evaluate
+from .expressions import Expression, evaluate
 from .mechanisms import Mechanism, MechanismDefinition, load_mechanism
 
 _SCENARIOS = resources.files(__package__) / "scenarios"
@@ -176,6 +176,17 @@ class Scenario:
         y0 = np.zeros(STATE_SIZE)
         y0[0], y0[1] = values["phi1_start"], values["omega1_start"]
         return Model(self, mechanism, reduced, motor, equation, y0, worst, at)
+
+    def load_parameters(self) -> list[str]:
+        """Parameters the loads depend on (g for weights, the amplitudes' names)."""
+        names: set[str] = set()
+        for spec in self.data.get("loads", []):
+            if spec.get("kind") == "weights":
+                names.add("g")
+            for key, value in spec.items():
+                if key not in ("kind", "link") and isinstance(value, str):
+                    names |= Expression(value).names
+        return sorted(names)
 
     def _make_load(self, spec, mechanism: Mechanism, links, values):
         kind = spec.get("kind")

@@ -20,8 +20,9 @@ TWO_PI = 2.0 * math.pi
 
 
 def scheme_study(scenario, reference: Result, methods=("badoiu-eq17", "lv-eq3"),
-                 steps_deg=(1.0, 0.1, 0.01)) -> list[dict]:
-    rows = []
+                 steps_deg=(1.0, 0.1, 0.01)) -> tuple[list[dict], dict]:
+    """Rows of the table, and the runs themselves keyed by (method, step in deg)."""
+    rows, runs = [], {}
     k = scenario.experiment.summary_cycle
     phi0 = reference.phi1[0]
     t_cycle_ref = reference.cycle_bounds(k)[1]
@@ -31,6 +32,7 @@ def scheme_study(scenario, reference: Result, methods=("badoiu-eq17", "lv-eq3"),
         previous = None
         for deg in steps_deg:
             r = simulate(scenario, method=method, angle_step=math.radians(deg), t_end=reference.time[-1])
+            runs[method, deg] = r
             phi, omega = r.trajectory.y[PHI], r.trajectory.y[OMEGA]
             cycle = (phi >= phi0 + TWO_PI * (k - 1)) & (phi <= phi0 + TWO_PI * k)
             err = float(np.max(np.abs(omega[cycle] - reference.omega_at_angle(phi[cycle]))))
@@ -51,7 +53,7 @@ def scheme_study(scenario, reference: Result, methods=("badoiu-eq17", "lv-eq3"),
             }
             rows.append(row)
             previous = (deg, err)
-    return rows
+    return rows, runs
 
 
 def format_table(rows: list[dict], cycle: int) -> str:
@@ -69,7 +71,8 @@ def format_table(rows: list[dict], cycle: int) -> str:
     return "\n".join(lines)
 
 
-def plot_startup(scenario, reference: Result, steps_deg, out: Path, method="badoiu-eq17") -> Path:
+def plot_startup(reference: Result, runs: dict, out: Path, method="badoiu-eq17") -> Path:
+    """omega1 over the first turn: the reference and the study's runs of ``method``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -79,12 +82,14 @@ def plot_startup(scenario, reference: Result, steps_deg, out: Path, method="bado
     t_end = reference.cycle_bounds(1)[1] * 1.2
     sel = reference.time <= t_end
     ax.plot(reference.time[sel], reference.omega1[sel], "k", lw=2, label="reference (DOP853, time domain)")
-    for deg in steps_deg:
-        r = simulate(scenario, method=method, angle_step=math.radians(deg), t_end=t_end)
-        ax.plot(r.trajectory.t, r.trajectory.y[OMEGA], lw=1, label=f"{method}, {deg:g} deg")
+    for (m, deg), r in runs.items():
+        if m != method:
+            continue
+        keep = r.trajectory.t <= t_end
+        ax.plot(r.trajectory.t[keep], r.trajectory.y[OMEGA][keep], lw=1, label=f"{method}, {deg:g} deg")
     ax.set_xlabel("time t [s]")
     ax.set_ylabel("omega1 [rad/s]")
-    ax.set_title(f"{scenario.name}: start-up, first crank turn")
+    ax.set_title(f"{reference.scenario.name}: start-up, first crank turn")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend()

@@ -196,6 +196,14 @@ class MechanismDefinition:
         names -= set(self.variables) | set(self.constants)
         return sorted(names)
 
+    @property
+    def mass_parameters(self) -> list[str]:
+        """Parameters the links' masses and inertias depend on."""
+        names: set[str] = set()
+        for link in self.links.values():
+            names |= Expression(link.mass).names | Expression(link.inertia).names
+        return sorted(names - set(self.constants))
+
     @classmethod
     def from_dict(cls, data: Mapping, where: str = "mechanism") -> "MechanismDefinition":
         try:
