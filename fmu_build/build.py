@@ -11,6 +11,7 @@ lists the outputs with the parameters they depend on at initialisation, and the
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 import tempfile
 import zipfile
@@ -123,10 +124,17 @@ def build(name: str, scenario_name: str, dest: Path) -> Path:
     dest.mkdir(parents=True, exist_ok=True)
     scenario = load_scenario(scenario_name)
     with tempfile.TemporaryDirectory() as tmp:
-        raw = FmuBuilder.build_FMU(HERE / f"{name}.py", dest=Path(tmp) / f"{name}.fmu",
-                                   project_files=[ROOT / "src" / "crankfmu"],
-                                   canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-        slave_units = _units_of(name)
+        # the package travels under a private name (see fmu_build/FourBar.py)
+        private = Path(tmp) / "pkg" / f"crankfmu_{name}"
+        shutil.copytree(ROOT / "src" / "crankfmu", private, ignore=shutil.ignore_patterns("__pycache__"))
+        sys.path.insert(0, str(private.parent))
+        try:
+            raw = FmuBuilder.build_FMU(HERE / f"{name}.py", dest=Path(tmp) / f"{name}.fmu",
+                                       project_files=[private],
+                                       canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+            slave_units = _units_of(name, private.parent)
+        finally:
+            sys.path.remove(str(private.parent))
         out = dest / f"{name}.fmu"
         with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
             for item in zin.infolist():
@@ -137,12 +145,12 @@ def build(name: str, scenario_name: str, dest: Path) -> Path:
     return out
 
 
-def _units_of(name: str) -> dict[str, str]:
+def _units_of(name: str, resources: Path) -> dict[str, str]:
     """Units as the slave registered them (one source: crankfmu.fmu and the scenario file)."""
     import importlib
 
     module = importlib.import_module(name)
-    slave = getattr(module, name)(instance_name="build")
+    slave = getattr(module, name)(instance_name="build", resources=str(resources))
     return dict(slave.core.units)
 
 

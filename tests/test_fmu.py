@@ -175,6 +175,19 @@ def test_nan_input_is_refused(unzipped):
     inst.free()
 
 
+def test_fmu_runs_its_own_copy_of_the_package(fmu_path):
+    """Whatever this process imported (crankfmu, via an editable install), the FMU runs the copy in
+    the resources it was extracted to, also when loaded again from a new directory."""
+    import sys
+    for _ in range(2):
+        where = extract(fmu_path)
+        inst = Instance((where, read_model_description(fmu_path))).init()
+        inst.step(0.01)
+        shipped = Path(sys.modules["crankfmu_FourBar"].__file__).resolve()
+        assert shipped.is_relative_to(Path(where).resolve() / "resources")
+        inst.free()
+
+
 def test_two_instances_reset_and_reload(unzipped):
     a, b = Instance(unzipped, "a").init(), Instance(unzipped, "b").init(J_flywheel=2.0)
     wa, wb = a.step(0.01, 50), b.step(0.01, 50)
