@@ -15,6 +15,19 @@ from pythonfmu import Fmi2Slave
 PACKAGE = "crankfmu_FourBar"   # build.py ships crankfmu under this name
 
 
+def _add_build_site_packages(resources: Path):
+    """Append the site-packages of the environment the FMU was built in (recorded by the build in
+    python_env.txt after the libpython path): an interpreter embedded in a C host sees only its
+    base installation's. Appended, so a Python host's own environment keeps precedence."""
+    try:
+        lines = (resources / "python_env.txt").read_text().splitlines()[1:]
+    except OSError:
+        return
+    for line in lines:
+        if line and line not in sys.path:
+            sys.path.append(line)
+
+
 def _core_class(resources):
     """FmuCore from the package in *this* instance's resources.
 
@@ -23,6 +36,7 @@ def _core_class(resources):
     package cached from the old directory, whose data files are gone.
     """
     if resources:
+        _add_build_site_packages(Path(resources))
         wanted = Path(resources).resolve() / PACKAGE
         cached = sys.modules.get(PACKAGE)
         if cached is not None and Path(cached.__file__).resolve().parent != wanted:

@@ -1,5 +1,11 @@
 """Build the FMUs: ``python fmu_build/build.py [--dest build/fmus]``.
 
+On linux64 the FMU's binary is the shim of ``fmu_build/shim/fmu_shim.c`` (compiled here with gcc)
+in front of pythonfmu's binary, renamed ``<model>_pythonfmu.so``: it makes the FMU load in plain
+C/C++ hosts and turns refusals logged by the slave into fmi2Error. ``resources/python_env.txt``
+records the libpython and the site-packages of the environment that built the FMU (see README,
+"Using the FMU on another machine").
+
 pythonfmu packs the slave script with crankfmu's own package in the resources (the same model
 code and scenario files as the CLI) and writes a modelDescription without units, unit
 definitions or initial unknowns; this step completes it: each Real gets its SI unit (from the
@@ -11,8 +17,12 @@ lists the outputs with the parameters they depend on at initialisation, and the
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
+import site
+import subprocess
 import sys
+import sysconfig
 import tempfile
 import zipfile
 from pathlib import Path
@@ -116,6 +126,32 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], scenario
     return parseString(text).toprettyxml(encoding="UTF-8", indent="  ")
 
 
+def compile_shim(name: str, out: Path) -> Path:
+    """gcc the shim for model ``name``; the FMI headers come with fmpy."""
+    import fmpy
+
+    headers = Path(fmpy.__file__).parent / "c-code"
+    cmd = ["gcc", "-shared", "-fPIC", "-O2", "-Wall", "-Werror", f"-I{headers}",
+           f'-DINNER_LIBRARY="{name}_pythonfmu.so"', "-o", str(out), str(HERE / "shim" / "fmu_shim.c"), "-ldl"]
+    try:
+        subprocess.run(cmd, check=True, capture_output=True, text=True)
+    except FileNotFoundError:
+        raise SystemExit("build: gcc not found; it compiles the FMU's linux64 shim (apt-get install gcc)") from None
+    except subprocess.CalledProcessError as exc:
+        raise SystemExit(f"build: compiling the shim failed:\n{exc.stderr}") from None
+    return out
+
+
+def python_env() -> str:
+    """libpython of this interpreter, then the site-packages the FMU's imports come from."""
+    libpython = Path(sysconfig.get_config_var("LIBDIR")) / sysconfig.get_config_var("INSTSONAME")
+    if not libpython.exists():
+        raise SystemExit(f"build: {libpython} not found: this Python has no shared libpython, which "
+                         "C hosts need (build with a Python configured --enable-shared)")
+    sites = [p for p in site.getsitepackages() if os.path.isdir(p)]
+    return "\n".join([str(libpython), *sites]) + "\n"
+
+
 def build(name: str, scenario_name: str, dest: Path) -> Path:
     from pythonfmu import FmuBuilder
 
@@ -135,13 +171,19 @@ def build(name: str, scenario_name: str, dest: Path) -> Path:
             slave_units = _units_of(name, private.parent)
         finally:
             sys.path.remove(str(private.parent))
+        shim = compile_shim(name, Path(tmp) / f"{name}.so")
+        binary = f"binaries/linux64/{name}.so"
         out = dest / f"{name}.fmu"
         with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
             for item in zin.infolist():
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
                     data = complete_model_description(data, slave_units, scenario)
+                if item.filename == binary:
+                    item.filename = f"binaries/linux64/{name}_pythonfmu.so"
                 zout.writestr(item, data)
+            zout.write(shim, binary)
+            zout.writestr("resources/python_env.txt", python_env())
     return out
 
 

@@ -1,0 +1,274 @@
+/* The FMU's linux64 binary: a thin shim in front of pythonfmu's binary.
+ *
+ * Why: pythonfmu's binary expects the host process to provide libpython, so a plain C or C++
+ * host fails to load it (undefined symbol _Py_NoneStruct), and numpy's C extensions need
+ * libpython in the *global* symbol scope, which dlopen(RTLD_LOCAL) hosts never give. On the
+ * first fmi2Instantiate this shim loads libpython with RTLD_GLOBAL (unless the host already has
+ * it, e.g. a Python host), from the path the build recorded in resources/python_env.txt, then
+ * loads pythonfmu's binary (INNER_LIBRARY, beside this file) and forwards every call.
+ *
+ * Where it brings Python in, the shim also starts the interpreter itself, so pythonfmu never
+ * owns it and never runs Py_Finalize: finalising an interpreter that has loaded numpy and scipy
+ * (and their BLAS threads) corrupted the heap at exit in about one run in ten here. The process
+ * exit reclaims it instead, as usual for embedded Python with extension modules.
+ *
+ * It also fixes the status of refused input: pythonfmu maps any Python exception to fmi2Fatal
+ * and returns fmi2OK from fmi2SetReal, so the slave logs its refusals with fmi2Error status
+ * instead of raising. The shim wraps the host's logger, remembers the worst status logged
+ * during a call, and returns fmi2Error from a call during which the slave logged an error.
+ */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+
+#ifndef INNER_LIBRARY
+#error "compile with -DINNER_LIBRARY=\"<model>_pythonfmu.so\""
+#endif
+
+typedef struct {
+    fmi2Component inner;
+    fmi2CallbackFunctions host;     /* the host's callbacks */
+    fmi2CallbackFunctions mine;     /* what the inner FMU gets: our logger, the host's memory */
+    fmi2Status worst;               /* worst status logged during the current call */
+} Shim;
+
+static void* inner_lib = NULL;
+static void (*inner_finalize)(void) = NULL;
+
+/* pythonfmu keeps its interpreter state in a namespace-scope std::shared_ptr and also resets it
+ * from a library destructor (finalizePythonInterpreter). At exit the C++ static destructor runs
+ * first, then the library destructor assigns to the destroyed shared_ptr: a use-after-free
+ * (seen with valgrind). This handler, registered after pythonfmu's statics, runs before them and
+ * empties the pointer while everything is alive, so both later steps find nothing to release. */
+static void release_python_at_exit(void)
+{
+    if (inner_finalize) inner_finalize();
+}
+
+#define INNER(f) static f##TYPE* inner_##f = NULL;
+INNER(fmi2SetDebugLogging) INNER(fmi2Instantiate) INNER(fmi2FreeInstance) INNER(fmi2SetupExperiment)
+INNER(fmi2EnterInitializationMode) INNER(fmi2ExitInitializationMode) INNER(fmi2Terminate) INNER(fmi2Reset)
+INNER(fmi2GetReal) INNER(fmi2GetInteger) INNER(fmi2GetBoolean) INNER(fmi2GetString)
+INNER(fmi2SetReal) INNER(fmi2SetInteger) INNER(fmi2SetBoolean) INNER(fmi2SetString)
+INNER(fmi2GetFMUstate) INNER(fmi2SetFMUstate) INNER(fmi2FreeFMUstate) INNER(fmi2SerializedFMUstateSize)
+INNER(fmi2SerializeFMUstate) INNER(fmi2DeSerializeFMUstate) INNER(fmi2GetDirectionalDerivative)
+INNER(fmi2SetRealInputDerivatives) INNER(fmi2GetRealOutputDerivatives) INNER(fmi2DoStep) INNER(fmi2CancelStep)
+INNER(fmi2GetStatus) INNER(fmi2GetRealStatus) INNER(fmi2GetIntegerStatus) INNER(fmi2GetBooleanStatus)
+INNER(fmi2GetStringStatus)
+
+/* FMI hosts treat a log message as a printf format: double every '%' of plain text */
+static void escape_percent(const char* text, char* out, size_t n)
+{
+    size_t j = 0;
+    for (size_t i = 0; text[i] && j + 2 < n; i++) {
+        if (text[i] == '%') out[j++] = '%';
+        out[j++] = text[i];
+    }
+    out[j] = '\0';
+}
+
+static void shim_logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
+                        fmi2String category, fmi2String message, ...)
+{
+    Shim* s = (Shim*)env;
+    char buffer[8192], escaped[16384];
+    va_list ap;
+    va_start(ap, message);
+    vsnprintf(buffer, sizeof buffer, message, ap);
+    va_end(ap);
+    if (status > s->worst) s->worst = status;
+    /* pass the text itself as the message: hosts written with ctypes cannot read varargs */
+    escape_percent(buffer, escaped, sizeof escaped);
+    if (s->host.logger) s->host.logger(s->host.componentEnvironment, name, status, category, escaped);
+}
+
+static void host_log(const fmi2CallbackFunctions* cb, fmi2String name, const char* message, const char* detail)
+{
+    char text[4096], escaped[8192];
+    snprintf(text, sizeof text, "%s%s", message, detail ? detail : "");
+    escape_percent(text, escaped, sizeof escaped);
+    if (cb && cb->logger) cb->logger(cb->componentEnvironment, name, fmi2Error, "logStatusError", escaped);
+}
+
+/* path of the resources directory from the file URI the host gives */
+static void resources_path(const char* uri, char* out, size_t n)
+{
+    const char* p = uri ? uri : "";
+    if (strncmp(p, "file://", 7) == 0) p += 7;
+    else if (strncmp(p, "file:", 5) == 0) p += 5;
+    if (strncmp(p, "localhost/", 10) == 0) p += 9;
+    snprintf(out, n, "%s", p);
+    size_t len = strlen(out);
+    while (len > 1 && out[len - 1] == '/') out[--len] = '\0';
+}
+
+static int load(const char* resources, const fmi2CallbackFunctions* cb, fmi2String name)
+{
+    if (inner_lib) return 1;
+    int own_python = !dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+    if (own_python) {
+        /* no Python in the process: load the one recorded at build time, globally */
+        char env_file[4096], libpython[4096] = "";
+        snprintf(env_file, sizeof env_file, "%s/python_env.txt", resources);
+        FILE* f = fopen(env_file, "r");
+        if (f) {
+            if (fgets(libpython, sizeof libpython, f)) libpython[strcspn(libpython, "\r\n")] = '\0';
+            fclose(f);
+        }
+        if (!(libpython[0] && dlopen(libpython, RTLD_NOW | RTLD_GLOBAL))) {
+            host_log(cb, name, "cannot load libpython (path from resources/python_env.txt): ", dlerror());
+            return 0;
+        }
+        void (*initialize)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "Py_InitializeEx");
+        void* (*release_gil)(void) = (void* (*)(void))dlsym(RTLD_DEFAULT, "PyEval_SaveThread");
+        if (!initialize || !release_gil) {
+            host_log(cb, name, "libpython lacks Py_InitializeEx or PyEval_SaveThread", NULL);
+            return 0;
+        }
+        initialize(0);      /* 0: leave the host's signal handlers alone */
+        release_gil();      /* pythonfmu takes the GIL per call, from any thread */
+    }
+    Dl_info info;
+    char inner_path[4096];
+    if (!dladdr((void*)&fmi2Instantiate, &info) || !info.dli_fname) {
+        host_log(cb, name, "cannot locate the FMU binary", NULL);
+        return 0;
+    }
+    snprintf(inner_path, sizeof inner_path, "%s", info.dli_fname);
+    char* slash = strrchr(inner_path, '/');
+    snprintf(slash ? slash + 1 : inner_path, sizeof inner_path - (slash ? (size_t)(slash + 1 - inner_path) : 0),
+             "%s", INNER_LIBRARY);
+    void* lib = dlopen(inner_path, RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+        host_log(cb, name, "cannot load pythonfmu's binary: ", dlerror());
+        return 0;
+    }
+#define BIND(f)                                             \
+    inner_##f = (f##TYPE*)dlsym(lib, #f);                   \
+    if (!inner_##f) {                                       \
+        host_log(cb, name, "missing symbol in pythonfmu's binary: ", #f); \
+        return 0;                                           \
+    }
+    BIND(fmi2SetDebugLogging) BIND(fmi2Instantiate) BIND(fmi2FreeInstance) BIND(fmi2SetupExperiment)
+    BIND(fmi2EnterInitializationMode) BIND(fmi2ExitInitializationMode) BIND(fmi2Terminate) BIND(fmi2Reset)
+    BIND(fmi2GetReal) BIND(fmi2GetInteger) BIND(fmi2GetBoolean) BIND(fmi2GetString)
+    BIND(fmi2SetReal) BIND(fmi2SetInteger) BIND(fmi2SetBoolean) BIND(fmi2SetString)
+    BIND(fmi2GetFMUstate) BIND(fmi2SetFMUstate) BIND(fmi2FreeFMUstate) BIND(fmi2SerializedFMUstateSize)
+    BIND(fmi2SerializeFMUstate) BIND(fmi2DeSerializeFMUstate) BIND(fmi2GetDirectionalDerivative)
+    BIND(fmi2SetRealInputDerivatives) BIND(fmi2GetRealOutputDerivatives) BIND(fmi2DoStep) BIND(fmi2CancelStep)
+    BIND(fmi2GetStatus) BIND(fmi2GetRealStatus) BIND(fmi2GetIntegerStatus) BIND(fmi2GetBooleanStatus)
+    BIND(fmi2GetStringStatus)
+    inner_lib = lib;
+    if (own_python) {
+        /* only where we brought Python in: a Python host finalizes its own interpreter */
+        inner_finalize = (void (*)(void))dlsym(lib, "finalizePythonInterpreter");
+        if (inner_finalize) {
+            /* stay loaded, so the handler below is not run (and then dangling) at a host's dlclose */
+            dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+            atexit(release_python_at_exit);
+        }
+    }
+    return 1;
+}
+
+/* an error logged during the call makes the call an error (never downgrade a worse status) */
+static fmi2Status merged(Shim* s, fmi2Status returned)
+{
+    if (s->worst >= fmi2Error && returned < fmi2Error) return fmi2Error;
+    return returned;
+}
+
+#define SHIM(c) Shim* s = (Shim*)(c); if (!s || !inner_lib) return fmi2Error; s->worst = fmi2OK
+#define FORWARD(call) do { fmi2Status r_ = (call); return merged(s, r_); } while (0)
+
+const char* fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char* fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, fmi2String resource_uri,
+                              const fmi2CallbackFunctions* callbacks, fmi2Boolean visible, fmi2Boolean logging_on)
+{
+    char resources[4096];
+    resources_path(resource_uri, resources, sizeof resources);
+    if (!load(resources, callbacks, name)) return NULL;
+    Shim* s = (Shim*)calloc(1, sizeof(Shim));
+    if (!s) return NULL;
+    if (callbacks) s->host = *callbacks;
+    s->mine = s->host;
+    s->mine.logger = shim_logger;
+    s->mine.componentEnvironment = s;
+    s->inner = inner_fmi2Instantiate(name, type, guid, resource_uri, &s->mine, visible, logging_on);
+    if (!s->inner) {
+        free(s);
+        return NULL;
+    }
+    return s;
+}
+
+void fmi2FreeInstance(fmi2Component c)
+{
+    Shim* s = (Shim*)c;
+    if (!s) return;
+    if (inner_lib && s->inner) inner_fmi2FreeInstance(s->inner);
+    free(s);   /* pythonfmu's binary stays loaded: an embedded Python cannot be unloaded */
+}
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cats[])
+{ SHIM(c); FORWARD(inner_fmi2SetDebugLogging(s->inner, on, n, cats)); }
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tol_defined, fmi2Real tol, fmi2Real start,
+                               fmi2Boolean stop_defined, fmi2Real stop)
+{ SHIM(c); FORWARD(inner_fmi2SetupExperiment(s->inner, tol_defined, tol, start, stop_defined, stop)); }
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) { SHIM(c); FORWARD(inner_fmi2EnterInitializationMode(s->inner)); }
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) { SHIM(c); FORWARD(inner_fmi2ExitInitializationMode(s->inner)); }
+fmi2Status fmi2Terminate(fmi2Component c) { SHIM(c); FORWARD(inner_fmi2Terminate(s->inner)); }
+fmi2Status fmi2Reset(fmi2Component c) { SHIM(c); FORWARD(inner_fmi2Reset(s->inner)); }
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
+{ SHIM(c); FORWARD(inner_fmi2GetReal(s->inner, vr, n, v)); }
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[])
+{ SHIM(c); FORWARD(inner_fmi2GetInteger(s->inner, vr, n, v)); }
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[])
+{ SHIM(c); FORWARD(inner_fmi2GetBoolean(s->inner, vr, n, v)); }
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[])
+{ SHIM(c); FORWARD(inner_fmi2GetString(s->inner, vr, n, v)); }
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
+{ SHIM(c); FORWARD(inner_fmi2SetReal(s->inner, vr, n, v)); }
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[])
+{ SHIM(c); FORWARD(inner_fmi2SetInteger(s->inner, vr, n, v)); }
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[])
+{ SHIM(c); FORWARD(inner_fmi2SetBoolean(s->inner, vr, n, v)); }
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[])
+{ SHIM(c); FORWARD(inner_fmi2SetString(s->inner, vr, n, v)); }
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate* state) { SHIM(c); FORWARD(inner_fmi2GetFMUstate(s->inner, state)); }
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) { SHIM(c); FORWARD(inner_fmi2SetFMUstate(s->inner, state)); }
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* state) { SHIM(c); FORWARD(inner_fmi2FreeFMUstate(s->inner, state)); }
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t* size)
+{ SHIM(c); FORWARD(inner_fmi2SerializedFMUstateSize(s->inner, state, size)); }
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[], size_t size)
+{ SHIM(c); FORWARD(inner_fmi2SerializeFMUstate(s->inner, state, bytes, size)); }
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size, fmi2FMUstate* state)
+{ SHIM(c); FORWARD(inner_fmi2DeSerializeFMUstate(s->inner, bytes, size, state)); }
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference unknown[], size_t nu,
+                                        const fmi2ValueReference known[], size_t nk, const fmi2Real dv_known[],
+                                        fmi2Real dv_unknown[])
+{ SHIM(c); FORWARD(inner_fmi2GetDirectionalDerivative(s->inner, unknown, nu, known, nk, dv_known, dv_unknown)); }
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                       const fmi2Integer order[], const fmi2Real v[])
+{ SHIM(c); FORWARD(inner_fmi2SetRealInputDerivatives(s->inner, vr, n, order, v)); }
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                        const fmi2Integer order[], fmi2Real v[])
+{ SHIM(c); FORWARD(inner_fmi2GetRealOutputDerivatives(s->inner, vr, n, order, v)); }
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_prior)
+{ SHIM(c); FORWARD(inner_fmi2DoStep(s->inner, t, h, no_prior)); }
+fmi2Status fmi2CancelStep(fmi2Component c) { SHIM(c); FORWARD(inner_fmi2CancelStep(s->inner)); }
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind k, fmi2Status* v) { SHIM(c); FORWARD(inner_fmi2GetStatus(s->inner, k, v)); }
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real* v) { SHIM(c); FORWARD(inner_fmi2GetRealStatus(s->inner, k, v)); }
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind k, fmi2Integer* v) { SHIM(c); FORWARD(inner_fmi2GetIntegerStatus(s->inner, k, v)); }
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, fmi2Boolean* v) { SHIM(c); FORWARD(inner_fmi2GetBooleanStatus(s->inner, k, v)); }
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind k, fmi2String* v) { SHIM(c); FORWARD(inner_fmi2GetStringStatus(s->inner, k, v)); }

@@ -1,0 +1,109 @@
+/* A plain C co-simulation host for the tests: loads an extracted FMI 2.0 FMU with
+ * dlopen(RTLD_LOCAL) as C/C++ masters do, instantiates it, optionally sets real variables,
+ * steps it and prints a real output and every call's status.
+ *
+ *   fmu_driver DIR MODEL_ID GUID STEPS STEP_SIZE OUT_VR [VR=VALUE ...]
+ *
+ * Exit code: 0 when every call returned fmi2OK, 1 when a call returned another status (printed),
+ * 2 when the FMU could not be loaded or instantiated.
+ */
+#include <dlfcn.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+
+static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
+                   fmi2String category, fmi2String message, ...)
+{
+    va_list ap;
+    (void)env;
+    va_start(ap, message);
+    printf("log [%s] status=%d category=%s: ", name, (int)status, category ? category : "");
+    vprintf(message, ap);
+    printf("\n");
+    va_end(ap);
+}
+
+#define LOAD(f)                                                                  \
+    f##TYPE* f = (f##TYPE*)dlsym(lib, #f);                                       \
+    if (!f) {                                                                    \
+        printf("missing symbol %s\n", #f);                                       \
+        return 2;                                                                \
+    }
+
+int main(int argc, char** argv)
+{
+    if (argc < 7) {
+        fprintf(stderr, "usage: %s DIR MODEL_ID GUID STEPS STEP_SIZE OUT_VR [VR=VALUE ...]\n", argv[0]);
+        return 2;
+    }
+    const char* dir = argv[1];
+    const char* model = argv[2];
+    const char* guid = argv[3];
+    int steps = atoi(argv[4]);
+    double h = atof(argv[5]);
+    fmi2ValueReference out_vr = (fmi2ValueReference)atoi(argv[6]);
+
+    char path[4096], uri[4200];
+    snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", dir, model);
+    snprintf(uri, sizeof uri, "file://%s/resources", dir);
+    void* lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+        printf("dlopen failed: %s\n", dlerror());
+        return 2;
+    }
+    LOAD(fmi2Instantiate)
+    LOAD(fmi2SetupExperiment)
+    LOAD(fmi2EnterInitializationMode)
+    LOAD(fmi2ExitInitializationMode)
+    LOAD(fmi2SetReal)
+    LOAD(fmi2GetReal)
+    LOAD(fmi2DoStep)
+    LOAD(fmi2Terminate)
+    LOAD(fmi2FreeInstance)
+
+    fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
+    fmi2Component c = fmi2Instantiate("c-host", fmi2CoSimulation, guid, uri, &cb, fmi2False, fmi2True);
+    if (!c) {
+        printf("fmi2Instantiate returned NULL\n");
+        return 2;
+    }
+    int bad = 0;
+    fmi2Status s = fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0);
+    printf("status fmi2SetupExperiment %d\n", (int)s);
+    bad |= s != fmi2OK;
+    s = fmi2EnterInitializationMode(c);
+    printf("status fmi2EnterInitializationMode %d\n", (int)s);
+    bad |= s != fmi2OK;
+    for (int i = 7; i < argc; i++) {
+        fmi2ValueReference vr = (fmi2ValueReference)atoi(argv[i]);
+        const char* eq = strchr(argv[i], '=');
+        fmi2Real value = eq ? atof(eq + 1) : 0.0;
+        s = fmi2SetReal(c, &vr, 1, &value);
+        printf("status fmi2SetReal %u=%g %d\n", vr, value, (int)s);
+        bad |= s != fmi2OK;
+    }
+    s = fmi2ExitInitializationMode(c);
+    printf("status fmi2ExitInitializationMode %d\n", (int)s);
+    bad |= s != fmi2OK;
+    double t = 0.0;
+    for (int k = 0; k < steps; k++) {
+        s = fmi2DoStep(c, t, h, fmi2True);
+        if (s != fmi2OK) {
+            printf("status fmi2DoStep at t=%.17g %d\n", t, (int)s);
+            bad = 1;
+            break;
+        }
+        t = (k + 1) * h;
+    }
+    fmi2Real value = 0.0;
+    s = fmi2GetReal(c, &out_vr, 1, &value);
+    printf("status fmi2GetReal %d\n", (int)s);
+    printf("result t=%.17g value=%.17g\n", t, value);
+    fmi2Terminate(c);
+    fmi2FreeInstance(c);
+    return bad ? 1 : 0;
+}
