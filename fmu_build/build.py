@@ -11,7 +11,11 @@ code and scenario files as the CLI) and writes a modelDescription without units,
 definitions or initial unknowns; this step completes it: each Real gets its SI unit (from the
 scenario file), ``UnitDefinitions`` gives each unit's SI base exponents, ``InitialUnknowns``
 lists the outputs with the parameters they depend on at initialisation, and the
-``DefaultExperiment`` comes from the scenario's experiment.
+``DefaultExperiment`` comes from the scenario's experiment. As the Reference FMUs do, the FMU
+carries the default experiment's result (``extra/org.fmi-standard.fmi-ls-ref/<model>_out.csv``
+with its manifest), written beside it too as the cross-check files ``<model>_ref.csv`` and
+``<model>_ref.opt``; the result comes from the in-process reference integrator, an independent
+method from the FMU's own stepper.
 """
 
 from __future__ import annotations
@@ -152,6 +156,38 @@ def python_env() -> str:
     return "\n".join([str(libpython), *sites]) + "\n"
 
 
+LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
+LS_REF_MANIFEST = """<?xml version="1.0" encoding="UTF-8"?>
+<fmiReferences xmlns:fmi-ls="http://fmi-standard.org/fmi-ls-manifest"
+    fmi-ls:fmi-ls-name="org.fmi-standard.fmi-ls-ref" fmi-ls:fmi-ls-version="1.0.0-alpha.1"
+    fmi-ls:fmi-ls-description="Layered Standard providing information on related files included in an FMU.">
+  <Related type="text/csv" source="{name}_out.csv" role="result"
+      description="Outputs of the default experiment, from crankfmu's in-process reference integrator (DOP853, rtol = atol = 1e-12)"/>
+</fmiReferences>
+"""
+
+
+def reference_result(scenario) -> str:
+    """The default experiment's outputs (CSV, quoted header) from the in-process reference."""
+    import numpy as np
+
+    from crankfmu import COLUMNS, simulate
+
+    exp = scenario.experiment
+    n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
+    times = exp.start_time + exp.output_interval * np.arange(n + 1)
+    result = simulate(scenario, t_end=exp.stop_time, output_times=times)
+    lines = [",".join(f'"{c}"' for c in COLUMNS)]
+    lines += [",".join(f"{getattr(result, c)[i]:.17g}" for c in COLUMNS) for i in range(times.size)]
+    return "\n".join(lines) + "\n"
+
+
+def cross_check_options(scenario) -> str:
+    exp = scenario.experiment
+    return (f"StartTime, {exp.start_time!r}\nStopTime, {exp.stop_time!r}\n"
+            f"StepSize, {exp.output_interval!r}\nRelTol, {exp.tolerance!r}\n")
+
+
 def build(name: str, scenario_name: str, dest: Path) -> Path:
     from pythonfmu import FmuBuilder
 
@@ -184,6 +220,11 @@ def build(name: str, scenario_name: str, dest: Path) -> Path:
                 zout.writestr(item, data)
             zout.write(shim, binary)
             zout.writestr("resources/python_env.txt", python_env())
+            reference = reference_result(scenario)
+            zout.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=name))
+            zout.writestr(f"{LS_REF}/{name}_out.csv", reference)
+        (dest / f"{name}_ref.csv").write_text(reference)
+        (dest / f"{name}_ref.opt").write_text(cross_check_options(scenario))
     return out
 
 

@@ -205,3 +205,34 @@ def test_two_instances_reset_and_reload(unzipped):
     c = Instance(unzipped, "c").init()       # load again after freeing
     assert c.step(0.01, 50) == wa
     c.free()
+
+
+def test_fmu_reproduces_the_reference_result_it_carries(fmu_path):
+    """As the Reference FMUs do: the default experiment's result travels in the FMU (fmi-ls-ref),
+    declared by the manifest with role "result", and the cross-check files sit beside it."""
+    import csv
+    import zipfile
+    from xml.etree import ElementTree as ET
+
+    ls_ref = "extra/org.fmi-standard.fmi-ls-ref"
+    with zipfile.ZipFile(fmu_path) as z:
+        manifest = ET.fromstring(z.read(f"{ls_ref}/fmi-ls-manifest.xml"))
+        ns = "{http://fmi-standard.org/fmi-ls-manifest}"
+        assert manifest.get(f"{ns}fmi-ls-name") == "org.fmi-standard.fmi-ls-ref"
+        (related,) = [r for r in manifest.iter("Related") if r.get("role") == "result"]
+        rows = list(csv.reader(z.read(f"{ls_ref}/{related.get('source')}").decode().splitlines()))
+    header, data = rows[0], np.array(rows[1:], dtype=float)
+    assert header == list(crankfmu.COLUMNS)
+    md = read_model_description(fmu_path)
+    exp = md.defaultExperiment
+    r = fmpy.simulate_fmu(fmu_path, start_time=float(exp.startTime), stop_time=float(exp.stopTime),
+                          output_interval=float(exp.stepSize), output=header[1:])
+    assert len(r) == len(data) and float(exp.stepSize) == pytest.approx(data[1, 0] - data[0, 0])
+    np.testing.assert_allclose(r["time"], data[:, 0], rtol=0, atol=1e-12)
+    for k, name in enumerate(header[1:], start=1):
+        scale = np.max(np.abs(data[:, k]))
+        assert np.max(np.abs(r[name] - data[:, k])) < 1e-6 * scale, name
+    beside = Path(fmu_path).with_name("FourBar_ref.opt").read_text()
+    assert f"StopTime, {float(exp.stopTime)!r}" in beside and f"StepSize, {float(exp.stepSize)!r}" in beside
+    assert Path(fmu_path).with_name("FourBar_ref.csv").read_text().splitlines()[0] == ",".join(
+        f'"{c}"' for c in header)
