@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= build/demo
 
-.PHONY: demo test venv fmu clean
+.PHONY: demo test venv fmu bench clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version' 
@@ -26,6 +26,9 @@ demo: fmu
 
 test: fmu
 	$(BIN)/python -m pytest -q
+
+bench: fmu
+	$(BIN)/python benchmarks/fmu_step.py
 
 clean:
 	rm -rf build .pytest_cache

@@ -1,0 +1,111 @@
+"""Wall time per fmi2DoStep: FourBar.fmu against an FMU whose step does nothing, in one run.
+
+    python benchmarks/fmu_step.py [--step 1e-3] [--stop 2.0] [--repeats 5]
+
+Both FMUs are driven by fmpy in this process, the same way: instantiate, initialise, then
+fmi2DoStep at a fixed communication step reading omega1 after each step, as a master would.
+Prints the median microseconds per step of each, their ratio, and FourBar's max |omega1 error|
+against the in-process reference over the run (speed is reported against error, never alone).
+Also times the whole fmpy.simulate_fmu call of each. Timing is the median of --repeats runs;
+the machine is shared, so compare the ratio, not the absolute figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def build_noop(dest: Path) -> Path:
+    from pythonfmu import FmuBuilder
+
+    sys.path.insert(0, str(ROOT / "benchmarks" / "fmus"))
+    return FmuBuilder.build_FMU(ROOT / "benchmarks" / "fmus" / "NoOp.py", dest=dest)
+
+
+def step_loop(fmu_path: Path, step: float, stop: float):
+    """(seconds per step, omega1 after each step) of one run through FMU2Slave."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu_path))
+    where = extract(str(fmu_path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}["omega1"]
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName="bench")
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    n = int(round(stop / step))
+    omega = np.empty(n)
+    t = 0.0
+    started = time.perf_counter()
+    for k in range(n):
+        fmu.doStep(currentCommunicationPoint=t, communicationStepSize=step)
+        t = (k + 1) * step
+        omega[k] = fmu.getReal([vr])[0]
+    elapsed = time.perf_counter() - started
+    fmu.terminate()
+    fmu.freeInstance()
+    return elapsed / n, omega
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--fmu", default=str(ROOT / "build" / "fmus" / "FourBar.fmu"))
+    parser.add_argument("--step", type=float, default=1e-3, help="communication step, s")
+    parser.add_argument("--stop", type=float, default=2.0, help="end time, s")
+    parser.add_argument("--repeats", type=int, default=5)
+    args = parser.parse_args(argv)
+    if not (args.step > 0 and args.stop > args.step and args.repeats >= 1):
+        parser.error("need step > 0, stop > step and repeats >= 1")
+    fourbar = Path(args.fmu)
+    if not fourbar.exists():
+        parser.error(f"{fourbar} not found: run `make fmu` first")
+
+    import fmpy
+
+    import crankfmu
+
+    with tempfile.TemporaryDirectory() as tmp:
+        noop = build_noop(Path(tmp))
+        per_step = {"FourBar.fmu": [], "do-nothing FMU": []}
+        whole = {"FourBar.fmu": [], "do-nothing FMU": []}
+        omega = None
+        for _ in range(args.repeats):       # interleaved, so both see the same machine load
+            for label, path in (("FourBar.fmu", fourbar), ("do-nothing FMU", noop)):
+                seconds, w = step_loop(path, args.step, args.stop)
+                per_step[label].append(seconds)
+                if label == "FourBar.fmu":
+                    omega = w
+                started = time.perf_counter()
+                fmpy.simulate_fmu(str(path), stop_time=args.stop, output_interval=args.step, output=["omega1"])
+                whole[label].append(time.perf_counter() - started)
+
+    times = args.step * np.arange(1, omega.size + 1)
+    reference = crankfmu.simulate("seed000", t_end=args.stop, output_times=times).omega1
+    error = float(np.max(np.abs(omega - reference)))
+
+    fb, nop = statistics.median(per_step["FourBar.fmu"]), statistics.median(per_step["do-nothing FMU"])
+    print(f"fmi2DoStep at {args.step:g} s steps over {args.stop:g} s, median of {args.repeats} runs:")
+    print(f"  {'FMU':16} {'us/step':>10} {'simulate_fmu s':>15}")
+    for label in per_step:
+        print(f"  {label:16} {1e6 * statistics.median(per_step[label]):10.1f} "
+              f"{statistics.median(whole[label]):15.3f}")
+    print(f"  ratio FourBar / do-nothing: {fb / nop:.1f}")
+    print(f"  FourBar max |omega1 error| against the reference: {error:.2e} rad/s "
+          f"(rtol = FMU default)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
