@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -25,10 +26,14 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def build_noop(dest: Path) -> Path:
-    from pythonfmu import FmuBuilder
-
-    sys.path.insert(0, str(ROOT / "benchmarks" / "fmus"))
-    return FmuBuilder.build_FMU(ROOT / "benchmarks" / "fmus" / "NoOp.py", dest=dest)
+    """Build NoOp.fmu in a fresh interpreter: once an FMU is loaded in this process, pythonfmu has
+    put that FMU's resources (with a pythonfmu copy lacking the binaries) first on sys.path."""
+    script = ROOT / "benchmarks" / "fmus" / "NoOp.py"
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); from pythonfmu import FmuBuilder; "
+            "print(FmuBuilder.build_FMU(sys.argv[2], dest=sys.argv[3]))")
+    done = subprocess.run([sys.executable, "-c", code, str(script.parent), str(script), str(dest)],
+                          check=True, capture_output=True, text=True)
+    return Path(done.stdout.strip().splitlines()[-1])
 
 
 def step_loop(fmu_path: Path, step: float, stop: float):

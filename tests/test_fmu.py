@@ -1,5 +1,6 @@
 """FourBar.fmu driven through fmpy: the FMU must agree with the in-process model."""
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -236,3 +237,39 @@ def test_fmu_reproduces_the_reference_result_it_carries(fmu_path):
     assert f"StopTime, {float(exp.stopTime)!r}" in beside and f"StepSize, {float(exp.stepSize)!r}" in beside
     assert Path(fmu_path).with_name("FourBar_ref.csv").read_text().splitlines()[0] == ",".join(
         f'"{c}"' for c in header)
+
+
+def test_tau_ext_input_is_used_over_the_step(unzipped, scenario):
+    """tau_ext set at t = 1 s acts from that step on, as in the in-process model with it."""
+    inst = Instance(unzipped).init()
+    inst.step(0.01, 100)
+    inst.set("tau_ext", -60.0)
+    fmu_omega = [inst.step(0.01, 50), inst.step(0.01, 50)]
+    inst.free()
+    model = scenario.build()
+    y1 = reference_integrator().run(model.equation, 0.0, model.y0, 1.0).y[:, -1]
+    model.equation.tau_ext = -60.0
+    ref = reference_integrator().run(model.equation, 1.0, y1, 2.0).dense(np.array([1.5, 2.0]))
+    np.testing.assert_allclose(fmu_omega, ref[1], rtol=1e-6)
+    assert ref[4, -1] < -100.0          # the external torque did work (W_ext, J): it was used
+
+
+def test_a_second_fmu_beside_the_first(unzipped, tmp_path):
+    """Another pythonfmu FMU loaded and stepped in the same process, interleaved with FourBar,
+    leaves FourBar's run unchanged."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import fmu_step
+
+    noop_path = fmu_step.build_noop(tmp_path)
+    alone = Instance(unzipped, "alone").init()
+    expected = [alone.step(0.01, 10) for _ in range(5)]
+    alone.free()
+    other = Instance((extract(str(noop_path)), read_model_description(str(noop_path))), "noop").init()
+    four = Instance(unzipped, "beside").init()
+    got = []
+    for _ in range(5):
+        got.append(four.step(0.01, 10))
+        other.step(0.01, 10)
+    four.free()
+    other.free()
+    assert got == expected
