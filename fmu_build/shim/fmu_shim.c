@@ -50,16 +50,20 @@ static void release_python_at_exit(void)
     if (inner_finalize) inner_finalize();
 }
 
+/* every FMI 2.0 function forwarded to pythonfmu's binary: one list for declaring and binding */
+#define FMI2_FORWARDED(X)                                                                            \
+    X(fmi2SetDebugLogging) X(fmi2Instantiate) X(fmi2FreeInstance) X(fmi2SetupExperiment)             \
+    X(fmi2EnterInitializationMode) X(fmi2ExitInitializationMode) X(fmi2Terminate) X(fmi2Reset)       \
+    X(fmi2GetReal) X(fmi2GetInteger) X(fmi2GetBoolean) X(fmi2GetString)                              \
+    X(fmi2SetReal) X(fmi2SetInteger) X(fmi2SetBoolean) X(fmi2SetString)                              \
+    X(fmi2GetFMUstate) X(fmi2SetFMUstate) X(fmi2FreeFMUstate) X(fmi2SerializedFMUstateSize)          \
+    X(fmi2SerializeFMUstate) X(fmi2DeSerializeFMUstate) X(fmi2GetDirectionalDerivative)              \
+    X(fmi2SetRealInputDerivatives) X(fmi2GetRealOutputDerivatives) X(fmi2DoStep) X(fmi2CancelStep)   \
+    X(fmi2GetStatus) X(fmi2GetRealStatus) X(fmi2GetIntegerStatus) X(fmi2GetBooleanStatus)           \
+    X(fmi2GetStringStatus)
+
 #define INNER(f) static f##TYPE* inner_##f = NULL;
-INNER(fmi2SetDebugLogging) INNER(fmi2Instantiate) INNER(fmi2FreeInstance) INNER(fmi2SetupExperiment)
-INNER(fmi2EnterInitializationMode) INNER(fmi2ExitInitializationMode) INNER(fmi2Terminate) INNER(fmi2Reset)
-INNER(fmi2GetReal) INNER(fmi2GetInteger) INNER(fmi2GetBoolean) INNER(fmi2GetString)
-INNER(fmi2SetReal) INNER(fmi2SetInteger) INNER(fmi2SetBoolean) INNER(fmi2SetString)
-INNER(fmi2GetFMUstate) INNER(fmi2SetFMUstate) INNER(fmi2FreeFMUstate) INNER(fmi2SerializedFMUstateSize)
-INNER(fmi2SerializeFMUstate) INNER(fmi2DeSerializeFMUstate) INNER(fmi2GetDirectionalDerivative)
-INNER(fmi2SetRealInputDerivatives) INNER(fmi2GetRealOutputDerivatives) INNER(fmi2DoStep) INNER(fmi2CancelStep)
-INNER(fmi2GetStatus) INNER(fmi2GetRealStatus) INNER(fmi2GetIntegerStatus) INNER(fmi2GetBooleanStatus)
-INNER(fmi2GetStringStatus)
+FMI2_FORWARDED(INNER)
 
 /* FMI hosts treat a log message as a printf format: double every '%' of plain text */
 static void escape_percent(const char* text, char* out, size_t n)
@@ -154,15 +158,7 @@ static int load(const char* resources, const fmi2CallbackFunctions* cb, fmi2Stri
         host_log(cb, name, "missing symbol in pythonfmu's binary: ", #f); \
         return 0;                                           \
     }
-    BIND(fmi2SetDebugLogging) BIND(fmi2Instantiate) BIND(fmi2FreeInstance) BIND(fmi2SetupExperiment)
-    BIND(fmi2EnterInitializationMode) BIND(fmi2ExitInitializationMode) BIND(fmi2Terminate) BIND(fmi2Reset)
-    BIND(fmi2GetReal) BIND(fmi2GetInteger) BIND(fmi2GetBoolean) BIND(fmi2GetString)
-    BIND(fmi2SetReal) BIND(fmi2SetInteger) BIND(fmi2SetBoolean) BIND(fmi2SetString)
-    BIND(fmi2GetFMUstate) BIND(fmi2SetFMUstate) BIND(fmi2FreeFMUstate) BIND(fmi2SerializedFMUstateSize)
-    BIND(fmi2SerializeFMUstate) BIND(fmi2DeSerializeFMUstate) BIND(fmi2GetDirectionalDerivative)
-    BIND(fmi2SetRealInputDerivatives) BIND(fmi2GetRealOutputDerivatives) BIND(fmi2DoStep) BIND(fmi2CancelStep)
-    BIND(fmi2GetStatus) BIND(fmi2GetRealStatus) BIND(fmi2GetIntegerStatus) BIND(fmi2GetBooleanStatus)
-    BIND(fmi2GetStringStatus)
+    FMI2_FORWARDED(BIND)
     inner_lib = lib;
     if (own_python) {
         /* only where we brought Python in: a Python host finalizes its own interpreter */
