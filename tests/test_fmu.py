@@ -273,3 +273,24 @@ def test_a_second_fmu_beside_the_first(unzipped, tmp_path):
     four.free()
     other.free()
     assert got == expected
+
+
+@pytest.mark.parametrize("step, stop", [(1e-5, 0.1), (0.5, 2.0)])
+def test_extreme_communication_steps(fmu_path, reference, step, stop):
+    """The issue's range ends: 1e-5 s (over 0.1 s, 10 000 steps) and 0.5 s."""
+    r = fmpy.simulate_fmu(fmu_path, stop_time=stop, output_interval=step, output=["omega1"])
+    ref = reference.state(r["time"])[1]
+    assert np.max(np.abs(r["omega1"] - ref) / np.abs(ref)) < 1e-6
+
+
+@pytest.mark.parametrize("params", [
+    {"omega1_start": 0.0},                                                  # start from rest
+    {"A": 129.0, "B": 20.0, "A_low": 30.0, "B_low": 0.2, "omega1_start": 2.0},  # stall and reversal
+], ids=["from-rest", "stall-reversal"])
+def test_time_domain_cases_in_the_fmu(fmu_path, scenario, params):
+    r = fmpy.simulate_fmu(fmu_path, stop_time=2.0, output_interval=1e-2, output=["omega1"],
+                          start_values=params)
+    ref = crankfmu.simulate(scenario.with_params(**params), t_end=2.0, output_times=r["time"]).omega1
+    assert np.max(np.abs(r["omega1"] - ref)) < 1e-6 * np.max(np.abs(ref))
+    if "A_low" in params:
+        assert r["omega1"].min() < 0.0 < r["omega1"].max()     # it did reverse
