@@ -66,6 +66,9 @@ INITIAL_DEPENDENCIES = {
     "M_motor": ["omega1_start", "A", "B", "A_low", "B_low", "omega_switch"],
     "M_load": ["phi1_start", "omega1_start", "*geometry", "*loads"],
     "epsilon1": ["*all"],
+    "W_motor": [],            # zero at the start whatever the parameters
+    "W_load": [],
+    "W_ext": [],
 }
 
 
@@ -99,6 +102,13 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], scenario
                          tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
     position = [c.tag for c in root].index("ModelVariables")
     root.insert(position, default)
+    # which scenario file the FMU implements: the harness runs the same file in process
+    for old in root.findall("VendorAnnotations"):
+        root.remove(old)
+    vendor = ET.Element("VendorAnnotations")
+    tool = ET.SubElement(vendor, "Tool", name="crankfmu")
+    ET.SubElement(tool, "Scenario", name=scenario.name)
+    root.insert(position + 1, vendor)
 
     structure = root.find("ModelStructure")
     for old in structure.findall("InitialUnknowns"):

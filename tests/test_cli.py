@@ -16,7 +16,8 @@ def test_simulate_writes_csv_summary_and_plots(tmp_path, capsys):
     assert "cycle 4" in printed and "omega1 min" in printed and "residual" in printed
     with open(out / "timeseries.csv") as f:
         rows = list(csv.reader(f))
-    assert rows[0] == ["time", "phi1", "omega1", "epsilon1", "M_motor", "M_load", "J_red", "E_kin"]
+    assert rows[0] == ["time", "phi1", "omega1", "epsilon1", "M_motor", "M_load", "J_red", "E_kin",
+                       "W_motor", "W_load", "W_ext"]
     assert len(rows) == 2002        # header + 0..2 s every 1 ms
     summary = json.loads((out / "summary.json").read_text())
     for key in ("omega1_min", "omega1_max", "omega1_mean", "delta", "J_red_min", "J_red_max",

@@ -20,7 +20,7 @@ import dataclasses
 import math
 
 from .dynamics import MotorLine
-from .dynamics.equation import OMEGA, PHI, SLIDE
+from .dynamics.equation import OMEGA, PHI, SLIDE, W_EXT, W_LOAD, W_MOTOR
 from .errors import CrankfmuError, ParameterError
 from .integrators.stepper import DormandPrinceStepper, StepperState
 from .scenario import Parameter, load_scenario
@@ -35,6 +35,11 @@ OUTPUTS = {
     "M_load": "all external loads (weights, technological loads) reduced to the crank",
     "J_red": "reduced moment of inertia at the crank, flywheel included",
     "E_kin": "kinetic energy of the whole mechanism",
+    # the work integrals ride along in the state: a host checks the energy balance
+    # E_kin(t) - E_kin(0) = W_motor + W_load + W_ext without quadrature error
+    "W_motor": "work done by the motor on the crank since the start",
+    "W_load": "work done by the loads (weights, technological loads) since the start",
+    "W_ext": "work done by tau_ext since the start",
 }
 TAU_EXT = ("N.m", "extra torque on the crank from outside (the coupling port)")
 MOTOR = ("A", "B", "A_low", "B_low", "omega_switch")
@@ -169,6 +174,9 @@ class FmuCore:
         out = self.model.equation.outputs(y[PHI:PHI + 1], y[OMEGA:OMEGA + 1], [sliding])
         self.outputs["phi1"] = float(y[PHI])
         self.outputs["omega1"] = float(y[OMEGA])
+        self.outputs["W_motor"] = float(y[W_MOTOR])
+        self.outputs["W_load"] = float(y[W_LOAD])
+        self.outputs["W_ext"] = float(y[W_EXT])
         for name in ("epsilon1", "M_motor", "M_load", "J_red", "E_kin"):
             self.outputs[name] = float(out[name][0])
 

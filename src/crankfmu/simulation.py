@@ -26,6 +26,9 @@ COLUMNS = {
     "M_load": "N.m",
     "J_red": "kg.m2",
     "E_kin": "J",
+    "W_motor": "J",
+    "W_load": "J",
+    "W_ext": "J",
 }
 
 
