@@ -1,4 +1,5 @@
-"""Command line: ``crankfmu simulate SCENARIO --out DIR [--method M] [--set NAME=VALUE ...]``."""
+"""Command line: ``crankfmu simulate SCENARIO --out DIR [--method M] [--set NAME=VALUE ...]``,
+``crankfmu schemes SCENARIO --out DIR``, ``crankfmu validate [--fmu PATH ...] [--out DIR] [--quick]``."""
 
 from __future__ import annotations
 
@@ -100,6 +101,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps-deg", default="1,0.1,0.01", help="comma-separated angle steps in deg")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.set_defaults(func=cmd_schemes)
+    p = sub.add_parser("validate", help="every FMU against the in-process reference and the papers: "
+                                         "PASS/FAIL lines and DIR/report.md")
+    from .validation.harness import build_parser as validation_parser, run_from_args
+    validation_parser(p)
+    p.set_defaults(func=run_from_args)
     return parser
 
 

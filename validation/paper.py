@@ -1,0 +1,50 @@
+"""The numbers each paper publishes, checked against what crankfmu computes.
+
+A scenario file lists them as ``[[paper]]`` entries (name, quantity, expected, tolerance, unit,
+source, and the quantity's own keys); this module computes each named quantity. Where a number
+can be read from the FMU's outputs it is (``settled_change``); geometric facts come from the
+FMU's scenario built in process.
+"""
+
+from __future__ import annotations
+
+import math
+
+from crankfmu.dynamics.loads import DeadPointMoment
+from crankfmu.errors import DefinitionError
+
+from .compare import cycles
+
+
+def rocker_extreme_deg(entry, model, fmu_run):
+    """Crank angle (deg) of the rocker's extreme ``index`` (0: phi1d, 1: phi1a of seed 000 eq. 18)."""
+    loads = [l for l in model.reduced.loads if isinstance(l, DeadPointMoment)]
+    if not loads:
+        raise DefinitionError("rocker_extreme_deg needs a dead_point_moment load in the scenario")
+    return math.degrees((loads[0].phi1d, loads[0].phi1a)[int(entry["index"])])
+
+
+def settled_change(entry, model, fmu_run):
+    """Relative change of the cycle-mean crank speed from cycle ``cycle`` to the next, from the
+    FMU's outputs: the paper's "already stabilised" in that cycle, as a number."""
+    k = int(entry["cycle"])
+    found = cycles(fmu_run.time, fmu_run["phi1"], fmu_run["omega1"])
+    if len(found) < k + 1:
+        return float("nan")
+    a, b = found[k - 1]["omega1_mean"], found[k]["omega1_mean"]
+    return abs(b - a) / b
+
+
+QUANTITIES = {f.__name__: f for f in (rocker_extreme_deg, settled_change)}
+
+
+def check_paper(scenario, model, fmu_run, checks, prefix: str):
+    """One check per ``[[paper]]`` entry of the scenario file."""
+    for entry in scenario.data.get("paper", []):
+        quantity = QUANTITIES.get(entry.get("quantity"))
+        if quantity is None:
+            raise DefinitionError(f"{scenario.where}: [[paper]] {entry.get('name')!r}: unknown quantity "
+                                  f"{entry.get('quantity')!r} (known: {', '.join(QUANTITIES)})")
+        value = quantity(entry, model, fmu_run)
+        checks.close(f"{prefix}.paper.{entry['name']}", value, entry["expected"], entry["tolerance"],
+                     entry.get("unit", ""), note=entry.get("source", ""))

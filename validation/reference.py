@@ -1,0 +1,95 @@
+"""The FMU's scenario run in process, sampled where the FMU reported.
+
+``reference_run`` is the in-process reference integrator (DOP853 with the motor kink located,
+rtol = atol = 1e-12) or any other crankfmu method, on the FMU's time grid.
+
+``periodic_reference`` serves long runs. The scenario is autonomous (no load depends on time), so
+once the start-up transient has died out the motion repeats every crank turn with a period T.
+The reference integrates until successive periods agree to 1e-11 relative, then extends the
+settled cycle: phi1(t + n T) = phi1(t) + 2 pi n, omega1(t + n T) = omega1(t), and each work
+grows by its per-cycle amount. The extension is exact up to the period's error, so a 1000 s
+reference costs as much as a 12 s one, and its own phase error after N cycles is about
+N * |dT| * omega1 (reported as ``phase_uncertainty``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from crankfmu.dynamics.equation import OMEGA, PHI, W_EXT, W_LOAD, W_MOTOR
+from crankfmu.errors import CrankfmuError
+from crankfmu.simulation import COLUMNS, simulate
+
+TWO_PI = 2.0 * math.pi
+
+
+@dataclass
+class ReferenceRun:
+    label: str
+    time: np.ndarray
+    values: dict[str, np.ndarray]
+    wall: float
+    settings: dict = field(default_factory=dict)
+    result: object = None              # the crankfmu Result behind it, when there is one
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.values[name]
+
+
+def reference_run(scenario, times, method: str = "reference", rtol: float | None = None,
+                  angle_step: float | None = None, progress=None) -> ReferenceRun:
+    times = np.asarray(times, dtype=float)
+    started = time.perf_counter()
+    r = simulate(scenario, t_end=float(times[-1]), method=method, rtol=rtol, angle_step=angle_step,
+                 output_times=times, progress=progress)
+    wall = time.perf_counter() - started
+    values = {c: np.asarray(getattr(r, c)) for c in COLUMNS if c != "time"}
+    return ReferenceRun(method, times, values, wall, dict(r.settings), r)
+
+
+def periodic_reference(scenario, times, settle_time: float = 12.0, progress=None) -> ReferenceRun:
+    """The reference over ``times`` (any length) from a settled cycle; see the module docstring."""
+    times = np.asarray(times, dtype=float)
+    started = time.perf_counter()
+    r = simulate(scenario, t_end=max(settle_time, 1e-3), output_times=[0.0, settle_time], progress=progress)
+    phi0 = r.trajectory.y[PHI][0]
+    turns = int(math.floor((r.state([settle_time])[PHI, 0] - phi0) / TWO_PI))
+    if turns < 4:
+        raise CrankfmuError(f"periodic reference: only {turns} crank turns in {settle_time:g} s; the "
+                            "extension needs a crank that keeps turning forward")
+    marks = r.time_at_angle(phi0 + TWO_PI * np.arange(turns - 2, turns + 1))
+    periods = np.diff(marks)
+    period = float(periods[-1])
+    settled = abs(periods[-1] - periods[-2]) / period
+    if settled > 1e-11:
+        raise CrankfmuError(f"periodic reference: the period still changes by {settled:.1e} (relative) after "
+                            f"{turns} turns; give a longer settle_time than {settle_time:g} s")
+    t_a, t_b = float(marks[-2]), float(marks[-1])
+    y_a, y_b = r.state([t_a])[:, 0], r.state([t_b])[:, 0]
+    per_cycle = y_b - y_a
+
+    early = times < t_a
+    y = np.empty((y_a.size, times.size))
+    y[:, early] = r.state(times[early]) if early.any() else y[:, early]
+    late = ~early
+    n = np.floor((times[late] - t_a) / period)
+    tau = np.clip(t_a + (times[late] - t_a - n * period), t_a, t_b)
+    y_late = r.state(tau)
+    y_late[PHI] += TWO_PI * n
+    for row in (W_MOTOR, W_LOAD, W_EXT):
+        y_late[row] += n * per_cycle[row]
+    y[:, late] = y_late
+    out = r.model.equation.outputs(y[PHI], y[OMEGA])
+    values = {"phi1": y[PHI], "omega1": y[OMEGA], **out,
+              "W_motor": y[W_MOTOR], "W_load": y[W_LOAD], "W_ext": y[W_EXT]}
+    cycles = max(float(np.max(n)) if n.size else 0.0, 0.0)
+    # the period is known to about the DOP853 tolerance times the time scale of one turn
+    period_error = max(abs(periods[-1] - periods[-2]), 1e-12 * period)
+    settings = {"method": "reference, periodic extension", "settle_time": settle_time, "period": period,
+                "cycles_extended": cycles,
+                "phase_uncertainty": cycles * period_error * float(np.max(np.abs(y[OMEGA])))}
+    return ReferenceRun("reference (periodic)", times, values, time.perf_counter() - started, settings, r)

@@ -1,0 +1,174 @@
+"""Speed against error for one scenario (seed 000): every method's error and median wall time,
+measured in one run on one machine, so the ratios between them mean something.
+
+Error: max |omega1 error| (rad/s) on the scenario's 1 ms output grid over its 2 s, and
+|phi1(2 s) error| (rad), against a truth run (in-process DOP853 with the motor kink located,
+rtol = atol = 1e-13; it agrees with the reference at 1e-12 to about 1e-11 rad/s). Time: the
+median wall time of the whole call that produces the answer on the grid (for the FMU the whole
+``fmpy.simulate_fmu`` call: instantiate, initialise, step, free).
+
+Methods: the FMU through fmpy (communication steps 1e-4..1e-1 s at its default rtol, and rtol
+1e-4..1e-10 at 1 ms steps); crankfmu in process (reference, dopri5); the papers' crank-angle
+schemes (seed 000 eq. 17, seed 003 eq. 3) at 1, 0.1, 0.01 deg; scipy ``solve_ivp`` RK45, DOP853,
+LSODA and Radau at rtol 1e-3..1e-10 on the same right-hand side with the motor line chosen by
+omega1 at each call (no event location: what a user of solve_ivp gets).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from crankfmu.dynamics.equation import HIGH, LOW, OMEGA, PHI
+
+from .reference import reference_run
+
+FMU_STEPS = (1e-4, 1e-3, 1e-2, 1e-1)
+FMU_RTOLS = (1e-4, 1e-6, 1e-8, 1e-10)
+SCHEME_STEPS_DEG = (1.0, 0.1, 0.01)
+SCIPY_METHODS = ("RK45", "DOP853", "LSODA", "Radau")
+SCIPY_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
+QUICK = {"fmu_steps": (1e-3, 1e-1), "fmu_rtols": (1e-6, 1e-10), "scheme_steps_deg": (1.0, 0.1),
+         "scipy_methods": ("RK45", "DOP853"), "scipy_rtols": (1e-4, 1e-7)}
+TARGETS = (1e-3, 1e-6, 1e-9)        # rad/s: the error levels of the ratio table
+
+
+@dataclass
+class Point:
+    family: str
+    setting: str
+    omega1_error: float     # rad/s, max over the 1 ms grid
+    phi1_error: float       # rad at the end
+    time_s: float           # median wall time
+    repeats: int
+    note: str = ""
+
+
+def _timed(run, repeats_if_fast: int):
+    """Median wall time over up to ``repeats_if_fast`` calls (1 call when it takes over 1 s)."""
+    started = time.perf_counter()
+    out = run()
+    times = [time.perf_counter() - started]
+    while len(times) < repeats_if_fast and times[0] < 1.0:
+        started = time.perf_counter()
+        out = run()
+        times.append(time.perf_counter() - started)
+    return out, statistics.median(times), len(times)
+
+
+def _errors(t, omega, phi, grid, truth):
+    """Errors at the points of ``t`` that lie on the 1 ms grid (all of them for steps >= 1 ms)."""
+    idx = np.searchsorted(grid, t)
+    idx = np.clip(idx, 0, grid.size - 1)
+    on = np.abs(grid[idx] - t) < 1e-9
+    e_w = float(np.max(np.abs(np.asarray(omega)[on] - truth["omega1"][idx[on]])))
+    e_p = abs(float(np.asarray(phi)[-1] - truth["phi1"][-1]))
+    return e_w, e_p
+
+
+def solve_ivp_peer(model, grid, method, rtol):
+    """scipy solve_ivp on the movement equation, motor line picked by omega1 at each call."""
+    eq = model.equation
+    ws = model.motor.omega_switch
+
+    def f(t, y):
+        return eq.rhs(t, y, HIGH if y[OMEGA] > ws else LOW)
+
+    sol = solve_ivp(f, (grid[0], grid[-1]), model.y0, method=method, rtol=rtol, atol=rtol, dense_output=True)
+    if sol.status != 0:
+        raise RuntimeError(f"solve_ivp {method} rtol={rtol:g}: {sol.message}")
+    y = sol.sol(grid)
+    return y[OMEGA], y[PHI]
+
+
+def run_study(fmu, scenario, quick: bool = False, progress=None) -> tuple[list[Point], dict]:
+    exp = scenario.experiment
+    n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
+    grid = exp.start_time + exp.output_interval * np.arange(n + 1)
+    truth = reference_run(scenario, grid, method="reference", rtol=1e-13)
+    q = QUICK if quick else {"fmu_steps": FMU_STEPS, "fmu_rtols": FMU_RTOLS, "scheme_steps_deg": SCHEME_STEPS_DEG,
+                             "scipy_methods": SCIPY_METHODS, "scipy_rtols": SCIPY_RTOLS}
+    repeats = 1 if quick else 3
+    default_rtol = fmu.variables["rtol"].start if "rtol" in fmu.variables else None
+    jobs = []
+    for step in q["fmu_steps"]:
+        jobs.append((f"FMU, rtol {float(default_rtol):g}, step sweep", f"step {step:g} s",
+                     lambda s=step: fmu.run(exp.stop_time, s, show_progress=False)))
+    for rtol in q["fmu_rtols"]:
+        jobs.append(("FMU, 1 ms steps, rtol sweep", f"rtol {rtol:g}",
+                     lambda r=rtol: fmu.run(exp.stop_time, 1e-3, {"rtol": r}, show_progress=False)))
+    jobs.append(("crankfmu reference (DOP853 + kink events)", "rtol 1e-12",
+                 lambda: reference_run(scenario, grid, "reference")))
+    for rtol in (1e-6, 1e-8, 1e-10):
+        jobs.append(("crankfmu dopri5 (in process)", f"rtol {rtol:g}",
+                     lambda r=rtol: reference_run(scenario, grid, "dopri5", rtol=r)))
+    for label, method in (("paper eq. 17 (seed 000)", "badoiu-eq17"), ("paper eq. 3 (seed 003)", "lv-eq3")):
+        for deg in q["scheme_steps_deg"]:
+            jobs.append((label, f"{deg:g} deg",
+                         lambda m=method, d=deg: reference_run(scenario, grid, m, angle_step=math.radians(d))))
+    model = scenario.build()
+    for method in q["scipy_methods"]:
+        for rtol in q["scipy_rtols"]:
+            jobs.append((f"solve_ivp {method}", f"rtol {rtol:g}",
+                         lambda m=method, r=rtol: solve_ivp_peer(model, grid, m, r)))
+
+    points = []
+    for i, (family, setting, job) in enumerate(jobs):
+        if progress:
+            progress(i / len(jobs))
+        try:
+            out, wall, k = _timed(job, repeats)
+        except Exception as exc:     # a peer that fails is a point with a note, not a lost study
+            points.append(Point(family, setting, float("nan"), float("nan"), float("nan"), 0, str(exc)[:160]))
+            continue
+        if hasattr(out, "error"):             # an FMU run
+            if out.error:
+                points.append(Point(family, setting, float("nan"), float("nan"), wall, k, out.error[:160]))
+                continue
+            e_w, e_p = _errors(out.time, out["omega1"], out["phi1"], grid, truth)
+        elif isinstance(out, tuple):          # solve_ivp peer
+            e_w, e_p = _errors(grid, out[0], out[1], grid, truth)
+        else:
+            e_w, e_p = _errors(grid, out["omega1"], out["phi1"], grid, truth)
+        points.append(Point(family, setting, e_w, e_p, wall, k))
+    if progress:
+        progress(1.0)
+    return points, {"truth": "DOP853 + kink events, rtol = atol = 1e-13", "grid_s": exp.output_interval,
+                    "span_s": exp.stop_time - exp.start_time, "repeats": repeats}
+
+
+def ratio_table(points: list[Point], targets=TARGETS) -> list[dict]:
+    """For each family and target error: its fastest point reaching the target, and that time
+    relative to the fastest family at the same target."""
+    families = list(dict.fromkeys(p.family for p in points))
+    rows = []
+    best = {}
+    for target in targets:
+        ok = [p for p in points if math.isfinite(p.omega1_error) and p.omega1_error <= target]
+        best[target] = min((p.time_s for p in ok), default=math.nan)
+    for fam in families:
+        row = {"family": fam}
+        for target in targets:
+            ok = [p for p in points if p.family == fam and math.isfinite(p.omega1_error) and p.omega1_error <= target]
+            if ok:
+                p = min(ok, key=lambda p: p.time_s)
+                row[target] = {"setting": p.setting, "time_s": p.time_s, "ratio": p.time_s / best[target]}
+            else:
+                row[target] = None
+        rows.append(row)
+    return rows
+
+
+def fastest(points: list[Point], target: float) -> tuple[Point | None, Point | None]:
+    """The fastest point at ``target`` and the fastest of another family (the runner-up)."""
+    ok = sorted((p for p in points if math.isfinite(p.omega1_error) and p.omega1_error <= target),
+                key=lambda p: p.time_s)
+    if not ok:
+        return None, None
+    second = next((p for p in ok if p.family != ok[0].family), None)
+    return ok[0], second
