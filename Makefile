@@ -1,13 +1,14 @@
 # Two commands on a fresh machine with Python 3.11+ and make:
-#   make demo   creates .venv, installs crankfmu with its dependencies, runs the main job
-#   make test   same bootstrap, then the test suite
+#   make demo   creates .venv, installs crankfmu with its dependencies, builds the FMUs, runs the
+#               seed-000 job and the full validation harness (build/validation/report.md)
+#   make test   same bootstrap, then the test suite and the harness's --quick subset
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= build/demo
 
-.PHONY: demo test venv fmu bench clean
+.PHONY: demo test venv fmu validate bench clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version' 
@@ -23,9 +24,14 @@ fmu: $(STAMP)
 
 demo: fmu
 	$(BIN)/crankfmu simulate seed000 --out $(OUT)
+	$(BIN)/crankfmu validate --out build/validation
 
 test: fmu
 	$(BIN)/python -m pytest -q
+	$(BIN)/crankfmu validate --quick --out build/validation-quick
+
+validate: fmu
+	$(BIN)/crankfmu validate --out build/validation
 
 bench: fmu
 	$(BIN)/python benchmarks/fmu_step.py
