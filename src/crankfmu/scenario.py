@@ -20,7 +20,7 @@ from typing import Mapping
 import numpy as np
 
 from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation, ReducedModel,
-                       Weights)
+                       ViscousForce, Weights)
 from .dynamics.equation import STATE_SIZE
 from .errors import AssemblyError, DefinitionError, ParameterError, ScenarioNotFound
 from .expressions import Expression, evaluate
@@ -145,6 +145,17 @@ class Scenario:
     def mechanism_definition(self) -> MechanismDefinition:
         return load_mechanism(self.mechanism_name)
 
+    @property
+    def quantities(self):
+        """The mechanism-specific outputs of the ``[[outputs]]`` entries (slider position, arm speed...)."""
+        from .mechanisms.quantities import parse_quantities
+        return parse_quantities(self.data.get("outputs", []), self.mechanism_definition(), self.where)
+
+    @property
+    def kinematics_study(self) -> dict:
+        """The ``[kinematics]`` section: the paper's constant-speed kinematic study."""
+        return dict(self.data.get("kinematics", {}))
+
     def build(self) -> "Model":
         """Mechanism, reduced model, motor and equation of motion for these parameter values."""
         values = self.values
@@ -184,7 +195,7 @@ class Scenario:
             if spec.get("kind") == "weights":
                 names.add("g")
             for key, value in spec.items():
-                if key not in ("kind", "link") and isinstance(value, str):
+                if key not in ("kind", "link", "point", "axis") and isinstance(value, str):
                     names |= Expression(value).names
         return sorted(names)
 
@@ -195,7 +206,18 @@ class Scenario:
         if kind == "dead_point_moment":
             amplitude = evaluate(spec["amplitude"], values, f"{self.name}: load amplitude")
             return DeadPointMoment.from_geometry(mechanism, spec["link"], amplitude)
-        raise DefinitionError(f"{self.where}: unknown load kind {kind!r} (known: weights, dead_point_moment)")
+        if kind == "viscous_force":
+            axis = {"x": 0, "y": 1}.get(spec.get("axis"))
+            if axis is None or spec.get("point") not in mechanism.definition.points:
+                raise DefinitionError(f"{self.where}: viscous_force needs point (one of the mechanism's "
+                                      f"points) and axis ('x' or 'y'), got {spec!r}")
+            coefficient = evaluate(spec["coefficient"], values, f"{self.name}: viscous coefficient")
+            if not coefficient >= 0:
+                raise ParameterError(f"{self.name}: the viscous coefficient {spec['coefficient']} = "
+                                     f"{coefficient:g} N.s/m must be >= 0", str(spec["coefficient"]))
+            return ViscousForce(spec["point"], axis, coefficient)
+        raise DefinitionError(f"{self.where}: unknown load kind {kind!r} "
+                              "(known: weights, dead_point_moment, viscous_force)")
 
     def _explain_assembly(self, exc: AssemblyError, definition: MechanismDefinition) -> AssemblyError:
         """Add, for each geometry parameter the user changed, the bound it must respect."""

@@ -36,6 +36,24 @@ class Weights:
 
 
 @dataclass
+class ViscousForce:
+    """A damper on a point along x or y, F = -c v (a piston's or slide's viscous friction).
+
+    Reduced to the crank: Q = F dx/dphi1 = -c (dx/dphi1)^2 omega1. Smooth in omega1 and phi1, so
+    it needs no switching; its power -c v^2 is never positive.
+    """
+
+    point: str
+    axis: int                      # 0: x, 1: y
+    coefficient: float             # c, N.s/m
+    position_only = False
+
+    def torque(self, kin: Kinematics, omega1=None):
+        d = kin.point(self.point)[2 + self.axis]
+        return -self.coefficient * d * d * np.asarray(omega1, dtype=float)
+
+
+@dataclass
 class DeadPointMoment:
     """Technological moment of seed 000 eq. 18 acting on a rocker, counter-clockwise positive.
 
