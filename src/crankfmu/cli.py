@@ -79,6 +79,87 @@ def cmd_schemes(args) -> int:
     return 0
 
 
+def cmd_kinematics(args) -> int:
+    import json
+    from pathlib import Path
+
+    from .kinematic_plots import plot_time_series, plot_velocity_plan
+    from .kinematic_study import compare_with_paper, time_series, values_at
+    from .scenario import load_scenario
+
+    scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
+    values, detail = values_at(scenario, args.at, args.omega)
+    rows = compare_with_paper(scenario, values)
+    ts = time_series(scenario, args.omega)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "values.json").write_text(json.dumps(values, indent=2) + "\n")
+    detail.update(paper_comparison=rows, approximation=ts.get("approx_name"),
+                  approximation_max_errors=ts.get("approx_errors"))
+    (out / "values_detail.json").write_text(json.dumps(detail, indent=2) + "\n")
+    units = detail["units"]
+    print(f"{scenario.name} at phi1 = {args.at:g} deg, omega1 = {detail['omega1']:g} rad/s (exact kinematics):")
+    paper = {r["name"]: r for r in rows}
+    print(f"  {'quantity':8s} {'exact':>14s} {'unit':6s} {'paper':>8s} {'difference':>10s}")
+    for name, v in values.items():
+        r = paper.get(name)
+        extra = f"{r['paper']:8.4g} {100 * r['rel_diff']:+9.2f} %" if r else ""
+        print(f"  {name:8s} {v:14.8g} {units[name]:6s} {extra}")
+    plots = plot_time_series(ts, out, scenario.name)
+    ks = scenario.kinematics_study
+    plots.append(plot_velocity_plan(detail, ks.get("relative", []), out / "velocity_plan.png",
+                                    f"{scenario.name}: velocity plan at {args.at:g} deg"))
+    if ts.get("approx_errors"):
+        print(f"  the paper's approximation ({ts['approx_name']}) over {ts['time'][-1]:g} s, largest errors: "
+              + ", ".join(f"{k} {v:.4g} {ts['units'].get(k, 'm')}" for k, v in ts["approx_errors"].items()))
+    print(f"  wrote {out}/values.json, values_detail.json, " + ", ".join(p.name for p in plots))
+    return 0
+
+
+def cmd_sweep(args) -> int:
+    import json
+    from pathlib import Path
+
+    from .kinematic_plots import plot_families
+    from .progress import ProgressBar
+    from .scenario import load_scenario
+    from .sweep import SweepAxis, check_claims, run_sweep
+
+    scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
+    if not args.param:
+        raise CrankfmuError("give at least one --param NAME=START:STOP:COUNT")
+    axes = [SweepAxis.parse(p, scenario) for p in args.param]
+    out = Path(args.out)
+    bar = ProgressBar(1.0, label=f"{scenario.name} sweep")
+    try:
+        result = run_sweep(scenario, axes, out, progress=bar, resume=not args.restart)
+    finally:
+        bar.close()
+    definition = scenario.mechanism_definition()
+    units = {q.name: q.unit(definition) for q in scenario.quantities}
+    plots = plot_families(result, scenario, units, out)
+    claims = check_claims(scenario, result)
+    (out / "claims.json").write_text(json.dumps(claims, indent=2) + "\n")
+    names = [a.name for a in axes]
+    print(f"{scenario.name}: {len(result.rows)} designs computed"
+          + (f" ({result.skipped} already in peaks.csv)" if result.skipped else "")
+          + f", {len(result.failed)} failed")
+    print("  " + " ".join(f"{c:>14s}" for c in result.columns))
+    for row in result.rows:
+        print("  " + " ".join(f"{row[c]:14.6g}" for c in result.columns))
+    for row in result.failed:
+        print("  FAILED " + ", ".join(f"{n} = {row[n]:g}" for n in names) + f": {row['reason']}")
+    for c in claims:
+        print(f"  claim: {c['claim']} [{c['quantity']}]: peaks increase in {c['peaks_hold_in']} of "
+              f"{c['families']} families; |{c['quantity']}| increases pointwise over "
+              f"{100 * c['share_of_cycle_min']:.0f}-{100 * c['share_of_cycle_mean']:.0f} % (min-mean) of the cycle, "
+              f"{100 * c['share_of_second_half_mean']:.0f} % of its second half")
+    print(f"  wrote {out}/peaks.csv, failed.csv, claims.json and {len(plots)} PNG")
+    if not result.rows:
+        raise CrankfmuError(f"no design of the sweep could be computed ({len(result.failed)} failed; see {out}/failed.csv)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="crankfmu", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -101,6 +182,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps-deg", default="1,0.1,0.01", help="comma-separated angle steps in deg")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.set_defaults(func=cmd_schemes)
+    p = sub.add_parser("kinematics", help="exact velocities, accelerations and instant centre at one crank "
+                                           "angle, time series beside the paper's approximation, velocity plan")
+    p.add_argument("scenario")
+    p.add_argument("--at", type=float, required=True, help="crank angle in deg")
+    p.add_argument("--omega", type=float, default=None, help="constant crank speed in rad/s (default: the paper's)")
+    p.add_argument("--out", required=True)
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.set_defaults(func=cmd_kinematics)
+
+    p = sub.add_parser("sweep", help="kinematic parameter sweep: peaks.csv (one row per design), the "
+                                      "families' plots, the paper's claims checked")
+    p.add_argument("scenario")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=START:STOP:COUNT",
+                   help="a swept parameter (repeatable; the grid is every combination)")
+    p.add_argument("--out", required=True)
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.add_argument("--restart", action="store_true", help="recompute every design (default: resume peaks.csv)")
+    p.set_defaults(func=cmd_sweep)
+
     p = sub.add_parser("validate", help="every FMU against the in-process reference and the papers: "
                                          "PASS/FAIL lines and DIR/report.md")
     from .validation.harness import build_parser as validation_parser, run_from_args
