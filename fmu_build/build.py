@@ -36,10 +36,9 @@ from xml.etree import ElementTree as ET
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT / "src"))
-sys.path.insert(0, str(HERE))
 
 #: FMU name -> scenario
-FMUS = {"FourBar": "seed000"}
+FMUS = {"FourBar": "seed000", "SliderCrank": "seed002", "QuickReturn": "seed004"}
 
 #: SI base-unit exponents of every unit the FMUs declare
 BASE_UNITS = {
@@ -54,6 +53,9 @@ BASE_UNITS = {
     "kg/m": {"kg": 1, "m": -1},
     "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
     "m/s2": {"m": 1, "s": -2},
+    "m/s": {"m": 1, "s": -1},
+    "kg": {"kg": 1},
+    "N.s/m": {"kg": 1, "s": -1},
 }
 
 #: what each output depends on at initialisation; *geometry (lengths and masses), *loads and
@@ -198,6 +200,14 @@ def cross_check_options(scenario) -> str:
             f"StepSize, {exp.output_interval!r}\nRelTol, {exp.tolerance!r}\n")
 
 
+def slave_script(name: str, scenario) -> str:
+    """The slave script of one FMU, from the one template."""
+    from string import Template
+
+    template = Template((HERE / "slave_template.py").read_text())
+    return template.substitute(NAME=name, SCENARIO=scenario.name, DESCRIPTION=repr(scenario.title))
+
+
 def build(name: str, scenario_name: str, dest: Path) -> Path:
     from pythonfmu import FmuBuilder
 
@@ -206,17 +216,24 @@ def build(name: str, scenario_name: str, dest: Path) -> Path:
     dest.mkdir(parents=True, exist_ok=True)
     scenario = load_scenario(scenario_name)
     with tempfile.TemporaryDirectory() as tmp:
-        # the package travels under a private name (see fmu_build/FourBar.py)
+        # the package travels under a private name (see fmu_build/slave_template.py)
         private = Path(tmp) / "pkg" / f"crankfmu_{name}"
+        script_dir = Path(tmp) / "script"
+        script_dir.mkdir()
+        script = script_dir / f"{name}.py"
+        script.write_text(slave_script(name, scenario))
         shutil.copytree(ROOT / "src" / "crankfmu", private, ignore=shutil.ignore_patterns("__pycache__"))
         sys.path.insert(0, str(private.parent))
+        sys.path.insert(0, str(script_dir))
         try:
-            raw = FmuBuilder.build_FMU(HERE / f"{name}.py", dest=Path(tmp) / f"{name}.fmu",
+            raw = FmuBuilder.build_FMU(script, dest=Path(tmp) / f"{name}.fmu",
                                        project_files=[private],
                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
             slave_units = _units_of(name, private.parent)
         finally:
             sys.path.remove(str(private.parent))
+            sys.path.remove(str(script_dir))
+            sys.modules.pop(name, None)
         shim = compile_shim(name, Path(tmp) / f"{name}.so")
         binary = f"binaries/linux64/{name}.so"
         out = dest / f"{name}.fmu"

@@ -65,6 +65,16 @@ def check_default(fmu: FmuUnderTest, scenario, checks, out: Path) -> dict:
     checks.at_most(f"{prefix}.phi1_is_integral_of_omega1",
                    phi_quadrature_residual(run.time, run["phi1"], run["omega1"], run["epsilon1"]),
                    2.0 * floor + 1e-8, "rad", note=f"Hermite-rule floor on the reference {floor:.2e} rad")
+    # the same for each mechanism-specific position with its velocity and acceleration outputs
+    by_of = {}
+    for q in scenario.quantities:
+        by_of.setdefault(q.of, {})[q.order] = q.name
+    for of, names in by_of.items():
+        if {0, 1, 2} <= set(names) and all(names[o] in run.values for o in (0, 1, 2)):
+            x, v, a = names[0], names[1], names[2]
+            floor = phi_quadrature_residual(ref.time, ref[x], ref[v], ref[a])
+            checks.at_most(f"{prefix}.{x}_is_integral_of_{v}", phi_quadrature_residual(run.time, run[x], run[v], run[a]),
+                           2.0 * floor + 1e-8, note=f"Hermite-rule floor on the reference {floor:.2e}")
     fc, rc = cycles(run.time, run["phi1"], run["omega1"]), cycles(ref.time, ref["phi1"], ref["omega1"])
     k = min(exp.summary_cycle, len(fc), len(rc))
     if k:

@@ -35,7 +35,13 @@ def settled_change(entry, model, fmu_run):
     return abs(b - a) / b
 
 
-QUANTITIES = {f.__name__: f for f in (rocker_extreme_deg, settled_change)}
+def kinematic_cycle(entry, model, fmu_run):
+    """``key`` (stroke, time_ratio, arm_swing) of the kinematic study's cycle at constant omega1."""
+    from crankfmu.kinematic_study import cycle
+    return cycle(model.scenario, [])[entry["key"]]
+
+
+QUANTITIES = {f.__name__: f for f in (rocker_extreme_deg, settled_change, kinematic_cycle)}
 
 
 def check_paper(scenario, model, fmu_run, checks, prefix: str):
@@ -48,3 +54,14 @@ def check_paper(scenario, model, fmu_run, checks, prefix: str):
         value = quantity(entry, model, fmu_run)
         checks.close(f"{prefix}.paper.{entry['name']}", value, entry["expected"], entry["tolerance"],
                      entry.get("unit", ""), note=entry.get("source", ""))
+    study = scenario.kinematics_study
+    if study.get("paper"):
+        # the paper's graphical values at its check position ([kinematics.paper]), within
+        # [kinematics] paper_tolerance (relative): a drawing at 0.01 m/mm is read to about 1 mm
+        from crankfmu.kinematic_study import values_at
+        exact, detail = values_at(model.scenario, float(study["at_deg"]))
+        rel = float(study.get("paper_tolerance", 0.015))
+        for name, published in study["paper"].items():
+            checks.close(f"{prefix}.paper.{name}_at_{study['at_deg']:g}deg", exact[name], published,
+                         rel * abs(published), detail["units"][name],
+                         note=f"graphical value, {100 * rel:g} % tolerance")

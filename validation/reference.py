@@ -48,7 +48,18 @@ def reference_run(scenario, times, method: str = "reference", rtol: float | None
                  output_times=times, progress=progress)
     wall = time.perf_counter() - started
     values = {c: np.asarray(getattr(r, c)) for c in COLUMNS if c != "time"}
+    values.update(_quantities(r.model, scenario, values))
     return ReferenceRun(method, times, values, wall, dict(r.settings), r)
+
+
+def _quantities(model, scenario, values) -> dict:
+    """The scenario's mechanism-specific outputs at the reference's states."""
+    quantities = scenario.quantities
+    if not quantities:
+        return {}
+    from crankfmu.mechanisms.quantities import evaluate_all
+    kin = model.mechanism.kinematics(np.asarray(values["phi1"]))
+    return evaluate_all(quantities, kin, np.asarray(values["omega1"]), np.asarray(values["epsilon1"]))
 
 
 def periodic_reference(scenario, times, settle_time: float = 12.0, progress=None) -> ReferenceRun:
@@ -86,6 +97,7 @@ def periodic_reference(scenario, times, settle_time: float = 12.0, progress=None
     out = r.model.equation.outputs(y[PHI], y[OMEGA])
     values = {"phi1": y[PHI], "omega1": y[OMEGA], **out,
               "W_motor": y[W_MOTOR], "W_load": y[W_LOAD], "W_ext": y[W_EXT]}
+    values.update(_quantities(r.model, scenario, values))
     cycles = max(float(np.max(n)) if n.size else 0.0, 0.0)
     # the period is known to about the DOP853 tolerance times the time scale of one turn
     period_error = max(abs(periods[-1] - periods[-2]), 1e-12 * period)

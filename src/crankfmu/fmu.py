@@ -2,7 +2,9 @@
 
 ``FmuCore`` registers the variables of shared/FMU_CONTRACT.md (plus the scenario's geometry,
 mass and load parameters) on a pythonfmu ``Fmi2Slave`` and implements its life cycle. The slave
-scripts in ``fmu_build/`` are thin: ``class FourBar(Fmi2Slave)`` delegating to ``FmuCore``.
+scripts (generated from ``fmu_build/slave_template.py``) are thin: ``class FourBar(Fmi2Slave)``
+delegating to ``FmuCore``. A scenario's ``[[outputs]]`` (slider position, arm speed, ...) become
+extra outputs, computed from the analytic transfer functions only when the host reads them.
 
 Inside ``fmi2DoStep`` the movement equation is integrated by the error-controlled
 Dormand-Prince stepper (rtol honoured, the motor kink located); communication points inside a
@@ -71,12 +73,21 @@ class FmuCore:
         self.pending = False                # a tunable parameter or input changed: restart
         self.rebuild = False                # the motor line changed
         self.units = {}
+        self.quantities = self.scenario.quantities
+        self._quantity_values: dict[str, float] | None = None
+        self._state_for_quantities = (0.0, 0.0, 0.0)     # phi1, omega1, epsilon1 at the outputs' time
 
         for name, description in OUTPUTS.items():
             slave.register_variable(Real(name, causality=Fmi2Causality.output,
                                          variability=Fmi2Variability.continuous, description=description,
                                          getter=(lambda n=name: self.outputs[n])))
             self.units[name] = COLUMNS[name]
+        definition = self.scenario.mechanism_definition()
+        for q in self.quantities:
+            slave.register_variable(Real(q.name, causality=Fmi2Causality.output,
+                                         variability=Fmi2Variability.continuous, description=q.description,
+                                         getter=(lambda n=q.name: self._quantity(n))))
+            self.units[q.name] = q.unit(definition)
         slave.register_variable(Real("tau_ext", causality=Fmi2Causality.input,
                                      variability=Fmi2Variability.continuous, description=TAU_EXT[1],
                                      getter=lambda: self.tau_ext, setter=self._set_input))
@@ -179,12 +190,31 @@ class FmuCore:
         self.outputs["W_ext"] = float(y[W_EXT])
         for name in ("epsilon1", "M_motor", "M_load", "J_red", "E_kin"):
             self.outputs[name] = float(out[name][0])
+        self._state_for_quantities = (float(y[PHI]), float(y[OMEGA]), self.outputs["epsilon1"])
+        self._quantity_values = None
+
+    def _quantity(self, name: str) -> float:
+        """A mechanism-specific output, computed on first read after a step (one kinematics call
+        for all of them): a host that never reads them never pays for them."""
+        if self.model is None:
+            return 0.0
+        if self._quantity_values is None:
+            import numpy as np
+
+            from .mechanisms.quantities import evaluate_all
+
+            phi, omega, eps = self._state_for_quantities
+            kin = self.model.mechanism.kinematics(np.array([phi]))
+            self._quantity_values = {k: float(v[0]) for k, v in
+                                     evaluate_all(self.quantities, kin, omega, eps).items()}
+        return self._quantity_values[name]
 
     # ------------------------------------------------------------------ FMU state
     def get_state(self) -> dict:
         return {
             "values": dict(self.values), "tau_ext": self.tau_ext, "outputs": dict(self.outputs),
             "time": self.time, "errors": dict(self.errors), "pending": self.pending, "rebuild": self.rebuild,
+            "quantity_state": self._state_for_quantities,
             "stepper": None if self.state is None else self.state.to_dict(),
             "motor": None if self.model is None else dataclasses.asdict(self.model.equation.motor),
             "equation_tau": None if self.model is None else self.model.equation.tau_ext,
@@ -194,6 +224,8 @@ class FmuCore:
         self.values = dict(state["values"])
         self.tau_ext = state["tau_ext"]
         self.outputs = dict(state["outputs"])
+        self._state_for_quantities = tuple(state["quantity_state"])
+        self._quantity_values = None
         self.time = state["time"]
         self.errors = dict(state["errors"])
         self.pending, self.rebuild = state["pending"], state["rebuild"]
