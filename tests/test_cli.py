@@ -68,3 +68,15 @@ def test_schemes_study_prints_orders(tmp_path, capsys):
     orders = [r["order"] for r in rows if r["order"] is not None]
     assert len(orders) == 2 and all(0.8 < o < 1.2 for o in orders)
     assert (out / "startup.png").exists()
+
+
+def test_progress_bar_in_a_log_file_writes_a_line_every_10_percent():
+    import io
+
+    from crankfmu.progress import ProgressBar
+    bar = ProgressBar(2.0, "run", delay=0.0, stream=io.StringIO())
+    for i in range(1001):
+        bar(i * 0.002)
+    bar.close()
+    lines = bar.stream.getvalue().splitlines()
+    assert 10 <= len(lines) <= 11 and "\r" not in bar.stream.getvalue() and lines[-1].startswith("run [####")
