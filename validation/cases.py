@@ -21,7 +21,7 @@ import numpy as np
 from crankfmu.errors import CrankfmuError, DefinitionError, SchemeError
 from crankfmu.simulation import simulate
 
-from .compare import cycles, energy_residual, max_abs_error, phi_quadrature_residual, relative_error
+from .compare import cycles, energy_residual, phi_quadrature_residual, relative_error
 from .reference import periodic_reference, reference_run
 
 CASES_DIR = Path(__file__).resolve().parent / "cases"
