@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .errors import CrankfmuError, ParameterError
 from .mechanisms.quantities import evaluate_all
@@ -30,17 +29,6 @@ def _study(scenario) -> dict:
     if not ks:
         raise CrankfmuError(f"scenario {scenario.name} has no [kinematics] section: it is not a kinematic study")
     return ks
-
-
-def mechanism_of(scenario):
-    """The scenario's mechanism bound to its parameters, assembly checked over the whole turn."""
-    definition = scenario.mechanism_definition()
-    mechanism = definition.bind(scenario.values)
-    try:
-        mechanism.check_assembly()
-    except CrankfmuError as exc:
-        raise scenario._explain_assembly(exc, definition) from None
-    return mechanism
 
 
 def crank_speed(scenario, omega1=None) -> float:
@@ -61,7 +49,7 @@ def values_at(scenario, at_deg: float, omega1: float | None = None) -> tuple[dic
     if not math.isfinite(at_deg):
         raise ParameterError(f"--at must be a crank angle in deg, got {at_deg!r}", "at")
     w = crank_speed(scenario, omega1)
-    mechanism = mechanism_of(scenario)
+    mechanism = scenario.assembled_mechanism()[0]
     definition = scenario.mechanism_definition()
     kin = mechanism.kinematics(np.array([math.radians(at_deg)]))
     pos, vel, acc = {}, {}, {}
@@ -114,7 +102,7 @@ def time_series(scenario, omega1: float | None = None, span: float | None = None
     span = float(ks.get("span", TWO_PI / w) if span is None else span)
     t = np.linspace(0.0, span, n)
     phi = w * t
-    mechanism = mechanism_of(scenario)
+    mechanism = scenario.assembled_mechanism()[0]
     kin = mechanism.kinematics(phi)
     wanted = [q for q in scenario.quantities if q.name in ks.get("time_series", [])]
     exact = evaluate_all(wanted, kin, w)
@@ -136,27 +124,12 @@ def time_series(scenario, omega1: float | None = None, span: float | None = None
     return out
 
 
-def _extremes(mechanism, unknown: str, n: int = 720):
-    """Crank angles (rad, in [0, 2 pi)) where d(unknown)/dphi1 = 0, by Brent's method on the
-    analytic transfer function."""
-    grid = np.linspace(0.0, TWO_PI, n + 1)
-    d = mechanism.kinematics(grid).dq[unknown]
-    f = lambda a: float(mechanism.kinematics(np.array([a])).dq[unknown][0])  # noqa: E731
-    roots = []
-    for i in range(n):
-        if d[i] == 0.0:
-            roots.append(grid[i])
-        elif d[i] * d[i + 1] < 0.0:
-            roots.append(brentq(f, grid[i], grid[i + 1], xtol=1e-15, rtol=1e-15))
-    return sorted({r % TWO_PI for r in roots})
-
-
 def cycle(scenario, quantities, omega1: float | None = None, n: int = 3600) -> dict:
     """Quantities over one crank turn at constant omega1, their peaks, and for the study's slider and
     arm: stroke, time ratio (slow stroke over quick return, in crank angle = in time) and swing."""
     ks = _study(scenario)
     w = crank_speed(scenario, omega1)
-    mechanism = mechanism_of(scenario)
+    mechanism = scenario.assembled_mechanism()[0]
     phi = np.linspace(0.0, TWO_PI, n, endpoint=False)
     kin = mechanism.kinematics(phi)
     wanted = [q for q in scenario.quantities if q.name in quantities]
@@ -165,7 +138,7 @@ def cycle(scenario, quantities, omega1: float | None = None, n: int = 3600) -> d
     out = {"phi1": phi, "series": series, "peaks": peaks}
     slider = ks.get("stroke_of")
     if slider:
-        ext = _extremes(mechanism, slider)
+        ext = [a for a, _ in mechanism.stationary_angles(lambda kin: kin.dq[slider])]
         if len(ext) != 2:
             raise CrankfmuError(f"{slider} has {len(ext)} extreme positions per turn, not 2: no stroke defined")
         values = mechanism.kinematics(np.array(ext)).q[slider]
@@ -175,7 +148,7 @@ def cycle(scenario, quantities, omega1: float | None = None, n: int = 3600) -> d
         out["slider_extremes_deg"] = [math.degrees(e) for e in ext]
     arm = ks.get("arm")
     if arm:
-        ext = _extremes(mechanism, arm)
+        ext = [a for a, _ in mechanism.stationary_angles(lambda kin: kin.dq[arm])]
         values = mechanism.kinematics(np.array(ext)).q[arm]
         out["arm_swing"] = float(abs(values[1] - values[0])) if len(ext) == 2 else float("nan")
     return out

@@ -156,15 +156,22 @@ class Scenario:
         """The ``[kinematics]`` section: the paper's constant-speed kinematic study."""
         return dict(self.data.get("kinematics", {}))
 
-    def build(self) -> "Model":
-        """Mechanism, reduced model, motor and equation of motion for these parameter values."""
-        values = self.values
+    def assembled_mechanism(self):
+        """(mechanism, worst conditioning, crank angle rad where it occurs) for these parameter values,
+        assembly checked over the whole turn; AssemblyError names the bound of each changed parameter."""
         definition = self.mechanism_definition()
-        mechanism = definition.bind(values)
+        mechanism = definition.bind(self.values)
         try:
             worst, at = mechanism.check_assembly()
         except AssemblyError as exc:
             raise self._explain_assembly(exc, definition) from None
+        return mechanism, worst, at
+
+    def build(self) -> "Model":
+        """Mechanism, reduced model, motor and equation of motion for these parameter values."""
+        values = self.values
+        definition = self.mechanism_definition()
+        mechanism, worst, at = self.assembled_mechanism()
         links = []
         for lname, ld in definition.links.items():
             mass = evaluate(ld.mass, values, f"{self.name}: mass of {lname}")

@@ -7,11 +7,9 @@ tabulate them; velocity-dependent ones receive omega1 too.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..errors import DefinitionError
 from ..mechanisms import Kinematics, Mechanism
@@ -86,19 +84,13 @@ class DeadPointMoment:
 
 def rocker_extremes(mechanism: Mechanism, link: str, n_grid: int = 720):
     """Crank angles (rad, in [0, 2 pi)) of a rocker's extreme positions: (start of its
-    counter-clockwise swing, start of its clockwise swing). Roots of dphi_link/dphi1 by Brent's
-    method on the analytic transfer function."""
-    grid = np.linspace(0.0, 2 * math.pi, n_grid + 1)
-    ratio = mechanism.kinematics(grid).link_angle(link)[1]
-    rises, falls = [], []
-    f = lambda a: float(mechanism.kinematics(a).link_angle(link)[1][0])  # noqa: E731
-    for i in range(n_grid):
-        if ratio[i] == 0.0 or ratio[i] * ratio[i + 1] < 0.0:
-            root = grid[i] if ratio[i] == 0.0 else brentq(f, grid[i], grid[i + 1], xtol=1e-15, rtol=1e-15)
-            (rises if ratio[i + 1] > 0.0 else falls).append(root % (2 * math.pi))
+    counter-clockwise swing, start of its clockwise swing), where dphi_link/dphi1 = 0."""
+    found = mechanism.stationary_angles(lambda kin: kin.link_angle(link)[1], n_grid)
+    rises = [a for a, rising in found if rising]
+    falls = [a for a, rising in found if not rising]
     if len(rises) != 1 or len(falls) != 1:
         raise DefinitionError(
             f"link {link!r} is not a rocker with two extreme positions per crank turn "
-            f"(found {len(rises) + len(falls)} extremes); the dead-point moment of eq. 18 needs one"
+            f"(found {len(found)} extremes); the dead-point moment of eq. 18 needs one"
         )
     return rises[0], falls[0]

@@ -601,6 +601,23 @@ class Mechanism:
         Ju = Ju / np.linalg.norm(Ju, axis=1, keepdims=True)
         return np.abs(np.linalg.det(Ju))
 
+    def stationary_angles(self, transfer, n_grid: int = 720) -> list[tuple[float, bool]]:
+        """Crank angles (rad, in [0, 2 pi)) where ``transfer(kinematics)`` (a first transfer function,
+        e.g. dphi3/dphi1) vanishes, each with whether it rises through zero there: the extreme
+        positions of a rocker or a slider. Sign changes on a grid, then Brent's method on the
+        analytic transfer function."""
+        from scipy.optimize import brentq
+
+        grid = np.linspace(0.0, TWO_PI, n_grid + 1)
+        values = transfer(self.kinematics(grid))
+        f = lambda a: float(transfer(self.kinematics(np.array([a])))[0])  # noqa: E731
+        out = []
+        for i in range(n_grid):
+            if values[i] == 0.0 or values[i] * values[i + 1] < 0.0:
+                root = grid[i] if values[i] == 0.0 else brentq(f, grid[i], grid[i + 1], xtol=1e-15, rtol=1e-15)
+                out.append((root % TWO_PI, bool(values[i + 1] > 0.0)))
+        return sorted(out)
+
     def check_assembly(self, n_grid: int = 3600, min_conditioning: float = 1e-6):
         """Refuse a geometry that cannot be assembled over the whole turn, or locks at a dead point.
 
