@@ -11,18 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+from crankfmu.output import pyplot
 
 
 def plot_overlay(fmu_run, ref, path: Path, title: str) -> Path:
     """omega1 of the FMU over the reference's (top) and |omega1 error| over time (bottom)."""
-    plt = _plt()
+    plt = pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     top.plot(ref.time, ref["omega1"], lw=2.5, color="0.7", label=f"in-process {ref.label}")
     top.plot(fmu_run.time, fmu_run["omega1"], lw=0.9, color="C0", label="FMU through fmpy")
@@ -42,7 +36,7 @@ def plot_overlay(fmu_run, ref, path: Path, title: str) -> Path:
 
 
 def plot_work_precision(points, path: Path, title: str) -> Path:
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 6))
     families = list(dict.fromkeys(p.family for p in points))
     markers = "osD^v<>ph*Xd"

@@ -8,17 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+from .output import pyplot
 
 
 def plot_time_series(ts: dict, out: Path, title: str) -> list[Path]:
-    plt = _plt()
+    plt = pyplot()
     paths = []
     approx = ts.get("approx", {})
     for name, values in ts["exact"].items():
@@ -58,7 +52,7 @@ def plot_time_series(ts: dict, out: Path, title: str) -> list[Path]:
 def plot_velocity_plan(detail: dict, relative, path: Path, title: str) -> Path:
     """Pole p at the origin, each point's velocity drawn from it to scale, the relative velocities
     joining their heads (the paper's Fig. 5b, from the computed velocities)."""
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 6))
     vel = {p: np.array(v) for p, v in detail["velocities"].items()}
     for i, (p, v) in enumerate(vel.items()):
@@ -87,7 +81,7 @@ def plot_velocity_plan(detail: dict, relative, path: Path, title: str) -> Path:
 def plot_families(result, scenario, units: dict, out: Path) -> list[Path]:
     """One PNG per quantity and swept parameter: a curve over the cycle for each of its values,
     the other parameters at the grid value nearest the scenario's own."""
-    plt = _plt()
+    plt = pyplot()
     from .sweep import _key
     paths = []
     names = [a.name for a in result.axes]

@@ -29,12 +29,18 @@ def _json_default(obj):
     raise TypeError(f"not JSON serialisable: {obj!r}")
 
 
-def plot_cycles(result: Result, out_dir: Path, cycles: int, summary_cycle: int) -> list[Path]:
-    """Fig. 3 (omega1 over the first cycles) and Fig. 4 (omega1 over one settled cycle)."""
+def pyplot():
+    """matplotlib.pyplot on the file-only Agg backend (no display on CI machines or in FMU hosts)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_cycles(result: Result, out_dir: Path, cycles: int, summary_cycle: int) -> list[Path]:
+    """Fig. 3 (omega1 over the first cycles) and Fig. 4 (omega1 over one settled cycle)."""
+    plt = pyplot()
 
     paths = []
     phi0 = result.phi1[0]
