@@ -74,8 +74,7 @@ class FmuCore:
         self.rebuild = False                # the motor line changed
         self.units = {}
         self.quantities = self.scenario.quantities
-        self._quantity_values: dict[str, float] | None = None
-        self._state_for_quantities = (0.0, 0.0, 0.0)     # phi1, omega1, epsilon1 at the outputs' time
+        self._quantity_values: dict[str, float] | None = None    # filled on first read after a step
 
         for name, description in OUTPUTS.items():
             slave.register_variable(Real(name, causality=Fmi2Causality.output,
@@ -190,7 +189,6 @@ class FmuCore:
         self.outputs["W_ext"] = float(y[W_EXT])
         for name in ("epsilon1", "M_motor", "M_load", "J_red", "E_kin"):
             self.outputs[name] = float(out[name][0])
-        self._state_for_quantities = (float(y[PHI]), float(y[OMEGA]), self.outputs["epsilon1"])
         self._quantity_values = None
 
     def _quantity(self, name: str) -> float:
@@ -203,10 +201,10 @@ class FmuCore:
 
             from .mechanisms.quantities import evaluate_all
 
-            phi, omega, eps = self._state_for_quantities
-            kin = self.model.mechanism.kinematics(np.array([phi]))
+            out = self.outputs
+            kin = self.model.mechanism.kinematics(np.array([out["phi1"]]))
             self._quantity_values = {k: float(v[0]) for k, v in
-                                     evaluate_all(self.quantities, kin, omega, eps).items()}
+                                     evaluate_all(self.quantities, kin, out["omega1"], out["epsilon1"]).items()}
         return self._quantity_values[name]
 
     # ------------------------------------------------------------------ FMU state
@@ -214,7 +212,6 @@ class FmuCore:
         return {
             "values": dict(self.values), "tau_ext": self.tau_ext, "outputs": dict(self.outputs),
             "time": self.time, "errors": dict(self.errors), "pending": self.pending, "rebuild": self.rebuild,
-            "quantity_state": self._state_for_quantities,
             "stepper": None if self.state is None else self.state.to_dict(),
             "motor": None if self.model is None else dataclasses.asdict(self.model.equation.motor),
             "equation_tau": None if self.model is None else self.model.equation.tau_ext,
@@ -224,7 +221,6 @@ class FmuCore:
         self.values = dict(state["values"])
         self.tau_ext = state["tau_ext"]
         self.outputs = dict(state["outputs"])
-        self._state_for_quantities = tuple(state["quantity_state"])
         self._quantity_values = None
         self.time = state["time"]
         self.errors = dict(state["errors"])
