@@ -81,7 +81,6 @@ def test_transfer_functions_against_finite_differences(fourbar):
     """
     kin = fourbar.kinematics(ANGLES)
     h = 1e-3
-    unwrap = lambda f: (lambda x: np.unwrap(f(x)))  # noqa: E731
     checks = {
         "phi2": lambda x: independent_fourbar(x)[0],
         "phi3": lambda x: independent_fourbar(x)[1],

@@ -67,20 +67,22 @@ class HardCase:
         return self.quick_stop_time if quick and self.quick_stop_time else self.stop_time
 
 
-def load_cases(scenario_name: str) -> tuple[list[float], list[HardCase]]:
-    """(gravity values, cases) for a scenario; no file means no hard cases."""
+@dataclass
+class CaseFile:
+    gravity: list[float]
+    cases: list[HardCase]
+    work_precision: bool          # run the speed-against-error study on this scenario
+
+
+def load_cases(scenario_name: str) -> CaseFile:
+    """The scenario's case file; no file means no hard cases and no study."""
     path = CASES_DIR / f"{scenario_name}.toml"
     if not path.is_file():
-        return [], []
+        return CaseFile([], [], False)
     data = tomllib.loads(path.read_text())
-    cases = [HardCase.from_dict(c, str(path)) for c in data.get("case", [])]
-    return [float(g) for g in data.get("gravity", [0.0])], cases
-
-
-def wants_work_precision(scenario_name: str) -> bool:
-    """Whether the case file asks for the speed-against-error study (``work_precision = true``)."""
-    path = CASES_DIR / f"{scenario_name}.toml"
-    return path.is_file() and bool(tomllib.loads(path.read_text()).get("work_precision", False))
+    return CaseFile([float(g) for g in data.get("gravity", [0.0])],
+                    [HardCase.from_dict(c, str(path)) for c in data.get("case", [])],
+                    bool(data.get("work_precision", False)))
 
 
 def min_transmission_deg(model, links) -> float:

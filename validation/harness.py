@@ -152,14 +152,14 @@ def validate(fmu_paths, out, quick: bool = False, echo=print) -> tuple[CheckList
             section = {"name": fmu.name, "scenario": scenario.name,
                        "intro": [f"`{fmu.path}`; scenario file `{scenario.where}`.", ""]}
             section.update(check_default(fmu, scenario, checks, out))
-            gravity, cases = hard_cases.load_cases(scenario.name)
-            if hard_cases.wants_work_precision(scenario.name):
+            case_file = hard_cases.load_cases(scenario.name)
+            if case_file.work_precision:
                 section["work_precision"] = check_work_precision(fmu, scenario, checks, out, quick)
             rows = []
-            for case in cases:
+            for case in case_file.cases:
                 if quick and not case.quick:
                     continue
-                for g in gravity:
+                for g in case_file.gravity:
                     row = hard_cases.run_case(fmu, scenario, case, g, quick, checks)
                     if "fmu" in row:
                         row["plot"] = plot_overlay(row.pop("fmu"), row.pop("ref"),

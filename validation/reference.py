@@ -85,7 +85,8 @@ def periodic_reference(scenario, times, settle_time: float = 12.0, progress=None
 
     early = times < t_a
     y = np.empty((y_a.size, times.size))
-    y[:, early] = r.state(times[early]) if early.any() else y[:, early]
+    if early.any():
+        y[:, early] = r.state(times[early])
     late = ~early
     n = np.floor((times[late] - t_a) / period)
     tau = np.clip(t_a + (times[late] - t_a - n * period), t_a, t_b)
