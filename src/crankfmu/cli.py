@@ -160,6 +160,29 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+def cmd_equilibrium(args) -> int:
+    from .equilibrium import equilibrium_study, write_study
+    from .scenario import load_scenario
+
+    scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
+    results = equilibrium_study(scenario, args.omega, args.angles)
+    summary = write_study(scenario, results, args.out)
+    print(f"{scenario.name}: equilibrium moment at constant crank speed ({results[0].moment.phi1.size} angles)")
+    print(f"  {'omega1':>6s} {'Me_min':>9s} {'Me_max':>9s} {'Me_mean':>9s} {'min stat':>9s} {'max stat':>9s} "
+          f"{'inertia':>8s}  [N.m; inertia ratio = max|Me - Me_static| / max|Me|]")
+    for r in results:
+        s = summary[f"{r.omega1:g}"]
+        print(f"  {r.omega1:6g} {s['Me_min']:9.3f} {s['Me_max']:9.3f} {s['Me_mean']:9.4f} {s['Me_min_static']:9.3f} "
+              f"{s['Me_max_static']:9.3f} {s['inertia_ratio']:8.4f}")
+    tech = results[0].tech_work
+    print(f"  technological work per turn {tech:.4f} J: over 2 pi {-tech / (2 * math.pi):.4f} N.m (= Me_mean)")
+    peaks = summary[f"{results[0].omega1:g}"]["joint_reaction_peaks"]
+    print(f"  joint reaction peaks at {results[0].omega1:g} rad/s: "
+          + ", ".join(f"{j} {v['max_force_N']:.0f} N" for j, v in peaks.items()))
+    print(f"  wrote {args.out}/summary.json, equilibrium_<omega>.csv, Me_omega<omega>.png, reactions_*.png")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="crankfmu", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -200,6 +223,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.add_argument("--restart", action="store_true", help="recompute every design (default: resume peaks.csv)")
     p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("equilibrium", help="equilibrium moment over a cycle at constant crank speeds, with "
+                                            "and without inertia, and the joint reactions (seed 001 Figs. 2-5)")
+    p.add_argument("scenario")
+    p.add_argument("--omega", default=None, help="comma-separated crank speeds in rad/s (default: the "
+                                                 "scenario's [equilibrium] omega1)")
+    p.add_argument("--angles", type=int, default=None, help="crank angles per cycle (default 360)")
+    p.add_argument("--out", required=True)
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.set_defaults(func=cmd_equilibrium)
 
     p = sub.add_parser("validate", help="every FMU against the in-process reference and the papers: "
                                          "PASS/FAIL lines and DIR/report.md")

@@ -20,7 +20,7 @@ from typing import Mapping
 import numpy as np
 
 from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation, ReducedModel,
-                       ViscousForce, Weights)
+                       SliderForce, ViscousForce, Weights)
 from .dynamics.equation import STATE_SIZE
 from .errors import AssemblyError, DefinitionError, ParameterError, ScenarioNotFound
 from .expressions import Expression, evaluate
@@ -202,7 +202,7 @@ class Scenario:
             if spec.get("kind") == "weights":
                 names.add("g")
             for key, value in spec.items():
-                if key not in ("kind", "link", "point", "axis") and isinstance(value, str):
+                if key not in ("kind", "link", "point", "axis", "band") and isinstance(value, str):
                     names |= Expression(value).names
         return sorted(names)
 
@@ -213,18 +213,38 @@ class Scenario:
         if kind == "dead_point_moment":
             amplitude = evaluate(spec["amplitude"], values, f"{self.name}: load amplitude")
             return DeadPointMoment.from_geometry(mechanism, spec["link"], amplitude)
-        if kind == "viscous_force":
+        if kind in ("viscous_force", "slider_force"):
             axis = {"x": 0, "y": 1}.get(spec.get("axis"))
             if axis is None or spec.get("point") not in mechanism.definition.points:
-                raise DefinitionError(f"{self.where}: viscous_force needs point (one of the mechanism's "
+                raise DefinitionError(f"{self.where}: {kind} needs point (one of the mechanism's "
                                       f"points) and axis ('x' or 'y'), got {spec!r}")
-            coefficient = evaluate(spec["coefficient"], values, f"{self.name}: viscous coefficient")
-            if not coefficient >= 0:
-                raise ParameterError(f"{self.name}: the viscous coefficient {spec['coefficient']} = "
-                                     f"{coefficient:g} N.s/m must be >= 0", str(spec["coefficient"]))
-            return ViscousForce(spec["point"], axis, coefficient)
+            link = spec.get("link") or next((l.name for l in links if l.centre == spec["point"]), None)
+            if link not in {l.name for l in links}:
+                raise DefinitionError(f"{self.where}: {kind} on point {spec['point']!r} needs the link it "
+                                      f"acts on (link = one of {', '.join(l.name for l in links)})")
+            if kind == "viscous_force":
+                coefficient = self._load_value(spec, "coefficient", values, "N.s/m")
+                return ViscousForce(spec["point"], axis, coefficient, link)
+            band = spec.get("band", [0.0, 1.0])
+            if (not isinstance(band, list) or len(band) != 2
+                    or not all(isinstance(v, (int, float)) for v in band) or not 0 <= band[0] < band[1] <= 1):
+                raise DefinitionError(f"{self.where}: slider_force band must be [lo, hi] with "
+                                      f"0 <= lo < hi <= 1 (fractions of the stroke), got {band!r}")
+            return SliderForce.from_geometry(
+                mechanism, spec["point"], link, axis, self._load_value(spec, "forward", values, "N"),
+                self._load_value(spec, "backward", values, "N"), tuple(float(v) for v in band))
         raise DefinitionError(f"{self.where}: unknown load kind {kind!r} "
-                              "(known: weights, dead_point_moment, viscous_force)")
+                              "(known: weights, dead_point_moment, viscous_force, slider_force)")
+
+    def _load_value(self, spec, key: str, values, unit: str) -> float:
+        """A load's magnitude (an expression of parameters), which must be >= 0."""
+        if key not in spec:
+            raise DefinitionError(f"{self.where}: {spec.get('kind')} load needs {key!r}")
+        value = evaluate(spec[key], values, f"{self.name}: load {key}")
+        if not value >= 0:
+            raise ParameterError(f"{self.name}: the load's {key} {spec[key]} = {value:g} {unit} must be >= 0",
+                                 str(spec[key]))
+        return value
 
     def _explain_assembly(self, exc: AssemblyError, definition: MechanismDefinition) -> AssemblyError:
         """Add, for each geometry parameter the user changed, the bound it must respect."""

@@ -1,9 +1,9 @@
 """Dynamics: reduced inertia, loads, motor and the equation of motion."""
 
 from .equation import MovementEquation
-from .loads import DeadPointMoment, ViscousForce, Weights, rocker_extremes
+from .loads import AppliedLoad, DeadPointMoment, SliderForce, ViscousForce, Weights, rocker_extremes
 from .motor import MotorLine
 from .reduced import LinkInertia, ReducedModel
 
-__all__ = ["DeadPointMoment", "LinkInertia", "MotorLine", "MovementEquation", "ReducedModel",
+__all__ = ["AppliedLoad", "DeadPointMoment", "SliderForce", "LinkInertia", "MotorLine", "MovementEquation", "ReducedModel",
            "ViscousForce", "Weights", "rocker_extremes"]

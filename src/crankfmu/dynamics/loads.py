@@ -3,6 +3,9 @@
 A load turns the kinematics at an array of crank angles into a torque on the crank (N.m).
 Position-only loads (weights, the seed-000 technological moment) are marked so that models may
 tabulate them; velocity-dependent ones receive omega1 too.
+
+Each load also gives the forces and couples it applies link by link (``applied``): the
+Newton-Euler solve of the joint reactions needs them where they act, not reduced to the crank.
 """
 
 from __future__ import annotations
@@ -10,6 +13,19 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+WEIGHTS, TECHNOLOGICAL = "weights", "technological"
+
+
+@dataclass
+class AppliedLoad:
+    """A force (fx, fy) in N at ``point`` and a couple ``moment`` in N.m, on ``link``."""
+
+    link: str
+    point: str | None
+    fx: np.ndarray | float = 0.0
+    fy: np.ndarray | float = 0.0
+    moment: np.ndarray | float = 0.0
 
 from ..errors import DefinitionError
 from ..mechanisms import Kinematics, Mechanism
@@ -23,6 +39,7 @@ class Weights:
     centres: dict[str, str]        # link -> point
     g: float                       # m/s^2
     position_only = True
+    category = WEIGHTS
 
     def torque(self, kin: Kinematics, omega1=None):
         total = np.zeros_like(kin.phi1)
@@ -31,6 +48,9 @@ class Weights:
         for link, m in self.masses.items():
             total -= m * self.g * kin.point(self.centres[link])[3]
         return total
+
+    def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
+        return [AppliedLoad(link, self.centres[link], 0.0, -m * self.g) for link, m in self.masses.items()]
 
 
 @dataclass
@@ -44,11 +64,98 @@ class ViscousForce:
     point: str
     axis: int                      # 0: x, 1: y
     coefficient: float             # c, N.s/m
+    link: str = ""                 # the link the point belongs to (where the force acts)
     position_only = False
+    category = TECHNOLOGICAL
 
     def torque(self, kin: Kinematics, omega1=None):
         d = kin.point(self.point)[2 + self.axis]
         return -self.coefficient * d * d * np.asarray(omega1, dtype=float)
+
+    def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
+        force = -self.coefficient * kin.point(self.point)[2 + self.axis] * np.asarray(omega1, dtype=float)
+        return [AppliedLoad(self.link, self.point, *((force, 0.0) if self.axis == 0 else (0.0, force)))]
+
+
+@dataclass
+class SliderForce:
+    """A technological force on a slider along x or y that opposes its motion, with a magnitude
+    that depends on the direction (seed 001: 1500 N while slider 3 moves in +x, 150 N while it
+    moves in -x; seed 003: the cutting force on the working stroke only).
+
+    ``band`` = (lo, hi) applies it only while the slider is inside that fraction of its stroke,
+    measured from the end it starts the stroke at (seed 003: 0.05..0.95, idle over the first and
+    last 5 %). The direction of motion is the sign of dx/dphi1 * omega1, so the force switches
+    at the slider's extreme positions (where its power is zero) and at the band's ends.
+    Reduced to the crank: Q = F dx/dphi1.
+    """
+
+    point: str
+    link: str
+    axis: int                      # 0: x, 1: y
+    forward: float                 # N, magnitude while the slider moves in +axis
+    backward: float                # N, magnitude while it moves in -axis
+    band: tuple[float, float] = (0.0, 1.0)
+    low: float = 0.0               # m, the slider's extreme positions (needed for the band)
+    high: float = 0.0
+    position_only = False
+    category = TECHNOLOGICAL
+
+    @classmethod
+    def from_geometry(cls, mechanism: Mechanism, point: str, link: str, axis: int, forward: float,
+                      backward: float, band=(0.0, 1.0)) -> "SliderForce":
+        found = mechanism.stationary_angles(lambda kin: kin.point(point)[2 + axis])
+        if not found:
+            raise DefinitionError(f"point {point!r} does not move back and forth along "
+                                  f"{'xy'[axis]}: a slider force needs a slider")
+        x = mechanism.kinematics(np.array([a for a, _ in found])).point(point)[axis]
+        return cls(point, link, axis, float(forward), float(backward), tuple(band),
+                   float(np.min(x)), float(np.max(x)))
+
+    @property
+    def work_per_cycle(self) -> float:
+        """Work of the force over one crank turn forward, J (negative: it resists)."""
+        return -(self.forward + self.backward) * (self.high - self.low) * (self.band[1] - self.band[0])
+
+    def switch_angles(self, mechanism: Mechanism) -> list[float]:
+        """Crank angles (rad, in [0, 2 pi)) where the force jumps with the crank turning forward:
+        the slider's extreme positions and, with a band, where it enters and leaves it."""
+        from scipy.optimize import brentq
+
+        angles = [a for a, _ in mechanism.stationary_angles(lambda kin: kin.point(self.point)[2 + self.axis])]
+        if self.band != (0.0, 1.0):
+            grid = np.linspace(0.0, 2.0 * np.pi, 721)
+            stroke = self.high - self.low
+            levels = {self.low + f * stroke for f in self.band} | {self.high - f * stroke for f in self.band}
+            x_of = lambda a: float(mechanism.kinematics(np.array([a])).point(self.point)[self.axis][0])  # noqa: E731
+            x = mechanism.kinematics(grid).point(self.point)[self.axis]
+            for level in levels:
+                d = x - level
+                for i in np.nonzero(d[:-1] * d[1:] < 0.0)[0]:
+                    angles.append(brentq(lambda a: x_of(a) - level, grid[i], grid[i + 1], xtol=1e-14))
+        unique: list[float] = []
+        for a in sorted(a % (2.0 * np.pi) for a in angles):
+            if not unique or a - unique[-1] > 1e-9:   # a band level is met once per direction
+                unique.append(a)
+        return unique
+
+    def force(self, kin: Kinematics, omega1):
+        pos = kin.point(self.point)
+        velocity = pos[2 + self.axis] * np.asarray(omega1, dtype=float)
+        force = np.where(velocity > 0.0, -self.forward, np.where(velocity < 0.0, self.backward, 0.0))
+        if self.band != (0.0, 1.0):
+            stroke = self.high - self.low
+            # fraction of the stroke done, counted from the end the current stroke starts at
+            done = np.where(velocity > 0.0, pos[self.axis] - self.low, self.high - pos[self.axis]) / stroke
+            force = np.where((done >= self.band[0]) & (done <= self.band[1]), force, 0.0)
+        return force
+
+    def torque(self, kin: Kinematics, omega1=None):
+        return self.force(kin, omega1) * kin.point(self.point)[2 + self.axis]
+
+    def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
+        force = self.force(kin, omega1)
+        return [AppliedLoad(self.link, self.point, *((force, 0.0) if self.axis == 0 else (0.0, force)))]
 
 
 @dataclass
@@ -68,6 +175,7 @@ class DeadPointMoment:
     phi1d: float                   # rad
     phi1a: float                   # rad
     position_only = True
+    category = TECHNOLOGICAL
 
     @classmethod
     def from_geometry(cls, mechanism: Mechanism, link: str, amplitude: float) -> "DeadPointMoment":
@@ -80,6 +188,9 @@ class DeadPointMoment:
 
     def torque(self, kin: Kinematics, omega1=None):
         return self.moment(kin.phi1) * kin.link_angle(self.link)[1]
+
+    def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
+        return [AppliedLoad(self.link, None, moment=self.moment(kin.phi1))]
 
 
 def rocker_extremes(mechanism: Mechanism, link: str, n_grid: int = 720):

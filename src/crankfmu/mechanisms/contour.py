@@ -162,6 +162,23 @@ class LinkDefinition:
 
 
 @dataclass
+class JointDefinition:
+    """A joint between two links (or a link and ``"ground"``), where the reactions act.
+
+    ``revolute``: a pin at ``point`` carrying a force (2 unknowns). ``prismatic``: a slide through
+    ``point`` along the direction ``axis`` (an angle: a constant, or a link angle unknown such as
+    ``"phi3"`` for a guide on a turning link) carrying a force normal to the axis and a couple
+    (2 unknowns). The reactions are those of ``links[0]`` on ``links[1]``.
+    """
+
+    name: str
+    kind: str             # "revolute" | "prismatic"
+    point: str
+    links: tuple[str, str]
+    axis: str = "0"       # prismatic only: angle of the slide direction (rad)
+
+
+@dataclass
 class MechanismDefinition:
     """A mechanism file, parsed and checked, not yet bound to parameter values."""
 
@@ -177,6 +194,7 @@ class MechanismDefinition:
     guess: dict[str, str] | None
     constants: dict[str, float] = field(default_factory=dict)
     source: str = ""
+    joints: list[JointDefinition] = field(default_factory=list)
 
     @property
     def variables(self) -> list[str]:
@@ -269,6 +287,8 @@ class MechanismDefinition:
                 str(ld["mass"]), str(ld["inertia"]),
             )
 
+        joints = _parse_joints(data.get("joints", []), where, variables, points, links)
+
         assembly = data.get("assembly", {})
         branch = assembly.get("branch", "")
         if not branch:
@@ -299,10 +319,42 @@ class MechanismDefinition:
             name=name, title=data.get("title", name), unknowns=unknowns, fixed_points=fixed,
             contours=contours, points=points, links=links, branch=branch,
             closed_form=closed_form, guess=guess, constants=constants, source=data.get("source", ""),
+            joints=joints,
         )
 
     def bind(self, parameters: Mapping[str, float], *, use_closed_form: bool = True) -> "Mechanism":
         return Mechanism(self, parameters, use_closed_form=use_closed_form)
+
+
+def _parse_joints(entries, where, variables, points, links) -> list[JointDefinition]:
+    """Check the ``[[joints]]`` list: known links and points, and as many reaction unknowns (two per
+    joint, plus the driving moment) as Newton-Euler equations (three per moving link)."""
+    joints = []
+    for i, jd in enumerate(entries):
+        name = jd.get("name", f"joint {i + 1}")
+        kind = jd.get("kind")
+        if kind not in ("revolute", "prismatic"):
+            raise DefinitionError(f"{where}: joint {name!r}: kind must be 'revolute' or 'prismatic', got {kind!r}")
+        pair = tuple(jd.get("links", ()))
+        if len(pair) != 2 or pair[0] == pair[1]:
+            raise DefinitionError(f"{where}: joint {name!r}: links must name two different links, got {pair!r}")
+        for link in pair:
+            if link != "ground" and link not in links:
+                raise DefinitionError(f"{where}: joint {name!r}: {link!r} is not a link "
+                                      f"(known: ground, {', '.join(links)})")
+        if jd.get("point") not in points:
+            raise DefinitionError(f"{where}: joint {name!r}: point {jd.get('point')!r} is not a point")
+        axis = str(jd.get("axis", "0"))
+        if axis not in variables:
+            Expression(axis, f"{where}: joint {name} axis")
+        elif variables[axis] != "angle":
+            raise DefinitionError(f"{where}: joint {name!r}: axis {axis!r} is not an angle")
+        joints.append(JointDefinition(name, kind, jd["point"], pair, axis))
+    if joints and 2 * len(joints) + 1 != 3 * len(links):
+        raise DefinitionError(
+            f"{where}: {len(joints)} joints give {2 * len(joints)} reaction unknowns plus the driving "
+            f"moment, but {len(links)} moving links give {3 * len(links)} Newton-Euler equations")
+    return joints
 
 
 # --------------------------------------------------------------------------------------------

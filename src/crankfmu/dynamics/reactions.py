@@ -1,0 +1,154 @@
+"""Joint reactions by Newton-Euler, link by link: the forces bearings and slides must carry, and
+the driving moment, found without the power balance (an independent check of eq. 1).
+
+For every moving link j (mass m_j, central inertia I_j, mass centre C_j)::
+
+    sum of forces on j           = m_j a_Cj
+    sum of moments about C_j     = I_j eps_j          (+ the flywheel's J eps1 on the crank)
+
+The unknowns are two per joint (a pin's force; a slide's normal force and couple) and the
+driving moment on the crank: 2 n_joints + 1 = 3 n_links for a one-degree-of-freedom mechanism,
+so at each crank angle one square linear solve gives them all. Reactions are those of the
+joint's first link on its second (``ground`` is the frame).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import DefinitionError
+from ..expressions import evaluate
+from .inverse import prescribed_motion
+from .reduced import ReducedModel
+
+
+@dataclass
+class JointReactions:
+    """Reactions at an array of crank angles.
+
+    force[joint]   (Fx, Fy) in N, of the joint's first link on its second
+    couple[joint]  N.m, the couple a slide transmits (zero array for pins)
+    driving_moment N.m, the moment the drive applies to the crank (M_e)
+    """
+
+    phi1: np.ndarray
+    force: dict[str, tuple[np.ndarray, np.ndarray]]
+    couple: dict[str, np.ndarray]
+    kind: dict[str, str]
+    driving_moment: np.ndarray
+
+    def magnitude(self, joint: str) -> np.ndarray:
+        """|F| at the joint, N."""
+        fx, fy = self.force[joint]
+        return np.hypot(fx, fy)
+
+    def peaks(self) -> dict[str, dict[str, float]]:
+        """Per joint the largest force magnitude (N) and, for slides, the largest |couple| (N.m)."""
+        out = {}
+        for name in self.force:
+            entry = {"kind": self.kind[name], "max_force_N": float(np.max(self.magnitude(name)))}
+            if self.kind[name] == "prismatic":
+                entry["max_couple_Nm"] = float(np.max(np.abs(self.couple[name])))
+            out[name] = entry
+        return out
+
+
+def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: bool = True) -> JointReactions:
+    """Solve every joint's reaction and the driving moment at a prescribed crank motion.
+
+    ``inertia=False`` neglects the inertia forces and moments (the static equilibrium moment).
+    """
+    mechanism = reduced.mechanism
+    definition = mechanism.definition
+    joints = definition.joints
+    if not joints:
+        raise DefinitionError(f"mechanism {definition.name!r} declares no [[joints]]: the reactions "
+                              "need them")
+    phi1, omega1, epsilon1 = prescribed_motion(phi1, omega1, epsilon1)
+    kin = mechanism.kinematics(phi1)
+    n = phi1.size
+    links = [link.name for link in reduced.links]
+    row = {name: 3 * i for i, name in enumerate(links)}
+    size = 3 * len(links)
+    A = np.zeros((n, size, size))
+    b = np.zeros((n, size))
+    centre = {link.name: kin.point(link.centre)[:2] for link in reduced.links}
+
+    def add_force(link, col, px, py, fx, fy):
+        """Unknown (col) times the force (fx, fy) at (px, py), acting on ``link``."""
+        if link == "ground":
+            return
+        r = row[link]
+        cx, cy = centre[link]
+        A[:, r, col] += fx
+        A[:, r + 1, col] += fy
+        A[:, r + 2, col] += (px - cx) * fy - (py - cy) * fx
+
+    for k, joint in enumerate(joints):
+        first, second = joint.links
+        px, py = kin.point(joint.point)[:2]
+        c = 2 * k
+        if joint.kind == "revolute":
+            for col, (ux, uy) in ((c, (1.0, 0.0)), (c + 1, (0.0, 1.0))):
+                add_force(second, col, px, py, ux, uy)
+                add_force(first, col, px, py, -ux, -uy)
+        else:
+            theta = _axis_angle(joint.axis, kin, mechanism)
+            nx, ny = -np.sin(theta), np.cos(theta)
+            add_force(second, c, px, py, nx, ny)
+            add_force(first, c, px, py, -nx, -ny)
+            for link, sign in ((second, 1.0), (first, -1.0)):
+                if link != "ground":
+                    A[:, row[link] + 2, c + 1] += sign
+    crank = [name for name, ld in definition.links.items() if ld.angle == "phi1"]
+    if len(crank) != 1:
+        raise DefinitionError(f"mechanism {definition.name!r}: exactly one link must turn with phi1 (the crank)")
+    driver = size - 1
+    A[:, row[crank[0]] + 2, driver] = 1.0
+
+    # right-hand side: m a - applied forces; I eps - applied moments
+    w2 = omega1 * omega1
+    for link in reduced.links:
+        r = row[link.name]
+        if inertia:
+            _, _, t, p, tt, pp = kin.point(link.centre)
+            _, q, qq = kin.link_angle(link.name)
+            b[:, r] += link.mass * (epsilon1 * t + w2 * tt)
+            b[:, r + 1] += link.mass * (epsilon1 * p + w2 * pp)
+            b[:, r + 2] += link.inertia * (epsilon1 * q + w2 * qq)
+    if inertia:
+        b[:, row[crank[0]] + 2] += reduced.J_flywheel * epsilon1
+    for load in reduced.loads:
+        for f in load.applied(kin, omega1):
+            r = row[f.link]
+            cx, cy = centre[f.link]
+            b[:, r] -= f.fx
+            b[:, r + 1] -= f.fy
+            b[:, r + 2] -= f.moment
+            if f.point is not None:
+                px, py = kin.point(f.point)[:2]
+                b[:, r + 2] -= (px - cx) * f.fy - (py - cy) * f.fx
+    x = np.linalg.solve(A, b[..., None])[..., 0]
+    force, couple, kind = {}, {}, {}
+    for k, joint in enumerate(joints):
+        kind[joint.name] = joint.kind
+        if joint.kind == "revolute":
+            force[joint.name] = (x[:, 2 * k], x[:, 2 * k + 1])
+            couple[joint.name] = np.zeros(n)
+        else:
+            theta = _axis_angle(joint.axis, kin, mechanism)
+            normal = x[:, 2 * k]
+            force[joint.name] = (-np.sin(theta) * normal, np.cos(theta) * normal)
+            couple[joint.name] = x[:, 2 * k + 1]
+    return JointReactions(phi1=phi1, force=force, couple=couple, kind=kind, driving_moment=x[:, driver])
+
+
+def _axis_angle(axis: str, kin, mechanism) -> np.ndarray:
+    if axis == "phi1":
+        return kin.phi1
+    if axis in kin.q:
+        return kin.q[axis]
+    return np.full(kin.phi1.shape, evaluate(axis, {**mechanism.parameters, **mechanism.definition.constants},
+                                            f"joint axis {axis}"))

@@ -1,0 +1,196 @@
+"""The equilibrium-moment study (seed 001 Figs. 2-5): M_e(phi1) over a cycle at constant crank
+speeds, with and without the inertia forces and moments, the joint reactions, and the checks a
+user can read back: the cycle mean of M_e is the technological work per turn over 2 pi.
+
+``equilibrium_study(scenario, [15, 10, 7, 5])`` returns one :class:`SpeedResult` per speed;
+``write_study`` writes summary.json, one CSV per speed and the figures.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .dynamics.inverse import EquilibriumMoment, equilibrium_moment
+from .dynamics.loads import SliderForce
+from .dynamics.reactions import JointReactions, joint_reactions
+from .errors import ParameterError
+from .output import pyplot
+from .scenario import load_scenario
+
+TWO_PI = 2.0 * math.pi
+
+
+@dataclass
+class SpeedResult:
+    omega1: float                   # rad/s
+    moment: EquilibriumMoment       # at the study's crank angles
+    reactions: JointReactions       # with inertia
+    reactions_static: JointReactions
+    mean: float                     # N.m, exact cycle mean of M_e (piecewise Gauss-Legendre)
+    tech_work: float                # J per turn, from the sliders' strokes (negative: resisting)
+
+    def summary(self) -> dict:
+        total, static = self.moment.total, self.moment.static
+        return {
+            "omega1": self.omega1,
+            "Me_min": float(total.min()),
+            "Me_max": float(total.max()),
+            "Me_mean": self.mean,
+            "Me_min_static": float(static.min()),
+            "Me_max_static": float(static.max()),
+            "inertia_ratio": float(np.max(np.abs(total - static)) / np.max(np.abs(total))),
+            "Me_min_at_deg": float(np.degrees(self.moment.phi1[np.argmin(total)])),
+            "Me_max_at_deg": float(np.degrees(self.moment.phi1[np.argmax(total)])),
+            "technological_work_per_cycle_J": self.tech_work,
+            "technological_work_over_2pi": -self.tech_work / TWO_PI,
+            "joint_reaction_peaks": self.reactions.peaks(),
+            "joint_reaction_peaks_static": self.reactions_static.peaks(),
+        }
+
+
+def parse_speeds(text) -> list[float]:
+    """'15,10,7,5' (or a list) -> [15.0, 10.0, 7.0, 5.0]; each speed must be > 0 rad/s."""
+    items = text.split(",") if isinstance(text, str) else list(text)
+    speeds = []
+    for item in items:
+        try:
+            w = float(item)
+        except (TypeError, ValueError):
+            raise ParameterError(f"omega1: {item!r} is not a speed in rad/s", "omega1") from None
+        if not (math.isfinite(w) and w > 0):
+            raise ParameterError(f"omega1 = {item!r}: each crank speed must be > 0 rad/s (the crank turning "
+                                 "forward; eq. 1 divides by omega1)", "omega1")
+        speeds.append(w)
+    if not speeds:
+        raise ParameterError("give at least one crank speed (rad/s)", "omega1")
+    return speeds
+
+
+def cycle_breaks(model) -> list[float]:
+    """Crank angles (rad) where a load jumps at constant forward speed, with 0 and 2 pi."""
+    breaks = {0.0, TWO_PI}
+    for load in model.reduced.loads:
+        if isinstance(load, SliderForce):
+            breaks |= set(load.switch_angles(model.mechanism))
+    return sorted(breaks)
+
+
+def cycle_mean(fn, breaks, max_width=math.radians(5.0), nodes=16) -> float:
+    """(1/2 pi) integral of fn(phi1 array) over one turn, Gauss-Legendre on each smooth piece."""
+    x, w = np.polynomial.legendre.leggauss(nodes)
+    total = 0.0
+    for a, b in zip(breaks[:-1], breaks[1:]):
+        if b <= a:
+            continue
+        pieces = max(1, int(math.ceil((b - a) / max_width)))
+        edges = np.linspace(a, b, pieces + 1)
+        mid, half = 0.5 * (edges[1:] + edges[:-1]), 0.5 * np.diff(edges)
+        phis = (mid[:, None] + half[:, None] * x[None, :]).ravel()
+        total += float(np.sum(fn(phis).reshape(pieces, nodes) * (half[:, None] * w[None, :])))
+    return total / TWO_PI
+
+
+def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> list[SpeedResult]:
+    """M_e with and without inertia and the joint reactions at each constant crank speed."""
+    scenario = load_scenario(scenario)
+    spec = scenario.data.get("equilibrium", {})
+    speeds = parse_speeds(spec.get("omega1", []) if speeds is None else speeds)
+    n_angles = int(spec.get("angles", 360) if n_angles is None else n_angles)
+    if n_angles < 8:
+        raise ParameterError(f"angles = {n_angles}: use at least 8 crank angles per cycle", "angles")
+    model = scenario.build()
+    phi1 = np.linspace(0.0, TWO_PI, n_angles, endpoint=False)
+    breaks = cycle_breaks(model)
+    tech_work = sum(load.work_per_cycle for load in model.reduced.loads if isinstance(load, SliderForce))
+    results = []
+    for w in speeds:
+        moment = equilibrium_moment(model.reduced, phi1, w)
+        mean = cycle_mean(lambda p: equilibrium_moment(model.reduced, p, w).total, breaks)
+        results.append(SpeedResult(
+            omega1=w, moment=moment,
+            reactions=joint_reactions(model.reduced, phi1, w),
+            reactions_static=joint_reactions(model.reduced, phi1, w, inertia=False),
+            mean=mean, tech_work=tech_work))
+    return results
+
+
+def speed_key(w: float) -> str:
+    return f"{w:g}"
+
+
+def write_study(scenario, results: list[SpeedResult], out_dir) -> dict:
+    """summary.json (keyed by speed), equilibrium_<w>.csv and the figures; returns the summary."""
+    scenario = load_scenario(scenario)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {speed_key(r.omega1): r.summary() for r in results}
+    summary["units"] = {"Me_*": "N.m", "inertia_ratio": "1", "omega1": "rad/s", "max_force_N": "N",
+                        "max_couple_Nm": "N.m", "technological_work_per_cycle_J": "J"}
+    summary["scenario"] = scenario.name
+    summary["parameters"] = scenario.values
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    for r in results:
+        m = r.moment
+        columns = {"phi1_deg": np.degrees(m.phi1), "Me": m.total, "Me_static": m.static,
+                   "Me_weights": m.weights, "Me_technological": m.technological, "Me_inertia": m.inertia}
+        for joint in r.reactions.force:
+            fx, fy = r.reactions.force[joint]
+            columns[f"{joint}_Fx"], columns[f"{joint}_Fy"] = fx, fy
+            if r.reactions.kind[joint] == "prismatic":
+                columns[f"{joint}_couple"] = r.reactions.couple[joint]
+        np.savetxt(out / f"equilibrium_{speed_key(r.omega1)}.csv", np.column_stack(list(columns.values())),
+                   delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
+    plot_moments(scenario, results, out)
+    plot_reactions(scenario, results[0], out / f"reactions_{speed_key(results[0].omega1)}.png")
+    return summary
+
+
+def plot_moments(scenario, results: list[SpeedResult], out: Path) -> list[Path]:
+    """One figure per speed, as the paper's Figs. 2-5: curve 1 with inertia, curve 2 without."""
+    plt = pyplot()
+    paths = []
+    for k, r in enumerate(results):
+        m = r.moment
+        deg = np.append(np.degrees(m.phi1), 360.0)
+        close = lambda a: np.append(a, a[0])  # noqa: E731
+        fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+        ax.plot(deg, close(m.total), lw=1.6, label="1: with inertia forces and moments")
+        ax.plot(deg, close(m.static), lw=1.2, ls="--", label="2: inertia neglected")
+        ax.axhline(r.mean, color="0.5", lw=0.8, ls=":", label=f"cycle mean {r.mean:.2f} N.m")
+        ax.set_xlim(0, 360)
+        ax.set_xticks(range(0, 361, 45))
+        ax.set_xlabel("crank angle phi1 [deg]")
+        ax.set_ylabel("equilibrium moment M_e [N.m]")
+        s = r.summary()
+        ax.set_title(f"{scenario.name}: omega1 = {r.omega1:g} rad/s (Fig. {k + 2}); "
+                     f"inertia ratio {s['inertia_ratio']:.3f}")
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+        p = out / f"Me_omega{speed_key(r.omega1)}.png"
+        fig.savefig(p, dpi=120)
+        plt.close(fig)
+        paths.append(p)
+    return paths
+
+
+def plot_reactions(scenario, r: SpeedResult, path: Path) -> Path:
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    deg = np.degrees(r.reactions.phi1)
+    for joint in r.reactions.force:
+        ax.plot(deg, r.reactions.magnitude(joint), lw=1.0, label=f"{joint} ({r.reactions.kind[joint]})")
+    ax.set_xlim(0, 360)
+    ax.set_xticks(range(0, 361, 45))
+    ax.set_xlabel("crank angle phi1 [deg]")
+    ax.set_ylabel("joint reaction |F| [N]")
+    ax.set_title(f"{scenario.name}: joint reactions at omega1 = {r.omega1:g} rad/s")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right", fontsize=7, ncol=2)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
