@@ -183,6 +183,40 @@ def cmd_equilibrium(args) -> int:
     return 0
 
 
+def cmd_flywheel(args) -> int:
+    from .flywheel import flywheel_study
+    from .progress import ProgressBar
+    from .scenario import load_scenario
+
+    scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
+    steps = None if args.steps_deg is None else [float(s) for s in args.steps_deg.split(",")]
+    if steps is not None and any(not s > 0 for s in steps):
+        raise CrankfmuError(f"--steps-deg must be positive angles in deg, got {args.steps_deg!r}")
+    bar = ProgressBar(16, label=f"{scenario.name} flywheel search")
+    try:
+        d = flywheel_study(scenario, args.delta, args.out, steps, progress=bar)
+    finally:
+        bar.close()
+    st = d["eq3_stability"]
+    print(f"{scenario.name}: flywheel for delta = {d['delta_target']:g}")
+    print(f"  J_e            {d['J_e_min']:.4f} .. {d['J_e_max']:.4f} kg.m2 (min at {d['J_e_min_at_deg']:.1f} deg, "
+          f"max at {d['J_e_max_at_deg']:.1f} deg)")
+    print(f"  dW_max         {d['dW_max']:.3f} J, omega_m {d['omega_m']:.6f} rad/s (steady, no flywheel: "
+          f"delta {d['delta_without_flywheel']:.5f})")
+    print(f"  J_F eq. 17     {d['J_F_eq17']:.3f} kg.m2 (gives delta {d['delta_with_J_F_eq17']:.5f} when simulated)")
+    print(f"  J_F eq. 16     {d['J_F_eq16']:.3f} kg.m2")
+    print(f"  J_F simulated  {d['J_F_simulated']:.3f} kg.m2: delta {d['delta_achieved']:.6f}")
+    print(f"  peaks with it  omega1 -{100 * d['omega_peak_reduction']:.2f} %, |epsilon1| "
+          f"-{100 * d['epsilon_peak_reduction']:.2f} %")
+    if st["limit"]:
+        print(f"  eq. 3 stable up to {st['limit']['largest_stable_deg']:.3f} deg, unstable from "
+              f"{st['limit']['smallest_unstable_deg']:.3f} deg (linear estimate {st['linear_estimate_deg']:.3f} deg)")
+    else:
+        print(f"  eq. 3: no stability limit within the steps tried (estimate {st['linear_estimate_deg']:.3f} deg)")
+    print(f"  wrote {args.out}/flywheel.json, " + ", ".join(d["plots"]))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="crankfmu", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -233,6 +267,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.set_defaults(func=cmd_equilibrium)
+
+    p = sub.add_parser("flywheel", help="flywheel for a target speed fluctuation: eqs. 16-17 and by simulation "
+                                         "of the steady cycle; J_e, the movement from the start, eq. 3 stability")
+    p.add_argument("scenario")
+    p.add_argument("--delta", type=float, required=True, help="target coefficient of speed fluctuation, in (0, 1)")
+    p.add_argument("--out", required=True)
+    p.add_argument("--steps-deg", default=None, help="comma-separated eq. 3 angle steps in deg (default: the "
+                                                     "scenario's [flywheel] eq3_steps_deg)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.set_defaults(func=cmd_flywheel)
 
     p = sub.add_parser("validate", help="every FMU against the in-process reference and the papers: "
                                          "PASS/FAIL lines and DIR/report.md")

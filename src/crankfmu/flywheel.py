@@ -137,7 +137,8 @@ def energy_swing(model, n: int = 20001) -> tuple[float, np.ndarray, np.ndarray]:
     return float(swing.max() - swing.min()), phis, swing
 
 
-def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: float = 1e-11) -> dict:
+def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: float = 1e-11,
+                    progress=None) -> dict:
     """Everything flywheel.json holds for a target coefficient of speed fluctuation ``delta``."""
     scenario = load_scenario(scenario)
     try:
@@ -162,6 +163,8 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
     cache = {0.0: free}
 
     def cycle(J_F):
+        if progress is not None:
+            progress(len(cache))
         if J_F not in cache:
             cache[J_F] = steady_cycle(base.with_params(J_flywheel=J_F).build(), phi0, rtol,
                                       omega_guess=free.omega1[0])
@@ -203,3 +206,208 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
                   "*_reduction": "1 (fraction of the value without flywheel)", "*_at_deg": "deg (paper's phi)"},
         "_cycles": {"without": free, "with": fitted},
     }
+
+
+# ---------------------------------------------------------------------------------------------
+# the paper's eq. 3 scheme: where its angle step stops being stable
+
+def eq3_stability(scenario, steps_deg, turns: int = 20, steady: SteadyCycle | None = None,
+                  resolution_deg: float = 0.01, progress=None) -> dict:
+    """Run eq. 3 (``lv-eq3``) from the scenario's start for ``turns`` crank turns at each angle step.
+
+    A step is *stable* when the run completes and its last turn stays within 10 % of omega_m of
+    the steady cycle; an explicit scheme past its limit instead grows an oscillation that flips
+    sign every step until omega1 <= 0 (SchemeError). The limit is then bisected to
+    ``resolution_deg``. Linearising eq. 3 about the steady cycle gives the estimate
+    dphi < 2 J omega1 / B (the motor line's slope B = -dM/domega1 is the stiff term).
+    """
+    from .simulation import simulate
+
+    scenario = load_scenario(scenario)
+    model = scenario.build()
+    phi0 = float(model.y0[0])
+    if steady is None:
+        steady = steady_cycle(model, phi0)
+    J = model.reduced.coefficients(steady.phi1)[0]
+    slope = model.motor.B if steady.omega1.min() > model.motor.omega_switch else model.motor.B_low
+    estimate = float(np.degrees(np.min(2.0 * J * steady.omega1 / slope))) if slope > 0 else math.inf
+    t_end = turns * steady.period * 1.05 + 1.0
+    calls = [0]
+
+    def run(step):
+        calls[0] += 1
+        if progress is not None:
+            progress(calls[0])
+        try:
+            r = simulate(scenario, method="lv-eq3", angle_step=math.radians(step), t_end=t_end)
+        except SchemeError as exc:
+            return {"step_deg": step, "stable": False, "error": None, "reason": str(exc).split(". ")[0]}
+        phi, omega = r.trajectory.y[0], r.trajectory.y[1]
+        last = phi >= phi[-1] - TWO_PI
+        ref = np.interp((phi[last] - phi0) % TWO_PI + phi0, steady.phi1, steady.omega1)
+        error = float(np.max(np.abs(omega[last] - ref)))
+        stable = bool(np.all(np.isfinite(omega)) and error < 0.1 * steady.omega_mean)
+        return {"step_deg": step, "stable": stable, "error": error,
+                "reason": "" if stable else f"last-turn error {error:.3g} rad/s > 10 % of omega_m"}
+
+    rows = [run(float(s)) for s in steps_deg]
+    stable = [r["step_deg"] for r in rows if r["stable"]]
+    unstable = [r["step_deg"] for r in rows if not r["stable"] and r["step_deg"] > max(stable, default=0.0)]
+    limit = None
+    if stable and unstable:
+        lo, hi = max(stable), min(unstable)
+        while hi - lo > resolution_deg:
+            mid = 0.5 * (lo + hi)
+            if run(mid)["stable"]:
+                lo = mid
+            else:
+                hi = mid
+        limit = {"largest_stable_deg": lo, "smallest_unstable_deg": hi}
+    return {"turns": turns, "rows": rows, "limit": limit, "linear_estimate_deg": estimate,
+            "J_flywheel": scenario["J_flywheel"]}
+
+
+# ---------------------------------------------------------------------------------------------
+# the study behind `crankfmu flywheel`: figures and flywheel.json
+
+def flywheel_study(scenario, delta: float, out_dir, steps_deg=None, progress=None) -> dict:
+    """J_e, the equivalent torque and the movement from the start (Figs. 3, 5, 6), the flywheel
+    (eqs. 16-17 and simulated, Fig. 7) and the eq. 3 stability study; writes flywheel.json."""
+    from .simulation import simulate
+
+    scenario = load_scenario(scenario)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    spec = scenario.data.get("flywheel", {})
+    offset = float(spec.get("angle_offset", 0.0))
+    design = design_flywheel(scenario, delta, phi0=offset, progress=progress)
+    cycles = design.pop("_cycles")
+    base = scenario.with_params(J_flywheel=0.0)
+    steps = list(spec.get("eq3_steps_deg", [1, 2, 5, 10, 20])) if steps_deg is None else list(steps_deg)
+    stability = eq3_stability(base, steps)
+    # the movement from the start (Fig. 6): the reference and eq. 3 at 1 deg, three turns
+    t_end = 3.2 * cycles["without"].period
+    reference = simulate(base, t_end=t_end)
+    eq3 = simulate(base, t_end=t_end, method="lv-eq3", angle_step=math.radians(1.0))
+    settled = _settled_angle(reference, cycles["without"], offset)
+    eq3_phi, eq3_omega = eq3.trajectory.y[0], eq3.trajectory.y[1]
+    both = eq3_phi <= reference.phi1[-1]
+    design.update(
+        eq3_stability=stability,
+        movement={"omega1_start": base["omega1_start"], "settled_within_1e-3_at_deg": settled,
+                  "eq3_1deg_max_error_first_3_turns": float(np.max(np.abs(
+                      eq3_omega[both] - reference.omega_at_angle(eq3_phi[both]))))},
+    )
+    (out / "flywheel.json").write_text(json.dumps(design, indent=2) + "\n")
+    plots = [
+        _plot_inertia(base, offset, out / "J_e.png"),
+        _plot_movement(reference, eq3, offset, out / "movement.png"),
+        _plot_flywheel(cycles, design, offset, out / "flywheel.png"),
+        _plot_stability(stability, out / "eq3_stability.png"),
+    ]
+    design["plots"] = [p.name for p in plots]
+    return design
+
+
+def _settled_angle(result, steady: SteadyCycle, offset: float) -> float | None:
+    """Paper's angle (deg, from the start) after which omega1 stays within 1e-3 rad/s of the steady cycle."""
+    phi = result.phi1
+    ref = np.interp((phi - offset) % TWO_PI + offset, steady.phi1, steady.omega1)
+    off = np.nonzero(np.abs(result.omega1 - ref) > 1e-3)[0]
+    if off.size == 0:
+        return 0.0
+    if off[-1] == phi.size - 1:
+        return None
+    return float(np.degrees(phi[off[-1] + 1] - phi[0]))
+
+
+def _paper_deg(phi, offset):
+    return np.degrees(np.asarray(phi) - offset)
+
+
+def _plot_inertia(scenario, offset, path):
+    plt = pyplot()
+    model = scenario.build()
+    phi = offset + np.linspace(0.0, TWO_PI, 721)
+    J = model.reduced.coefficients(phi)[0]
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    ax.plot(_paper_deg(phi, offset), J, lw=1.5)
+    ax.plot(_paper_deg(phi[::30], offset), J[::30], "o", ms=4, label="every 15 deg (the paper's step)")
+    ax.set_xlim(0, 360)
+    ax.set_xticks(range(0, 361, 45))
+    ax.set_xlabel("crank angle phi = theta1 - 90 deg [deg]")
+    ax.set_ylabel("equivalent moment of inertia J_e [kg.m2]")
+    ax.set_title(f"{scenario.name}: J_e(phi), eq. 12 (Fig. 3); min {J.min():.3f}, max {J.max():.3f} kg.m2")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _plot_movement(reference, eq3, offset, path):
+    plt = pyplot()
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 8.5), constrained_layout=True, sharex=True)
+    deg = _paper_deg(reference.phi1, offset)
+    a1.plot(deg, reference.omega1, lw=1.5, label="reference (DOP853, time domain)")
+    a1.plot(_paper_deg(eq3.trajectory.y[0], offset), eq3.trajectory.y[1], lw=1, ls="--", label="eq. 3, 1 deg")
+    a1.set_ylabel("omega1 [rad/s]")
+    a1.legend()
+    a2.plot(deg, reference.epsilon1, lw=1.2)
+    a2.set_ylabel("epsilon1 [rad/s2]")
+    a3.plot(deg, reference.M_motor + reference.M_load, lw=1.2, label="M_motor + M_load (Fig. 5)")
+    a3.plot(deg, reference.M_load, lw=0.8, label="M_load (cutting force, weights)")
+    a3.set_ylabel("equivalent torque [N.m]")
+    a3.set_xlabel("crank angle phi from the start [deg]")
+    a3.legend(fontsize=8)
+    for ax in (a1, a2, a3):
+        ax.grid(alpha=0.3)
+    a1.set_title(f"{reference.scenario.name}: start at omega1 = {reference.omega1[0]:g} rad/s, no flywheel (Figs. 5-6)")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _plot_flywheel(cycles, design, offset, path):
+    plt = pyplot()
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.5), constrained_layout=True, sharex=True)
+    for key, label in (("without", "no flywheel"), ("with", f"J_F = {design['J_F_simulated']:.1f} kg.m2")):
+        c = cycles[key]
+        a1.plot(_paper_deg(c.phi1, offset), c.omega1, label=f"{label}: delta {c.delta:.4f}")
+        a2.plot(_paper_deg(c.phi1, offset), c.epsilon1, label=label)
+    a1.set_ylabel("omega1 [rad/s]")
+    a2.set_ylabel("epsilon1 [rad/s2]")
+    a2.set_xlabel("crank angle phi [deg] (steady cycle)")
+    a2.set_xlim(0, 360)
+    a2.set_xticks(range(0, 361, 45))
+    a1.set_title(f"steady cycle with and without flywheel (Fig. 7): peaks of omega1 "
+                 f"-{100 * design['omega_peak_reduction']:.2f} %, of |epsilon1| -{100 * design['epsilon_peak_reduction']:.1f} %")
+    for ax in (a1, a2):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _plot_stability(stability, path):
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    ok = [r for r in stability["rows"] if r["stable"]]
+    bad = [r for r in stability["rows"] if not r["stable"]]
+    ax.loglog([r["step_deg"] for r in ok], [r["error"] for r in ok], "o-", label="stable: last-turn error")
+    for r in bad:
+        ax.axvline(r["step_deg"], color="C3", lw=0.8, alpha=0.6)
+    ax.axvline(stability["linear_estimate_deg"], color="k", ls="--", lw=1,
+               label=f"estimate 2 J omega1 / B = {stability['linear_estimate_deg']:.2f} deg")
+    if stability["limit"]:
+        ax.axvspan(stability["limit"]["largest_stable_deg"], stability["limit"]["smallest_unstable_deg"],
+                   color="C3", alpha=0.3, label=f"measured limit {stability['limit']['largest_stable_deg']:.2f} deg")
+    ax.set_xlabel("angle step of eq. 3 [deg] (red lines: unstable)")
+    ax.set_ylabel("max |omega1 error| over the last turn [rad/s]")
+    ax.set_title(f"eq. 3 step-size study ({stability['turns']} turns from the start, J_F = {stability['J_flywheel']:g})")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

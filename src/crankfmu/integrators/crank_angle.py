@@ -64,7 +64,7 @@ class CrankAngleScheme(Integrator):
         i_global = 0
         n_rhs = 0
         done = False
-        while not done:
+        while len(eps) < len(ts):     # every node, the last included, gets its eq.-10 acceleration
             # position-dependent coefficients for the next chunk of the grid, in one vectorised call
             phis = phi0 + h * (i_global + np.arange(chunk + 1))
             J, half_dJ, Qp, kin = reduced.coefficients(phis)
