@@ -38,7 +38,8 @@ ROOT = HERE.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 #: FMU name -> scenario
-FMUS = {"FourBar": "seed000", "SliderCrank": "seed002", "QuickReturn": "seed004"}
+FMUS = {"FourBar": "seed000", "ThreeLoop": "seed001", "SliderCrank": "seed002", "Shaper": "seed003",
+        "QuickReturn": "seed004"}
 
 #: SI base-unit exponents of every unit the FMUs declare
 BASE_UNITS = {
@@ -56,6 +57,7 @@ BASE_UNITS = {
     "m/s": {"m": 1, "s": -1},
     "kg": {"kg": 1},
     "N.s/m": {"kg": 1, "s": -1},
+    "N": {"kg": 1, "m": 1, "s": -2},
 }
 
 #: what each output depends on at initialisation; *geometry (lengths and masses), *loads and

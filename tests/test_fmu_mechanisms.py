@@ -1,4 +1,4 @@
-"""SliderCrank.fmu and QuickReturn.fmu: their mechanism-specific outputs through fmpy against the
+"""SliderCrank.fmu, QuickReturn.fmu, ThreeLoop.fmu and Shaper.fmu: their mechanism-specific outputs through fmpy against the
 in-process kinematics, declared with units, and restored by rollback."""
 
 import subprocess
@@ -17,7 +17,10 @@ from crankfmu.validation.reference import reference_run
 ROOT = Path(__file__).resolve().parents[1]
 EXPECTED = {"SliderCrank": ("seed002", {"x_B": "m", "v_B": "m/s", "a_B": "m/s2", "x_C": "m", "y_C": "m"}),
             "QuickReturn": ("seed004", {"phi3": "rad", "omega3": "rad/s", "eps3": "rad/s2", "s5": "m",
-                                        "v5": "m/s", "a5": "m/s2"})}
+                                        "v5": "m/s", "a5": "m/s2"}),
+            "ThreeLoop": ("seed001", {"s3": "m", "v3": "m/s", "s7": "m", "v7": "m/s", "phi5": "rad",
+                                      "omega5": "rad/s"}),
+            "Shaper": ("seed003", {"theta3": "rad", "omega3": "rad/s", "x_E": "m", "v_E": "m/s", "a_E": "m/s2"})}
 
 
 @pytest.fixture(scope="module", params=list(EXPECTED))

@@ -41,7 +41,19 @@ def kinematic_cycle(entry, model, fmu_run):
     return cycle(model.scenario, [])[entry["key"]]
 
 
-QUANTITIES = {f.__name__: f for f in (rocker_extreme_deg, settled_change, kinematic_cycle)}
+def inertia_ratio(entry, model, fmu_run):
+    """max|M_e - M_e,static| / max|M_e| at the constant crank speed ``omega1`` (seed 001 eq. 1)."""
+    from crankfmu.equilibrium import equilibrium_study
+    return equilibrium_study(model.scenario, [float(entry["omega1"])])[0].summary()["inertia_ratio"]
+
+
+def reduced_inertia_min(entry, model, fmu_run):
+    """The smallest reduced inertia J_red over the turn (kg.m2), from the FMU's own output over its run."""
+    return float(min(fmu_run["J_red"]))
+
+
+QUANTITIES = {f.__name__: f for f in (rocker_extreme_deg, settled_change, kinematic_cycle, inertia_ratio,
+                                      reduced_inertia_min)}
 
 
 def check_paper(scenario, model, fmu_run, checks, prefix: str):
