@@ -19,7 +19,7 @@ from .dynamics.inverse import EquilibriumMoment, equilibrium_moment
 from .dynamics.loads import SliderForce
 from .dynamics.reactions import JointReactions, joint_reactions
 from .errors import ParameterError
-from .output import pyplot
+from .output import pyplot, turn_axis
 from .scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
@@ -162,14 +162,11 @@ def plot_moments(scenario, results: list[SpeedResult], out: Path) -> list[Path]:
         ax.plot(deg, close(m.total), lw=1.6, label="1: with inertia forces and moments")
         ax.plot(deg, close(m.static), lw=1.2, ls="--", label="2: inertia neglected")
         ax.axhline(r.mean, color="0.5", lw=0.8, ls=":", label=f"cycle mean {r.mean:.2f} N.m")
-        ax.set_xlim(0, 360)
-        ax.set_xticks(range(0, 361, 45))
-        ax.set_xlabel("crank angle phi1 [deg]")
+        turn_axis(ax)
         ax.set_ylabel("equilibrium moment M_e [N.m]")
         s = r.summary()
         ax.set_title(f"{scenario.name}: omega1 = {r.omega1:g} rad/s (Fig. {k + 2}); "
                      f"inertia ratio {s['inertia_ratio']:.3f}")
-        ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)
         p = out / f"Me_omega{speed_key(r.omega1)}.png"
         fig.savefig(p, dpi=120)
@@ -184,12 +181,9 @@ def plot_reactions(scenario, r: SpeedResult, path: Path) -> Path:
     deg = np.degrees(r.reactions.phi1)
     for joint in r.reactions.force:
         ax.plot(deg, r.reactions.magnitude(joint), lw=1.0, label=f"{joint} ({r.reactions.kind[joint]})")
-    ax.set_xlim(0, 360)
-    ax.set_xticks(range(0, 361, 45))
-    ax.set_xlabel("crank angle phi1 [deg]")
+    turn_axis(ax)
     ax.set_ylabel("joint reaction |F| [N]")
     ax.set_title(f"{scenario.name}: joint reactions at omega1 = {r.omega1:g} rad/s")
-    ax.grid(alpha=0.3)
     ax.legend(loc="upper right", fontsize=7, ncol=2)
     fig.savefig(path, dpi=120)
     plt.close(fig)

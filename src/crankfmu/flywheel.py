@@ -28,7 +28,7 @@ from scipy.optimize import brentq
 
 from .equilibrium import cycle_breaks
 from .errors import CrankfmuError, ParameterError, SchemeError
-from .output import pyplot
+from .output import pyplot, turn_axis
 from .scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
@@ -333,12 +333,9 @@ def _plot_inertia(scenario, offset, path):
     fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
     ax.plot(_paper_deg(phi, offset), J, lw=1.5)
     ax.plot(_paper_deg(phi[::30], offset), J[::30], "o", ms=4, label="every 15 deg (the paper's step)")
-    ax.set_xlim(0, 360)
-    ax.set_xticks(range(0, 361, 45))
-    ax.set_xlabel("crank angle phi = theta1 - 90 deg [deg]")
+    turn_axis(ax, "crank angle phi = theta1 - 90 deg [deg]")
     ax.set_ylabel("equivalent moment of inertia J_e [kg.m2]")
     ax.set_title(f"{scenario.name}: J_e(phi), eq. 12 (Fig. 3); min {J.min():.3f}, max {J.max():.3f} kg.m2")
-    ax.grid(alpha=0.3)
     ax.legend()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -377,9 +374,7 @@ def _plot_flywheel(cycles, design, offset, path):
         a2.plot(_paper_deg(c.phi1, offset), c.epsilon1, label=label)
     a1.set_ylabel("omega1 [rad/s]")
     a2.set_ylabel("epsilon1 [rad/s2]")
-    a2.set_xlabel("crank angle phi [deg] (steady cycle)")
-    a2.set_xlim(0, 360)
-    a2.set_xticks(range(0, 361, 45))
+    turn_axis(a2, "crank angle phi [deg] (steady cycle)")
     a1.set_title(f"steady cycle with and without flywheel (Fig. 7): peaks of omega1 "
                  f"-{100 * design['omega_peak_reduction']:.2f} %, of |epsilon1| -{100 * design['epsilon_peak_reduction']:.1f} %")
     for ax in (a1, a2):

@@ -38,6 +38,14 @@ def pyplot():
     return plt
 
 
+def turn_axis(ax, xlabel: str = "crank angle phi1 [deg]"):
+    """An x axis over one crank turn, 0..360 deg in steps of 45, with a light grid."""
+    ax.set_xlim(0, 360)
+    ax.set_xticks(range(0, 361, 45))
+    ax.set_xlabel(xlabel)
+    ax.grid(alpha=0.3)
+
+
 def plot_cycles(result: Result, out_dir: Path, cycles: int, summary_cycle: int) -> list[Path]:
     """Fig. 3 (omega1 over the first cycles) and Fig. 4 (omega1 over one settled cycle)."""
     plt = pyplot()
@@ -72,14 +80,11 @@ def plot_cycles(result: Result, out_dir: Path, cycles: int, summary_cycle: int) 
     ax.plot(np.degrees(phis - phis[0]), omega, lw=1.4)
     ax.axhline(stats["omega1_mean"], color="0.5", ls="--", lw=0.8,
                label=f"time mean {stats['omega1_mean']:.4f} rad/s")
-    ax.set_xlim(0, 360)
-    ax.set_xticks(range(0, 361, 45))
-    ax.set_xlabel(f"crank angle within cycle {summary_cycle} [deg]")
+    turn_axis(ax, f"crank angle within cycle {summary_cycle} [deg]")
     ax.set_ylabel("omega1 [rad/s]")
     ax.set_title(f"cycle {summary_cycle}: min {stats['omega1_min']:.4f}, max {stats['omega1_max']:.4f} rad/s, "
                  f"delta = {stats['delta']:.4f}")
     ax.legend(loc="best")
-    ax.grid(alpha=0.3)
     p = out_dir / f"omega1_cycle{summary_cycle}.png"
     fig.savefig(p, dpi=120)
     plt.close(fig)
