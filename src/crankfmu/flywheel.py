@@ -375,7 +375,7 @@ def _plot_flywheel(cycles, design, offset, path):
     a1.set_ylabel("omega1 [rad/s]")
     a2.set_ylabel("epsilon1 [rad/s2]")
     turn_axis(a2, "crank angle phi [deg] (steady cycle)")
-    a1.set_title(f"steady cycle with and without flywheel (Fig. 7): peaks of omega1 "
+    a1.set_title(f"steady cycle with and without flywheel (Fig. 7)\npeaks of omega1 "
                  f"-{100 * design['omega_peak_reduction']:.2f} %, of |epsilon1| -{100 * design['epsilon_peak_reduction']:.1f} %")
     for ax in (a1, a2):
         ax.grid(alpha=0.3)
