@@ -121,7 +121,6 @@ def energy_swing(model, n: int = 20001) -> tuple[float, np.ndarray, np.ndarray]:
     """dW_max (J) of eqs. 16-17 and the curve dW(phi1): the loads' work against their mean."""
     breaks = cycle_breaks(model)
     x, wts = np.polynomial.legendre.leggauss(8)
-    phis, cumulative = [0.0], [0.0]
     grid = np.unique(np.concatenate([np.linspace(0.0, TWO_PI, n), breaks]))
     lo, hi = grid[:-1], grid[1:]
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
@@ -130,11 +129,9 @@ def energy_swing(model, n: int = 20001) -> tuple[float, np.ndarray, np.ndarray]:
     if model.reduced.velocity_dependent:
         Q = Q + model.reduced.velocity_load(kin, np.ones_like(nodes))   # the direction of forward motion
     work = np.sum(Q.reshape(-1, x.size) * wts[None, :], axis=1) * half
-    phis = grid
     cumulative = np.concatenate([[0.0], np.cumsum(work)])
-    mean = cumulative[-1] / TWO_PI
-    swing = cumulative - mean * phis
-    return float(swing.max() - swing.min()), phis, swing
+    swing = cumulative - cumulative[-1] / TWO_PI * grid
+    return float(swing.max() - swing.min()), grid, swing
 
 
 def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: float = 1e-11,

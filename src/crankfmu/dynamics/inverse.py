@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError
-from .loads import WEIGHTS
+from .loads import TECHNOLOGICAL, WEIGHTS
 from .reduced import ReducedModel
 
 
@@ -78,9 +78,9 @@ def equilibrium_moment(reduced: ReducedModel, phi1, omega1, epsilon1=0.0) -> Equ
     """M_e(phi1) by eq. 1 for the mechanism, links and loads of ``reduced`` (flywheel included)."""
     phi1, omega1, epsilon1 = prescribed_motion(phi1, omega1, epsilon1)
     kin = reduced.mechanism.kinematics(phi1)
-    power = {WEIGHTS: np.zeros_like(phi1), "technological": np.zeros_like(phi1)}
+    power = {WEIGHTS: np.zeros_like(phi1), TECHNOLOGICAL: np.zeros_like(phi1)}
     for load in reduced.loads:
-        part = power[WEIGHTS if load.category == WEIGHTS else "technological"]
+        part = power[load.category]
         for f in load.applied(kin, omega1):
             if f.point is not None:
                 _, _, dx, dy, _, _ = kin.point(f.point)
@@ -98,6 +98,6 @@ def equilibrium_moment(reduced: ReducedModel, phi1, omega1, epsilon1=0.0) -> Equ
     return EquilibriumMoment(
         phi1=phi1, omega1=omega1, epsilon1=epsilon1,
         weights=-power[WEIGHTS] / omega1,
-        technological=-power["technological"] / omega1,
+        technological=-power[TECHNOLOGICAL] / omega1,
         inertia=-inertia_power / omega1,
     )
