@@ -5,5 +5,5 @@ from .loads import AppliedLoad, DeadPointMoment, SliderForce, ViscousForce, Weig
 from .motor import MotorLine
 from .reduced import LinkInertia, ReducedModel
 
-__all__ = ["AppliedLoad", "DeadPointMoment", "SliderForce", "LinkInertia", "MotorLine", "MovementEquation", "ReducedModel",
-           "ViscousForce", "Weights", "rocker_extremes"]
+__all__ = ["AppliedLoad", "DeadPointMoment", "LinkInertia", "MotorLine", "MovementEquation", "ReducedModel",
+           "SliderForce", "ViscousForce", "Weights", "rocker_extremes"]
