@@ -55,17 +55,17 @@ class SteadyCycle:
 
 
 def _crank_angle_rhs(model):
-    reduced, motor, tau = model.reduced, model.motor, model.equation.tau_ext
+    """d(omega1, t)/dphi1 of the movement equation divided by omega1 (the motor branch by omega1)."""
+    equation = model.equation
 
     def rhs(phi, y):
         omega = y[0]
         if not omega > 0.0:
             raise SchemeError(f"the crank stops (omega1 = {omega:.4g} rad/s at phi1 = {math.degrees(phi):.2f} deg): "
                               "no steady forward cycle for this design")
-        J, half_dJ, Q, kin = reduced.coefficients(np.array([phi]))
-        q = Q[0] + (reduced.velocity_load(kin, omega)[0] if reduced.velocity_dependent else 0.0)
-        M = float(motor.torque_at(omega))
-        return np.array([(M + q + tau - half_dJ[0] * omega * omega) / (J[0] * omega), 1.0 / omega])
+        J, half_dJ, Q = equation.coefficients(np.array([phi]), omega)
+        M = float(equation.motor.torque_at(omega))
+        return np.array([(M + Q + equation.tau_ext - half_dJ * omega * omega) / (J * omega), 1.0 / omega])
     return rhs
 
 

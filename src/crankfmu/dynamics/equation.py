@@ -46,7 +46,8 @@ class MovementEquation:
         self.n_rhs = 0
 
     # -------------------------------------------------------------- scalar hot path
-    def _coefficients(self, phi1, omega1):
+    def coefficients(self, phi1, omega1):
+        """(J kg.m^2, 0.5 J' kg.m^2/rad, Q N.m) at one state, the velocity-dependent loads included."""
         J, half_dJ, Q, kin = self.reduced.coefficients(phi1)
         q = Q[0]
         if self.reduced.velocity_dependent:
@@ -57,7 +58,7 @@ class MovementEquation:
         """d/dt of (phi1 rad, omega1 rad/s, W_motor J, W_load J, W_ext J) in ``mode``."""
         self.n_rhs += 1
         omega1 = y[OMEGA]
-        J, half_dJ, Q = self._coefficients(y[PHI], omega1)
+        J, half_dJ, Q = self.coefficients(y[PHI], omega1)
         if mode == SLIDE:
             M = half_dJ * omega1 * omega1 - Q - self.tau_ext     # holds domega1/dt = 0
             eps = 0.0
@@ -69,7 +70,7 @@ class MovementEquation:
     def _mode_on_switch(self, y):
         """The mode to continue in from a state on omega1 = omega_switch (Filippov's rule)."""
         ws = self.motor.omega_switch
-        J, half_dJ, Q = self._coefficients(y[PHI], ws)
+        J, half_dJ, Q = self.coefficients(y[PHI], ws)
         rest = Q + self.tau_ext - half_dJ * ws * ws          # J * domega1/dt less the motor torque
         up_from_low = self.motor.torque(ws, False) + rest > 0.0
         up_from_high = self.motor.torque(ws, True) + rest > 0.0
@@ -101,7 +102,7 @@ class MovementEquation:
         m_low, m_high = self.motor.torque(ws, False), self.motor.torque(ws, True)
 
         def equivalent(y):
-            J, half_dJ, Q = self._coefficients(y[PHI], ws)
+            J, half_dJ, Q = self.coefficients(y[PHI], ws)
             return half_dJ * ws * ws - Q - self.tau_ext
         return [(lambda t, y: m_low - equivalent(y), -1.0, "sliding ends: the low line cannot hold omega_switch"),
                 (lambda t, y: equivalent(y) - m_high, -1.0, "sliding ends: the high line exceeds the need")]

@@ -98,6 +98,7 @@ class SliderForce:
     band: tuple[float, float] = (0.0, 1.0)
     low: float = 0.0               # m, the slider's extreme positions (needed for the band)
     high: float = 0.0
+    extremes: tuple[float, ...] = ()   # rad, crank angles where the slider reverses
     position_only = False
     category = TECHNOLOGICAL
 
@@ -108,9 +109,10 @@ class SliderForce:
         if not found:
             raise DefinitionError(f"point {point!r} does not move back and forth along "
                                   f"{'xy'[axis]}: a slider force needs a slider")
-        x = mechanism.kinematics(np.array([a for a, _ in found])).point(point)[axis]
+        angles = tuple(a for a, _ in found)
+        x = mechanism.kinematics(np.array(angles)).point(point)[axis]
         return cls(point, link, axis, float(forward), float(backward), tuple(band),
-                   float(np.min(x)), float(np.max(x)))
+                   float(np.min(x)), float(np.max(x)), angles)
 
     @property
     def work_per_cycle(self) -> float:
@@ -122,7 +124,7 @@ class SliderForce:
         the slider's extreme positions and, with a band, where it enters and leaves it."""
         from scipy.optimize import brentq
 
-        angles = [a for a, _ in mechanism.stationary_angles(lambda kin: kin.point(self.point)[2 + self.axis])]
+        angles = list(self.extremes)
         if self.band != (0.0, 1.0):
             grid = np.linspace(0.0, 2.0 * np.pi, 721)
             stroke = self.high - self.low

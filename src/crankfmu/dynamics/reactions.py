@@ -86,6 +86,7 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
         A[:, r + 1, col] += fy
         A[:, r + 2, col] += (px - cx) * fy - (py - cy) * fx
 
+    axis = {j.name: _axis_angle(j.axis, kin, mechanism) for j in joints if j.kind == "prismatic"}
     for k, joint in enumerate(joints):
         first, second = joint.links
         px, py = kin.point(joint.point)[:2]
@@ -95,8 +96,7 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
                 add_force(second, col, px, py, ux, uy)
                 add_force(first, col, px, py, -ux, -uy)
         else:
-            theta = _axis_angle(joint.axis, kin, mechanism)
-            nx, ny = -np.sin(theta), np.cos(theta)
+            nx, ny = -np.sin(axis[joint.name]), np.cos(axis[joint.name])
             add_force(second, c, px, py, nx, ny)
             add_force(first, c, px, py, -nx, -ny)
             for link, sign in ((second, 1.0), (first, -1.0)):
@@ -138,9 +138,8 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
             force[joint.name] = (x[:, 2 * k], x[:, 2 * k + 1])
             couple[joint.name] = np.zeros(n)
         else:
-            theta = _axis_angle(joint.axis, kin, mechanism)
             normal = x[:, 2 * k]
-            force[joint.name] = (-np.sin(theta) * normal, np.cos(theta) * normal)
+            force[joint.name] = (-np.sin(axis[joint.name]) * normal, np.cos(axis[joint.name]) * normal)
             couple[joint.name] = x[:, 2 * k + 1]
     return JointReactions(phi1=phi1, force=force, couple=couple, kind=kind, driving_moment=x[:, driver])
 
