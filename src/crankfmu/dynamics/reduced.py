@@ -36,6 +36,18 @@ class ReducedModel:
         self.J_flywheel = float(J_flywheel)        # kg.m^2
         self.loads = loads
         self.velocity_dependent = any(not load.position_only for load in loads)
+        self._tables = {}
+
+    def table(self, tolerance: float = 1e-11):
+        """The periodic tabulation of this model (see dynamics.tabulated), built once per tolerance.
+
+        The flywheel is not in it (a parameter of the fast integrators), so designs that differ
+        only in the flywheel or the motor share one table.
+        """
+        if tolerance not in self._tables:
+            from .tabulated import tabulate
+            self._tables[tolerance] = tabulate(self, tolerance)
+        return self._tables[tolerance]
 
     def coefficients(self, phi1, kin: Kinematics | None = None):
         """(J, half_dJ, Q_position) at each crank angle, and the kinematics used.

@@ -7,10 +7,11 @@ import math
 from ..errors import ParameterError
 from .base import Integrator, Trajectory
 from .crank_angle import BadoiuEq17, CrankAngleScheme, LvEq3
+from .fast import FastIntegrator, FastStepper
 from .stepper import DormandPrinceIntegrator, DormandPrinceStepper, StepperState
 from .time_domain import SolveIvpIntegrator, radau, reference
 
-METHODS = ("reference", "radau", "dopri5", "badoiu-eq17", "lv-eq3")
+METHODS = ("fast", "reference", "radau", "dopri5", "badoiu-eq17", "lv-eq3")
 
 
 def make_integrator(method: str, rtol: float | None = None, angle_step: float | None = None) -> Integrator:
@@ -19,6 +20,8 @@ def make_integrator(method: str, rtol: float | None = None, angle_step: float | 
     rtol applies to the time-domain methods; angle_step (rad, default 0.1 deg) to the
     crank-angle schemes.
     """
+    if method == "fast":
+        return FastIntegrator(rtol)
     if method == "reference":
         return reference(rtol)
     if method == "radau":
@@ -33,6 +36,6 @@ def make_integrator(method: str, rtol: float | None = None, angle_step: float | 
     raise ParameterError(f"unknown method {method!r}; valid methods: {', '.join(METHODS)}", "method")
 
 
-__all__ = ["METHODS", "BadoiuEq17", "CrankAngleScheme", "DormandPrinceIntegrator", "DormandPrinceStepper",
+__all__ = ["METHODS", "BadoiuEq17", "CrankAngleScheme", "DormandPrinceIntegrator", "DormandPrinceStepper", "FastIntegrator", "FastStepper",
            "Integrator", "LvEq3", "SolveIvpIntegrator", "StepperState", "Trajectory", "make_integrator",
            "radau", "reference"]

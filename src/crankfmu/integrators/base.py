@@ -31,6 +31,10 @@ class Trajectory:
     modes: list[tuple[float, str]] = field(default_factory=list)
     n_rhs: int = 0
     n_steps: int = 0
+    #: the contract outputs at the requested output times, when the integrator computes them itself
+    #: (the fast path, from its tables): "state" (5 x n) and epsilon1, M_motor, M_load, J_red, E_kin
+    outputs: dict | None = None
+    table: object = None           # the ReducedTable the fast path ran on
 
     def sliding(self, times) -> np.ndarray | None:
         """Boolean array: where the motor was holding omega1 on its switch (see MovementEquation)."""

@@ -1,0 +1,159 @@
+"""The reduced model tabulated once per design: what the fast integrators evaluate.
+
+J(phi1), 0.5 J'(phi1) and the position-dependent loads are periodic in phi1 and, for a mechanism
+that assembles over the whole turn, smooth. They are sampled from the contour engine on a
+uniform grid over one turn and held as periodic cubic splines, one local cubic per interval, so
+an evaluation costs one index computation and a few multiply-adds whatever the mechanism.
+
+The grid is refined (doubled) until the splines agree with the engine at the points where a
+spline's error is largest (the interval midpoints) and at a second, staggered set of angles, to
+``tolerance`` relative to each function's largest magnitude. That checked bound is kept in
+``error_bound`` and reported with every fast result.
+
+Velocity-dependent loads stay exact:
+
+- a viscous force is linear in omega1: Q = c_lin(phi1) * omega1, with c_lin tabulated;
+- a slider force (seed 001's F3/F7, seed 003's cutting force) is a force of constant magnitude
+  times dx/dphi1 on each interval between its switch angles (the slider's reversals and, with a
+  band, where it enters and leaves the band), the magnitude depending on the direction of motion,
+  i.e. on the sign of omega1. dx/dphi1 is tabulated; the interval and the direction are part of
+  the integrator's discrete state, and the switch angles and omega1 = 0 are located as events.
+
+The motor line (a kink at omega_switch) is evaluated exactly by the integrators.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from ..errors import DefinitionError, SchemeError
+from .loads import SliderForce, ViscousForce
+from .reduced import ReducedModel
+
+TWO_PI = 2.0 * math.pi
+#: the table's functions, in order; slider transfer functions dx/dphi1 follow
+J_LINKS, HALF_DJ, Q_POSITION, Q_VISCOUS = range(4)
+FIRST_SLIDER = 4
+
+
+@dataclass
+class ReducedTable:
+    """Periodic cubic splines of the reduced model on ``n`` intervals of 2 pi / n.
+
+    coefficients  (n_functions, n, 4): local cubic c0 + u (c1 + u (c2 + u c3)), u = phi1 - phi1_i
+                  functions: J of the links (kg.m2, the flywheel is a parameter), 0.5 J' (kg.m2/rad),
+                  Q of the position-only loads (N.m), viscous coefficient (N.m.s/rad), then each
+                  slider force's dx/dphi1 (m/rad)
+    switch_angles (m,) rad in [0, 2 pi): where a slider force changes; empty without slider forces
+    forces        (max(m, 1), 2, n_sliders) N: each slider force's signed value on interval k
+                  (from switch_angles[k] to the next) with omega1 > 0 (index 0) and < 0 (index 1)
+    error_bound   largest relative difference from the engine found at the check angles
+    """
+
+    coefficients: np.ndarray
+    switch_angles: np.ndarray
+    forces: np.ndarray
+    error_bound: float
+    tolerance: float
+    build_time: float            # s
+    slider_names: tuple[str, ...] = ()
+
+    @property
+    def n_intervals(self) -> int:
+        return self.coefficients.shape[1]
+
+    def evaluate(self, phi1) -> np.ndarray:
+        """All functions at an array of crank angles: shape (n_functions, len(phi1))."""
+        phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
+        n = self.n_intervals
+        h = TWO_PI / n
+        wrapped = phi1 - TWO_PI * np.floor(phi1 / TWO_PI)
+        i = np.minimum((wrapped / h).astype(np.int64), n - 1)
+        u = wrapped - i * h
+        c = self.coefficients[:, i, :]
+        return c[..., 0] + u * (c[..., 1] + u * (c[..., 2] + u * c[..., 3]))
+
+    def interval_of(self, phi1) -> np.ndarray:
+        """Index of the switch interval holding each crank angle (0 without switch angles)."""
+        if self.switch_angles.size == 0:
+            return np.zeros(np.shape(phi1), dtype=np.int64)
+        wrapped = np.asarray(phi1) % TWO_PI
+        return (np.searchsorted(self.switch_angles, wrapped, side="right") - 1) % self.switch_angles.size
+
+    def coefficients_at(self, phi1, omega1, J_flywheel: float):
+        """(J, 0.5 J', Q) at arrays of states, the slider forces' direction from omega1's sign."""
+        values = self.evaluate(phi1)
+        omega1 = np.asarray(omega1, dtype=float)
+        J = values[J_LINKS] + J_flywheel
+        Q = values[Q_POSITION] + values[Q_VISCOUS] * omega1
+        if self.forces.shape[2]:
+            k = self.interval_of(phi1)
+            for s in range(self.forces.shape[2]):
+                force = np.where(omega1 > 0, self.forces[k, 0, s], np.where(omega1 < 0, self.forces[k, 1, s], 0.0))
+                Q = Q + force * values[FIRST_SLIDER + s]
+        return J, values[HALF_DJ], Q
+
+
+def _engine_values(reduced: ReducedModel, sliders, viscous, phi1) -> np.ndarray:
+    J, half_dJ, Q, kin = reduced.coefficients(phi1)
+    rows = [J - reduced.J_flywheel, half_dJ, Q, np.zeros_like(phi1)]
+    for load in viscous:
+        rows[Q_VISCOUS] = rows[Q_VISCOUS] + load.torque(kin, 1.0)
+    for load in sliders:
+        rows.append(kin.point(load.point)[2 + load.axis])
+    return np.array(rows)
+
+
+def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256,
+             n_max: int = 1 << 16) -> ReducedTable:
+    """Tabulate ``reduced`` to ``tolerance`` (relative to each function's largest magnitude).
+
+    Raises SchemeError when 2**16 intervals do not reach it (a mechanism close to a dead point
+    has transfer functions too steep to tabulate: use the engine, method "reference").
+    """
+    started = time.perf_counter()
+    sliders = [load for load in reduced.loads if isinstance(load, SliderForce)]
+    viscous = [load for load in reduced.loads if isinstance(load, ViscousForce)]
+    for load in reduced.loads:
+        if not load.position_only and not isinstance(load, (SliderForce, ViscousForce)):
+            raise DefinitionError(f"the fast model cannot tabulate a {type(load).__name__} load "
+                                  "(velocity-dependent loads it knows: slider_force, viscous_force)")
+    n = n_start
+    while True:
+        nodes = np.linspace(0.0, TWO_PI, n + 1)
+        values = _engine_values(reduced, sliders, viscous, nodes[:-1])
+        closed = np.concatenate([values, values[:, :1]], axis=1)
+        spline = CubicSpline(nodes, closed, axis=1, bc_type="periodic")
+        # the error of a cubic spline peaks near the interval midpoints; the staggered set
+        # (0.3 of an interval in) catches a spline that is right at midpoints only
+        h = TWO_PI / n
+        check = np.concatenate([nodes[:-1] + 0.5 * h, nodes[:-1] + 0.3 * h])
+        exact = _engine_values(reduced, sliders, viscous, check)
+        scale = np.maximum(np.max(np.abs(values), axis=1), 1e-300)
+        error = float(np.max(np.max(np.abs(spline(check) - exact), axis=1) / scale))
+        if error <= tolerance:
+            break
+        if 2 * n > n_max:
+            raise SchemeError(
+                f"the reduced model cannot be tabulated to {tolerance:g} with {n} intervals (error "
+                f"{error:.2g}): the mechanism is too close to a dead point; use method 'reference'")
+        n *= 2
+    # CubicSpline.c is (4, n, functions), highest power first
+    coefficients = np.ascontiguousarray(spline.c[::-1].transpose(2, 1, 0))
+
+    angles = sorted({round(a % TWO_PI, 13) for load in sliders for a in load.switch_angles(reduced.mechanism)})
+    switch = np.array(angles, dtype=float)
+    forces = np.zeros((max(len(switch), 1), 2, len(sliders)))
+    if len(switch):
+        mids = 0.5 * (switch + np.append(switch[1:], switch[0] + TWO_PI))
+        kin = reduced.mechanism.kinematics(mids % TWO_PI)
+        for s, load in enumerate(sliders):
+            forces[:, 0, s] = load.force(kin, 1.0)
+            forces[:, 1, s] = load.force(kin, -1.0)
+    return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
+                        tuple(f"{load.point}.{'xy'[load.axis]}" for load in sliders))
