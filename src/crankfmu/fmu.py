@@ -6,11 +6,16 @@ scripts (generated from ``fmu_build/slave_template.py``) are thin: ``class FourB
 delegating to ``FmuCore``. A scenario's ``[[outputs]]`` (slider position, arm speed, ...) become
 extra outputs, computed from the analytic transfer functions only when the host reads them.
 
-Inside ``fmi2DoStep`` the movement equation is integrated by the error-controlled
-Dormand-Prince stepper (rtol honoured, the motor kink located); communication points inside a
-step are served from its dense output, so the trajectory does not depend on the communication
-step. A tunable parameter or the input ``tau_ext`` that changed since the last step restarts the
-stepper at the communication point, so the change takes effect from that step on.
+Inside ``fmi2DoStep`` the movement equation is integrated by the fast path: the reduced model is
+tabulated once at initialisation (dynamics.tabulated, its error bound checked against the contour
+engine) and the compiled Dormand-Prince kernel steps it with rtol honoured and every switch
+located (the motor line's kink, the slider forces' switch angles and reversals). A whole
+``fmi2DoStep`` is one call into the kernel; the outputs are one array the getters read, and the
+link-level kinematics are computed only when a host reads a mechanism-specific output.
+Communication points inside a step are served from the dense output, so the trajectory does not
+depend on the communication step. A tunable parameter or the input ``tau_ext`` that changed since
+the last step restarts the stepper at the communication point, so the change takes effect from
+that step on.
 
 Bad input never raises into the host: the failing call logs a message naming the variable and
 its valid range with fmi2Error, and every later step fails the same way until a valid value is set.
@@ -18,13 +23,13 @@ its valid range with fmi2Error, and every later step fails the same way until a 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
+import numpy as np
+
 from .dynamics import MotorLine
-from .dynamics.equation import OMEGA, PHI, SLIDE, W_EXT, W_LOAD, W_MOTOR
 from .errors import CrankfmuError, ParameterError
-from .integrators.stepper import DormandPrinceStepper, StepperState
+from .integrators.fast import TABLE_TOLERANCE, FastStepper
 from .scenario import Parameter, load_scenario
 from .simulation import COLUMNS
 
@@ -43,6 +48,9 @@ OUTPUTS = {
     "W_load": "work done by the loads (weights, technological loads) since the start",
     "W_ext": "work done by tau_ext since the start",
 }
+#: where each output sits in the kernel's output row (E_kin is computed from J_red and omega1)
+ROW = {"phi1": 0, "omega1": 1, "W_motor": 2, "W_load": 3, "W_ext": 4, "epsilon1": 5, "M_motor": 6,
+       "M_load": 7, "J_red": 8}
 TAU_EXT = ("N.m", "extra torque on the crank from outside (the coupling port)")
 MOTOR = ("A", "B", "A_low", "B_low", "omega_switch")
 
@@ -59,15 +67,14 @@ class FmuCore:
         self.parameters = dict(self.scenario.parameters)
         self.parameters["rtol"] = Parameter(
             "rtol", self.scenario.experiment.tolerance, "1", min=0.0, min_inclusive=False,
-            description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4))")
+            description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4), compiled)")
         self.values = {n: p.value for n, p in self.parameters.items()}
         self.tau_ext = 0.0
-        self.outputs = dict.fromkeys(OUTPUTS, 0.0)
+        self.row = np.zeros(len(ROW))       # the kernel's output row at the current time
         # refused values by variable: stepping is blocked until each is corrected
         self.errors: dict[str, str] = {}
         self.model = None
-        self.stepper = None
-        self.state: StepperState | None = None
+        self.stepper: FastStepper | None = None
         self.time = self.scenario.experiment.start_time
         self.t_limit = math.inf
         self.pending = False                # a tunable parameter or input changed: restart
@@ -79,7 +86,7 @@ class FmuCore:
         for name, description in OUTPUTS.items():
             slave.register_variable(Real(name, causality=Fmi2Causality.output,
                                          variability=Fmi2Variability.continuous, description=description,
-                                         getter=(lambda n=name: self.outputs[n])))
+                                         getter=self._getter(name)))
             self.units[name] = COLUMNS[name]
         definition = self.scenario.mechanism_definition()
         for q in self.quantities:
@@ -98,6 +105,13 @@ class FmuCore:
                                          getter=(lambda n=name: self.values[n]),
                                          setter=(lambda v, n=name: self._set_parameter(n, v))))
             self.units[name] = p.unit
+
+    def _getter(self, name: str):
+        row = self.row
+        if name == "E_kin":
+            return lambda: 0.5 * float(row[8]) * float(row[1]) ** 2
+        i = ROW[name]
+        return lambda: float(row[i])
 
     # ------------------------------------------------------------------ setters
     def _refuse(self, message: str, name: str):
@@ -141,55 +155,40 @@ class FmuCore:
         try:
             scenario = self.scenario.with_params(**{k: v for k, v in self.values.items() if k != "rtol"})
             self.model = scenario.build()
-            self.model.equation.tau_ext = self.tau_ext
-            self.stepper = DormandPrinceStepper(self.model.equation, self.values["rtol"])
-            y0 = self.model.y0.copy()
-            self.state = self.stepper.start(self.time, y0)
+            table = self.model.reduced.table(TABLE_TOLERANCE)
+            self.stepper = FastStepper(table, self.model.motor, self.model.reduced.J_flywheel, self.values["rtol"],
+                                       self.tau_ext)
+            self.row[:] = self.stepper.start(self.time, self.model.y0)
         except CrankfmuError as exc:
             self.model = None
             self._refuse(str(exc), "model")     # the message names the parameters involved
             return
-        self._update_outputs(self.state, self.time)
+        self._quantity_values = None
         self.pending = self.rebuild = False
 
     def do_step(self, current_time: float, step_size: float) -> bool:
-        from pythonfmu.enums import Fmi2Status
-
         if self.errors or self.model is None:
+            from pythonfmu.enums import Fmi2Status
+
             reason = "; ".join(self.errors.values()) or "the model was not initialised"
             self.slave.log(f"cannot step: {reason}", Fmi2Status.error)
             return False
         try:
             if self.pending:
-                eq = self.model.equation
                 if self.rebuild:
                     v = self.values
-                    eq.motor = MotorLine(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
-                eq.tau_ext = self.tau_ext
-                self.state = self.stepper.restart(self.state, current_time)
+                    self.stepper.set_motor(MotorLine(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"]))
+                self.stepper.set_tau_ext(self.tau_ext)
+                self.stepper.restart(current_time)
                 self.pending = self.rebuild = False
             target = current_time + step_size
-            while self.state.t < target:
-                self.state = self.stepper.step(self.state, max(self.t_limit, target))
-            self._update_outputs(self.state, target)
+            self.row[:] = self.stepper.advance(target, max(self.t_limit, target))
             self.time = target
+            self._quantity_values = None
             return True
         except CrankfmuError as exc:
             self._refuse(f"step from t = {current_time:g} s failed: {exc}", "step")
             return False
-
-    def _update_outputs(self, state: StepperState, t: float):
-        y = self.stepper.dense(state, t)
-        sliding = (state.mode if t == state.t else state.step_mode) == SLIDE
-        out = self.model.equation.outputs(y[PHI:PHI + 1], y[OMEGA:OMEGA + 1], [sliding])
-        self.outputs["phi1"] = float(y[PHI])
-        self.outputs["omega1"] = float(y[OMEGA])
-        self.outputs["W_motor"] = float(y[W_MOTOR])
-        self.outputs["W_load"] = float(y[W_LOAD])
-        self.outputs["W_ext"] = float(y[W_EXT])
-        for name in ("epsilon1", "M_motor", "M_load", "J_red", "E_kin"):
-            self.outputs[name] = float(out[name][0])
-        self._quantity_values = None
 
     def _quantity(self, name: str) -> float:
         """A mechanism-specific output, computed on first read after a step (one kinematics call
@@ -197,35 +196,32 @@ class FmuCore:
         if self.model is None:
             return 0.0
         if self._quantity_values is None:
-            import numpy as np
-
             from .mechanisms.quantities import evaluate_all
 
-            out = self.outputs
-            kin = self.model.mechanism.kinematics(np.array([out["phi1"]]))
+            row = self.row
+            kin = self.model.mechanism.kinematics(np.array([row[0]]))
             self._quantity_values = {k: float(v[0]) for k, v in
-                                     evaluate_all(self.quantities, kin, out["omega1"], out["epsilon1"]).items()}
+                                     evaluate_all(self.quantities, kin, float(row[1]), float(row[5])).items()}
         return self._quantity_values[name]
 
     # ------------------------------------------------------------------ FMU state
     def get_state(self) -> dict:
+        """Everything that determines the continuation, as plain floats and lists."""
         return {
-            "values": dict(self.values), "tau_ext": self.tau_ext, "outputs": dict(self.outputs),
+            "values": dict(self.values), "tau_ext": self.tau_ext, "row": self.row.tolist(),
             "time": self.time, "errors": dict(self.errors), "pending": self.pending, "rebuild": self.rebuild,
-            "stepper": None if self.state is None else self.state.to_dict(),
-            "motor": None if self.model is None else dataclasses.asdict(self.model.equation.motor),
-            "equation_tau": None if self.model is None else self.model.equation.tau_ext,
+            "stepper": None if self.stepper is None else self.stepper.state.tolist(),
+            "stepper_parameters": None if self.stepper is None else self.stepper.P.tolist(),
         }
 
     def set_state(self, state: dict):
         self.values = dict(state["values"])
         self.tau_ext = state["tau_ext"]
-        self.outputs = dict(state["outputs"])
+        self.row[:] = state["row"]
         self._quantity_values = None
         self.time = state["time"]
         self.errors = dict(state["errors"])
         self.pending, self.rebuild = state["pending"], state["rebuild"]
-        if state["stepper"] is not None and self.model is not None:
-            self.state = StepperState.from_dict(state["stepper"])
-            self.model.equation.motor = MotorLine(**state["motor"])
-            self.model.equation.tau_ext = state["equation_tau"]
+        if state["stepper"] is not None and self.stepper is not None:
+            self.stepper.state[:] = state["stepper"]
+            self.stepper.P[:] = state["stepper_parameters"]
