@@ -120,10 +120,12 @@ def cmd_sweep(args) -> int:
     import json
     from pathlib import Path
 
+    import numpy as np
+
     from .kinematic_plots import plot_families
     from .progress import ProgressBar
     from .scenario import load_scenario
-    from .sweep import SweepAxis, check_claims, run_sweep
+    from .sweep import SweepAxis, check_claims, plot_steady, run_sweep
 
     scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
     if not args.param:
@@ -132,29 +134,44 @@ def cmd_sweep(args) -> int:
     out = Path(args.out)
     bar = ProgressBar(1.0, label=f"{scenario.name} sweep")
     try:
-        result = run_sweep(scenario, axes, out, progress=bar, resume=not args.restart)
+        result = run_sweep(scenario, axes, out, progress=bar, resume=not args.restart, study=args.study,
+                           scheduler=args.scheduler, chunk_size=args.chunk)
     finally:
         bar.close()
-    definition = scenario.mechanism_definition()
-    units = {q.name: q.unit(definition) for q in scenario.quantities}
-    plots = plot_families(result, scenario, units, out)
-    claims = check_claims(scenario, result)
-    (out / "claims.json").write_text(json.dumps(claims, indent=2) + "\n")
     names = [a.name for a in axes]
-    print(f"{scenario.name}: {len(result.rows)} designs computed"
-          + (f" ({result.skipped} already in peaks.csv)" if result.skipped else "")
+    total = len(result.rows) + len(result.failed)
+    print(f"{scenario.name}: {result.study} sweep, {total} designs: {len(result.rows)} computed"
+          + (f" ({result.skipped} already in {result.path.name})" if result.skipped else "")
           + f", {len(result.failed)} failed")
-    print("  " + " ".join(f"{c:>14s}" for c in result.columns))
-    for row in result.rows:
-        print("  " + " ".join(f"{row[c]:14.6g}" for c in result.columns))
-    for row in result.failed:
+    if result.study == "kinematic":
+        definition = scenario.mechanism_definition()
+        units = {q.name: q.unit(definition) for q in scenario.quantities}
+        plots = plot_families(result, scenario, units, out)
+        claims = check_claims(scenario, result)
+        (out / "claims.json").write_text(json.dumps(claims, indent=2) + "\n")
+        print("  " + " ".join(f"{c:>14s}" for c in result.columns))
+        for row in result.rows:
+            print("  " + " ".join(f"{row[c]:14.6g}" for c in result.columns))
+        for c in claims:
+            print(f"  claim: {c['claim']} [{c['quantity']}]: peaks increase in {c['peaks_hold_in']} of "
+                  f"{c['families']} families; |{c['quantity']}| increases pointwise over "
+                  f"{100 * c['share_of_cycle_min']:.0f}-{100 * c['share_of_cycle_mean']:.0f} % (min-mean) of the cycle, "
+                  f"{100 * c['share_of_second_half_mean']:.0f} % of its second half")
+        written = f"peaks.csv, failed.csv, claims.json and {len(plots)} PNG"
+    else:
+        plots = plot_steady(result, out, {n: scenario.parameters[n].unit for n in names})
+        if result.rows:
+            deltas = np.array([r["delta"] for r in result.rows])
+            best = result.rows[int(np.argmin(deltas))]
+            print(f"  delta from {deltas.min():.6g} to {deltas.max():.6g}; smallest at "
+                  + ", ".join(f"{n} = {best[n]:g}" for n in names)
+                  + f" (omega1 mean {best['omega1_mean']:.6g} rad/s)")
+        written = f"steady.csv, failed.csv and {len(plots)} PNG"
+    for row in result.failed[:20]:
         print("  FAILED " + ", ".join(f"{n} = {row[n]:g}" for n in names) + f": {row['reason']}")
-    for c in claims:
-        print(f"  claim: {c['claim']} [{c['quantity']}]: peaks increase in {c['peaks_hold_in']} of "
-              f"{c['families']} families; |{c['quantity']}| increases pointwise over "
-              f"{100 * c['share_of_cycle_min']:.0f}-{100 * c['share_of_cycle_mean']:.0f} % (min-mean) of the cycle, "
-              f"{100 * c['share_of_second_half_mean']:.0f} % of its second half")
-    print(f"  wrote {out}/peaks.csv, failed.csv, claims.json and {len(plots)} PNG")
+    if len(result.failed) > 20:
+        print(f"  ... {len(result.failed) - 20} more failed designs in failed.csv")
+    print(f"  wrote {out}/{written}")
     if not result.rows:
         raise CrankfmuError(f"no design of the sweep could be computed ({len(result.failed)} failed; see {out}/failed.csv)")
     return 0
@@ -248,14 +265,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.set_defaults(func=cmd_kinematics)
 
-    p = sub.add_parser("sweep", help="kinematic parameter sweep: peaks.csv (one row per design), the "
-                                      "families' plots, the paper's claims checked")
+    p = sub.add_parser("sweep", help="parameter sweep on Dask: kinematic peaks (peaks.csv, the families' "
+                                      "plots, the paper's claims) or steady cycles (steady.csv)")
     p.add_argument("scenario")
     p.add_argument("--param", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                    help="a swept parameter (repeatable; the grid is every combination)")
     p.add_argument("--out", required=True)
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.add_argument("--restart", action="store_true", help="recompute every design (default: resume peaks.csv)")
+    p.add_argument("--restart", action="store_true", help="recompute every design (default: resume the results file)")
+    p.add_argument("--study", choices=("kinematic", "steady"), default=None,
+                   help="kinematic: peaks over a turn at constant speed (default with a [kinematics] section); "
+                        "steady: each design's steady cycle and speed fluctuation (default otherwise)")
+    p.add_argument("--scheduler", default="local", metavar="ADDRESS",
+                   help="Dask scheduler: 'local' (default: a local cluster, one worker process per core), "
+                        "an address such as tcp://host:8786 (an existing cluster), or 'serial' (this process)")
+    p.add_argument("--chunk", type=int, default=None, help="designs per Dask task (default 4 kinematic, 500 steady)")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("equilibrium", help="equilibrium moment over a cycle at constant crank speeds, with "

@@ -1,9 +1,20 @@
-"""Parameter sweeps of a kinematic study: ``crankfmu sweep SCENARIO --param NAME=START:STOP:COUNT ...``.
+"""Parameter sweeps: ``crankfmu sweep SCENARIO --param NAME=START:STOP:COUNT ...``.
 
-The grid is every combination of the swept values. Each design is range-checked and assembled
-over the whole turn; one that fails is recorded with its reason and the sweep goes on. Rows of
-``peaks.csv`` are written (and flushed) as each design finishes; a design already in the file is
-not computed again, so an interrupted sweep resumes where it stopped.
+The grid is every combination of the swept values. Two studies:
+
+- ``kinematic`` (scenarios with a ``[kinematics]`` section, seed 004): each design's quantities
+  over one turn at constant crank speed, their peaks in ``peaks.csv``;
+- ``steady`` (any scenario with a motor): each design's steady cycle (omega1 mean, min, max and
+  the coefficient of speed fluctuation delta) in ``steady.csv``, computed many designs per call
+  by ``crankfmu.batch.steady_cycles`` on the compiled kernel.
+
+The designs are cut into chunks and run on Dask: a local cluster of worker processes (one per
+core) by default, or an existing cluster with ``scheduler="tcp://host:8786"`` (its workers need
+crankfmu installed); ``scheduler="serial"`` runs them in this process. Rows are written (and
+flushed) as each chunk finishes, in the order they finish. A design that fails (out of range,
+cannot be assembled, stalls) is listed with its reason in ``failed.csv`` and the sweep goes on;
+a chunk whose worker dies is listed the same way. A design already in the results file is not
+computed again, so an interrupted sweep resumes where it stopped.
 """
 
 from __future__ import annotations
@@ -11,6 +22,7 @@ from __future__ import annotations
 import csv
 import itertools
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,6 +30,8 @@ import numpy as np
 
 from .errors import CrankfmuError
 from .kinematic_study import _study, cycle
+
+STUDIES = ("kinematic", "steady")
 
 
 @dataclass
@@ -47,73 +61,171 @@ class SweepAxis:
 class SweepResult:
     axes: list[SweepAxis]
     columns: list[str]
+    study: str = "kinematic"
     rows: list[dict] = field(default_factory=list)
     failed: list[dict] = field(default_factory=list)
     series: dict = field(default_factory=dict)       # design tuple -> {quantity: array over phi1}
     phi1: np.ndarray | None = None
-    skipped: int = 0                                  # designs found in peaks.csv (resume)
+    skipped: int = 0                                  # designs found in the results file (resume)
+    path: Path | None = None                          # the results file
 
 
 def _key(values) -> tuple:
     return tuple(round(float(v), 12) for v in values)
 
 
-def run_sweep(scenario, axes: list[SweepAxis], out: Path, progress=None, resume: bool = True) -> SweepResult:
-    ks = _study(scenario)
-    quantities = list(ks.get("sweep_quantities", []))
-    if not quantities:
-        raise CrankfmuError(f"scenario {scenario.name}: [kinematics] sweep_quantities is empty: nothing to sweep")
+# ---------------------------------------------------------------------- work done by a worker
+def _kinematic_chunk(scenario, names, designs, quantities, stroke: bool):
+    """[(design, row or None, series, phi1, reason)] for a chunk of designs."""
+    out = []
+    for design in designs:
+        params = dict(zip(names, design))
+        try:
+            c = cycle(scenario.with_params(**params), quantities)
+        except CrankfmuError as exc:
+            out.append((design, None, None, None, str(exc)))
+            continue
+        row = {**params, **c["peaks"]}
+        if stroke:
+            row.update(time_ratio=c["time_ratio"], stroke=c["stroke"])
+        out.append((design, row, c["series"], c["phi1"], ""))
+    return out
+
+
+def _steady_chunk(scenario, names, designs):
+    from .batch import steady_cycles
+
+    result = steady_cycles(scenario, [dict(zip(names, d)) for d in designs])
+    out = [(tuple(r[n] for n in names), r, None, None, "") for r in result.rows]
+    out += [(tuple(r[n] for n in names), None, None, None, r["reason"]) for r in result.failed]
+    return out
+
+
+# ---------------------------------------------------------------------- running the chunks
+def run_chunks(function, chunks: list, args: tuple, scheduler: str | None = None):
+    """Yield (chunk, result or exception) as each chunk finishes, on Dask (see module doc)."""
+    if scheduler == "serial" or not chunks:
+        for chunk in chunks:
+            try:
+                yield chunk, function(*args[:1], args[1], chunk, *args[2:])
+            except Exception as exc:        # noqa: BLE001 - a failed chunk is reported, not fatal
+                yield chunk, exc
+        return
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise CrankfmuError("crankfmu sweep runs on Dask: pip install 'dask[distributed]' "
+                            "(or --scheduler serial to run in this process)") from None
+    import logging
+
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+    if scheduler in (None, "", "local"):
+        cluster = LocalCluster(n_workers=min(os.cpu_count() or 1, len(chunks)), threads_per_worker=1,
+                               processes=True, dashboard_address=None, silence_logs=logging.ERROR)
+        client = Client(cluster)
+    else:
+        cluster = None
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, ValueError) as exc:
+            raise CrankfmuError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({exc})") from None
+    try:
+        futures = {client.submit(function, args[0], args[1], chunk, *args[2:], pure=False): i
+                   for i, chunk in enumerate(chunks)}
+        for future in as_completed(futures):
+            chunk = chunks[futures[future]]
+            try:
+                yield chunk, future.result()
+            except Exception as exc:        # noqa: BLE001 - a worker's failure is reported per chunk
+                yield chunk, exc
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def default_study(scenario) -> str:
+    return "kinematic" if scenario.kinematics_study.get("sweep_quantities") else "steady"
+
+
+def run_sweep(scenario, axes: list[SweepAxis], out: Path, progress=None, resume: bool = True,
+              study: str | None = None, scheduler: str | None = "serial", chunk_size: int | None = None
+              ) -> SweepResult:
+    """Run the sweep (see the module doc); ``progress(fraction)`` is called as chunks finish."""
+    study = study or default_study(scenario)
+    if study not in STUDIES:
+        raise CrankfmuError(f"unknown study {study!r}; valid studies: {', '.join(STUDIES)}")
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
         raise CrankfmuError(f"each --param may appear once, got {names}")
-    columns = names + [f"max_abs_{q}" for q in quantities]
-    if ks.get("stroke_of"):
-        columns += ["time_ratio", "stroke"]
+    if study == "kinematic":
+        ks = _study(scenario)
+        quantities = list(ks.get("sweep_quantities", []))
+        if not quantities:
+            raise CrankfmuError(f"scenario {scenario.name}: [kinematics] sweep_quantities is empty: nothing to sweep")
+        stroke = bool(ks.get("stroke_of"))
+        columns = names + [f"max_abs_{q}" for q in quantities] + (["time_ratio", "stroke"] if stroke else [])
+        results_path = out / "peaks.csv"
+        function, extra = _kinematic_chunk, (quantities, stroke)
+        chunk_size = chunk_size or 4
+    else:
+        from .batch import STEADY_COLUMNS
+
+        columns = names + list(STEADY_COLUMNS)
+        results_path = out / "steady.csv"
+        function, extra = _steady_chunk, ()
+        chunk_size = chunk_size or 500
     out.mkdir(parents=True, exist_ok=True)
-    peaks_path, failed_path = out / "peaks.csv", out / "failed.csv"
-    result = SweepResult(axes, columns)
-    done = set()
-    if resume and peaks_path.exists():
-        with peaks_path.open() as f:
+    failed_path = out / "failed.csv"
+    result = SweepResult(axes, columns, study, path=results_path)
+    done: dict[tuple, dict] = {}
+    if resume and results_path.exists():
+        with results_path.open() as f:
             reader = csv.DictReader(f)
             if reader.fieldnames == columns:
                 for row in reader:
-                    done.add(_key(row[n] for n in names))
+                    done[_key(row[n] for n in names)] = {k: float(v) for k, v in row.items()}
     if not done:
-        with peaks_path.open("w", newline="") as f:
+        with results_path.open("w", newline="") as f:
             csv.writer(f).writerow(columns)
-    failed_rows = []
     grid = list(itertools.product(*(a.values for a in axes)))
-    with peaks_path.open("a", newline="") as f:
-        writer = csv.writer(f)
-        for i, design in enumerate(grid):
-            if progress:
-                progress(i / len(grid))
-            params = dict(zip(names, design))
-            try:
-                c = cycle(scenario.with_params(**params), quantities)
-            except CrankfmuError as exc:
-                failed_rows.append({**params, "reason": str(exc)})
-                continue
-            result.phi1 = c["phi1"]
-            result.series[_key(design)] = c["series"]
-            row = {**params, **c["peaks"]}
-            if ks.get("stroke_of"):
-                row.update(time_ratio=c["time_ratio"], stroke=c["stroke"])
-            result.rows.append(row)
-            if _key(design) in done:
-                result.skipped += 1
-                continue
-            writer.writerow([f"{row[col]:.15g}" for col in columns])
+    if study == "steady":
+        # a steady design in the file is finished; a kinematic one is recomputed for the plots
+        result.rows += [done[_key(d)] for d in grid if _key(d) in done]
+        result.skipped = len(result.rows)
+        todo = [d for d in grid if _key(d) not in done]
+    else:
+        todo = grid
+    chunks = [todo[i:i + chunk_size] for i in range(0, len(todo), chunk_size)]
+    finished = result.skipped
+    with results_path.open("a", newline="") as f, failed_path.open("w", newline="") as ff:
+        writer, failed_writer = csv.writer(f), csv.writer(ff)
+        failed_writer.writerow(names + ["reason"])
+        for chunk, outcome in run_chunks(function, chunks, (scenario, names, *extra), scheduler):
+            if isinstance(outcome, Exception):
+                outcome = [(d, None, None, None, f"the worker failed: {type(outcome).__name__}: {outcome}")
+                           for d in chunk]
+            for design, row, series, phi1, reason in outcome:
+                params = dict(zip(names, design))
+                if row is None:
+                    result.failed.append({**params, "reason": reason})
+                    failed_writer.writerow([f"{v:.15g}" for v in design] + [reason])
+                    continue
+                if series is not None:
+                    result.series[_key(design)] = series
+                    result.phi1 = phi1
+                result.rows.append(row)
+                if _key(design) in done:
+                    result.skipped += 1
+                    continue
+                writer.writerow([f"{row[col]:.15g}" for col in columns])
             f.flush()
+            ff.flush()
+            finished += len(chunk)
+            if progress:
+                progress(finished / max(len(grid), 1))
     if progress:
         progress(1.0)
-    result.failed = failed_rows
-    with failed_path.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(names + ["reason"])
-        for row in failed_rows:
-            w.writerow([f"{row[n]:.15g}" for n in names] + [row["reason"]])
     return result
 
 
@@ -150,3 +262,44 @@ def check_claims(scenario, result: SweepResult) -> list[dict]:
                         "share_of_cycle_mean": float(np.mean(shares)) if shares else float("nan"),
                         "share_of_second_half_mean": float(np.mean(second)) if second else float("nan")})
     return out
+
+
+def plot_steady(result: SweepResult, out: Path, units: dict | None = None) -> list[Path]:
+    """delta over the grid: a map for two swept parameters, curves for one (the first two axes;
+    the others at their first value)."""
+    from .output import pyplot
+
+    if not result.rows:
+        return []
+    plt = pyplot()
+    units = units or {}
+    axes = result.axes
+    names = [a.name for a in axes]
+    fixed = {a.name: a.values[0] for a in axes[2:]}
+    rows = {_key(r[n] for n in names): r for r in result.rows}
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    if len(axes) == 1:
+        xs = axes[0].values
+        ys = [rows[_key([x])]["delta"] if _key([x]) in rows else np.nan for x in xs]
+        ax.plot(xs, ys, "o-", ms=3)
+        ax.set_xlabel(f"{axes[0].name}  [{units.get(axes[0].name, '?')}]")
+        ax.set_ylabel("delta = (omega1 max - min) / mean  [1]")
+    else:
+        a0, a1 = axes[0], axes[1]
+        grid = np.full((len(a1.values), len(a0.values)), np.nan)
+        for i, v1 in enumerate(a1.values):
+            for j, v0 in enumerate(a0.values):
+                key = _key(tuple({**fixed, a0.name: v0, a1.name: v1}[n] for n in names))
+                if key in rows:
+                    grid[i, j] = rows[key]["delta"]
+        mesh = ax.pcolormesh(a0.values, a1.values, grid, shading="nearest", cmap="viridis")
+        fig.colorbar(mesh, ax=ax, label="delta = (omega1 max - min) / mean  [1]")
+        ax.set_xlabel(f"{a0.name}  [{units.get(a0.name, '?')}]")
+        ax.set_ylabel(f"{a1.name}  [{units.get(a1.name, '?')}]")
+    ax.set_title("steady-cycle speed fluctuation" + (f" ({', '.join(f'{k} = {v:g}' for k, v in fixed.items())})"
+                                                      if fixed else ""))
+    path = out / "delta.png"
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return [path]

@@ -1,0 +1,97 @@
+"""Many designs in one call: the steady cycle of each, for sweeps and flywheel sizing.
+
+``steady_cycles(scenario, designs)`` takes a list of parameter dicts. Designs that differ only in
+the motor line or the flywheel (``CHEAP``) share one tabulated reduced model and are integrated
+together in one call of the compiled kernel (``kernel.steady_batch``); any other parameter
+(geometry, masses, load amplitudes, g) gives its own table. Each design's steady cycle is found by
+secant shooting on omega1 after one crank turn (a turn is integrated in time by the fast
+Dormand-Prince kernel, the motor kink and the slider forces' switches located), then that turn
+gives omega1 min, max, the time mean 2 pi / period and the coefficient of speed fluctuation
+delta = (max - min) / mean, defined as in ``Result.cycle_stats``.
+
+A design that is out of range, cannot be assembled or stalls is returned in ``failed`` with the
+reason; the others are computed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import CrankfmuError
+from .integrators.fast import TABLE_TOLERANCE, kn, parameters
+from .scenario import load_scenario
+
+#: parameters the kernel takes per design: designs differing only in these share a table
+CHEAP = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel")
+STEADY_COLUMNS = ("omega1_mean", "omega1_min", "omega1_max", "delta", "period", "turns")
+STATUS = {1: "the steady cycle was not found within the shooting turns (the speed keeps changing)",
+          2: "the crank stalls or turns back: the motor cannot drive this design through a turn",
+          3: "step size underflow"}
+
+
+@dataclass
+class BatchResult:
+    rows: list[dict] = field(default_factory=list)        # design parameters + STEADY_COLUMNS
+    failed: list[dict] = field(default_factory=list)      # design parameters + reason
+
+
+def _omega_guess(table, J_flywheel, motor_values, phi_grid):
+    """Mean speed at which the motor line balances the mean load torque (a start for shooting)."""
+    A, B, A_low, B_low, ws = motor_values
+    w = max(ws, 1.0) * 2.0
+    for _ in range(3):
+        Q = float(np.mean(table.coefficients_at(phi_grid, np.full_like(phi_grid, w), J_flywheel)[2]))
+        high = (A + Q) / B if B > 0 else math.inf
+        w_new = high if high > ws else ((A_low + Q) / B_low if B_low > 0 else ws)
+        if not (math.isfinite(w_new) and w_new > 0):
+            return max(ws, 1.0)
+        w = w_new
+    return w
+
+
+def steady_cycles(scenario, designs: list[dict], rtol: float = 1e-9, shoot_tol: float = 1e-9,
+                  max_turns: int = 40) -> BatchResult:
+    """Steady-cycle statistics of every design (a dict of parameter overrides each)."""
+    scenario = load_scenario(scenario)
+    result = BatchResult()
+    groups: dict[tuple, list[int]] = {}
+    checked: list[dict | None] = []
+    for i, design in enumerate(designs):
+        try:
+            full = scenario.with_params(**design).values
+        except CrankfmuError as exc:
+            result.failed.append({**design, "reason": str(exc)})
+            checked.append(None)
+            continue
+        checked.append(full)
+        key = tuple(sorted((k, v) for k, v in design.items() if k not in CHEAP))
+        groups.setdefault(key, []).append(i)
+    phi_grid = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)
+    for key, members in groups.items():
+        try:
+            model = scenario.with_params(**dict(key)).build()
+            table = model.reduced.table(TABLE_TOLERANCE)
+        except CrankfmuError as exc:
+            result.failed += [{**designs[i], "reason": str(exc)} for i in members]
+            continue
+        params = np.zeros((len(members), kn.PARAM_SIZE))
+        guesses = np.zeros(len(members))
+        for row, i in enumerate(members):
+            v = checked[i]
+            motor = type(model.motor)(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
+            params[row] = parameters(motor, v["J_flywheel"], 0.0, rtol, rtol)
+            guesses[row] = _omega_guess(table, v["J_flywheel"], (v["A"], v["B"], v["A_low"], v["B_low"],
+                                                                v["omega_switch"]), phi_grid)
+        out = np.zeros((len(members), kn.STEADY_SIZE))
+        kn.steady_batch(params, float(model.y0[0]), guesses, shoot_tol, max_turns, table.coefficients,
+                        table.switch_angles, table.forces, out)
+        for row, i in enumerate(members):
+            status = int(out[row, 6])
+            if status != 0:
+                result.failed.append({**designs[i], "reason": STATUS.get(status, f"status {status}")})
+                continue
+            result.rows.append({**designs[i], **dict(zip(STEADY_COLUMNS, (float(x) for x in out[row, :6])))})
+    return result
