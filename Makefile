@@ -26,6 +26,7 @@ demo: fmu
 	$(BIN)/crankfmu simulate seed000 --out $(OUT)
 	$(BIN)/crankfmu kinematics seed002 --at 30 --out $(OUT)/seed002
 	$(BIN)/crankfmu sweep seed004 --param e=0.30:0.45:4 --param l1=0.15:0.30:4 --out $(OUT)/seed004
+	$(BIN)/crankfmu sweep seed000 --param J_flywheel=0:20:100 --param B=10:30:100 --out $(OUT)/seed000-sweep --restart
 	$(BIN)/crankfmu equilibrium seed001 --omega 15,10,7,5 --out $(OUT)/seed001
 	$(BIN)/crankfmu flywheel seed003 --delta 0.05 --out $(OUT)/seed003
 	$(BIN)/crankfmu validate --out build/validation
@@ -38,7 +39,7 @@ validate: fmu
 	$(BIN)/crankfmu validate --out build/validation
 
 bench: fmu
-	$(BIN)/python benchmarks/fmu_step.py
+	$(BIN)/python benchmarks/speed.py --out build/bench
 
 clean:
 	rm -rf build .pytest_cache

@@ -64,6 +64,32 @@ def step_loop(fmu_path: Path, step: float, stop: float):
     return elapsed / n, omega
 
 
+def measure(fourbar: Path, step: float, stop: float, repeats: int) -> dict:
+    """Per-step and whole-run wall times of FourBar.fmu and the do-nothing FMU (lists of seconds,
+    interleaved runs), and FourBar's max |omega1 error| against the in-process reference."""
+    import fmpy
+
+    import crankfmu
+
+    with tempfile.TemporaryDirectory() as tmp:
+        noop = build_noop(Path(tmp))
+        per_step = {"FourBar.fmu": [], "do-nothing FMU": []}
+        whole = {"FourBar.fmu": [], "do-nothing FMU": []}
+        omega = None
+        for _ in range(repeats):       # interleaved, so both see the same machine load
+            for label, path in (("FourBar.fmu", fourbar), ("do-nothing FMU", noop)):
+                seconds, w = step_loop(path, step, stop)
+                per_step[label].append(seconds)
+                if label == "FourBar.fmu":
+                    omega = w
+                started = time.perf_counter()
+                fmpy.simulate_fmu(str(path), stop_time=stop, output_interval=step, output=["omega1"])
+                whole[label].append(time.perf_counter() - started)
+    times = step * np.arange(1, omega.size + 1)
+    reference = crankfmu.simulate("seed000", t_end=stop, output_times=times, rtol=1e-13).omega1
+    return {"per_step": per_step, "whole": whole, "error": float(np.max(np.abs(omega - reference)))}
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--fmu", default=str(ROOT / "build" / "fmus" / "FourBar.fmu"))
@@ -77,29 +103,8 @@ def main(argv=None) -> int:
     if not fourbar.exists():
         parser.error(f"{fourbar} not found: run `make fmu` first")
 
-    import fmpy
-
-    import crankfmu
-
-    with tempfile.TemporaryDirectory() as tmp:
-        noop = build_noop(Path(tmp))
-        per_step = {"FourBar.fmu": [], "do-nothing FMU": []}
-        whole = {"FourBar.fmu": [], "do-nothing FMU": []}
-        omega = None
-        for _ in range(args.repeats):       # interleaved, so both see the same machine load
-            for label, path in (("FourBar.fmu", fourbar), ("do-nothing FMU", noop)):
-                seconds, w = step_loop(path, args.step, args.stop)
-                per_step[label].append(seconds)
-                if label == "FourBar.fmu":
-                    omega = w
-                started = time.perf_counter()
-                fmpy.simulate_fmu(str(path), stop_time=args.stop, output_interval=args.step, output=["omega1"])
-                whole[label].append(time.perf_counter() - started)
-
-    times = args.step * np.arange(1, omega.size + 1)
-    reference = crankfmu.simulate("seed000", t_end=args.stop, output_times=times).omega1
-    error = float(np.max(np.abs(omega - reference)))
-
+    m = measure(fourbar, args.step, args.stop, args.repeats)
+    per_step, whole, error = m["per_step"], m["whole"], m["error"]
     fb, nop = statistics.median(per_step["FourBar.fmu"]), statistics.median(per_step["do-nothing FMU"])
     print(f"fmi2DoStep at {args.step:g} s steps over {args.stop:g} s, median of {args.repeats} runs:")
     print(f"  {'FMU':16} {'us/step':>10} {'simulate_fmu s':>15}")

@@ -17,3 +17,21 @@ def test_fmu_step_benchmark_reports_both_fmus_their_ratio_and_the_error(fmu_path
     assert re.search(r"ratio FourBar / do-nothing: \d", out)
     error = float(re.search(r"max \|omega1 error\| against the reference: (\S+)", out).group(1))
     assert error < 1e-6
+
+
+def test_speed_benchmark_prints_the_table_and_every_target_with_its_measure(fmu_path, tmp_path, capsys):
+    import speed
+
+    assert speed.main(["--quick", "--designs", "400", "--fmu", fmu_path, "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    for family in ("crankfmu fast", "solve_ivp RK45", "solve_ivp DOP853", "solve_ivp LSODA", "paper eq. 17",
+                   "crankfmu fast, plain Python", "crankfmu reference", "FourBar.fmu via fmpy"):
+        assert f"| {family}" in out
+    assert out.count("| yes |") + out.count("| NO |") == 4           # the four targets, each judged
+    import json
+
+    data = json.loads((tmp_path / "speed.json").read_text())
+    fast = [r for r in data["rows"] if r["family"].startswith("crankfmu fast") and r["setting"] == "rtol 1e-11"]
+    # the compiled and the plain-Python kernel: one answer, within the 1e-8 rad/s target
+    assert len(fast) == 2 and abs(fast[0]["omega1_error"] - fast[1]["omega1_error"]) < 1e-12
+    assert fast[0]["omega1_error"] <= 1e-8

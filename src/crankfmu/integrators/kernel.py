@@ -327,6 +327,9 @@ def _transition(S, slot, y, C, switch, forces, P, work, f):
     m = switch.shape[0]
     if slot == 0 or slot == 1:
         y[1] = ws
+        if ws == 0.0 and forces.shape[2] > 0:
+            # the kink is at rest: the slider forces change direction at the same instant
+            S[DIRECTION] = _direction_at_rest(y[0], S[MOTOR], S[INTERVAL], C, forces, P, work, f)
         if S[MOTOR] == SLIDE:
             S[MOTOR] = LOW if slot == 0 else HIGH
         else:

@@ -1,0 +1,257 @@
+"""Speed at a given error, one command, one run: ``python benchmarks/speed.py [--quick] [--out DIR]``.
+
+Every figure is measured in this run on this machine, so the ratios mean something (the machine is
+shared: compare ratios, not seconds). The problem is seed 000 from 0 to 2 s; the error is
+max |omega1 error| (rad/s) on the 1 ms output grid against a truth run (the contour engine,
+DOP853, rtol = atol = 1e-13, the motor kink located). Times are medians over repeated runs of the
+integration alone, the model built beforehand (its build and tabulation are reported apart).
+
+Rows:
+  crankfmu fast          the compiled kernel on the tabulated model (method "fast"), rtol sweep
+  crankfmu fast, Python  the same kernel as plain Python (CRANKFMU_JIT=0, in a subprocess)
+  crankfmu reference     DOP853 on the contour engine, rtol 1e-12
+  solve_ivp RK45 / DOP853 / LSODA   scipy on the same tabulated model with a plain-Python
+                         right-hand side (a few us a call) and the kink located as an event,
+                         rtol = atol swept: the peer at matched tolerance
+  paper eq. 17           seed 000's crank-angle scheme at 1, 0.1, 0.01 deg
+  FourBar.fmu            fmi2DoStep at 1 ms beside a do-nothing FMU (benchmarks/fmu_step.py)
+
+Then the issue-6 targets, each with its measured figure: fast vs DOP853 at 1e-8 rad/s, the FMU's
+error and per-step ratio, a 10,000-design steady-cycle sweep on Dask, the seven-link table's build
+time. Writes speed.md and speed.json in --out (default build/bench).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+FAST_RTOLS = (1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
+PEER_RTOLS = (1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)
+PEERS = ("RK45", "DOP853", "LSODA")
+SCHEME_DEG = (1.0, 0.1, 0.01)
+TARGET_ERROR = 1e-8
+
+
+def timed(run, repeats: int):
+    """(result, median seconds) of ``repeats`` calls (one call when it takes over 2 s)."""
+    times, out = [], None
+    for _ in range(repeats):
+        started = time.perf_counter()
+        out = run()
+        times.append(time.perf_counter() - started)
+        if times[0] > 2.0:
+            break
+    return out, statistics.median(times)
+
+
+def python_rhs_equation(model, table):
+    """The movement equation on the tabulated model with a plain-Python right-hand side."""
+    from crankfmu.dynamics.equation import MovementEquation
+
+    coef = table.coefficients.tolist()               # functions x intervals x 4, Python floats
+    n = table.n_intervals
+    h = 2.0 * math.pi / n
+    two_pi = 2.0 * math.pi
+    J_flywheel = model.reduced.J_flywheel
+    if table.forces.shape[2]:
+        raise SystemExit("the peer right-hand side here covers seed 000's loads only")
+
+    class PythonTabulated(MovementEquation):
+        def coefficients(self, phi1, omega1):
+            w = phi1 % two_pi
+            i = min(int(w / h), n - 1)
+            u = w - i * h
+            a, b, c, v = coef[0][i], coef[1][i], coef[2][i], coef[3][i]
+            J = a[0] + u * (a[1] + u * (a[2] + u * a[3])) + J_flywheel
+            half_dJ = b[0] + u * (b[1] + u * (b[2] + u * b[3]))
+            Q = c[0] + u * (c[1] + u * (c[2] + u * c[3])) + (v[0] + u * (v[1] + u * (v[2] + u * v[3]))) * omega1
+            return J, half_dJ, Q
+
+    return PythonTabulated(model.reduced, model.motor)
+
+
+def pure_python_run(rtol: float, repeats: int) -> dict:
+    """The kernel as plain Python, in a subprocess with CRANKFMU_JIT=0."""
+    code = f"""
+import json, statistics, time
+from crankfmu.scenario import load_scenario
+from crankfmu.integrators.fast import FastIntegrator, kn
+import numpy as np
+m = load_scenario("seed000").build()
+times = np.linspace(0.0, 2.0, 2001)
+I = FastIntegrator({rtol!r})
+ts = []
+for _ in range({repeats}):
+    t = time.perf_counter(); tr = I.run(m.equation, 0.0, m.y0, 2.0, output_times=times); ts.append(time.perf_counter() - t)
+print(json.dumps({{"compiled": kn.COMPILED, "time": statistics.median(ts), "omega": tr.outputs["state"][1].tolist(),
+                   "n_rhs": tr.n_rhs}}))
+"""
+    env = {**os.environ, "CRANKFMU_JIT": "0"}
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="fewer settings and repeats (a smoke run)")
+    parser.add_argument("--out", default=str(ROOT / "build" / "bench"))
+    parser.add_argument("--fmu", default=str(ROOT / "build" / "fmus" / "FourBar.fmu"))
+    parser.add_argument("--designs", type=int, default=10000, help="designs of the steady-cycle sweep")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    repeats = 2 if args.quick else 7
+
+    import crankfmu
+    from crankfmu.integrators import SolveIvpIntegrator, make_integrator
+    from crankfmu.integrators.fast import FastIntegrator, kn
+    from crankfmu.progress import ProgressBar
+    from crankfmu.scenario import load_scenario
+
+    scenario = load_scenario("seed000")
+    grid = np.linspace(0.0, 2.0, 2001)
+    truth = crankfmu.simulate(scenario, method="reference", rtol=1e-13, output_times=grid).omega1
+    model = scenario.build()
+    started = time.perf_counter()
+    table = model.reduced.table()
+    table_time = time.perf_counter() - started
+    rows = []
+
+    def add(family, setting, omega, seconds, n_rhs=None, note=""):
+        error = float(np.max(np.abs(np.asarray(omega) - truth)))
+        rows.append({"family": family, "setting": setting, "omega1_error": error, "time_s": seconds,
+                     "n_rhs": n_rhs, "note": note})
+
+    jobs = []
+    fast_rtols = (1e-8, 1e-11) if args.quick else FAST_RTOLS
+    for rtol in fast_rtols:
+        jobs.append(("crankfmu fast (numba)" if kn.COMPILED else "crankfmu fast (no numba)", rtol))
+    peer_rtols = (1e-8, 1e-11) if args.quick else PEER_RTOLS
+    for method in PEERS:
+        for rtol in peer_rtols:
+            jobs.append((f"solve_ivp {method}", rtol))
+    bar = ProgressBar(len(jobs) + 6, label="speed benchmark")
+    peer_eq = python_rhs_equation(model, table)
+    for i, (family, rtol) in enumerate(jobs):
+        bar(i)
+        if family.startswith("crankfmu fast"):
+            integrator = FastIntegrator(rtol)
+            integrator.run(model.equation, 0.0, model.y0, 2.0, output_times=grid)        # compile/warm up
+            tr, seconds = timed(lambda: integrator.run(model.equation, 0.0, model.y0, 2.0, output_times=grid),
+                                repeats)
+            add(family, f"rtol {rtol:g}", tr.outputs["state"][1], seconds, tr.n_rhs)
+        else:
+            integrator = SolveIvpIntegrator(family.split()[1], rtol)
+
+            def peer(integrator=integrator):
+                peer_eq.n_rhs = 0
+                tr = integrator.run(peer_eq, 0.0, model.y0, 2.0)
+                return tr, tr.dense(grid)[1]
+            (tr, omega), seconds = timed(peer, max(2, repeats // 2))
+            add(family, f"rtol {rtol:g}", omega, seconds, tr.n_rhs)
+    bar(len(jobs))
+    pure = pure_python_run(1e-11, 1 if args.quick else 3)
+    add("crankfmu fast, plain Python" + ("" if not pure["compiled"] else " (numba still on?)"), "rtol 1e-11",
+        pure["omega"], pure["time"], pure["n_rhs"])
+    bar(len(jobs) + 1)
+    ref, seconds = timed(lambda: make_integrator("reference").run(model.equation, 0.0, model.y0, 2.0), 1)
+    add("crankfmu reference (engine)", "rtol 1e-12", ref.dense(grid)[1], seconds, ref.n_rhs)
+    for deg in (SCHEME_DEG[:2] if args.quick else SCHEME_DEG):
+        result, seconds = timed(lambda d=deg: crankfmu.simulate(scenario, method="badoiu-eq17",
+                                                                angle_step=math.radians(d), output_times=grid), 1)
+        add("paper eq. 17 (crank angle)", f"{deg:g} deg", result.omega1, seconds)
+    bar(len(jobs) + 2)
+
+    # the FMU beside a do-nothing FMU
+    fmu = {}
+    if Path(args.fmu).exists():
+        import fmu_step
+
+        m = fmu_step.measure(Path(args.fmu), 1e-3, 2.0, 2 if args.quick else 5)
+        fb = statistics.median(m["per_step"]["FourBar.fmu"])
+        nop = statistics.median(m["per_step"]["do-nothing FMU"])
+        fmu = {"us_per_step": 1e6 * fb, "noop_us_per_step": 1e6 * nop, "ratio": fb / nop, "omega1_error": m["error"]}
+        rows.append({"family": "FourBar.fmu via fmpy, 1 ms steps", "setting": "rtol 1e-11 (default)",
+                     "omega1_error": m["error"], "time_s": fb * 2000, "n_rhs": None,
+                     "note": f"{1e6 * fb:.1f} us/step; do-nothing FMU {1e6 * nop:.1f} us/step"})
+    bar(len(jobs) + 3)
+
+    # the steady-cycle sweep on Dask, and the seven-link model
+    from crankfmu.sweep import SweepAxis, run_sweep
+
+    side = int(round(math.sqrt(args.designs)))
+    axes = [SweepAxis("J_flywheel", list(np.linspace(0.0, 20.0, side))), SweepAxis("B", list(np.linspace(10.0, 30.0, side)))]
+    with tempfile.TemporaryDirectory() as tmp:
+        started = time.perf_counter()
+        sweep = run_sweep(scenario, axes, Path(tmp), resume=False, study="steady", scheduler="local")
+        sweep_time = time.perf_counter() - started
+    bar(len(jobs) + 4)
+    started = time.perf_counter()
+    seven = load_scenario("seed001").build()
+    seven_table = seven.reduced.table()
+    seven_time = time.perf_counter() - started
+    bar(len(jobs) + 6)
+    bar.close()
+
+    # ------------------------------------------------------------------ report
+    def best(prefix):
+        ok = [r for r in rows if r["family"].startswith(prefix) and r["omega1_error"] <= TARGET_ERROR]
+        return min(ok, key=lambda r: r["time_s"]) if ok else None
+
+    fast_best, dop_best = best("crankfmu fast (numba)"), best("solve_ivp DOP853")
+    ratio = fast_best["time_s"] / dop_best["time_s"] if fast_best and dop_best else math.nan
+    lines = ["# Speed at a given error (seed 000, 0-2 s, max |omega1 error| on the 1 ms grid)", "",
+             f"Measured in one run; times are medians of the integration alone. Tabulating seed 000: "
+             f"{1e3 * table_time:.1f} ms, {table.n_intervals} intervals, checked error {table.error_bound:.1e}.", "",
+             "| method | setting | max omega1 error (rad/s) | time (ms) | RHS calls | note |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['family']} | {r['setting']} | {r['omega1_error']:.2e} | {1e3 * r['time_s']:.2f} | "
+                     f"{r['n_rhs'] if r['n_rhs'] is not None else ''} | {r['note']} |")
+    targets = [
+        ("in process, error <= 1e-8 rad/s in <= 1/15 of DOP853's time",
+         (f"fast {fast_best['setting']}: {fast_best['omega1_error']:.1e} rad/s in {1e3 * fast_best['time_s']:.2f} ms; "
+          f"DOP853 {dop_best['setting']}: {dop_best['omega1_error']:.1e} in {1e3 * dop_best['time_s']:.1f} ms; "
+          f"ratio 1/{1 / ratio:.0f}") if fast_best and dop_best else "a method did not reach 1e-8",
+         bool(ratio <= 1 / 15)),
+    ]
+    if fmu:
+        targets.append(("FourBar.fmu at 1 ms: error <= 1e-8 rad/s and per step <= 2x a do-nothing FMU",
+                        f"{fmu['omega1_error']:.1e} rad/s; {fmu['us_per_step']:.1f} vs {fmu['noop_us_per_step']:.1f} "
+                        f"us/step, ratio {fmu['ratio']:.2f}",
+                        fmu["omega1_error"] <= 1e-8 and fmu["ratio"] <= 2.0))
+    targets.append((f"{len(sweep.rows) + len(sweep.failed)} flywheel/motor designs (steady delta each) in < 60 s",
+                    f"{sweep_time:.1f} s on Dask (local, {os.cpu_count()} workers), {len(sweep.failed)} failed",
+                    sweep_time < 60 and not sweep.failed))
+    targets.append(("seven-link reduced model built in < 1 s",
+                    f"{seven_time:.3f} s (build {seven_time - seven_table.build_time:.3f} s + tabulation "
+                    f"{seven_table.build_time:.3f} s, {seven_table.n_intervals} intervals, error "
+                    f"{seven_table.error_bound:.1e})", seven_time < 1.0))
+    lines += ["", "## Targets (issue 6)", "", "| target | measured | met |", "|---|---|---|"]
+    lines += [f"| {t} | {m} | {'yes' if ok else 'NO'} |" for t, m, ok in targets]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    (out / "speed.md").write_text(text)
+    (out / "speed.json").write_text(json.dumps({"rows": rows, "fmu": fmu, "sweep_s": sweep_time,
+                                                "seven_link_s": seven_time, "fast_over_dop853": ratio,
+                                                "targets": [{"target": t, "measured": m, "met": ok}
+                                                            for t, m, ok in targets]}, indent=2) + "\n")
+    print(f"wrote {out}/speed.md and speed.json")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,186 @@
+"""The fast path (issue 6): the tabulated model against the engine, the compiled kernel against the
+reference and against itself as plain Python, its located switches, batch steady cycles, the sweep."""
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import crankfmu
+from crankfmu.batch import steady_cycles
+from crankfmu.dynamics.tabulated import tabulate
+from crankfmu.errors import ParameterError
+from crankfmu.integrators.fast import FastIntegrator, kn
+
+SCENARIOS = ["seed000", "seed001", "seed002", "seed003", "seed004"]
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_table_matches_the_engine_within_its_checked_bound_at_random_angles(name):
+    model = crankfmu.load_scenario(name).build()
+    table = model.reduced.table()
+    assert table.error_bound <= table.tolerance
+    rng = np.random.default_rng(7)
+    phi = rng.uniform(-20.0, 20.0, 3000)          # unwrapped angles, both signs
+    omega = rng.choice([-1.0, 1.0], 3000) * rng.uniform(0.5, 30.0, 3000)
+    J, half_dJ, Q = table.coefficients_at(phi, omega, model.reduced.J_flywheel)
+    J_e, half_e, Q_e, kin = model.reduced.coefficients(phi)
+    Q_e = Q_e + model.reduced.velocity_load(kin, omega)
+    # the check angles are where a cubic spline errs most; random angles stay within a few times
+    # the bound relative to each function's scale (Q's scale includes the slider forces' jumps)
+    for got, exact in ((J, J_e), (half_dJ, half_e), (Q, Q_e)):
+        scale = np.max(np.abs(exact))
+        assert np.max(np.abs(got - exact)) <= 10 * table.tolerance * scale + 1e-12
+
+
+def test_table_refuses_an_impossible_tolerance():
+    model = crankfmu.load_scenario("seed000").build()
+    with pytest.raises(crankfmu.CrankfmuError, match="cannot be tabulated"):
+        tabulate(model.reduced, tolerance=1e-18, n_max=1024)
+
+
+def test_fast_seed000_meets_1e8_rad_s_at_its_default_rtol(reference):
+    fast = crankfmu.simulate("seed000", method="fast")
+    assert fast.settings["rtol"] == 1e-11
+    assert np.max(np.abs(fast.omega1 - reference.omega1)) <= 1e-8
+    # the kink is located: the event's speed is omega_switch
+    t_kink = [t for t, what in fast.trajectory.events if "kink" in what]
+    assert len(t_kink) == 1
+    assert fast.state([t_kink[0]])[1, 0] == pytest.approx(5.0, abs=1e-12)
+    # outputs from the tables agree with the engine's at the same states
+    eq = fast.model.equation.outputs(fast.phi1, fast.omega1)
+    for name in ("epsilon1", "M_motor", "M_load", "J_red", "E_kin"):
+        assert np.allclose(getattr(fast, name), eq[name], rtol=1e-9, atol=1e-8 * np.max(np.abs(eq[name])))
+    assert abs(fast.summary()["energy_residual"]) < 1e-9
+
+
+@pytest.mark.parametrize("name", ["seed001", "seed003"])
+def test_slider_force_switches_are_located_and_the_answer_is_the_references(name):
+    fast = crankfmu.simulate(name, method="fast")
+    ref = crankfmu.simulate(name, method="reference")
+    scale = np.max(np.abs(ref.omega1))
+    assert np.max(np.abs(fast.omega1 - ref.omega1)) <= 1e-8 * scale
+    table = fast.trajectory.table
+    switches = [t for t, what in fast.trajectory.events if "switch angle" in what]
+    assert len(switches) >= table.switch_angles.size
+    phi = fast.state(switches)[0] % (2 * math.pi)
+    distance = np.min(np.abs((phi[:, None] - table.switch_angles[None, :] + math.pi) % (2 * math.pi) - math.pi),
+                      axis=1)
+    assert np.max(distance) < 1e-11              # each step ends on a switch angle
+    assert abs(fast.summary()["energy_residual"]) < 1e-9
+
+
+def test_a_motor_too_weak_to_start_leaves_the_crank_stuck_at_rest():
+    scenario = crankfmu.load_scenario("seed003").with_params(A=100.0, A_low=100.0, omega1_start=0.0)
+    result = crankfmu.simulate(scenario, method="fast", t_end=0.5)
+    assert np.all(result.omega1 == 0.0) and np.all(result.phi1 == result.phi1[0])
+    assert result.trajectory.modes == [(0.0, "stuck")]
+
+
+def test_start_from_rest_and_reversal_with_slider_forces_agree_with_the_reference():
+    # the motor line pushes the crank backwards past omega1 = 0: the slider forces change side
+    scenario = crankfmu.load_scenario("seed003").with_params(A=-20000.0, A_low=-20000.0, omega1_start=2.0)
+    fast = crankfmu.simulate(scenario, method="fast", t_end=1.0)
+    ref = crankfmu.simulate(scenario, method="reference", t_end=1.0)
+    assert fast.omega1[-1] < 0 < fast.omega1[0]
+    # seed 003's motor kink is at omega1 = 0: the crossing is one event that turns the forces too
+    t_zero = [t for t, what in fast.trajectory.events if "omega1 = 0" in what or "kink" in what]
+    assert len(t_zero) == 1
+    assert [m for _, m in fast.trajectory.modes][-1] != "stuck"
+    assert np.max(np.abs(fast.omega1 - ref.omega1)) < 1e-6
+
+
+def test_compiled_and_plain_python_kernels_give_the_same_numbers():
+    code = """
+import json, crankfmu
+from crankfmu.integrators.fast import kn
+r = crankfmu.simulate("seed003", method="fast", t_end=0.4)
+print(json.dumps({"compiled": kn.COMPILED, "omega": r.omega1.tolist(), "phi": r.phi1.tolist()}))
+"""
+    runs = {}
+    for jit in ("1", "0"):
+        env = {**os.environ, "CRANKFMU_JIT": jit}
+        done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+        runs[jit] = json.loads(done.stdout.strip().splitlines()[-1])
+    assert runs["0"]["compiled"] is False
+    if not runs["1"]["compiled"]:
+        pytest.skip("numba is not installed: only the plain-Python kernel exists here")
+    # identical arithmetic in the same order; LLVM may contract a multiply-add, hence not bitwise
+    assert np.max(np.abs(np.subtract(runs["1"]["omega"], runs["0"]["omega"]))) <= 1e-12
+    assert np.max(np.abs(np.subtract(runs["1"]["phi"], runs["0"]["phi"]))) <= 1e-12
+
+
+def test_fast_rejects_a_bad_rtol():
+    with pytest.raises(ParameterError, match="rtol must be > 0"):
+        FastIntegrator(-1.0)
+
+
+def test_steady_cycles_agree_with_a_long_time_domain_run():
+    batch = steady_cycles("seed000", [{}, {"J_flywheel": 5.0}])
+    assert not batch.failed
+    for design, row in zip([{}, {"J_flywheel": 5.0}], batch.rows):
+        scenario = crankfmu.load_scenario("seed000").with_params(**design)
+        run = crankfmu.simulate(scenario, method="fast", t_end=12.0)
+        k = int(12.0 / row["period"]) - 1
+        stats = run.cycle_stats(k)
+        assert row["omega1_mean"] == pytest.approx(stats["omega1_mean"], rel=1e-8)
+        # the batch integrates at rtol 1e-9 (about 5e-7 rad/s on a start-up transient, less on a
+        # settled cycle) and refines extremes by parabolas between dense samples
+        assert row["omega1_min"] == pytest.approx(stats["omega1_min"], abs=5e-7)
+        assert row["omega1_max"] == pytest.approx(stats["omega1_max"], abs=5e-7)
+        assert row["delta"] == pytest.approx(stats["delta"], rel=1e-5)
+    assert batch.rows[1]["delta"] < batch.rows[0]["delta"]      # the flywheel evens the speed
+
+
+def test_steady_cycles_list_failed_designs_with_their_reason():
+    designs = [{"J_flywheel": -1.0}, {"A": 10.0, "A_low": 10.0, "B_low": 0.2}, {"l1": 0.6}, {"B": 25.0}]
+    batch = steady_cycles("seed000", designs)
+    assert len(batch.rows) == 1 and batch.rows[0]["B"] == 25.0
+    assert len(batch.failed) == 3
+    text = " | ".join(f["reason"] for f in batch.failed)
+    assert "J_flywheel" in text and "stalls" in text and "l1" in text
+
+
+def test_sweep_on_a_local_dask_cluster_writes_rows_lists_failures_and_resumes(tmp_path):
+    out = tmp_path / "sweep"
+    args = [sys.executable, "-m", "crankfmu", "sweep", "seed000", "--param", "J_flywheel=-1:3:3",
+            "--param", "B=15:25:2", "--out", str(out), "--chunk", "2"]
+    first = subprocess.run(args, capture_output=True, text=True)
+    assert first.returncode == 0, first.stderr
+    assert "6 designs: 4 computed, 2 failed" in first.stdout
+    assert "FAILED J_flywheel = -1" in first.stdout
+    lines = (out / "steady.csv").read_text().splitlines()
+    assert lines[0].startswith("J_flywheel,B,omega1_mean") and len(lines) == 5
+    assert len((out / "failed.csv").read_text().splitlines()) == 3
+    assert (out / "delta.png").stat().st_size > 0
+    again = subprocess.run(args + ["--scheduler", "serial"], capture_output=True, text=True)
+    assert again.returncode == 0, again.stderr
+    assert "(4 already in steady.csv)" in again.stdout
+    assert len((out / "steady.csv").read_text().splitlines()) == 5
+
+
+def test_sweep_names_an_unreachable_scheduler(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "crankfmu", "sweep", "seed000", "--param", "B=15:25:2",
+                           "--out", str(tmp_path), "--scheduler", "tcp://127.0.0.1:9"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0
+    assert "--scheduler tcp://127.0.0.1:9" in done.stderr
+
+
+def test_kernel_state_is_one_array_and_a_restored_step_repeats_bit_for_bit():
+    from crankfmu.integrators.fast import FastStepper
+
+    model = crankfmu.load_scenario("seed000").build()
+    stepper = FastStepper(model.reduced.table(), model.motor, model.reduced.J_flywheel, 1e-10)
+    stepper.start(0.0, model.y0)
+    stepper.advance(0.5, 0.5)
+    saved = stepper.state.copy()
+    first = stepper.advance(0.6, 0.6).copy()
+    stepper.state[:] = saved
+    again = stepper.advance(0.6, 0.6).copy()
+    assert np.array_equal(first, again)
+    assert stepper.state.size == kn.STATE_SIZE
