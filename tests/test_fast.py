@@ -40,7 +40,17 @@ def test_table_matches_the_engine_within_its_checked_bound_at_random_angles(name
 def test_table_refuses_an_impossible_tolerance():
     model = crankfmu.load_scenario("seed000").build()
     with pytest.raises(crankfmu.CrankfmuError, match="cannot be tabulated"):
-        tabulate(model.reduced, tolerance=1e-18, n_max=1024)
+        tabulate(model.reduced, tolerance=1e-18, n_max=1024, loosest=1e-18)
+
+
+def test_a_near_dead_point_geometry_is_tabulated_to_a_looser_reported_bound_and_still_right():
+    scenario = crankfmu.load_scenario("seed004").with_params(e=0.21)
+    table = scenario.build().reduced.table()
+    assert table.tolerance < table.error_bound <= 1e-8
+    fast = crankfmu.simulate(scenario, method="fast", t_end=0.5)
+    ref = crankfmu.simulate(scenario, method="reference", t_end=0.5)
+    assert fast.settings["table_error"] == table.error_bound
+    assert np.max(np.abs(fast.omega1 - ref.omega1)) <= 1e-6 * np.max(np.abs(ref.omega1))
 
 
 def test_fast_seed000_meets_1e8_rad_s_at_its_default_rtol(reference):

@@ -156,6 +156,11 @@ class FmuCore:
             scenario = self.scenario.with_params(**{k: v for k, v in self.values.items() if k != "rtol"})
             self.model = scenario.build()
             table = self.model.reduced.table(TABLE_TOLERANCE)
+            if table.error_bound > table.tolerance:
+                from pythonfmu.enums import Fmi2Status
+
+                self.slave.log(f"the reduced model is tabulated to {table.error_bound:.2g} relative, not "
+                               f"{table.tolerance:g}: the geometry is close to a dead point", Fmi2Status.warning)
             self.stepper = FastStepper(table, self.model.motor, self.model.reduced.J_flywheel, self.values["rtol"],
                                        self.tau_ext)
             self.row[:] = self.stepper.start(self.time, self.model.y0)

@@ -103,11 +103,13 @@ def _steady_chunk(scenario, names, designs):
 
 # ---------------------------------------------------------------------- running the chunks
 def run_chunks(function, chunks: list, args: tuple, scheduler: str | None = None):
-    """Yield (chunk, result or exception) as each chunk finishes, on Dask (see module doc)."""
+    """Yield (chunk, result or exception) as each chunk finishes, on Dask (see module doc).
+
+    ``function(args[0], args[1], chunk, *args[2:])`` computes one chunk (scenario, names first)."""
     if scheduler == "serial" or not chunks:
         for chunk in chunks:
             try:
-                yield chunk, function(*args[:1], args[1], chunk, *args[2:])
+                yield chunk, function(args[0], args[1], chunk, *args[2:])
             except Exception as exc:        # noqa: BLE001 - a failed chunk is reported, not fatal
                 yield chunk, exc
         return

@@ -93,7 +93,7 @@ def dense_from_store(store: np.ndarray, times) -> np.ndarray:
     safe = np.where(h == 0.0, 1.0, h)
     x = (times - S[:, kn.T_PREV]) / safe
     powers = np.stack([x, x * x, x ** 3, x ** 4], axis=1)               # (n, 4)
-    weights = powers @ kn._P.T                                          # (n, 7)
+    weights = powers @ kn.DENSE_P.T                                          # (n, 7)
     stages = S[:, kn.K:kn.K + 35].reshape(-1, kn.N_STAGES + 1, 5)       # (n, 7, 5)
     y = S[:, kn.Y_PREV:kn.Y_PREV + 5] + h[:, None] * np.einsum("ns,nsj->nj", weights, stages)
     exact = (times == S[:, kn.T]) | (h == 0.0)

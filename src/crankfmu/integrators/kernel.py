@@ -33,6 +33,7 @@ _B = np.ascontiguousarray(RK45.B)
 _C = np.ascontiguousarray(RK45.C)
 _E = np.ascontiguousarray(RK45.E)
 _P = np.ascontiguousarray(RK45.P)
+DENSE_P = _P        # the dense output's polynomial coefficients, for evaluating stored steps
 N_STAGES = 6
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 TWO_PI = 2.0 * math.pi
