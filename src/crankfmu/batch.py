@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .dynamics import MotorLine
 from .errors import CrankfmuError
 from .integrators.fast import TABLE_TOLERANCE, kn, parameters
 from .scenario import load_scenario
@@ -38,9 +39,9 @@ class BatchResult:
     failed: list[dict] = field(default_factory=list)      # design parameters + reason
 
 
-def _omega_guess(table, J_flywheel, motor_values, phi_grid):
+def _omega_guess(table, J_flywheel, motor: MotorLine, phi_grid):
     """Mean speed at which the motor line balances the mean load torque (a start for shooting)."""
-    A, B, A_low, B_low, ws = motor_values
+    A, B, A_low, B_low, ws = motor.A, motor.B, motor.A_low, motor.B_low, motor.omega_switch
     w = max(ws, 1.0) * 2.0
     for _ in range(3):
         Q = float(np.mean(table.coefficients_at(phi_grid, np.full_like(phi_grid, w), J_flywheel)[2]))
@@ -81,10 +82,9 @@ def steady_cycles(scenario, designs: list[dict], rtol: float = 1e-9, shoot_tol: 
         guesses = np.zeros(len(members))
         for row, i in enumerate(members):
             v = checked[i]
-            motor = type(model.motor)(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
+            motor = MotorLine(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
             params[row] = parameters(motor, v["J_flywheel"], 0.0, rtol, rtol)
-            guesses[row] = _omega_guess(table, v["J_flywheel"], (v["A"], v["B"], v["A_low"], v["B_low"],
-                                                                v["omega_switch"]), phi_grid)
+            guesses[row] = _omega_guess(table, v["J_flywheel"], motor, phi_grid)
         out = np.zeros((len(members), kn.STEADY_SIZE))
         kn.steady_batch(params, float(model.y0[0]), guesses, shoot_tol, max_turns, table.coefficients,
                         table.switch_angles, table.forces, out)

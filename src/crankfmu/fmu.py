@@ -29,7 +29,7 @@ import numpy as np
 
 from .dynamics import MotorLine
 from .errors import CrankfmuError, ParameterError
-from .integrators.fast import TABLE_TOLERANCE, FastStepper
+from .integrators.fast import TABLE_TOLERANCE, FastStepper, kn
 from .scenario import Parameter, load_scenario
 from .simulation import COLUMNS
 
@@ -49,8 +49,7 @@ OUTPUTS = {
     "W_ext": "work done by tau_ext since the start",
 }
 #: where each output sits in the kernel's output row (E_kin is computed from J_red and omega1)
-ROW = {"phi1": 0, "omega1": 1, "W_motor": 2, "W_load": 3, "W_ext": 4, "epsilon1": 5, "M_motor": 6,
-       "M_load": 7, "J_red": 8}
+ROW = {name: i for i, name in enumerate(kn.ROW_FIELDS)}
 TAU_EXT = ("N.m", "extra torque on the crank from outside (the coupling port)")
 MOTOR = ("A", "B", "A_low", "B_low", "omega_switch")
 
@@ -109,7 +108,8 @@ class FmuCore:
     def _getter(self, name: str):
         row = self.row
         if name == "E_kin":
-            return lambda: 0.5 * float(row[8]) * float(row[1]) ** 2
+            J, omega = ROW["J_red"], ROW["omega1"]
+            return lambda: 0.5 * float(row[J]) * float(row[omega]) ** 2
         i = ROW[name]
         return lambda: float(row[i])
 
@@ -204,9 +204,10 @@ class FmuCore:
             from .mechanisms.quantities import evaluate_all
 
             row = self.row
-            kin = self.model.mechanism.kinematics(np.array([row[0]]))
+            kin = self.model.mechanism.kinematics(np.array([row[ROW["phi1"]]]))
+            omega, eps = float(row[ROW["omega1"]]), float(row[ROW["epsilon1"]])
             self._quantity_values = {k: float(v[0]) for k, v in
-                                     evaluate_all(self.quantities, kin, float(row[1]), float(row[5])).items()}
+                                     evaluate_all(self.quantities, kin, omega, eps).items()}
         return self._quantity_values[name]
 
     # ------------------------------------------------------------------ FMU state

@@ -11,7 +11,7 @@ from scipy.optimize import minimize_scalar
 
 from .dynamics.equation import OMEGA, PHI, W_EXT, W_LOAD, W_MOTOR
 from .errors import CrankfmuError, ParameterError
-from .integrators import FastIntegrator, Trajectory, make_integrator
+from .integrators import Trajectory, make_integrator
 from .scenario import Model, Scenario, load_scenario
 
 TWO_PI = 2.0 * math.pi
@@ -232,11 +232,8 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
         if times[-1] < t_end:
             times = np.append(times, t_end)
     started = _time.perf_counter()
-    if isinstance(integrator, FastIntegrator):
-        # the fast path fills the outputs from its tables while it runs
-        trajectory = integrator.run(model.equation, t0, model.y0, t_end, progress=progress, output_times=times)
-    else:
-        trajectory = integrator.run(model.equation, t0, model.y0, t_end, progress=progress)
+    # the fast path fills the outputs from its tables while it runs; the others are sampled below
+    trajectory = integrator.run(model.equation, t0, model.y0, t_end, progress=progress, output_times=times)
     wall = _time.perf_counter() - started
 
     if times is None:

@@ -60,5 +60,9 @@ class Integrator(ABC):
 
     @abstractmethod
     def run(self, equation: MovementEquation, t0: float, y0: np.ndarray, t_end: float,
-            progress: Callable[[float], None] | None = None) -> Trajectory:
-        """Integrate from (t0, y0) to t_end (s)."""
+            progress: Callable[[float], None] | None = None, output_times=None) -> Trajectory:
+        """Integrate from (t0, y0) to t_end (s).
+
+        ``output_times`` (s) tells an integrator that computes the contract outputs itself where
+        they are wanted (it fills ``Trajectory.outputs``); the others may ignore it.
+        """

@@ -51,7 +51,7 @@ class CrankAngleScheme(Integrator):
             "cannot start from rest, stall or reverse; use method='reference' (time domain)."
         )
 
-    def run(self, equation, t0, y0, t_end, progress=None):
+    def run(self, equation, t0, y0, t_end, progress=None, output_times=None):
         reduced, motor, tau = equation.reduced, equation.motor, equation.tau_ext
         h = self.angle_step
         phi0, omega = float(y0[0]), float(y0[1])

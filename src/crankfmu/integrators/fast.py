@@ -71,11 +71,16 @@ def parameters(motor, J_flywheel: float, tau_ext: float, rtol: float, atol: floa
                h_max: float = math.inf) -> np.ndarray:
     """The kernel's parameter array (layout in kernel.py)."""
     P = np.zeros(kn.PARAM_SIZE)
-    P[kn.A_], P[kn.B_], P[kn.A_LOW], P[kn.B_LOW], P[kn.OMEGA_SWITCH] = (
-        motor.A, motor.B, motor.A_low, motor.B_low, motor.omega_switch)
+    set_motor(P, motor)
     P[kn.TAU_EXT], P[kn.J_FLYWHEEL] = tau_ext, J_flywheel
     P[kn.RTOL], P[kn.ATOL], P[kn.H_MAX] = rtol, atol, h_max
     return P
+
+
+def set_motor(P: np.ndarray, motor):
+    """Write a MotorLine into a kernel parameter array."""
+    P[kn.A_], P[kn.B_], P[kn.A_LOW], P[kn.B_LOW], P[kn.OMEGA_SWITCH] = (
+        motor.A, motor.B, motor.A_low, motor.B_low, motor.omega_switch)
 
 
 def _check_rtol(rtol):
@@ -124,9 +129,6 @@ class FastIntegrator(Integrator):
         times = np.zeros(0) if output_times is None else np.asarray(output_times, dtype=float)
         rows = np.zeros((times.size, kn.OUT_SIZE))
         i_out = 0
-        while i_out < times.size and times[i_out] <= S[kn.T]:        # outputs at the start time
-            kn.output_row(S, times[i_out], C, forces, P, ws.work, ws.f, rows[i_out])
-            i_out += 1
         stores, events, modes = [S[None, :].copy()], [], [(float(t0), _mode_name(S))]
         while True:
             store = np.zeros((self.chunk, kn.STATE_SIZE))
@@ -149,9 +151,9 @@ class FastIntegrator(Integrator):
                                 dense=lambda tt: dense_from_store(store, tt), events=events, modes=modes,
                                 n_rhs=int(S[kn.N_RHS]), n_steps=int(S[kn.N_STEPS]))
         if output_times is not None:
-            trajectory.outputs = {"state": rows[:, :5].T, "epsilon1": rows[:, 5], "M_motor": rows[:, 6],
-                                  "M_load": rows[:, 7], "J_red": rows[:, 8],
-                                  "E_kin": 0.5 * rows[:, 8] * rows[:, 1] ** 2}
+            outputs = dict(zip(kn.ROW_FIELDS[5:], rows[:, 5:].T))
+            trajectory.outputs = {"state": rows[:, :5].T, **outputs,
+                                  "E_kin": 0.5 * outputs["J_red"] * rows[:, 1] ** 2}
         trajectory.table = table
         return trajectory
 
@@ -180,8 +182,7 @@ class FastStepper:
         self.row = np.zeros(kn.OUT_SIZE)
 
     def set_motor(self, motor):
-        self.P[kn.A_], self.P[kn.B_], self.P[kn.A_LOW], self.P[kn.B_LOW], self.P[kn.OMEGA_SWITCH] = (
-            motor.A, motor.B, motor.A_low, motor.B_low, motor.omega_switch)
+        set_motor(self.P, motor)
 
     def set_tau_ext(self, tau: float):
         self.P[kn.TAU_EXT] = tau

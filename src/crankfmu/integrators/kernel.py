@@ -54,8 +54,9 @@ EVENT_NAMES = ("motor line kink (omega1 = omega_switch)", "sliding on the motor 
                "slider force switch angle (crank forward)", "slider force switch angle (crank backward)",
                "omega1 = 0: the slider forces change direction")
 N_SLOTS = 5
-# ---- output row: state, then epsilon1, M_motor, M_load, J_red
-OUT_SIZE = 9
+# ---- output row: the state, then epsilon1, M_motor, M_load, J_red (output_row)
+ROW_FIELDS = ("phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor", "M_load", "J_red")
+OUT_SIZE = len(ROW_FIELDS)
 
 _USE_JIT = os.environ.get("CRANKFMU_JIT", "1") != "0"
 try:
@@ -118,7 +119,7 @@ def rhs(phi, omega, motor, direction, interval, C, forces, P, work, out):
     """d/dt (phi1, omega1, W_motor, W_load, W_ext) into out; returns (epsilon1, M_motor, Q, J)."""
     J, half_dJ, Q = coefficients(phi, omega, direction, interval, C, forces, P, work)
     tau = P[TAU_EXT]
-    if direction == 0.0 and forces.shape[2] > 0:      # stuck at rest
+    if direction == 0.0:          # stuck at rest (only slider forces can hold the crank so)
         M = motor_torque(0.0, motor == HIGH, P)
         eps = 0.0
         omega = 0.0
@@ -275,8 +276,7 @@ def _events(S, y, C, forces, P, work, g):
         g[i] = np.nan
     motor, direction = S[MOTOR], S[DIRECTION]
     ws = P[OMEGA_SWITCH]
-    stuck = direction == 0.0 and forces.shape[2] > 0
-    if stuck:
+    if direction == 0.0:          # stuck: nothing changes until a restart
         return
     if motor == SLIDE:
         J, half_dJ, Q = coefficients(y[0], ws, direction, S[INTERVAL], C, forces, P, work)
@@ -355,6 +355,32 @@ def _transition(S, slot, y, C, switch, forces, P, work, f):
 
 
 @_jit
+def _locate(S, slot, level, lo, hi, glo, ghi, C, forces, P, work, tmp, g):
+    """Time in [lo, hi] of the last step where g changes sign, by Illinois on the dense output:
+    g is event slot ``slot`` of S's mode, or phi1 - level for slot -1. Returns the end of the
+    final bracket (on or just past the surface)."""
+    for _ in range(60):
+        tm = hi - ghi * (hi - lo) / (ghi - glo)
+        if not (lo < tm < hi):
+            tm = 0.5 * (lo + hi)
+        dense(S, tm, tmp)
+        if slot < 0:
+            gm = tmp[0] - level
+        else:
+            _events(S, tmp, C, forces, P, work, g)
+            gm = g[slot]
+        if (gm < 0.0) == (glo < 0.0):
+            lo, glo = tm, gm
+            ghi *= 0.5
+        else:
+            hi, ghi = tm, gm
+            glo *= 0.5
+        if hi - lo <= 1e-15 * max(1.0, abs(hi)):
+            break
+    return hi
+
+
+@_jit
 def step(S, t_limit, C, switch, forces, P, work, Kst, ynew, tmp, f, g0, g1, y, f0):
     """One accepted step, not beyond t_limit, ending on the first event crossed.
 
@@ -408,22 +434,7 @@ def step(S, t_limit, C, switch, forces, P, work, Kst, ynew, tmp, f, g0, g1, y, f
         a, b = g0[slot], g1[slot]
         if not _crosses(slot, a, b, S[MOTOR], S[DIRECTION]):
             continue
-        lo, hi, glo, ghi = t, t_new, a, b
-        for _ in range(60):             # Illinois on the dense output
-            tm = hi - ghi * (hi - lo) / (ghi - glo)
-            if not (lo < tm < hi):
-                tm = 0.5 * (lo + hi)
-            dense(S, tm, tmp)
-            _events(S, tmp, C, forces, P, work, g1)
-            gm = g1[slot]
-            if (gm < 0.0) == (glo < 0.0):
-                lo, glo = tm, gm
-                ghi *= 0.5
-            else:
-                hi, ghi = tm, gm
-                glo *= 0.5
-            if hi - lo <= 1e-15 * max(1.0, abs(hi)):
-                break
+        hi = _locate(S, slot, 0.0, t, t_new, a, b, C, forces, P, work, tmp, g1)
         if first_slot < 0 or hi < first_t:
             first_slot, first_t = slot, hi
     if first_slot < 0:
@@ -510,6 +521,9 @@ def run_chunk(S, t_end, times, i_out, rows, step_store, n_store, events, n_event
     1: a buffer is full (call again to continue), -2: step size underflow.
     """
     capacity = step_store.shape[0]
+    while i_out < times.shape[0] and times[i_out] <= S[T]:      # outputs at the start time
+        output_row(S, times[i_out], C, forces, P, work, f, rows[i_out])
+        i_out += 1
     while S[T] < t_end:
         if n_store >= capacity or n_events >= events.shape[0] or n_modes >= modes.shape[0]:
             return 1, i_out, n_store, n_events, n_modes
@@ -565,24 +579,9 @@ def one_turn(S, phi_start, omega_start, t_max, C, switch, forces, P, work, Kst, 
             return 3
         done = S[Y] >= phi_end
         t_end = S[T]
-        if done:              # the time the turn ends: Illinois on the dense phi1(t)
-            lo, hi = S[T_PREV], S[T]
-            glo, ghi = S[Y_PREV] - phi_end, S[Y] - phi_end
-            for _ in range(60):
-                tm = hi - ghi * (hi - lo) / (ghi - glo)
-                if not (lo < tm < hi):
-                    tm = 0.5 * (lo + hi)
-                dense(S, tm, tmp)
-                gm = tmp[0] - phi_end
-                if gm < 0.0:
-                    lo, glo = tm, gm
-                    ghi *= 0.5
-                else:
-                    hi, ghi = tm, gm
-                    glo *= 0.5
-                if hi - lo <= 1e-15 * max(1.0, hi):
-                    break
-            t_end = hi
+        if done:              # the time the turn ends
+            t_end = _locate(S, -1, phi_end, S[T_PREV], S[T], S[Y_PREV] - phi_end, S[Y] - phi_end,
+                            C, forces, P, work, tmp, g0)
         # omega1 at evenly spaced points of the step; an interior extreme is refined by the
         # parabola through it and its neighbours (error O(h^3) instead of O(h^2))
         for i in range(SAMPLES_PER_STEP + 1):

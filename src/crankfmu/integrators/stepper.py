@@ -200,7 +200,7 @@ class DormandPrinceIntegrator(Integrator):
         self.atol = float(rtol if atol is None else atol)
         self.method = "Dormand-Prince 5(4), located events"
 
-    def run(self, equation, t0, y0, t_end, progress=None):
+    def run(self, equation, t0, y0, t_end, progress=None, output_times=None):
         stepper = DormandPrinceStepper(equation, self.rtol, self.atol, record=True)
         state = stepper.start(t0, y0)
         ts, ys, states = [state.t], [state.y], [state]

@@ -54,7 +54,7 @@ class SolveIvpIntegrator(Integrator):
         self.name = name or method
         self.max_segments = max_segments
 
-    def run(self, equation, t0, y0, t_end, progress=None):
+    def run(self, equation, t0, y0, t_end, progress=None, output_times=None):
         y = np.array(y0, dtype=float)
         t = float(t0)
         mode = equation.initial_mode(t, y)
