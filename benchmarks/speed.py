@@ -71,7 +71,7 @@ def python_rhs_equation(model, table):
         raise SystemExit("the peer right-hand side here covers seed 000's loads only")
 
     class PythonTabulated(MovementEquation):
-        def coefficients(self, phi1, omega1):
+        def coefficients(self, phi1, omega1, mode):
             w = phi1 % two_pi
             i = min(int(w / h), n - 1)
             u = w - i * h

@@ -49,7 +49,7 @@ def test_stepping_across_the_kink_costs_accuracy(scenario, reference):
     from scipy.integrate import solve_ivp
     model = scenario.build()
     eq = model.equation
-    rhs = lambda t, y: eq.rhs(t, y, "high" if y[OMEGA] > eq.motor.omega_switch else "low")  # noqa: E731
+    rhs = lambda t, y: eq.rhs(t, y, eq.mode_of_state(y))  # noqa: E731
     sol = solve_ivp(rhs, (0, 2.0), model.y0, method="RK45", rtol=1e-8, atol=1e-8, dense_output=True)
     err_no_event = np.max(np.abs(sol.sol(reference.time)[OMEGA] - reference.omega1))
     with_event = crankfmu.simulate(scenario, method="reference", rtol=1e-8)
@@ -146,7 +146,7 @@ def test_motor_line_with_a_jump_slides_on_the_switch(scenario):
     result = crankfmu.simulate(jump, t_end=3.0)
     modes = [m for _, m in result.trajectory.modes]
     assert "slide" in modes
-    sliding = result.trajectory.sliding(result.time)
+    sliding = result.trajectory.mode_at(result.time) == "slide"
     assert np.max(np.abs(result.omega1[sliding] - 5.0)) < 1e-9
     assert np.max(np.abs(result.epsilon1[sliding])) < 1e-9
     # the equivalent torque stays within the two lines' torques at the switch

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from crankfmu.dynamics.equation import HIGH, LOW, OMEGA, PHI
+from crankfmu.dynamics.equation import OMEGA, PHI
 
 from .reference import reference_run
 
@@ -72,12 +72,12 @@ def _errors(t, omega, phi, grid, truth):
 
 
 def solve_ivp_peer(model, grid, method, rtol):
-    """scipy solve_ivp on the movement equation, motor line picked by omega1 at each call."""
+    """scipy solve_ivp on the movement equation, the mode read off the state at each call (the
+    switches stepped across, as a user calling solve_ivp on the equation would)."""
     eq = model.equation
-    ws = model.motor.omega_switch
 
     def f(t, y):
-        return eq.rhs(t, y, HIGH if y[OMEGA] > ws else LOW)
+        return eq.rhs(t, y, eq.mode_of_state(y))
 
     sol = solve_ivp(f, (grid[0], grid[-1]), model.y0, method=method, rtol=rtol, atol=rtol, dense_output=True)
     if sol.status != 0:

@@ -56,16 +56,19 @@ class SteadyCycle:
 
 def _crank_angle_rhs(model):
     """d(omega1, t)/dphi1 of the movement equation divided by omega1 (the motor branch by omega1)."""
-    equation = model.equation
+    equation, reduced = model.equation, model.reduced
 
     def rhs(phi, y):
         omega = y[0]
         if not omega > 0.0:
             raise SchemeError(f"the crank stops (omega1 = {omega:.4g} rad/s at phi1 = {math.degrees(phi):.2f} deg): "
                               "no steady forward cycle for this design")
-        J, half_dJ, Q = equation.coefficients(np.array([phi]), omega)
+        # each piece lies between two switches: the loads' side and band follow from (phi1, omega1)
+        J, half_dJ, Q, kin = reduced.coefficients(np.array([phi]))
+        if reduced.velocity_dependent:
+            Q = Q + reduced.velocity_load(kin, omega)
         M = float(equation.motor.torque_at(omega))
-        return np.array([(M + Q + equation.tau_ext - half_dJ * omega * omega) / (J * omega), 1.0 / omega])
+        return np.array([(M + Q[0] + equation.tau_ext - half_dJ[0] * omega * omega) / (J[0] * omega), 1.0 / omega])
     return rhs
 
 

@@ -244,7 +244,7 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
         y = out.pop("state")
     else:
         y = trajectory.sample(times)
-        out = model.equation.outputs(y[PHI], y[OMEGA], trajectory.sliding(times))
+        out = model.equation.outputs(y[PHI], y[OMEGA], trajectory.mode_at(times))
     if trajectory.epsilon is not None:
         # the scheme's own acceleration (eq. 10), not the time-domain formula
         out["epsilon1"] = np.interp(times, trajectory.t, trajectory.epsilon)

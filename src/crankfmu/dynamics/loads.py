@@ -14,7 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import DefinitionError
+from ..mechanisms import Kinematics, Mechanism
+
 WEIGHTS, TECHNOLOGICAL = "weights", "technological"
+TWO_PI = 2.0 * np.pi
 
 
 @dataclass
@@ -26,9 +30,6 @@ class AppliedLoad:
     fx: np.ndarray | float = 0.0
     fy: np.ndarray | float = 0.0
     moment: np.ndarray | float = 0.0
-
-from ..errors import DefinitionError
-from ..mechanisms import Kinematics, Mechanism
 
 
 @dataclass
@@ -158,6 +159,53 @@ class SliderForce:
     def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
         force = self.force(kin, omega1)
         return [AppliedLoad(self.link, self.point, *((force, 0.0) if self.axis == 0 else (0.0, force)))]
+
+
+def slider_schedule(mechanism: Mechanism, sliders: list[SliderForce]):
+    """Where slider forces switch and their constant values in between, for integrators that hold
+    the switch interval and the direction of motion as discrete state instead of reading them from
+    (phi1, omega1) at every evaluation (which would put a jump inside an error-controlled step).
+
+    Returns (switch_angles, forces): switch_angles (m,) rad, sorted in [0, 2 pi), every angle where
+    any of ``sliders`` changes with the crank turning forward; forces (max(m, 1), 2, len(sliders))
+    N, the signed force of slider s on interval k (from switch_angles[k] to the next one round the
+    turn) while omega1 > 0 (index 0) and omega1 < 0 (index 1). Reduced to the crank, slider s
+    gives forces[k, d, s] * dx_s/dphi1.
+    """
+    # a band level is met once per direction, so angles closer than 1e-13 rad are one switch
+    angles = sorted({round(a % TWO_PI, 13) for load in sliders for a in load.switch_angles(mechanism)})
+    switch = np.array(angles, dtype=float)
+    forces = np.zeros((max(len(switch), 1), 2, len(sliders)))
+    if len(switch):
+        mids = 0.5 * (switch + np.append(switch[1:], switch[0] + TWO_PI))
+        kin = mechanism.kinematics(mids % TWO_PI)
+        for s, load in enumerate(sliders):
+            forces[:, 0, s] = load.force(kin, 1.0)
+            forces[:, 1, s] = load.force(kin, -1.0)
+    return switch, forces
+
+
+def interval_bounds(switch_angles: np.ndarray, phi1: float, direction: int):
+    """(k, phi_lo, phi_hi): the switch interval holding crank angle ``phi1`` (rad, unwrapped) and its
+    unwrapped bounds (rad) around it. On a switch angle the interval the motion enters wins
+    (``direction`` +1: the one starting there, -1: the one ending there). Without switch angles:
+    (0, -inf, inf)."""
+    m = switch_angles.size
+    if m == 0:
+        return 0, -np.inf, np.inf
+    wrapped = phi1 - TWO_PI * np.floor(phi1 / TWO_PI)
+    k = int(np.searchsorted(switch_angles, wrapped, side="right")) - 1
+    k %= m
+    if direction < 0 and wrapped == switch_angles[k]:
+        k = (k - 1) % m
+    offset = (wrapped - switch_angles[k]) % TWO_PI
+    return k, phi1 - offset, phi1 - offset + interval_width(switch_angles, k)
+
+
+def interval_width(switch_angles: np.ndarray, k: int) -> float:
+    """Angle (rad) from switch angle k to the next one round the turn."""
+    end = switch_angles[k + 1] if k + 1 < switch_angles.size else switch_angles[0] + TWO_PI
+    return float(end - switch_angles[k])
 
 
 @dataclass

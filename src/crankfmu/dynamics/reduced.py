@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mechanisms import Kinematics, Mechanism
+from .loads import SliderForce, slider_schedule
 
 
 @dataclass
@@ -37,6 +38,8 @@ class ReducedModel:
         self.loads = loads
         self.velocity_dependent = any(not load.position_only for load in loads)
         self._tables = {}
+        self.sliders = [load for load in loads if isinstance(load, SliderForce)]
+        self._slider_schedule = None
 
     def table(self, tolerance: float = 1e-11):
         """The periodic tabulation of this model (see dynamics.tabulated), built once per tolerance.
@@ -48,6 +51,12 @@ class ReducedModel:
             from .tabulated import tabulate
             self._tables[tolerance] = tabulate(self, tolerance)
         return self._tables[tolerance]
+
+    def slider_schedule(self):
+        """(switch_angles rad, forces N) of the slider forces (see loads.slider_schedule), built once."""
+        if self._slider_schedule is None:
+            self._slider_schedule = slider_schedule(self.mechanism, self.sliders)
+        return self._slider_schedule
 
     def coefficients(self, phi1, kin: Kinematics | None = None):
         """(J, half_dJ, Q_position) at each crank angle, and the kinematics used.

@@ -119,7 +119,7 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
     SchemeError is raised (use the engine, method "reference").
     """
     started = time.perf_counter()
-    sliders = [load for load in reduced.loads if isinstance(load, SliderForce)]
+    sliders = reduced.sliders
     viscous = [load for load in reduced.loads if isinstance(load, ViscousForce)]
     for load in reduced.loads:
         if not load.position_only and not isinstance(load, (SliderForce, ViscousForce)):
@@ -150,14 +150,6 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
     # CubicSpline.c is (4, n, functions), highest power first
     coefficients = np.ascontiguousarray(spline.c[::-1].transpose(2, 1, 0))
 
-    angles = sorted({round(a % TWO_PI, 13) for load in sliders for a in load.switch_angles(reduced.mechanism)})
-    switch = np.array(angles, dtype=float)
-    forces = np.zeros((max(len(switch), 1), 2, len(sliders)))
-    if len(switch):
-        mids = 0.5 * (switch + np.append(switch[1:], switch[0] + TWO_PI))
-        kin = reduced.mechanism.kinematics(mids % TWO_PI)
-        for s, load in enumerate(sliders):
-            forces[:, 0, s] = load.force(kin, 1.0)
-            forces[:, 1, s] = load.force(kin, -1.0)
+    switch, forces = reduced.slider_schedule()
     return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(f"{load.point}.{'xy'[load.axis]}" for load in sliders))

@@ -8,7 +8,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..dynamics.equation import SLIDE, MovementEquation
+from ..dynamics.equation import SLIDE, STUCK, MovementEquation
 
 
 @dataclass
@@ -20,7 +20,8 @@ class Trajectory:
     crank-angle schemes, which are interpolated linearly between nodes: they are first order);
     ``epsilon`` holds the scheme's own angular acceleration at the nodes (eq. 10) when the scheme
     defines one; ``events`` lists (time s, description) of the located switches and ``modes``
-    (start time s, mode) of the segments between them.
+    (start time s, name) where the mode's name changes: the motor branch "low", "high" or
+    "slide", or "stuck" (at rest, held by the slider forces).
     """
 
     t: np.ndarray
@@ -36,13 +37,14 @@ class Trajectory:
     outputs: dict | None = None
     table: object = None           # the ReducedTable the fast path ran on
 
-    def sliding(self, times) -> np.ndarray | None:
-        """Boolean array: where the motor was holding omega1 on its switch (see MovementEquation)."""
-        if not any(m == SLIDE for _, m in self.modes):
+    def mode_at(self, times) -> np.ndarray | None:
+        """Name of the mode (see ``modes``) at each time, or None when the run never slid on the
+        motor switch nor got stuck (the outputs need the name only to tell those apart)."""
+        if not any(m in (SLIDE, STUCK) for _, m in self.modes):
             return None
         starts = np.array([t for t, _ in self.modes])
         idx = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(starts) - 1)
-        return np.array([self.modes[i][1] == SLIDE for i in idx])
+        return np.array([m for _, m in self.modes])[idx]
 
     def sample(self, times) -> np.ndarray:
         times = np.atleast_1d(np.asarray(times, dtype=float))

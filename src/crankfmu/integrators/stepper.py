@@ -3,11 +3,11 @@
 Dormand-Prince 5(4) with scipy's RK45 tableau and its quartic dense output, stepping the
 movement equation mode by mode: after each accepted step the mode's event surfaces are checked;
 a crossing is located on the dense output and the step is recomputed to end exactly on it, then
-the mode changes (the motor line's kink, sliding on a jump).
+the mode changes (the motor line's kink, sliding on a jump, the slider forces' switches).
 
 Unlike a scipy solver object, everything that determines the continuation is in
 :class:`StepperState` (time, state, derivative, proposed step, mode, the last step's stages), so
-an FMU can get and set it and a rolled-back step is recomputed bit for bit. Output times inside
+a caller can keep a state and continue from it later: a rolled-back step is recomputed bit for bit. Output times inside
 a step are served from the dense output: the step sequence does not depend on the communication
 step.
 """
@@ -21,6 +21,7 @@ import numpy as np
 from scipy.integrate._ivp.rk import RK45
 
 from ..errors import ParameterError, SchemeError
+from ..dynamics.equation import Mode
 from .base import Integrator, Trajectory
 
 _A, _B, _C, _E, _P = RK45.A, RK45.B, RK45.C, RK45.E, RK45.P
@@ -31,27 +32,18 @@ SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 
 @dataclass
 class StepperState:
-    """All that determines the continuation of a run; ``to_dict``/``from_dict`` serialise it."""
+    """All that determines the continuation of a run."""
 
     t: float
     y: np.ndarray
     f: np.ndarray
     h: float                 # proposed next step, s
-    mode: str
+    mode: Mode
     t_prev: float            # the last step, for dense output between t_prev and t
     y_prev: np.ndarray
     K: np.ndarray            # (n_stages + 1) x n stage derivatives of the last step
     n_rhs: int = 0
-    step_mode: str = ""      # the mode the last step was computed in (inside it, before any event)
-
-    def to_dict(self) -> dict:
-        """Plain floats and lists (JSON); floats round-trip exactly."""
-        return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
-
-    @classmethod
-    def from_dict(cls, data: dict) -> "StepperState":
-        arrays = ("y", "f", "y_prev", "K")
-        return cls(**{k: (np.array(v, dtype=float) if k in arrays else v) for k, v in data.items()})
+    step_mode: Mode | None = None   # the mode the last step was computed in (inside it, before any event)
 
 
 class DormandPrinceStepper:
@@ -74,7 +66,7 @@ class DormandPrinceStepper:
         self.modes: list[tuple[float, str]] = []
 
     # ---------------------------------------------------------------- state
-    def start(self, t: float, y, mode: str | None = None, h: float | None = None) -> StepperState:
+    def start(self, t: float, y, mode: Mode | None = None, h: float | None = None) -> StepperState:
         y = np.array(y, dtype=float)
         mode = self.equation.initial_mode(t, y) if mode is None else mode
         f = self.equation.rhs(t, y, mode)
@@ -84,8 +76,8 @@ class DormandPrinceStepper:
             h = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
         K = np.zeros((_N_STAGES + 1, y.size))
         K[-1] = f
-        if self.record and (not self.modes or self.modes[-1][1] != mode):
-            self.modes.append((t, mode))
+        if self.record and (not self.modes or self.modes[-1][1] != mode.name):
+            self.modes.append((t, mode.name))
         return StepperState(t, y, f, float(min(h, self.h_max)), mode, t, y, K, 1, mode)
 
     def restart(self, state: StepperState, t: float) -> StepperState:
@@ -128,7 +120,7 @@ class DormandPrinceStepper:
             if t + h >= t_limit:
                 h = t_limit - t
             if h <= 1e-14 * max(1.0, abs(t)):
-                raise SchemeError(f"dopri5: step size underflow at t = {t:.9g} s (mode {mode})")
+                raise SchemeError(f"dopri5: step size underflow at t = {t:.9g} s (mode {mode.name})")
             y_new, K = self._rk_step(t, y, f, h, mode)
             n_rhs += _N_STAGES
             err = self._error(y, y_new, K, h)
@@ -148,7 +140,7 @@ class DormandPrinceStepper:
             return new
         y0, y1 = old.y, new.y
         first = None
-        for i, (g, direction, what) in enumerate(surfaces):
+        for i, (g, direction, _, _) in enumerate(surfaces):
             g0, g1 = g(old.t, y0), g(new.t, y1)
             crosses = (g0 < 0.0 <= g1) if direction > 0 else (g0 > 0.0 >= g1)
             if not crosses:
@@ -169,20 +161,21 @@ class DormandPrinceStepper:
                 if hi - lo <= 1e-15 * max(1.0, abs(hi)):
                     break
             if first is None or hi < first[0]:
-                first = (hi, i, what)
+                first = (hi, surfaces[i])
         if first is None:
             return new
-        t_event, index, what = first
+        t_event, surface = first
         # recompute the step so that it ends on the event, then switch mode there
         y, f = old.y, old.f
         h = t_event - old.t
         y_e, K = self._rk_step(old.t, y, f, h, old.mode)
         n_rhs = new.n_rhs + _N_STAGES
-        mode = self.equation.transition(old.mode, index, t_event, y_e)
+        mode = self.equation.transition(old.mode, surface.kind, t_event, y_e)
         f_e = self.equation.rhs(t_event, y_e, mode)   # K keeps the old mode's stages: dense output
         if self.record:
-            self.events.append((t_event, what))
-            self.modes.append((t_event, mode))
+            self.events.append((t_event, surface.what))
+            if mode.name != self.modes[-1][1]:
+                self.modes.append((t_event, mode.name))
         return StepperState(t_event, y_e, f_e, max(new.h, h), mode, old.t, y, K, n_rhs + 1, old.mode)
 
 

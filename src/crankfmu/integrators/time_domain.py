@@ -2,8 +2,8 @@
 
 Each segment between two switches is integrated with the discrete mode fixed, so the right-hand
 side the solver sees is smooth; the crossing of a switching surface (the motor line's kink at
-omega1 = omega_switch) ends the segment exactly on the surface and the next one restarts there
-with the other mode. Stepping across the kink instead costs about four orders of magnitude of
+omega1 = omega_switch, a slider force's switch angle, omega1 = 0 with slider forces) ends the
+segment exactly on the surface and the next one restarts there in the mode it leads to. Stepping across the kink instead costs about four orders of magnitude of
 accuracy (issue 2: fixed-step RK4 at 1 ms, 6e-5 rad/s across the kink, 6e-9 ending on it).
 """
 
@@ -59,16 +59,16 @@ class SolveIvpIntegrator(Integrator):
         t = float(t0)
         mode = equation.initial_mode(t, y)
         dense = _PiecewiseDense()
-        ts, ys, events, modes = [np.array([t])], [y[:, None]], [], [(t, mode)]
+        ts, ys, events, modes = [np.array([t])], [y[:, None]], [], [(t, mode.name)]
         n_steps = 0
         equation.n_rhs = 0
         for _ in range(self.max_segments):
             evs = []
             surfaces = equation.events(mode)
-            for g, direction, _ in surfaces:
-                ev = (lambda g: (lambda tt, yy: g(tt, yy)))(g)
+            for surface in surfaces:
+                ev = (lambda g: (lambda tt, yy: g(tt, yy)))(surface.g)
                 ev.terminal = True
-                ev.direction = direction
+                ev.direction = surface.direction
                 evs.append(ev)
             current = mode
 
@@ -88,12 +88,14 @@ class SolveIvpIntegrator(Integrator):
                 progress(float(sol.t[-1]))
             if sol.status != 1:
                 break
-            i = next(k for k, te in enumerate(sol.t_events) if len(te))
+            # the first surface reached (several may be reached in the last step)
+            i = min((k for k, te in enumerate(sol.t_events) if len(te)), key=lambda k: sol.t_events[k][0])
             t = float(sol.t_events[i][0])
             y = np.array(sol.y_events[i][0], dtype=float)
-            mode = equation.transition(mode, i, t, y)
-            events.append((t, surfaces[i][2]))
-            modes.append((t, mode))
+            mode = equation.transition(mode, surfaces[i].kind, t, y)
+            events.append((t, surfaces[i].what))
+            if mode.name != modes[-1][1]:
+                modes.append((t, mode.name))
             if t >= t_end:
                 break
         else:
