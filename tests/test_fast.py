@@ -154,10 +154,10 @@ def test_steady_cycles_agree_with_a_long_time_domain_run():
         stats = run.cycle_stats(k)
         assert row["omega1_mean"] == pytest.approx(stats["omega1_mean"], rel=1e-8)
         # the batch integrates at rtol 1e-9 (about 5e-7 rad/s on a start-up transient, less on a
-        # settled cycle) and refines extremes by parabolas between dense samples
+        # settled cycle; measured 8e-8) and locates the extremes where the slope changes sign
         assert row["omega1_min"] == pytest.approx(stats["omega1_min"], abs=5e-7)
         assert row["omega1_max"] == pytest.approx(stats["omega1_max"], abs=5e-7)
-        assert row["delta"] == pytest.approx(stats["delta"], rel=1e-5)
+        assert row["delta"] == pytest.approx(stats["delta"], rel=1e-6)
     assert batch.rows[1]["delta"] < batch.rows[0]["delta"]      # the flywheel evens the speed
 
 

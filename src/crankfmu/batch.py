@@ -1,12 +1,14 @@
 """Many designs in one call: the steady cycle of each, for sweeps and flywheel sizing.
 
-``steady_cycles(scenario, designs)`` takes a list of parameter dicts. Designs that differ only in
+``steady_cycles(scenario, designs)`` takes a list of parameter dicts (``SteadyBatch`` does the same
+and keeps its tables for the next call). Designs that differ only in
 the motor line or the flywheel (``CHEAP``) share one tabulated reduced model and are integrated
 together in one call of the compiled kernel (``kernel.steady_batch``); any other parameter
 (geometry, masses, load amplitudes, g) gives its own table. Each design's steady cycle is found by
 secant shooting on omega1 after one crank turn (a turn is integrated in time by the fast
 Dormand-Prince kernel, the motor kink and the slider forces' switches located), then that turn
-gives omega1 min, max, the time mean 2 pi / period and the coefficient of speed fluctuation
+gives omega1 min, max (where the interpolant's slope changes sign, located: as accurate as the
+tolerance), the time mean 2 pi / period and the coefficient of speed fluctuation
 delta = (max - min) / mean, defined as in ``Result.cycle_stats``.
 
 A design that is out of range, cannot be assembled or stalls is returned in ``failed`` with the
@@ -53,45 +55,69 @@ def _omega_guess(table, J_flywheel, motor: MotorLine, phi_grid):
     return w
 
 
+class SteadyBatch:
+    """Steady cycles of designs of one scenario, the tables kept between calls.
+
+    Each geometry (the non-``CHEAP`` parameters) is built and tabulated once, on its first use, so
+    a caller that asks again and again (a root search over J_flywheel) pays only for the kernel.
+    """
+
+    def __init__(self, scenario, rtol: float = 1e-9, shoot_tol: float = 1e-9, max_turns: int = 40):
+        self.scenario = load_scenario(scenario)
+        self.rtol, self.shoot_tol, self.max_turns = float(rtol), float(shoot_tol), int(max_turns)
+        self._models: dict[tuple, tuple] = {}          # geometry key -> (model, table) or the error
+        self._phi_grid = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)
+
+    def _model(self, key):
+        if key not in self._models:
+            try:
+                model = self.scenario.with_params(**dict(key)).build()
+                self._models[key] = (model, model.reduced.table(TABLE_TOLERANCE))
+            except CrankfmuError as exc:
+                self._models[key] = exc
+        return self._models[key]
+
+    def run(self, designs: list[dict]) -> BatchResult:
+        """Steady-cycle statistics of every design (a dict of parameter overrides each)."""
+        result = BatchResult()
+        groups: dict[tuple, list[int]] = {}
+        checked: list[dict | None] = []
+        for i, design in enumerate(designs):
+            try:
+                full = self.scenario.with_params(**design).values
+            except CrankfmuError as exc:
+                result.failed.append({**design, "reason": str(exc)})
+                checked.append(None)
+                continue
+            checked.append(full)
+            key = tuple(sorted((k, v) for k, v in design.items() if k not in CHEAP))
+            groups.setdefault(key, []).append(i)
+        for key, members in groups.items():
+            built = self._model(key)
+            if isinstance(built, CrankfmuError):
+                result.failed += [{**designs[i], "reason": str(built)} for i in members]
+                continue
+            model, table = built
+            params = np.zeros((len(members), kn.PARAM_SIZE))
+            guesses = np.zeros(len(members))
+            for row, i in enumerate(members):
+                v = checked[i]
+                motor = MotorLine(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
+                params[row] = parameters(motor, v["J_flywheel"], 0.0, self.rtol, self.rtol)
+                guesses[row] = _omega_guess(table, v["J_flywheel"], motor, self._phi_grid)
+            out = np.zeros((len(members), kn.STEADY_SIZE))
+            kn.steady_batch(params, float(model.y0[0]), guesses, self.shoot_tol, self.max_turns,
+                            table.coefficients, table.switch_angles, table.forces, out)
+            for row, i in enumerate(members):
+                status = int(out[row, 6])
+                if status != 0:
+                    result.failed.append({**designs[i], "reason": STATUS.get(status, f"status {status}")})
+                    continue
+                result.rows.append({**designs[i], **dict(zip(STEADY_COLUMNS, (float(x) for x in out[row, :6])))})
+        return result
+
+
 def steady_cycles(scenario, designs: list[dict], rtol: float = 1e-9, shoot_tol: float = 1e-9,
                   max_turns: int = 40) -> BatchResult:
-    """Steady-cycle statistics of every design (a dict of parameter overrides each)."""
-    scenario = load_scenario(scenario)
-    result = BatchResult()
-    groups: dict[tuple, list[int]] = {}
-    checked: list[dict | None] = []
-    for i, design in enumerate(designs):
-        try:
-            full = scenario.with_params(**design).values
-        except CrankfmuError as exc:
-            result.failed.append({**design, "reason": str(exc)})
-            checked.append(None)
-            continue
-        checked.append(full)
-        key = tuple(sorted((k, v) for k, v in design.items() if k not in CHEAP))
-        groups.setdefault(key, []).append(i)
-    phi_grid = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)
-    for key, members in groups.items():
-        try:
-            model = scenario.with_params(**dict(key)).build()
-            table = model.reduced.table(TABLE_TOLERANCE)
-        except CrankfmuError as exc:
-            result.failed += [{**designs[i], "reason": str(exc)} for i in members]
-            continue
-        params = np.zeros((len(members), kn.PARAM_SIZE))
-        guesses = np.zeros(len(members))
-        for row, i in enumerate(members):
-            v = checked[i]
-            motor = MotorLine(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
-            params[row] = parameters(motor, v["J_flywheel"], 0.0, rtol, rtol)
-            guesses[row] = _omega_guess(table, v["J_flywheel"], motor, phi_grid)
-        out = np.zeros((len(members), kn.STEADY_SIZE))
-        kn.steady_batch(params, float(model.y0[0]), guesses, shoot_tol, max_turns, table.coefficients,
-                        table.switch_angles, table.forces, out)
-        for row, i in enumerate(members):
-            status = int(out[row, 6])
-            if status != 0:
-                result.failed.append({**designs[i], "reason": STATUS.get(status, f"status {status}")})
-                continue
-            result.rows.append({**designs[i], **dict(zip(STEADY_COLUMNS, (float(x) for x in out[row, :6])))})
-    return result
+    """Steady-cycle statistics of every design (a dict of parameter overrides each), in one call."""
+    return SteadyBatch(scenario, rtol, shoot_tol, max_turns).run(designs)

@@ -201,7 +201,7 @@ def cmd_equilibrium(args) -> int:
 
 
 def cmd_flywheel(args) -> int:
-    from .flywheel import flywheel_study
+    from .flywheel import STUDY_STAGES, flywheel_study
     from .progress import ProgressBar
     from .scenario import load_scenario
 
@@ -209,7 +209,7 @@ def cmd_flywheel(args) -> int:
     steps = None if args.steps_deg is None else [float(s) for s in args.steps_deg.split(",")]
     if steps is not None and any(not s > 0 for s in steps):
         raise CrankfmuError(f"--steps-deg must be positive angles in deg, got {args.steps_deg!r}")
-    bar = ProgressBar(16, label=f"{scenario.name} flywheel search")
+    bar = ProgressBar(STUDY_STAGES, label=f"{scenario.name} flywheel study")
     try:
         d = flywheel_study(scenario, args.delta, args.out, steps, progress=bar)
     finally:

@@ -12,7 +12,11 @@
   assumption in eq. 15), omega_m from the steady cycle without flywheel. Eq. 16 subtracts the
   mechanism's own J_e (its cycle mean).
 * The simulated flywheel: the J_F whose steady cycle has delta = [delta], by Brent's method on
-  delta(J_F). The motor line's slope regulates the speed too, which eqs. 16-17 ignore.
+  delta(J_F). The motor line's slope regulates the speed too, which eqs. 16-17 ignore. delta(J_F)
+  comes from ``batch.SteadyBatch`` (the fast kernel, many flywheels in one call: a ladder of J_F
+  brackets the root in one call, then each Brent step is one design); the crank-angle solution
+  above is computed for no flywheel and for the one found, for the figures and peaks, and its
+  delta is reported beside the batch's as an independent check.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from scipy.optimize import brentq
 from .equilibrium import cycle_breaks
 from .errors import CrankfmuError, ParameterError, SchemeError
 from .output import pyplot, turn_axis
+from .batch import SteadyBatch
 from .scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
@@ -107,6 +112,7 @@ def steady_cycle(model, phi0: float = 0.0, rtol: float = 1e-11, n_samples: int =
     else:
         raise SchemeError(f"no periodic cycle found (omega1 mismatch {gb:.3g} rad/s after 30 iterations)")
     _, dense = _one_turn(model, phi0, b, pieces, rtol, samples=True)
+    rhs = _crank_angle_rhs(model)
     phis = phi0 + np.linspace(0.0, TWO_PI, n_samples)
     # add the piece ends so the extremes at a switch are seen
     phis = np.unique(np.concatenate([phis, [p for pc in pieces for p in pc]]))
@@ -114,7 +120,26 @@ def steady_cycle(model, phi0: float = 0.0, rtol: float = 1e-11, n_samples: int =
     for lo, hi, sol in dense:
         sel = (phis >= lo) & (phis <= hi)
         ys[:, sel] = sol(phis[sel])
-    rhs = _crank_angle_rhs(model)
+    # a smooth extreme lies between two samples (the sampled one is off by O(dphi^2), about 1e-7
+    # of delta at 0.1 deg): add it where the slope domega1/dphi1 changes sign. The piece ends are
+    # samples, so two neighbours always lie in one piece.
+    extra = []
+    for i in {int(np.argmin(ys[0])), int(np.argmax(ys[0]))}:
+        for a, b in ((i - 1, i), (i, i + 1)):
+            if a < 0 or b >= phis.size:
+                continue
+            sol = next(sol for lo, hi, sol in dense if lo <= phis[a] and phis[b] <= hi)
+            slope = lambda p, sol=sol: rhs(p, sol(p))[0]      # noqa: E731
+            inset = 1e-9 * (phis[b] - phis[a])                  # off the switch angles themselves
+            pa, pb = phis[a] + inset, phis[b] - inset
+            if slope(pa) * slope(pb) < 0.0:
+                p = brentq(slope, pa, pb, xtol=1e-15)
+                extra.append((p, sol(p)))
+    if extra:
+        phis = np.concatenate([phis, [p for p, _ in extra]])
+        ys = np.concatenate([ys, np.column_stack([y for _, y in extra])], axis=1)
+        order = np.argsort(phis)
+        phis, ys = phis[order], ys[:, order]
     eps = np.array([rhs(p, y)[0] * y[0] for p, y in zip(phis, ys.T)])
     return SteadyCycle(phi1=phis, omega1=ys[0], epsilon1=eps, time=ys[1], period=float(ys[1, -1]),
                        J_flywheel=model.reduced.J_flywheel)
@@ -139,7 +164,10 @@ def energy_swing(model, n: int = 20001) -> tuple[float, np.ndarray, np.ndarray]:
 
 def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: float = 1e-11,
                     progress=None) -> dict:
-    """Everything flywheel.json holds for a target coefficient of speed fluctuation ``delta``."""
+    """Everything flywheel.json holds for a target coefficient of speed fluctuation ``delta``.
+
+    ``progress`` is called with 1, 2, 3 as the cycle without flywheel, the search and the cycle
+    with the flywheel found are done."""
     scenario = load_scenario(scenario)
     try:
         delta = float(delta)
@@ -155,31 +183,53 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
     grid = np.linspace(0.0, TWO_PI, 3601)
     J_e = model.reduced.coefficients(grid)[0]
     free = steady_cycle(model, phi0, rtol)
+    if progress is not None:
+        progress(1)
     dW, _, _ = energy_swing(model)
     omega_m = free.omega_mean
     J_eq17 = dW / (omega_m ** 2 * delta)
     J_eq16 = J_eq17 - float(np.mean(J_e))
 
-    cache = {0.0: free}
+    # delta(J_F) of many flywheels at once on the fast kernel, the table built once
+    batch = SteadyBatch(base, rtol=rtol, shoot_tol=1e-12)
+    calls = [0]
 
-    def cycle(J_F):
-        if progress is not None:
-            progress(len(cache))
-        if J_F not in cache:
-            cache[J_F] = steady_cycle(base.with_params(J_flywheel=J_F).build(), phi0, rtol,
-                                      omega_guess=free.omega1[0])
-        return cache[J_F]
+    def deltas(J_values) -> np.ndarray:
+        calls[0] += 1
+        found = batch.run([{"J_flywheel": float(J)} for J in J_values])
+        if found.failed:
+            bad = found.failed[0]
+            raise CrankfmuError(f"no steady cycle with J_flywheel = {bad['J_flywheel']:g} kg.m2: {bad['reason']}")
+        return np.array([row["delta"] for row in found.rows])
 
-    if free.delta <= delta:
+    # one call brackets the root: no flywheel, eq. 17's and a ladder of factors of 2 around it
+    scale = J_eq17 if math.isfinite(J_eq17) and J_eq17 > 0.0 else 1.0
+    ladder = np.concatenate([[0.0, J_eq17 if math.isfinite(J_eq17) else 0.0], scale * 2.0 ** np.arange(-10, 4)])
+    ladder_deltas = deltas(ladder)
+    delta_free, delta_eq17 = float(ladder_deltas[0]), float(ladder_deltas[1])
+    if delta_free <= delta:
         J_sim = 0.0
     else:
-        hi = max(J_eq17, 1.0)
-        while cycle(hi).delta > delta:
-            hi *= 2.0
-            if hi > 1e9:
-                raise CrankfmuError(f"no flywheel up to 1e9 kg.m2 reaches delta = {delta:g}")
-        J_sim = brentq(lambda J_F: cycle(J_F).delta - delta, 0.0, hi, xtol=1e-10, rtol=1e-12)
-    fitted = cycle(J_sim)
+        order = np.argsort(ladder)
+        J_sorted, d_sorted = ladder[order], ladder_deltas[order]
+        below = np.nonzero(d_sorted <= delta)[0]
+        if below.size:
+            lo, hi = float(J_sorted[below[0] - 1]), float(J_sorted[below[0]])
+        else:
+            lo, hi = float(J_sorted[-1]), float(J_sorted[-1])
+            while deltas([hi])[0] > delta:
+                lo, hi = hi, 2.0 * hi
+                if hi > 1e9:
+                    raise CrankfmuError(f"no flywheel up to 1e9 kg.m2 reaches delta = {delta:g}")
+        J_sim = brentq(lambda J_F: deltas([J_F])[0] - delta, lo, hi, xtol=1e-10, rtol=1e-12)
+    delta_achieved = float(deltas([J_sim])[0])
+    if progress is not None:
+        progress(2)
+    # the periodic solutions themselves (plots, peaks), by the crank-angle form on the engine: an
+    # independent check of the fast kernel's delta
+    fitted = steady_cycle(base.with_params(J_flywheel=J_sim).build(), phi0, rtol, omega_guess=free.omega1[0])
+    if progress is not None:
+        progress(3)
     return {
         "scenario": scenario.name,
         "delta_target": delta,
@@ -193,9 +243,12 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
         "J_F_eq17": J_eq17,
         "J_F_eq16": J_eq16,
         "J_F_simulated": float(J_sim),
-        "delta_achieved": fitted.delta,
-        "delta_without_flywheel": free.delta,
-        "delta_with_J_F_eq17": cycle(J_eq17).delta,
+        "delta_achieved": delta_achieved,
+        "delta_achieved_crank_angle": fitted.delta,
+        "delta_without_flywheel": delta_free,
+        "delta_without_flywheel_crank_angle": free.delta,
+        "delta_with_J_F_eq17": delta_eq17,
+        "steady_cycle_solves": calls[0],
         "omega_peak_without": float(free.omega1.max()),
         "omega_peak_with": float(fitted.omega1.max()),
         "omega_peak_reduction": float(1.0 - fitted.omega1.max() / free.omega1.max()),
@@ -203,6 +256,7 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
         "epsilon_peak_with": float(np.max(np.abs(fitted.epsilon1))),
         "epsilon_peak_reduction": float(1.0 - np.max(np.abs(fitted.epsilon1)) / np.max(np.abs(free.epsilon1))),
         "units": {"J_*": "kg.m2", "dW_max": "J", "omega_*": "rad/s", "epsilon_*": "rad/s2", "delta*": "1",
+                  "steady_cycle_solves": "batch calls of the fast kernel (one or many flywheels each)",
                   "*_reduction": "1 (fraction of the value without flywheel)", "*_at_deg": "deg (paper's phi)"},
         "_cycles": {"without": free, "with": fitted},
     }
@@ -270,6 +324,11 @@ def eq3_stability(scenario, steps_deg, turns: int = 20, steady: SteadyCycle | No
 # ---------------------------------------------------------------------------------------------
 # the study behind `crankfmu flywheel`: figures and flywheel.json
 
+#: what ``flywheel_study`` reports to ``progress``: 1..3 the flywheel (design_flywheel), 4 the eq. 3
+#: study, 5 the movement from the start, 6 the figures
+STUDY_STAGES = 6
+
+
 def flywheel_study(scenario, delta: float, out_dir, steps_deg=None, progress=None) -> dict:
     """J_e, the equivalent torque and the movement from the start (Figs. 3, 5, 6), the flywheel
     (eqs. 16-17 and simulated, Fig. 7) and the eq. 3 stability study; writes flywheel.json."""
@@ -285,10 +344,14 @@ def flywheel_study(scenario, delta: float, out_dir, steps_deg=None, progress=Non
     base = scenario.with_params(J_flywheel=0.0)
     steps = list(spec.get("eq3_steps_deg", [1, 2, 5, 10, 20])) if steps_deg is None else list(steps_deg)
     stability = eq3_stability(base, steps)
+    if progress is not None:
+        progress(4)
     # the movement from the start (Fig. 6): the reference and eq. 3 at 1 deg, three turns
     t_end = 3.2 * cycles["without"].period
     reference = simulate(base, t_end=t_end)
     eq3 = simulate(base, t_end=t_end, method="lv-eq3", angle_step=math.radians(1.0))
+    if progress is not None:
+        progress(5)
     settled = _settled_angle(reference, cycles["without"], offset)
     eq3_phi, eq3_omega = eq3.trajectory.y[0], eq3.trajectory.y[1]
     both = eq3_phi <= reference.phi1[-1]
@@ -306,6 +369,8 @@ def flywheel_study(scenario, delta: float, out_dir, steps_deg=None, progress=Non
         _plot_stability(stability, out / "eq3_stability.png"),
     ]
     design["plots"] = [p.name for p in plots]
+    if progress is not None:
+        progress(STUDY_STAGES)
     return design
 
 

@@ -551,14 +551,66 @@ def run_chunk(S, t_end, times, i_out, rows, step_store, n_store, events, n_event
 # ------------------------------------------------------------------------------------------
 # steady cycles of many designs (sweeps, flywheel sizing)
 # ------------------------------------------------------------------------------------------
-SAMPLES_PER_STEP = 8
+SLOPE_SAMPLES = 8    # the speed's slope is sampled at 9 points of each step to bracket its extremes
 STEADY_SIZE = 7      # omega1_mean, omega1_min, omega1_max, delta, period, turns, status
 STEADY_OK, STEADY_NOT_CONVERGED, STEADY_STALLS, STEADY_UNDERFLOW = 0.0, 1.0, 2.0, 3.0
 
 
+@_jit_inline
+def _omega_slope(S, x):
+    """Sign-true slope of omega1 (h domega1/dt) at x in [0, 1] of the last step's interpolant."""
+    acc = 0.0
+    for s in range(N_STAGES + 1):
+        acc += S[K + 5 * s + 1] * (_P[s, 0] + x * (2.0 * _P[s, 1] + x * (3.0 * _P[s, 2] + x * 4.0 * _P[s, 3])))
+    return acc
+
+
+@_jit
+def _step_extremes(S, x_end, tmp, extremes):
+    """Lowest and highest omega1 (rad/s) of the last step over x in [0, x_end] into extremes[0:2].
+
+    They lie at the step's ends or where the interpolant's slope changes sign; a sign change
+    between slope samples is located by Illinois, so an extreme is found to the interpolant's own
+    accuracy (the error tolerance) whatever the step size, not to a sampling error O(h^2).
+    """
+    h = S[T] - S[T_PREV]
+    dense(S, S[T_PREV], tmp)
+    lowest = tmp[1]
+    highest = tmp[1]
+    dense(S, S[T_PREV] + x_end * h, tmp)
+    lowest = min(lowest, tmp[1])
+    highest = max(highest, tmp[1])
+    a = 0.0
+    da = _omega_slope(S, a)
+    for i in range(1, SLOPE_SAMPLES + 1):
+        b = x_end * i / SLOPE_SAMPLES
+        db = _omega_slope(S, b)
+        if (da > 0.0 >= db) or (da < 0.0 <= db):
+            lo, hi, glo, ghi = a, b, da, db
+            for _ in range(60):
+                xm = hi - ghi * (hi - lo) / (ghi - glo)
+                if not (lo < xm < hi):
+                    xm = 0.5 * (lo + hi)
+                gm = _omega_slope(S, xm)
+                if (gm < 0.0) == (glo < 0.0):
+                    lo, glo = xm, gm
+                    ghi *= 0.5
+                else:
+                    hi, ghi = xm, gm
+                    glo *= 0.5
+                if hi - lo <= 1e-15:
+                    break
+            dense(S, S[T_PREV] + 0.5 * (lo + hi) * h, tmp)
+            lowest = min(lowest, tmp[1])
+            highest = max(highest, tmp[1])
+        a, da = b, db
+    extremes[0] = lowest
+    extremes[1] = highest
+
+
 @_jit
 def one_turn(S, phi_start, omega_start, t_max, C, switch, forces, P, work, Kst, ynew, tmp, f, g0, g1, y, f0,
-             stats, samples):
+             stats, extremes):
     """Integrate one crank turn from (phi_start, omega_start) at t = 0.
 
     stats <- (omega1 at the end of the turn, min, max, period s). Returns 0, 2 when the crank
@@ -582,23 +634,10 @@ def one_turn(S, phi_start, omega_start, t_max, C, switch, forces, P, work, Kst, 
         if done:              # the time the turn ends
             t_end = _locate(S, -1, phi_end, S[T_PREV], S[T], S[Y_PREV] - phi_end, S[Y] - phi_end,
                             C, forces, P, work, tmp, g0)
-        # omega1 at evenly spaced points of the step; an interior extreme is refined by the
-        # parabola through it and its neighbours (error O(h^3) instead of O(h^2))
-        for i in range(SAMPLES_PER_STEP + 1):
-            dense(S, S[T_PREV] + (t_end - S[T_PREV]) * i / SAMPLES_PER_STEP, tmp)
-            samples[i] = tmp[1]
-        for i in range(SAMPLES_PER_STEP + 1):
-            w = samples[i]
-            if 0 < i < SAMPLES_PER_STEP:
-                a, c = samples[i - 1], samples[i + 1]
-                curvature = a - 2.0 * w + c
-                if (w <= a and w <= c) or (w >= a and w >= c):
-                    if curvature != 0.0:
-                        w = w - 0.125 * (c - a) * (c - a) / curvature
-            if w < w_min:
-                w_min = w
-            if w > w_max:
-                w_max = w
+        h = S[T] - S[T_PREV]
+        _step_extremes(S, (t_end - S[T_PREV]) / h if h > 0.0 else 0.0, tmp, extremes)
+        w_min = min(w_min, extremes[0])
+        w_max = max(w_max, extremes[1])
         if done:
             dense(S, t_end, tmp)
             stats[0] = tmp[1]
@@ -628,7 +667,7 @@ def steady_batch(params, phi_start, omega_guess, rtol_shoot, max_turns, C, switc
     y = np.zeros(5)
     f0 = np.zeros(5)
     stats = np.zeros(4)
-    samples = np.zeros(SAMPLES_PER_STEP + 1)
+    extremes = np.zeros(2)
     for d in range(params.shape[0]):
         P = params[d]
         w = omega_guess[d]
@@ -639,7 +678,7 @@ def steady_batch(params, phi_start, omega_guess, rtol_shoot, max_turns, C, switc
         for it in range(max_turns):
             t_max = 1000.0 * TWO_PI / max(abs(w), 1e-3)
             code = one_turn(S, phi_start, w, t_max, C, switch, forces, P, work, Kst, ynew, tmp, f, g0, g1, y,
-                            f0, stats, samples)
+                            f0, stats, extremes)
             turns += 1
             if code == 2:
                 status = STEADY_STALLS
