@@ -354,17 +354,28 @@ def _transition(S, slot, y, C, switch, forces, P, work, f):
         S[DIRECTION] = _direction_at_rest(y[0], S[MOTOR], S[INTERVAL], C, forces, P, work, f)
 
 
+@_jit_inline
+def _omega_slope(S, x):
+    """Sign-true slope of omega1 (h domega1/dt) at x in [0, 1] of the last step's interpolant."""
+    acc = 0.0
+    for s in range(N_STAGES + 1):
+        acc += S[K + 5 * s + 1] * (_P[s, 0] + x * (2.0 * _P[s, 1] + x * (3.0 * _P[s, 2] + x * 4.0 * _P[s, 3])))
+    return acc
+
+
 @_jit
 def _locate(S, slot, level, lo, hi, glo, ghi, C, forces, P, work, tmp, g):
     """Time in [lo, hi] of the last step where g changes sign, by Illinois on the dense output:
-    g is event slot ``slot`` of S's mode, or phi1 - level for slot -1. Returns the end of the
-    final bracket (on or just past the surface)."""
+    g is event slot ``slot`` of S's mode, phi1 - level for slot -1, or the slope of omega1 for
+    slot -2 (an extreme). Returns the end of the final bracket (on or just past the surface)."""
     for _ in range(60):
         tm = hi - ghi * (hi - lo) / (ghi - glo)
         if not (lo < tm < hi):
             tm = 0.5 * (lo + hi)
         dense(S, tm, tmp)
-        if slot < 0:
+        if slot == -2:
+            gm = _omega_slope(S, (tm - S[T_PREV]) / (S[T] - S[T_PREV]))
+        elif slot == -1:
             gm = tmp[0] - level
         else:
             _events(S, tmp, C, forces, P, work, g)
@@ -556,54 +567,32 @@ STEADY_SIZE = 7      # omega1_mean, omega1_min, omega1_max, delta, period, turns
 STEADY_OK, STEADY_NOT_CONVERGED, STEADY_STALLS, STEADY_UNDERFLOW = 0.0, 1.0, 2.0, 3.0
 
 
-@_jit_inline
-def _omega_slope(S, x):
-    """Sign-true slope of omega1 (h domega1/dt) at x in [0, 1] of the last step's interpolant."""
-    acc = 0.0
-    for s in range(N_STAGES + 1):
-        acc += S[K + 5 * s + 1] * (_P[s, 0] + x * (2.0 * _P[s, 1] + x * (3.0 * _P[s, 2] + x * 4.0 * _P[s, 3])))
-    return acc
-
-
 @_jit
-def _step_extremes(S, x_end, tmp, extremes):
-    """Lowest and highest omega1 (rad/s) of the last step over x in [0, x_end] into extremes[0:2].
+def _step_extremes(S, t_end, C, forces, P, work, tmp, g, extremes):
+    """Lowest and highest omega1 (rad/s) of the last step up to t_end into extremes[0:2].
 
     They lie at the step's ends or where the interpolant's slope changes sign; a sign change
-    between slope samples is located by Illinois, so an extreme is found to the interpolant's own
-    accuracy (the error tolerance) whatever the step size, not to a sampling error O(h^2).
+    between slope samples is located, so an extreme is found to the interpolant's own accuracy
+    (the error tolerance) whatever the step size, not to a sampling error O(h^2).
     """
-    h = S[T] - S[T_PREV]
     dense(S, S[T_PREV], tmp)
     lowest = tmp[1]
     highest = tmp[1]
-    dense(S, S[T_PREV] + x_end * h, tmp)
+    dense(S, t_end, tmp)
     lowest = min(lowest, tmp[1])
     highest = max(highest, tmp[1])
-    a = 0.0
-    da = _omega_slope(S, a)
-    for i in range(1, SLOPE_SAMPLES + 1):
-        b = x_end * i / SLOPE_SAMPLES
-        db = _omega_slope(S, b)
-        if (da > 0.0 >= db) or (da < 0.0 <= db):
-            lo, hi, glo, ghi = a, b, da, db
-            for _ in range(60):
-                xm = hi - ghi * (hi - lo) / (ghi - glo)
-                if not (lo < xm < hi):
-                    xm = 0.5 * (lo + hi)
-                gm = _omega_slope(S, xm)
-                if (gm < 0.0) == (glo < 0.0):
-                    lo, glo = xm, gm
-                    ghi *= 0.5
-                else:
-                    hi, ghi = xm, gm
-                    glo *= 0.5
-                if hi - lo <= 1e-15:
-                    break
-            dense(S, S[T_PREV] + 0.5 * (lo + hi) * h, tmp)
-            lowest = min(lowest, tmp[1])
-            highest = max(highest, tmp[1])
-        a, da = b, db
+    h = S[T] - S[T_PREV]
+    if h > 0.0:
+        ta = S[T_PREV]
+        da = _omega_slope(S, 0.0)
+        for i in range(1, SLOPE_SAMPLES + 1):
+            tb = S[T_PREV] + (t_end - S[T_PREV]) * i / SLOPE_SAMPLES
+            db = _omega_slope(S, (tb - S[T_PREV]) / h)
+            if (da > 0.0 >= db) or (da < 0.0 <= db):
+                dense(S, _locate(S, -2, 0.0, ta, tb, da, db, C, forces, P, work, tmp, g), tmp)
+                lowest = min(lowest, tmp[1])
+                highest = max(highest, tmp[1])
+            ta, da = tb, db
     extremes[0] = lowest
     extremes[1] = highest
 
@@ -634,8 +623,7 @@ def one_turn(S, phi_start, omega_start, t_max, C, switch, forces, P, work, Kst, 
         if done:              # the time the turn ends
             t_end = _locate(S, -1, phi_end, S[T_PREV], S[T], S[Y_PREV] - phi_end, S[Y] - phi_end,
                             C, forces, P, work, tmp, g0)
-        h = S[T] - S[T_PREV]
-        _step_extremes(S, (t_end - S[T_PREV]) / h if h > 0.0 else 0.0, tmp, extremes)
+        _step_extremes(S, t_end, C, forces, P, work, tmp, g0, extremes)
         w_min = min(w_min, extremes[0])
         w_max = max(w_max, extremes[1])
         if done:
