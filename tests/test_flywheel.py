@@ -91,6 +91,13 @@ def test_flywheel_found_by_simulation_meets_the_target_in_a_time_domain_run(seed
     assert d["epsilon_peak_reduction"] > 0.5 and d["omega_peak_reduction"] > 0
 
 
+def test_no_flywheel_when_the_mechanism_already_meets_the_target(seed003):
+    d = design_flywheel(seed003, 0.2)          # without a flywheel delta is 0.0618
+    assert d["J_F_simulated"] == 0.0
+    assert d["delta_achieved"] == d["delta_without_flywheel"] < 0.2
+    assert d["delta_achieved_crank_angle"] == pytest.approx(d["delta_achieved"], rel=1e-9)
+
+
 def test_flywheel_outputs_written(flywheel_run):
     out, d = flywheel_run
     for key in ("J_e_min", "J_e_max", "dW_max", "J_F_eq17", "J_F_eq16", "J_F_simulated", "delta_achieved"):

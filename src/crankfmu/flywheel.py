@@ -30,10 +30,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from .batch import SteadyBatch
 from .equilibrium import cycle_breaks
 from .errors import CrankfmuError, ParameterError, SchemeError
 from .output import pyplot, turn_axis
-from .batch import SteadyBatch
 from .scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
@@ -227,7 +227,8 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
         progress(2)
     # the periodic solutions themselves (plots, peaks), by the crank-angle form on the engine: an
     # independent check of the fast kernel's delta
-    fitted = steady_cycle(base.with_params(J_flywheel=J_sim).build(), phi0, rtol, omega_guess=free.omega1[0])
+    fitted = free if J_sim == 0.0 else steady_cycle(base.with_params(J_flywheel=J_sim).build(), phi0, rtol,
+                                                     omega_guess=free.omega1[0])
     if progress is not None:
         progress(3)
     return {
