@@ -60,20 +60,17 @@ class SteadyCycle:
 
 
 def _crank_angle_rhs(model):
-    """d(omega1, t)/dphi1 of the movement equation divided by omega1 (the motor branch by omega1)."""
-    equation, reduced = model.equation, model.reduced
+    """d(omega1, t)/dphi1 = (epsilon1 / omega1, 1 / omega1), the motor branch by omega1. Each piece
+    lies between two switches, so the loads' side and band follow from (phi1, omega1)."""
+    outputs = model.equation.outputs
 
     def rhs(phi, y):
         omega = y[0]
         if not omega > 0.0:
             raise SchemeError(f"the crank stops (omega1 = {omega:.4g} rad/s at phi1 = {math.degrees(phi):.2f} deg): "
                               "no steady forward cycle for this design")
-        # each piece lies between two switches: the loads' side and band follow from (phi1, omega1)
-        J, half_dJ, Q, kin = reduced.coefficients(np.array([phi]))
-        if reduced.velocity_dependent:
-            Q = Q + reduced.velocity_load(kin, omega)
-        M = float(equation.motor.torque_at(omega))
-        return np.array([(M + Q[0] + equation.tau_ext - half_dJ[0] * omega * omega) / (J[0] * omega), 1.0 / omega])
+        eps = float(outputs(np.array([phi]), np.array([omega]))["epsilon1"][0])
+        return np.array([eps / omega, 1.0 / omega])
     return rhs
 
 
@@ -140,7 +137,7 @@ def steady_cycle(model, phi0: float = 0.0, rtol: float = 1e-11, n_samples: int =
         ys = np.concatenate([ys, np.column_stack([y for _, y in extra])], axis=1)
         order = np.argsort(phis)
         phis, ys = phis[order], ys[:, order]
-    eps = np.array([rhs(p, y)[0] * y[0] for p, y in zip(phis, ys.T)])
+    eps = model.equation.outputs(phis, ys[0])["epsilon1"]
     return SteadyCycle(phi1=phis, omega1=ys[0], epsilon1=eps, time=ys[1], period=float(ys[1, -1]),
                        J_flywheel=model.reduced.J_flywheel)
 

@@ -43,47 +43,33 @@ class StepperState:
     y_prev: np.ndarray
     K: np.ndarray            # (n_stages + 1) x n stage derivatives of the last step
     n_rhs: int = 0
-    step_mode: Mode | None = None   # the mode the last step was computed in (inside it, before any event)
 
 
 class DormandPrinceStepper:
-    """Steps ``equation`` with rtol/atol error control, one accepted step per ``step`` call.
+    """Steps ``equation`` with rtol/atol error control, one accepted step per ``step`` call; the
+    located events and mode changes are kept in ``events`` and ``modes``."""
 
-    With ``record`` the located events and mode changes are kept in ``events`` and ``modes``
-    (for in-process results); the FMU leaves it off, so a long co-simulation does not grow a list.
-    """
-
-    def __init__(self, equation, rtol: float, atol: float | None = None, h_max: float = math.inf,
-                 record: bool = False):
+    def __init__(self, equation, rtol: float, atol: float | None = None):
         if not (rtol > 0 and math.isfinite(rtol)):
             raise ParameterError(f"rtol must be > 0, got {rtol!r}", "rtol")
         self.equation = equation
         self.rtol = float(rtol)
         self.atol = float(rtol if atol is None else atol)
-        self.h_max = h_max
-        self.record = record
         self.events: list[tuple[float, str]] = []
         self.modes: list[tuple[float, str]] = []
 
     # ---------------------------------------------------------------- state
-    def start(self, t: float, y, mode: Mode | None = None, h: float | None = None) -> StepperState:
+    def start(self, t: float, y) -> StepperState:
         y = np.array(y, dtype=float)
-        mode = self.equation.initial_mode(t, y) if mode is None else mode
+        mode = self.equation.initial_mode(t, y)
         f = self.equation.rhs(t, y, mode)
-        if h is None:
-            scale = self.atol + self.rtol * np.abs(y)
-            d0, d1 = _rms(y / scale), _rms(f / scale)
-            h = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+        scale = self.atol + self.rtol * np.abs(y)
+        d0, d1 = _rms(y / scale), _rms(f / scale)
+        h = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
         K = np.zeros((_N_STAGES + 1, y.size))
         K[-1] = f
-        if self.record and (not self.modes or self.modes[-1][1] != mode.name):
-            self.modes.append((t, mode.name))
-        return StepperState(t, y, f, float(min(h, self.h_max)), mode, t, y, K, 1, mode)
-
-    def restart(self, state: StepperState, t: float) -> StepperState:
-        """Restart at time t within the last step (e.g. after a parameter or input change)."""
-        y = self.dense(state, t)
-        return self.start(t, y, mode=state.mode, h=state.h)
+        self.modes.append((t, mode.name))
+        return StepperState(t, y, f, float(h), mode, t, y, K, 1)
 
     def dense(self, state: StepperState, t: float) -> np.ndarray:
         """State at t in [t_prev, t] from the last step's quartic interpolant."""
@@ -114,7 +100,7 @@ class DormandPrinceStepper:
     def step(self, state: StepperState, t_limit: float) -> StepperState:
         """One accepted step, not beyond t_limit, ending on an event surface if one is crossed."""
         t, y, f, mode = state.t, state.y, state.f, state.mode
-        h = min(state.h, self.h_max)
+        h = state.h
         n_rhs = state.n_rhs
         while True:
             if t + h >= t_limit:
@@ -128,8 +114,7 @@ class DormandPrinceStepper:
                 break
             h *= max(MIN_FACTOR, SAFETY * err ** _ERROR_EXPONENT)
         factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** _ERROR_EXPONENT)
-        h_next = min(h * factor, self.h_max)
-        new = StepperState(t + h, y_new, K[-1].copy(), h_next, mode, t, y, K, n_rhs, mode)
+        new = StepperState(t + h, y_new, K[-1].copy(), h * factor, mode, t, y, K, n_rhs)
         if t + h == t_limit:
             new.t = t_limit           # exact, not t + (t_limit - t)
         return self._handle_events(state, new)
@@ -172,11 +157,10 @@ class DormandPrinceStepper:
         n_rhs = new.n_rhs + _N_STAGES
         mode = self.equation.transition(old.mode, surface.kind, t_event, y_e)
         f_e = self.equation.rhs(t_event, y_e, mode)   # K keeps the old mode's stages: dense output
-        if self.record:
-            self.events.append((t_event, surface.what))
-            if mode.name != self.modes[-1][1]:
-                self.modes.append((t_event, mode.name))
-        return StepperState(t_event, y_e, f_e, max(new.h, h), mode, old.t, y, K, n_rhs + 1, old.mode)
+        self.events.append((t_event, surface.what))
+        if mode.name != self.modes[-1][1]:
+            self.modes.append((t_event, mode.name))
+        return StepperState(t_event, y_e, f_e, max(new.h, h), mode, old.t, y, K, n_rhs + 1)
 
 
 def _rms(x) -> float:
@@ -194,7 +178,7 @@ class DormandPrinceIntegrator(Integrator):
         self.method = "Dormand-Prince 5(4), located events"
 
     def run(self, equation, t0, y0, t_end, progress=None, output_times=None):
-        stepper = DormandPrinceStepper(equation, self.rtol, self.atol, record=True)
+        stepper = DormandPrinceStepper(equation, self.rtol, self.atol)
         state = stepper.start(t0, y0)
         ts, ys, states = [state.t], [state.y], [state]
         while state.t < t_end:
