@@ -2,13 +2,14 @@
 #   make demo   creates .venv, installs crankfmu with its dependencies, builds the FMUs, runs the
 #               seed-000 job and the full validation harness (build/validation/report.md)
 #   make test   same bootstrap, then the test suite and the harness's --quick subset
+#   make soak   1,500 short FMU host processes, counting abnormal exits (about 30 min)
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= build/demo
 
-.PHONY: demo test venv fmu validate bench clean
+.PHONY: demo test venv fmu validate bench soak clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version' 
@@ -40,6 +41,11 @@ validate: fmu
 
 bench: fmu
 	$(BIN)/python benchmarks/speed.py --out build/bench
+
+# 1,500 short host processes (300 per FMU: fmpy and the C driver, logging on and off, a refused
+# parameter, a host exiting with the instance alive); exits 1 on any abnormal exit
+soak: fmu
+	$(BIN)/python tests/soak.py --per-fmu 300
 
 clean:
 	rm -rf build .pytest_cache

@@ -72,22 +72,38 @@ def free_names(tree: ast.AST) -> set[str]:
     return names - called - set(CONSTANTS)
 
 
+#: checked and compiled expressions by (source, where, function names): a mechanism is bound to
+#: new parameter values many times (every FMU initialisation, every design of a sweep), and
+#: parsing and checking the same text again cost most of a binding
+_COMPILED: dict[tuple, tuple[frozenset, object]] = {}
+
+
+def _compile(source: str, where: str, functions: Mapping):
+    key = (source, where, tuple(sorted(functions)))
+    hit = _COMPILED.get(key)
+    if hit is None:
+        tree = parse(source, where)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and node.func.id not in functions:
+                raise DefinitionError(
+                    f"{where}: unknown function {node.func.id!r} in {source!r} "
+                    f"(known: {', '.join(sorted(functions))})"
+                )
+        hit = (frozenset(free_names(tree)), compile(tree, f"<{where}>", "eval"))
+        if len(_COMPILED) < 100_000:
+            _COMPILED[key] = hit
+    return hit
+
+
 class Expression:
     """A compiled expression; ``evaluate(env)`` binds its names from ``env``."""
 
     def __init__(self, source, where: str = "expression", functions: Mapping | None = None):
         self.source = source if isinstance(source, str) else repr(float(source))
         self.where = where
-        tree = parse(source, where)
         self.functions = dict(FUNCTIONS if functions is None else functions)
-        for node in ast.walk(tree):
-            if isinstance(node, ast.Call) and node.func.id not in self.functions:
-                raise DefinitionError(
-                    f"{where}: unknown function {node.func.id!r} in {self.source!r} "
-                    f"(known: {', '.join(sorted(self.functions))})"
-                )
-        self.names = free_names(tree)
-        self._code = compile(tree, f"<{where}>", "eval")
+        names, self._code = _compile(self.source, where, self.functions)
+        self.names = set(names)
 
     def evaluate(self, env: Mapping[str, object]):
         missing = self.names - env.keys()

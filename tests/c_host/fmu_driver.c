@@ -5,7 +5,9 @@
  *   fmu_driver DIR MODEL_ID GUID STEPS STEP_SIZE OUT_VR [VR=VALUE ...]
  *
  * Exit code: 0 when every call returned fmi2OK, 1 when a call returned another status (printed),
- * 2 when the FMU could not be loaded or instantiated.
+ * 2 when the FMU could not be loaded or instantiated. With FMU_DRIVER_NO_FREE=1 in the
+ * environment it exits without fmi2Terminate and fmi2FreeInstance (a host that dies with the
+ * instance alive), and with FMU_DRIVER_LOGGING=0 it instantiates with loggingOn = fmi2False.
  */
 #include <dlfcn.h>
 #include <stdarg.h>
@@ -66,7 +68,9 @@ int main(int argc, char** argv)
     LOAD(fmi2FreeInstance)
 
     fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
-    fmi2Component c = fmi2Instantiate("c-host", fmi2CoSimulation, guid, uri, &cb, fmi2False, fmi2True);
+    const char* logging = getenv("FMU_DRIVER_LOGGING");
+    fmi2Boolean logging_on = (logging && strcmp(logging, "0") == 0) ? fmi2False : fmi2True;
+    fmi2Component c = fmi2Instantiate("c-host", fmi2CoSimulation, guid, uri, &cb, fmi2False, logging_on);
     if (!c) {
         printf("fmi2Instantiate returned NULL\n");
         return 2;
@@ -103,7 +107,10 @@ int main(int argc, char** argv)
     s = fmi2GetReal(c, &out_vr, 1, &value);
     printf("status fmi2GetReal %d\n", (int)s);
     printf("result t=%.17g value=%.17g\n", t, value);
-    fmi2Terminate(c);
-    fmi2FreeInstance(c);
+    const char* no_free = getenv("FMU_DRIVER_NO_FREE");
+    if (!(no_free && strcmp(no_free, "1") == 0)) {
+        fmi2Terminate(c);
+        fmi2FreeInstance(c);
+    }
     return bad ? 1 : 0;
 }

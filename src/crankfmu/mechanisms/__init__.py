@@ -30,8 +30,16 @@ def load_mechanism(name_or_path: str | Path) -> MechanismDefinition:
                 f"unknown mechanism {str(name_or_path)!r}; known: {', '.join(available_mechanisms())}"
             )
         text, where = res.read_text(), f"mechanism {name_or_path}"
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DefinitionError(f"{where}: {exc}") from None
-    return MechanismDefinition.from_dict(data, where)
+    key = (where, text)
+    if key not in _PARSED:
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise DefinitionError(f"{where}: {exc}") from None
+        _PARSED[key] = MechanismDefinition.from_dict(data, where)
+    return _PARSED[key]
+
+
+#: parsed definitions by (where, file text): a definition is never changed after parsing, and a
+#: scenario asks for its mechanism's definition many times (every build, every FMU instance)
+_PARSED: dict[tuple[str, str], MechanismDefinition] = {}

@@ -16,9 +16,20 @@
  * and returns fmi2OK from fmi2SetReal, so the slave logs its refusals with fmi2Error status
  * instead of raising. The shim wraps the host's logger, remembers the worst status logged
  * during a call, and returns fmi2Error from a call during which the slave logged an error.
+ * pythonfmu drops every message while the host's loggingOn is false, so the inner instance is
+ * always created with logging on and the shim applies the host's setting itself: warnings and
+ * errors always reach the host (FMI 2.0 allows it: they are not debug messages), other
+ * messages only while the host asked for them, in the categories it asked for.
+ *
+ * What the shim checks itself, before Python sees the call: fmi2DoStep's arguments (a finite
+ * current time, a finite positive step), and calls on an instance that pythonfmu lost to a
+ * fatal error (pythonfmu has already released its Python objects then: forwarding another call,
+ * fmi2FreeInstance included, would use them after free). fmi2Discard from fmi2DoStep is made
+ * fmi2Error: the model never asks a master to retry a smaller step, it refuses.
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -30,11 +41,18 @@
 #error "compile with -DINNER_LIBRARY=\"<model>_pythonfmu.so\""
 #endif
 
+#define MAX_CATEGORIES 16
+
 typedef struct {
     fmi2Component inner;
     fmi2CallbackFunctions host;     /* the host's callbacks */
     fmi2CallbackFunctions mine;     /* what the inner FMU gets: our logger, the host's memory */
     fmi2Status worst;               /* worst status logged during the current call */
+    int host_logging;               /* the host's loggingOn / fmi2SetDebugLogging */
+    size_t n_categories;            /* 0: every category */
+    char categories[MAX_CATEGORIES][64];
+    int lost;                       /* pythonfmu returned fmi2Fatal: never forward again */
+    char name[256];
 } Shim;
 
 static void* inner_lib = NULL;
@@ -48,6 +66,28 @@ static void (*inner_finalize)(void) = NULL;
 static void release_python_at_exit(void)
 {
     if (inner_finalize) inner_finalize();
+}
+
+/* the host's category filter for messages below fmi2Warning */
+static int host_wants(const Shim* s, fmi2Status status, const char* category)
+{
+    if (status >= fmi2Warning) return 1;
+    if (!s->host_logging) return 0;
+    if (s->n_categories == 0) return 1;
+    for (size_t i = 0; i < s->n_categories; i++)
+        if (category && strcmp(category, s->categories[i]) == 0) return 1;
+    return 0;
+}
+
+static const char* status_category(fmi2Status status)
+{
+    switch (status) {
+    case fmi2Warning: return "logStatusWarning";
+    case fmi2Discard: return "logStatusDiscard";
+    case fmi2Error: return "logStatusError";
+    case fmi2Fatal: return "logStatusFatal";
+    default: return "logAll";
+    }
 }
 
 /* every FMI 2.0 function forwarded to pythonfmu's binary: one list for declaring and binding */
@@ -86,9 +126,25 @@ static void shim_logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Statu
     vsnprintf(buffer, sizeof buffer, message, ap);
     va_end(ap);
     if (status > s->worst) s->worst = status;
+    /* pythonfmu's own messages (a Python exception) come without a category */
+    if (!category || !category[0]) category = status_category(status);
+    if (!host_wants(s, status, category)) return;
     /* pass the text itself as the message: hosts written with ctypes cannot read varargs */
     escape_percent(buffer, escaped, sizeof escaped);
     if (s->host.logger) s->host.logger(s->host.componentEnvironment, name, status, category, escaped);
+}
+
+/* an error the shim finds itself: always logged, whatever the host's logging setting */
+static fmi2Status shim_error(Shim* s, const char* format, ...)
+{
+    char text[2048], escaped[4096];
+    va_list ap;
+    va_start(ap, format);
+    vsnprintf(text, sizeof text, format, ap);
+    va_end(ap);
+    escape_percent(text, escaped, sizeof escaped);
+    if (s->host.logger) s->host.logger(s->host.componentEnvironment, s->name, fmi2Error, "logStatusError", escaped);
+    return fmi2Error;
 }
 
 static void host_log(const fmi2CallbackFunctions* cb, fmi2String name, const char* message, const char* detail)
@@ -160,26 +216,34 @@ static int load(const char* resources, const fmi2CallbackFunctions* cb, fmi2Stri
     }
     FMI2_FORWARDED(BIND)
     inner_lib = lib;
-    if (own_python) {
-        /* only where we brought Python in: a Python host finalizes its own interpreter */
-        inner_finalize = (void (*)(void))dlsym(lib, "finalizePythonInterpreter");
-        if (inner_finalize) {
-            /* stay loaded, so the handler below is not run (and then dangling) at a host's dlclose */
-            dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
-            atexit(release_python_at_exit);
-        }
+    /* In every host, Python or not: the use-after-free of pythonfmu's library destructor happens
+     * at any process exit once an instance was created (valgrind shows it in an fmpy host too,
+     * where it aborted about one process in two hundred with `corrupted double-linked list`).
+     * In a Python host the interpreter is already finalised when this runs, and pythonfmu's
+     * state then only joins its finished thread: no Python call is made. */
+    inner_finalize = (void (*)(void))dlsym(lib, "finalizePythonInterpreter");
+    if (inner_finalize) {
+        /* stay loaded, so the handler below is not run (and then dangling) at a host's dlclose */
+        dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+        atexit(release_python_at_exit);
     }
     return 1;
 }
 
-/* an error logged during the call makes the call an error (never downgrade a worse status) */
+/* an error logged during the call makes the call an error (never downgrade a worse status);
+ * a fatal return means pythonfmu released the instance's Python objects: never call it again */
 static fmi2Status merged(Shim* s, fmi2Status returned)
 {
+    if (returned == fmi2Fatal) s->lost = 1;
     if (s->worst >= fmi2Error && returned < fmi2Error) return fmi2Error;
     return returned;
 }
 
-#define SHIM(c) Shim* s = (Shim*)(c); if (!s || !inner_lib) return fmi2Error; s->worst = fmi2OK
+#define SHIM(c)                                                                                    \
+    Shim* s = (Shim*)(c);                                                                          \
+    if (!s || !inner_lib) return fmi2Error;                                                        \
+    if (s->lost) return shim_error(s, "this instance was lost to an earlier fatal error: free it"); \
+    s->worst = fmi2OK
 #define FORWARD(call) do { fmi2Status r_ = (call); return merged(s, r_); } while (0)
 
 const char* fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -194,11 +258,20 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     Shim* s = (Shim*)calloc(1, sizeof(Shim));
     if (!s) return NULL;
     if (callbacks) s->host = *callbacks;
+    snprintf(s->name, sizeof s->name, "%s", name ? name : "");
+    s->host_logging = logging_on == fmi2True;
+    if (type != fmi2CoSimulation) {
+        shim_error(s, "fmi2Instantiate: this FMU is for co-simulation only (fmuType = fmi2CoSimulation)");
+        free(s);
+        return NULL;
+    }
     s->mine = s->host;
     s->mine.logger = shim_logger;
     s->mine.componentEnvironment = s;
-    s->inner = inner_fmi2Instantiate(name, type, guid, resource_uri, &s->mine, visible, logging_on);
+    /* pythonfmu logs only with loggingOn: keep it on and filter here (see the top of this file) */
+    s->inner = inner_fmi2Instantiate(name, type, guid, resource_uri, &s->mine, visible, fmi2True);
     if (!s->inner) {
+        shim_error(s, "fmi2Instantiate failed: the FMU's Python side could not start (see the message before)");
         free(s);
         return NULL;
     }
@@ -209,12 +282,24 @@ void fmi2FreeInstance(fmi2Component c)
 {
     Shim* s = (Shim*)c;
     if (!s) return;
-    if (inner_lib && s->inner) inner_fmi2FreeInstance(s->inner);
+    /* a lost instance is leaked, not freed: pythonfmu already released its Python objects */
+    if (inner_lib && s->inner && !s->lost) inner_fmi2FreeInstance(s->inner);
     free(s);   /* pythonfmu's binary stays loaded: an embedded Python cannot be unloaded */
 }
 
+/* the host's setting is applied by shim_logger; the inner instance keeps logging everything */
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cats[])
-{ SHIM(c); FORWARD(inner_fmi2SetDebugLogging(s->inner, on, n, cats)); }
+{
+    SHIM(c);
+    if (n > MAX_CATEGORIES) return shim_error(s, "fmi2SetDebugLogging: at most %d categories", MAX_CATEGORIES);
+    for (size_t i = 0; i < n; i++) {
+        if (!cats || !cats[i]) return shim_error(s, "fmi2SetDebugLogging: category %zu is NULL", i);
+        snprintf(s->categories[i], sizeof s->categories[i], "%s", cats[i]);
+    }
+    s->n_categories = n;
+    s->host_logging = on == fmi2True;
+    return fmi2OK;
+}
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tol_defined, fmi2Real tol, fmi2Real start,
                                fmi2Boolean stop_defined, fmi2Real stop)
 { SHIM(c); FORWARD(inner_fmi2SetupExperiment(s->inner, tol_defined, tol, start, stop_defined, stop)); }
@@ -261,7 +346,19 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
                                         const fmi2Integer order[], fmi2Real v[])
 { SHIM(c); FORWARD(inner_fmi2GetRealOutputDerivatives(s->inner, vr, n, order, v)); }
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_prior)
-{ SHIM(c); FORWARD(inner_fmi2DoStep(s->inner, t, h, no_prior)); }
+{
+    SHIM(c);
+    if (!isfinite(t)) return shim_error(s, "fmi2DoStep: currentCommunicationPoint = %g s must be finite", t);
+    if (!(isfinite(h) && h > 0.0))
+        return shim_error(s, "fmi2DoStep: communicationStepSize = %g s must be finite and > 0 (valid range (0, inf) s)", h);
+    fmi2Status r = merged(s, inner_fmi2DoStep(s->inner, t, h, no_prior));
+    if (r == fmi2Discard) {
+        /* pythonfmu's answer to a step the model refused; the model logs why */
+        if (s->worst < fmi2Error) shim_error(s, "fmi2DoStep: the step from t = %g s was refused", t);
+        return fmi2Error;
+    }
+    return r;
+}
 fmi2Status fmi2CancelStep(fmi2Component c) { SHIM(c); FORWARD(inner_fmi2CancelStep(s->inner)); }
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind k, fmi2Status* v) { SHIM(c); FORWARD(inner_fmi2GetStatus(s->inner, k, v)); }
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real* v) { SHIM(c); FORWARD(inner_fmi2GetRealStatus(s->inner, k, v)); }

@@ -1,0 +1,280 @@
+"""Build the FMUs: ``python fmu_build/build.py [--dest build/fmus]`` (this module's ``main``).
+
+On linux64 the FMU's binary is the shim of ``shim/fmu_shim.c`` beside this file (compiled here with gcc)
+in front of pythonfmu's binary, renamed ``<model>_pythonfmu.so``: it makes the FMU load in plain
+C/C++ hosts and turns refusals logged by the slave into fmi2Error. ``resources/python_env.txt``
+records the libpython and the site-packages of the environment that built the FMU (see README,
+"Using the FMU on another machine").
+
+pythonfmu packs the slave script with crankfmu's own package in the resources (the same model
+code and scenario files as the CLI) and writes a modelDescription without units, unit
+definitions or initial unknowns; this step completes it: each Real gets its SI unit (from the
+scenario file), ``UnitDefinitions`` gives each unit's SI base exponents, ``InitialUnknowns``
+lists the outputs with the parameters they depend on at initialisation, and the
+``DefaultExperiment`` comes from the scenario's experiment. As the Reference FMUs do, the FMU
+carries the default experiment's result (``extra/org.fmi-standard.fmi-ls-ref/<model>_out.csv``
+with its manifest), written beside it too as the cross-check files ``<model>_ref.csv`` and
+``<model>_ref.opt``; the result comes from the in-process reference integrator, an independent
+method from the FMU's own stepper.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import site
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import zipfile
+from pathlib import Path
+from xml.dom.minidom import parseString
+from xml.etree import ElementTree as ET
+
+HERE = Path(__file__).resolve().parent
+PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's resources
+
+#: FMU name -> scenario
+FMUS = {"FourBar": "seed000", "ThreeLoop": "seed001", "SliderCrank": "seed002", "Shaper": "seed003",
+        "QuickReturn": "seed004"}
+
+#: SI base-unit exponents of every unit the FMUs declare
+BASE_UNITS = {
+    "1": {},
+    "m": {"m": 1},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "J": {"kg": 1, "m": 2, "s": -2},
+    "kg.m2": {"kg": 1, "m": 2},
+    "kg/m": {"kg": 1, "m": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "m/s": {"m": 1, "s": -1},
+    "kg": {"kg": 1},
+    "N.s/m": {"kg": 1, "s": -1},
+    "N": {"kg": 1, "m": 1, "s": -2},
+}
+
+#: what each output depends on at initialisation; *geometry (lengths and masses), *loads and
+#: *all are expanded from the mechanism and scenario files
+INITIAL_DEPENDENCIES = {
+    "phi1": ["phi1_start"],
+    "omega1": ["omega1_start"],
+    "J_red": ["phi1_start", "J_flywheel", "*geometry"],
+    "E_kin": ["phi1_start", "omega1_start", "J_flywheel", "*geometry"],
+    "M_motor": ["omega1_start", "A", "B", "A_low", "B_low", "omega_switch"],
+    "M_load": ["phi1_start", "omega1_start", "*geometry", "*loads"],
+    "epsilon1": ["*all"],
+    "W_motor": [],            # zero at the start whatever the parameters
+    "W_load": [],
+    "W_ext": [],
+}
+
+
+def complete_model_description(xml_bytes: bytes, units: dict[str, str], scenario) -> bytes:
+    root = ET.fromstring(xml_bytes)
+    variables = root.find("ModelVariables")
+    index = {}
+    for i, sv in enumerate(variables.findall("ScalarVariable"), start=1):
+        name = sv.get("name")
+        index[name] = i
+        real = sv.find("Real")
+        unit = units.get(name)
+        if unit is None:
+            raise SystemExit(f"build: no unit for variable {name}")
+        if real is not None and unit != "1":
+            real.set("unit", unit)
+    # UnitDefinitions must come before ModelVariables (after LogCategories / DefaultExperiment order:
+    # CoSimulation, UnitDefinitions, TypeDefinitions, LogCategories, DefaultExperiment, ...)
+    unit_defs = ET.Element("UnitDefinitions")
+    for unit in sorted({u for u in units.values() if u != "1"}):
+        u = ET.SubElement(unit_defs, "Unit", name=unit)
+        ET.SubElement(u, "BaseUnit", {k: str(v) for k, v in BASE_UNITS[unit].items()})
+    children = list(root)
+    position = [c.tag for c in children].index("CoSimulation") + 1
+    root.insert(position, unit_defs)
+
+    exp = scenario.experiment
+    for old in root.findall("DefaultExperiment"):
+        root.remove(old)
+    default = ET.Element("DefaultExperiment", startTime=repr(exp.start_time), stopTime=repr(exp.stop_time),
+                         tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
+    position = [c.tag for c in root].index("ModelVariables")
+    root.insert(position, default)
+    # which scenario file the FMU implements: the harness runs the same file in process
+    for old in root.findall("VendorAnnotations"):
+        root.remove(old)
+    vendor = ET.Element("VendorAnnotations")
+    tool = ET.SubElement(vendor, "Tool", name="crankfmu")
+    ET.SubElement(tool, "Scenario", name=scenario.name)
+    root.insert(position + 1, vendor)
+
+    structure = root.find("ModelStructure")
+    for old in structure.findall("InitialUnknowns"):
+        structure.remove(old)
+    definition = scenario.mechanism_definition()
+    geometry = set(definition.geometry_parameters) | set(definition.mass_parameters)
+    loads = set(scenario.load_parameters())
+    parameters = list(scenario.parameters)
+    initial = ET.SubElement(structure, "InitialUnknowns")
+    outputs = [sv.get("name") for sv in variables.findall("ScalarVariable") if sv.get("causality") == "output"]
+    for name in outputs:
+        deps = []
+        for d in INITIAL_DEPENDENCIES.get(name, ["*all"]):
+            if d == "*geometry":
+                deps += sorted(geometry)
+            elif d == "*loads":
+                deps += sorted(loads)
+            elif d == "*all":
+                deps += parameters + ["tau_ext"]
+            else:
+                deps.append(d)
+        refs = sorted({index[d] for d in deps if d in index})
+        ET.SubElement(initial, "Unknown", index=str(index[name]), dependencies=" ".join(map(str, refs)))
+    for element in root.iter():           # drop pythonfmu's whitespace before re-indenting
+        if element.text is not None and not element.text.strip():
+            element.text = None
+        element.tail = None
+    text = ET.tostring(root, encoding="UTF-8")
+    return parseString(text).toprettyxml(encoding="UTF-8", indent="  ")
+
+
+def compile_shim(name: str, out: Path) -> Path:
+    """gcc the shim for model ``name``; the FMI headers come with fmpy."""
+    import fmpy
+
+    headers = Path(fmpy.__file__).parent / "c-code"
+    cmd = ["gcc", "-shared", "-fPIC", "-O2", "-Wall", "-Werror", f"-I{headers}",
+           f'-DINNER_LIBRARY="{name}_pythonfmu.so"', "-o", str(out), str(HERE / "shim" / "fmu_shim.c"), "-ldl"]
+    try:
+        subprocess.run(cmd, check=True, capture_output=True, text=True)
+    except FileNotFoundError:
+        raise SystemExit("build: gcc not found; it compiles the FMU's linux64 shim (apt-get install gcc)") from None
+    except subprocess.CalledProcessError as exc:
+        raise SystemExit(f"build: compiling the shim failed:\n{exc.stderr}") from None
+    return out
+
+
+def python_env() -> str:
+    """libpython of this interpreter, then the site-packages the FMU's imports come from."""
+    libpython = Path(sysconfig.get_config_var("LIBDIR")) / sysconfig.get_config_var("INSTSONAME")
+    if not libpython.exists():
+        raise SystemExit(f"build: {libpython} not found: this Python has no shared libpython, which "
+                         "C hosts need (build with a Python configured --enable-shared)")
+    sites = [p for p in site.getsitepackages() if os.path.isdir(p)]
+    return "\n".join([str(libpython), *sites]) + "\n"
+
+
+LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
+LS_REF_MANIFEST = """<?xml version="1.0" encoding="UTF-8"?>
+<fmiReferences xmlns:fmi-ls="http://fmi-standard.org/fmi-ls-manifest"
+    fmi-ls:fmi-ls-name="org.fmi-standard.fmi-ls-ref" fmi-ls:fmi-ls-version="1.0.0-alpha.1"
+    fmi-ls:fmi-ls-description="Layered Standard providing information on related files included in an FMU.">
+  <Related type="text/csv" source="{name}_out.csv" role="result"
+      description="Outputs of the default experiment, from crankfmu's in-process reference integrator (DOP853, rtol = atol = 1e-12)"/>
+</fmiReferences>
+"""
+
+
+def reference_result(scenario) -> str:
+    """The default experiment's outputs (CSV, quoted header) from the in-process reference."""
+    import numpy as np
+
+    from crankfmu import COLUMNS, simulate
+
+    exp = scenario.experiment
+    n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
+    times = exp.start_time + exp.output_interval * np.arange(n + 1)
+    result = simulate(scenario, t_end=exp.stop_time, output_times=times)
+    lines = [",".join(f'"{c}"' for c in COLUMNS)]
+    lines += [",".join(f"{getattr(result, c)[i]:.17g}" for c in COLUMNS) for i in range(times.size)]
+    return "\n".join(lines) + "\n"
+
+
+def cross_check_options(scenario) -> str:
+    exp = scenario.experiment
+    return (f"StartTime, {exp.start_time!r}\nStopTime, {exp.stop_time!r}\n"
+            f"StepSize, {exp.output_interval!r}\nRelTol, {exp.tolerance!r}\n")
+
+
+def slave_script(name: str, scenario) -> str:
+    """The slave script of one FMU, from the one template."""
+    from string import Template
+
+    template = Template((HERE / "slave_script.py.in").read_text())
+    return template.substitute(NAME=name, SCENARIO=scenario.name, DESCRIPTION=repr(scenario.title))
+
+
+def build(name: str, scenario_name: str, dest: Path) -> Path:
+    from pythonfmu import FmuBuilder
+
+    from crankfmu import load_scenario
+
+    dest.mkdir(parents=True, exist_ok=True)
+    scenario = load_scenario(scenario_name)
+    with tempfile.TemporaryDirectory() as tmp:
+        # the package travels under a private name (see slave_script.py.in)
+        private = Path(tmp) / "pkg" / f"crankfmu_{name}"
+        script_dir = Path(tmp) / "script"
+        script_dir.mkdir()
+        script = script_dir / f"{name}.py"
+        script.write_text(slave_script(name, scenario))
+        # the build step and the shim's source do not run inside the FMU
+        shutil.copytree(PACKAGE, private, ignore=shutil.ignore_patterns("__pycache__", "build.py", "shim"))
+        sys.path.insert(0, str(private.parent))
+        sys.path.insert(0, str(script_dir))
+        try:
+            raw = FmuBuilder.build_FMU(script, dest=Path(tmp) / f"{name}.fmu",
+                                       project_files=[private],
+                                       canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+            slave_units = _units_of(name, private.parent)
+        finally:
+            sys.path.remove(str(private.parent))
+            sys.path.remove(str(script_dir))
+            sys.modules.pop(name, None)
+        shim = compile_shim(name, Path(tmp) / f"{name}.so")
+        binary = f"binaries/linux64/{name}.so"
+        out = dest / f"{name}.fmu"
+        with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
+            for item in zin.infolist():
+                data = zin.read(item.filename)
+                if item.filename == "modelDescription.xml":
+                    data = complete_model_description(data, slave_units, scenario)
+                if item.filename == binary:
+                    item.filename = f"binaries/linux64/{name}_pythonfmu.so"
+                zout.writestr(item, data)
+            zout.write(shim, binary)
+            zout.writestr("resources/python_env.txt", python_env())
+            reference = reference_result(scenario)
+            zout.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=name))
+            zout.writestr(f"{LS_REF}/{name}_out.csv", reference)
+        (dest / f"{name}_ref.csv").write_text(reference)
+        (dest / f"{name}_ref.opt").write_text(cross_check_options(scenario))
+    return out
+
+
+def _units_of(name: str, resources: Path) -> dict[str, str]:
+    """Units as the slave registered them (one source: crankfmu.fmi.slave and the scenario file)."""
+    import importlib
+
+    module = importlib.import_module(name)
+    slave = getattr(module, name)(instance_name="build", resources=str(resources))
+    return dict(slave.core.units)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--dest", default="build/fmus")
+    args = parser.parse_args(argv)
+    for name, scenario in FMUS.items():
+        path = build(name, scenario, Path(args.dest))
+        print(f"built {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,165 @@
+"""Many short host processes per FMU, counting abnormal exits (``make soak``; a short version runs
+in ``make test`` through tests/test_fmu_soak.py).
+
+    python tests/soak.py [--per-fmu 300] [--fmus build/fmus] [--jobs 2]
+
+Each process loads one FMU, instantiates it, initialises it, takes three 10 ms steps and exits.
+The hosts alternate: fmpy (a Python host) and the C driver of tests/c_host (dlopen(RTLD_LOCAL),
+no Python in the process, an empty environment). The cases cycle through: logging on, logging off,
+a refused parameter (J_flywheel = -1: the host sees fmi2Error) and a host that exits without
+freeing the instance. An exit is abnormal when the process dies by a signal, hangs, exits with a
+status the case does not expect, or prints a C library heap error (``corrupted``, ``double free``).
+pythonfmu's library destructor used to abort about one fmpy process in two hundred at exit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import subprocess
+import sys
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAP_ERRORS = ("corrupted", "double free", "free(): invalid", "malloc(): ", "Segmentation fault", "Aborted")
+CASES = ("logging", "quiet", "refused", "no-free")
+TIME_LIMIT = 120
+
+FMPY_HOST = r"""
+import sys
+from fmpy import read_model_description
+from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi1 import FMICallException
+where, case = sys.argv[1], sys.argv[2]
+md = read_model_description(where)
+vr = {v.name: v.valueReference for v in md.modelVariables}
+fmu = FMU2Slave(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
+                instanceName="soak")
+fmu.instantiate(loggingOn=(case == "logging"))
+fmu.setupExperiment(startTime=0.0)
+fmu.enterInitializationMode()
+try:
+    if case == "refused":
+        fmu.setReal([vr["J_flywheel"]], [-1.0])
+    fmu.exitInitializationMode()
+    t = 0.0
+    for _ in range(3):
+        fmu.doStep(t, 0.01)
+        t += 0.01
+    print("omega1", fmu.getReal([vr["omega1"]])[0])
+except FMICallException as exc:
+    print("refused:", exc)
+    if case != "refused":
+        sys.exit(1)
+if case == "no-free":
+    sys.exit(0)      # the instance is alive at exit
+fmu.terminate()
+fmu.freeInstance()
+"""
+
+
+def build_driver(where: Path) -> Path:
+    import fmpy
+
+    out = where / "fmu_driver"
+    headers = Path(fmpy.__file__).parent / "c-code"
+    subprocess.run(["gcc", "-O1", "-Wall", "-Werror", f"-I{headers}", "-o", str(out),
+                    str(ROOT / "tests" / "c_host" / "fmu_driver.c"), "-ldl"], check=True)
+    return out
+
+
+def command(host: str, case: str, unzipped: str, md, driver: Path) -> tuple[list[str], set[int]]:
+    """The command of one process and the exit statuses that are normal for it."""
+    if host == "fmpy":
+        return [sys.executable, "-c", FMPY_HOST, unzipped, case], {0}
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    env = ["env", "-i", f"FMU_DRIVER_LOGGING={'0' if case == 'quiet' else '1'}",
+           f"FMU_DRIVER_NO_FREE={'1' if case == 'no-free' else '0'}"]
+    args = [str(driver), unzipped, md.coSimulation.modelIdentifier, md.guid, "3", "0.01", str(vr["omega1"])]
+    if case == "refused":
+        return env + args + [f"{vr['J_flywheel']}=-1"], {1}
+    return env + args, {0}
+
+
+def run_one(cmd: list[str], normal: set[int]) -> str | None:
+    """None for a normal exit, else what was abnormal."""
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT)
+    except subprocess.TimeoutExpired:
+        return f"no exit within {TIME_LIMIT} s"
+    text = done.stdout + done.stderr
+    heap = [e for e in HEAP_ERRORS if e in text]
+    if done.returncode < 0:
+        return f"killed by signal {-done.returncode} {heap}: {text[-500:]}"
+    if heap:
+        return f"heap error {heap}: {text[-500:]}"
+    if done.returncode not in normal:
+        return f"exit status {done.returncode} (expected {sorted(normal)}): {text[-500:]}"
+    return None
+
+
+def soak(fmus: list[Path], per_fmu: int, jobs: int = 2, progress=None) -> dict:
+    """{(fmu, host): {"processes": n, "abnormal": [reasons], "cases": {case names}}}."""
+    from fmpy import extract, read_model_description
+
+    results: dict = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        driver = build_driver(Path(tmp))
+        plan = []
+        for k, fmu in enumerate(fmus):
+            md = read_model_description(str(fmu))
+            unzipped = extract(str(fmu), unzipdir=str(Path(tmp) / fmu.stem))
+            for i in range(per_fmu):
+                host = ("fmpy", "c-driver")[i % 2]
+                case = CASES[(i // 2 + k) % len(CASES)]     # offset per FMU: a short soak sees every case
+                plan.append(((fmu.stem, host), case, *command(host, case, unzipped, md, driver)))
+        done = 0
+        with ThreadPoolExecutor(max_workers=jobs) as pool:
+            futures = [(key, case, pool.submit(run_one, cmd, normal)) for key, case, cmd, normal in plan]
+            for key, case, future in futures:
+                entry = results.setdefault(key, {"processes": 0, "abnormal": [], "cases": set()})
+                entry["processes"] += 1
+                entry["cases"].add(case)
+                outcome = future.result()
+                if outcome is not None:
+                    entry["abnormal"].append(outcome)
+                done += 1
+                if progress is not None:
+                    progress(done)
+    return results
+
+
+def main(argv=None) -> int:
+    sys.path.insert(0, str(ROOT / "src"))
+    from crankfmu.progress import ProgressBar
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--per-fmu", type=int, default=300, help="processes per FMU (half fmpy, half C driver)")
+    parser.add_argument("--fmus", default=str(ROOT / "build" / "fmus"), help="folder of the FMUs")
+    parser.add_argument("--jobs", type=int, default=2)
+    args = parser.parse_args(argv)
+    fmus = sorted(Path(args.fmus).glob("*.fmu"))
+    if not fmus:
+        print(f"no FMU in {args.fmus}: run make fmu", file=sys.stderr)
+        return 2
+    if shutil.which("gcc") is None:
+        print("gcc is needed to build the C driver", file=sys.stderr)
+        return 2
+    bar = ProgressBar(len(fmus) * args.per_fmu, "soak")
+    results = soak(fmus, args.per_fmu, args.jobs, bar)
+    bar.close()
+    total = sum(r["processes"] for r in results.values())
+    abnormal = sum(len(r["abnormal"]) for r in results.values())
+    for (fmu, host), r in sorted(results.items()):
+        print(f"{'PASS' if not r['abnormal'] else 'FAIL'} {fmu:12s} {host:9s} {r['processes']:5d} processes, "
+              f"{len(r['abnormal'])} abnormal exits")
+        for reason in r["abnormal"][:3]:
+            print(f"    {reason}")
+    print(f"soak: {total} processes, {abnormal} abnormal exits")
+    return 1 if abnormal else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
