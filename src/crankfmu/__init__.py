@@ -9,12 +9,21 @@ Data flows one way: geometry (mechanisms) -> kinematics (contour engine) -> redu
 (dynamics) -> integrator (integrators) -> outputs (simulation, output).
 """
 
+from .contract import COLUMNS
 from .errors import (AssemblyError, CrankfmuError, DefinitionError, ParameterError, ScenarioNotFound,
                      SchemeError)
 from .scenario import Scenario, available_scenarios, load_scenario
-from .simulation import COLUMNS, Result, simulate
 
 __version__ = "0.1.0"
+
+
+def __getattr__(name):
+    # simulate() brings the integrators that need scipy; the FMUs ship the core without them
+    # and import this package, so it is loaded on first use only
+    if name in ("Result", "simulate"):
+        from . import simulation
+        return getattr(simulation, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = ["AssemblyError", "COLUMNS", "CrankfmuError", "DefinitionError", "ParameterError", "Result",
            "Scenario", "ScenarioNotFound", "SchemeError", "available_scenarios", "load_scenario", "simulate"]

@@ -9,28 +9,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from .contract import COLUMNS
 from .dynamics.equation import OMEGA, PHI, W_EXT, W_LOAD, W_MOTOR
 from .errors import CrankfmuError, ParameterError
 from .integrators import Trajectory, make_integrator
 from .scenario import Model, Scenario, load_scenario
 
 TWO_PI = 2.0 * math.pi
-
-#: columns of timeseries.csv, in order, with their units
-COLUMNS = {
-    "time": "s",
-    "phi1": "rad",
-    "omega1": "rad/s",
-    "epsilon1": "rad/s2",
-    "M_motor": "N.m",
-    "M_load": "N.m",
-    "J_red": "kg.m2",
-    "E_kin": "J",
-    "W_motor": "J",
-    "W_load": "J",
-    "W_ext": "J",
-}
-
 
 @dataclass
 class Result:

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import DefinitionError
 from ..mechanisms import Kinematics, Mechanism
+from ..numerics import brent_root
 
 WEIGHTS, TECHNOLOGICAL = "weights", "technological"
 TWO_PI = 2.0 * np.pi
@@ -123,8 +124,6 @@ class SliderForce:
     def switch_angles(self, mechanism: Mechanism) -> list[float]:
         """Crank angles (rad, in [0, 2 pi)) where the force jumps with the crank turning forward:
         the slider's extreme positions and, with a band, where it enters and leaves it."""
-        from scipy.optimize import brentq
-
         angles = list(self.extremes)
         if self.band != (0.0, 1.0):
             grid = np.linspace(0.0, 2.0 * np.pi, 721)
@@ -135,7 +134,7 @@ class SliderForce:
             for level in levels:
                 d = x - level
                 for i in np.nonzero(d[:-1] * d[1:] < 0.0)[0]:
-                    angles.append(brentq(lambda a: x_of(a) - level, grid[i], grid[i + 1], xtol=1e-14))
+                    angles.append(brent_root(lambda a: x_of(a) - level, grid[i], grid[i + 1], xtol=1e-14))
         unique: list[float] = []
         for a in sorted(a % (2.0 * np.pi) for a in angles):
             if not unique or a - unique[-1] > 1e-9:   # a band level is met once per direction

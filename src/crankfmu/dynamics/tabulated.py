@@ -29,9 +29,9 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from ..errors import DefinitionError, SchemeError
+from ..numerics import periodic_cubic_spline
 from .loads import SliderForce, ViscousForce
 from .reduced import ReducedModel
 
@@ -129,15 +129,15 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
     while True:
         nodes = np.linspace(0.0, TWO_PI, n + 1)
         values = _engine_values(reduced, sliders, viscous, nodes[:-1])
-        closed = np.concatenate([values, values[:, :1]], axis=1)
-        spline = CubicSpline(nodes, closed, axis=1, bc_type="periodic")
+        table = ReducedTable(periodic_cubic_spline(values, TWO_PI), np.zeros(0), np.zeros((1, 2, 0)),
+                             math.inf, tolerance, 0.0)
         # the error of a cubic spline peaks near the interval midpoints; the staggered set
         # (0.3 of an interval in) catches a spline that is right at midpoints only
         h = TWO_PI / n
         check = np.concatenate([nodes[:-1] + 0.5 * h, nodes[:-1] + 0.3 * h])
         exact = _engine_values(reduced, sliders, viscous, check)
         scale = np.maximum(np.max(np.abs(values), axis=1), 1e-300)
-        error = float(np.max(np.max(np.abs(spline(check) - exact), axis=1) / scale))
+        error = float(np.max(np.max(np.abs(table.evaluate(check) - exact), axis=1) / scale))
         if error <= tolerance:
             break
         if 2 * n > n_max:
@@ -147,9 +147,6 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
                 f"the reduced model cannot be tabulated to {tolerance:g} with {n} intervals (error "
                 f"{error:.2g}): the mechanism is too close to a dead point; use method 'reference'")
         n *= 2
-    # CubicSpline.c is (4, n, functions), highest power first
-    coefficients = np.ascontiguousarray(spline.c[::-1].transpose(2, 1, 0))
-
     switch, forces = reduced.slider_schedule()
-    return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
+    return ReducedTable(table.coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(f"{load.point}.{'xy'[load.axis]}" for load in sliders))

@@ -3,8 +3,8 @@
 On linux64 the FMU's binary is the shim of ``shim/fmu_shim.c`` beside this file (compiled here with gcc)
 in front of pythonfmu's binary, renamed ``<model>_pythonfmu.so``: it makes the FMU load in plain
 C/C++ hosts and turns refusals logged by the slave into fmi2Error. ``resources/python_env.txt``
-records the libpython and the site-packages of the environment that built the FMU (see README,
-"Using the FMU on another machine").
+records the Python that built the FMU, the last place the shim looks in a C host (README, "Using
+the FMU elsewhere").
 
 pythonfmu packs the slave script with crankfmu's own package in the resources (the same model
 code and scenario files as the CLI) and writes a modelDescription without units, unit
@@ -21,9 +21,7 @@ method from the FMU's own stepper.
 from __future__ import annotations
 
 import argparse
-import os
 import shutil
-import site
 import subprocess
 import sys
 import sysconfig
@@ -33,49 +31,38 @@ from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
+from ..contract import BASE_UNITS, OUTPUTS
+
 HERE = Path(__file__).resolve().parent
 PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's resources
+
+#: what runs inside an FMU, relative to the package: the core on numpy alone and the FMI shell's
+#: slave. Studies, plots, sweeps, the CLI, the harness, the build step and the scipy-based
+#: integrators stay out (tests/test_fmu_dropin.py runs the FMUs where scipy cannot be imported).
+RUNTIME = ("__init__.py", "contract.py", "errors.py", "expressions.py", "numerics.py", "scenario.py",
+           "mechanisms", "dynamics", "scenarios",
+           "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "integrators/kernel.py",
+           "integrators/tableau.py", "fmi/__init__.py", "fmi/slave.py")
+
+
+def copy_runtime(dest: Path):
+    """The runtime part of the package (RUNTIME) into ``dest``."""
+    for entry in RUNTIME:
+        source = PACKAGE / entry
+        if source.is_dir():
+            shutil.copytree(source, dest / entry, ignore=shutil.ignore_patterns("__pycache__"))
+        else:
+            (dest / entry).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source, dest / entry)
+
 
 #: FMU name -> scenario
 FMUS = {"FourBar": "seed000", "ThreeLoop": "seed001", "SliderCrank": "seed002", "Shaper": "seed003",
         "QuickReturn": "seed004"}
 
-#: SI base-unit exponents of every unit the FMUs declare
-BASE_UNITS = {
-    "1": {},
-    "m": {"m": 1},
-    "rad": {"rad": 1},
-    "rad/s": {"rad": 1, "s": -1},
-    "rad/s2": {"rad": 1, "s": -2},
-    "N.m": {"kg": 1, "m": 2, "s": -2},
-    "J": {"kg": 1, "m": 2, "s": -2},
-    "kg.m2": {"kg": 1, "m": 2},
-    "kg/m": {"kg": 1, "m": -1},
-    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
-    "m/s2": {"m": 1, "s": -2},
-    "m/s": {"m": 1, "s": -1},
-    "kg": {"kg": 1},
-    "N.s/m": {"kg": 1, "s": -1},
-    "N": {"kg": 1, "m": 1, "s": -2},
-}
-
-#: what each output depends on at initialisation; *geometry (lengths and masses), *loads and
-#: *all are expanded from the mechanism and scenario files
-INITIAL_DEPENDENCIES = {
-    "phi1": ["phi1_start"],
-    "omega1": ["omega1_start"],
-    "J_red": ["phi1_start", "J_flywheel", "*geometry"],
-    "E_kin": ["phi1_start", "omega1_start", "J_flywheel", "*geometry"],
-    "M_motor": ["omega1_start", "A", "B", "A_low", "B_low", "omega_switch"],
-    "M_load": ["phi1_start", "omega1_start", "*geometry", "*loads"],
-    "epsilon1": ["*all"],
-    "W_motor": [],            # zero at the start whatever the parameters
-    "W_load": [],
-    "W_ext": [],
-}
-
-
-def complete_model_description(xml_bytes: bytes, units: dict[str, str], scenario) -> bytes:
+def complete_model_description(xml_bytes: bytes, units: dict[str, str], parameters: dict, scenario) -> bytes:
+    """pythonfmu's modelDescription with units, parameter ranges (min/max where a bound exists),
+    UnitDefinitions, DefaultExperiment, the scenario's name and InitialUnknowns."""
     root = ET.fromstring(xml_bytes)
     variables = root.find("ModelVariables")
     index = {}
@@ -88,6 +75,14 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], scenario
             raise SystemExit(f"build: no unit for variable {name}")
         if real is not None and unit != "1":
             real.set("unit", unit)
+        p = parameters.get(name)
+        if real is not None and p is not None:
+            # FMI's min/max are inclusive: an exclusive bound is declared as the bound itself and
+            # refused by the FMU with its message
+            if p.min is not None:
+                real.set("min", repr(float(p.min)))
+            if p.max is not None:
+                real.set("max", repr(float(p.max)))
     # UnitDefinitions must come before ModelVariables (after LogCategories / DefaultExperiment order:
     # CoSimulation, UnitDefinitions, TypeDefinitions, LogCategories, DefaultExperiment, ...)
     unit_defs = ET.Element("UnitDefinitions")
@@ -122,9 +117,10 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], scenario
     parameters = list(scenario.parameters)
     initial = ET.SubElement(structure, "InitialUnknowns")
     outputs = [sv.get("name") for sv in variables.findall("ScalarVariable") if sv.get("causality") == "output"]
+    depends = {v.name: v.initial for v in OUTPUTS}
     for name in outputs:
         deps = []
-        for d in INITIAL_DEPENDENCIES.get(name, ["*all"]):
+        for d in depends.get(name, ("*all",)):
             if d == "*geometry":
                 deps += sorted(geometry)
             elif d == "*loads":
@@ -160,13 +156,11 @@ def compile_shim(name: str, out: Path) -> Path:
 
 
 def python_env() -> str:
-    """libpython of this interpreter, then the site-packages the FMU's imports come from."""
+    """The building Python, the last place the shim looks for one in a C host (README: "Using the
+    FMU elsewhere"): key=value lines."""
     libpython = Path(sysconfig.get_config_var("LIBDIR")) / sysconfig.get_config_var("INSTSONAME")
-    if not libpython.exists():
-        raise SystemExit(f"build: {libpython} not found: this Python has no shared libpython, which "
-                         "C hosts need (build with a Python configured --enable-shared)")
-    sites = [p for p in site.getsitepackages() if os.path.isdir(p)]
-    return "\n".join([str(libpython), *sites]) + "\n"
+    return (f"executable={sys.executable}\nlibpython={libpython}\n"
+            f"version={sys.version.split()[0]}\n")
 
 
 LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
@@ -223,15 +217,14 @@ def build(name: str, scenario_name: str, dest: Path) -> Path:
         script_dir.mkdir()
         script = script_dir / f"{name}.py"
         script.write_text(slave_script(name, scenario))
-        # the build step and the shim's source do not run inside the FMU
-        shutil.copytree(PACKAGE, private, ignore=shutil.ignore_patterns("__pycache__", "build.py", "shim"))
+        copy_runtime(private)
         sys.path.insert(0, str(private.parent))
         sys.path.insert(0, str(script_dir))
         try:
             raw = FmuBuilder.build_FMU(script, dest=Path(tmp) / f"{name}.fmu",
                                        project_files=[private],
                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-            slave_units = _units_of(name, private.parent)
+            slave_units, slave_parameters = _variables_of(name, private.parent)
         finally:
             sys.path.remove(str(private.parent))
             sys.path.remove(str(script_dir))
@@ -243,7 +236,7 @@ def build(name: str, scenario_name: str, dest: Path) -> Path:
             for item in zin.infolist():
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
-                    data = complete_model_description(data, slave_units, scenario)
+                    data = complete_model_description(data, slave_units, slave_parameters, scenario)
                 if item.filename == binary:
                     item.filename = f"binaries/linux64/{name}_pythonfmu.so"
                 zout.writestr(item, data)
@@ -257,13 +250,14 @@ def build(name: str, scenario_name: str, dest: Path) -> Path:
     return out
 
 
-def _units_of(name: str, resources: Path) -> dict[str, str]:
-    """Units as the slave registered them (one source: crankfmu.fmi.slave and the scenario file)."""
+def _variables_of(name: str, resources: Path) -> tuple[dict[str, str], dict]:
+    """Units and parameters as the slave registered them (one source: crankfmu.fmi.slave and the
+    scenario file)."""
     import importlib
 
     module = importlib.import_module(name)
     slave = getattr(module, name)(instance_name="build", resources=str(resources))
-    return dict(slave.core.units)
+    return dict(slave.core.units), dict(slave.core.parameters)
 
 
 def main(argv=None) -> int:

@@ -30,6 +30,7 @@ is refused, not ignored.
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
@@ -37,27 +38,11 @@ from ..dynamics import MotorLine
 from ..errors import CrankfmuError, ParameterError
 from ..integrators.fast import TABLE_TOLERANCE, FastStepper, kn
 from ..scenario import Parameter, load_scenario
-from ..simulation import COLUMNS
+from ..contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS
 
-#: contract outputs and their descriptions; units come from simulation.COLUMNS (one table)
-OUTPUTS = {
-    "phi1": "crank angle, unwrapped (keeps growing past 2*pi)",
-    "omega1": "crank angular speed",
-    "epsilon1": "crank angular acceleration",
-    "M_motor": "motor torque on the crank",
-    "M_load": "all external loads (weights, technological loads) reduced to the crank",
-    "J_red": "reduced moment of inertia at the crank, flywheel included",
-    "E_kin": "kinetic energy of the whole mechanism",
-    # the work integrals ride along in the state: a host checks the energy balance
-    # E_kin(t) - E_kin(0) = W_motor + W_load + W_ext without quadrature error
-    "W_motor": "work done by the motor on the crank since the start",
-    "W_load": "work done by the loads (weights, technological loads) since the start",
-    "W_ext": "work done by tau_ext since the start",
-}
 #: where each output sits in the kernel's output row (E_kin is computed from J_red and omega1)
 ROW = {name: i for i, name in enumerate(kn.ROW_FIELDS)}
-TAU_EXT = ("N.m", "extra torque on the crank from outside (the coupling port)")
-MOTOR = ("A", "B", "A_low", "B_low", "omega_switch")
+(TAU_EXT,) = INPUTS
 
 # life-cycle phases (FMI 2.0 co-simulation state machine, as far as the model needs it)
 INSTANTIATED, INITIALIZATION, STEPPING, REFUSED, TERMINATED = (
@@ -136,21 +121,21 @@ class FmuCore:
         self.quantities = self.scenario.quantities
         self._quantity_values: dict[str, float] | None = None    # filled on first read after a step
 
-        for name, description in OUTPUTS.items():
-            slave.register_variable(Real(name, causality=Fmi2Causality.output,
-                                         variability=Fmi2Variability.continuous, description=description,
-                                         getter=self._getter(name)))
-            self.units[name] = COLUMNS[name]
+        for out in OUTPUTS:
+            slave.register_variable(Real(out.name, causality=Fmi2Causality.output,
+                                         variability=Fmi2Variability.continuous, description=out.description,
+                                         getter=self._getter(out.name)))
+            self.units[out.name] = out.unit
         definition = self.scenario.mechanism_definition()
         for q in self.quantities:
             slave.register_variable(Real(q.name, causality=Fmi2Causality.output,
                                          variability=Fmi2Variability.continuous, description=q.description,
                                          getter=(lambda n=q.name: self._quantity(n))))
             self.units[q.name] = q.unit(definition)
-        slave.register_variable(Real("tau_ext", causality=Fmi2Causality.input,
-                                     variability=Fmi2Variability.continuous, description=TAU_EXT[1],
+        slave.register_variable(Real(TAU_EXT.name, causality=Fmi2Causality.input,
+                                     variability=Fmi2Variability.continuous, description=TAU_EXT.description,
                                      getter=lambda: self.tau_ext, setter=self._set_input))
-        self.units["tau_ext"] = TAU_EXT[0]
+        self.units[TAU_EXT.name] = TAU_EXT.unit
         for name, p in self.parameters.items():
             variability = Fmi2Variability.tunable if p.tunable else Fmi2Variability.fixed
             slave.register_variable(Real(name, causality=Fmi2Causality.parameter, variability=variability,
@@ -160,6 +145,12 @@ class FmuCore:
             self.units[name] = p.unit
         self.outputs = {vr for vr, v in slave.vars.items() if v.causality == Fmi2Causality.output}
         self.attach()
+        if not kn.COMPILED:
+            from pythonfmu.enums import Fmi2Status
+
+            slave.log(f"numba is not in use in the Python at {sys.prefix} (not importable, or CRANKFMU_JIT=0): "
+                      "the FMU steps its compiled kernel as plain Python, correct but about 10x slower per "
+                      "step; to enable it: python -m pip install numba (in that Python)", Fmi2Status.warning)
 
     def attach(self):
         """Bind every FMI entry point of the slave to its guarded method here.

@@ -1,17 +1,31 @@
-"""Integrators of the movement equation, all behind ``Integrator.run``."""
+"""Integrators of the movement equation, all behind ``Integrator.run``.
+
+The submodules are imported on first use: the FMUs ship the fast path only (``base``, ``fast``,
+``kernel``, ``tableau``: numpy alone), the others need scipy.
+"""
 
 from __future__ import annotations
 
+import importlib
 import math
 
 from ..errors import ParameterError
 from .base import Integrator, Trajectory
-from .crank_angle import BadoiuEq17, CrankAngleScheme, LvEq3
-from .fast import FastIntegrator, FastStepper
-from .stepper import DormandPrinceIntegrator, DormandPrinceStepper, StepperState
-from .time_domain import SolveIvpIntegrator, radau, reference
 
 METHODS = ("fast", "reference", "radau", "dopri5", "badoiu-eq17", "lv-eq3")
+
+_WHERE = {
+    "BadoiuEq17": "crank_angle", "CrankAngleScheme": "crank_angle", "LvEq3": "crank_angle",
+    "FastIntegrator": "fast", "FastStepper": "fast",
+    "DormandPrinceIntegrator": "stepper", "DormandPrinceStepper": "stepper", "StepperState": "stepper",
+    "SolveIvpIntegrator": "time_domain", "radau": "time_domain", "reference": "time_domain",
+}
+
+
+def __getattr__(name):
+    if name in _WHERE:
+        return getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def make_integrator(method: str, rtol: float | None = None, angle_step: float | None = None) -> Integrator:
@@ -20,6 +34,11 @@ def make_integrator(method: str, rtol: float | None = None, angle_step: float | 
     rtol applies to the time-domain methods; angle_step (rad, default 0.1 deg) to the
     crank-angle schemes.
     """
+    from .crank_angle import BadoiuEq17, LvEq3
+    from .fast import FastIntegrator
+    from .stepper import DormandPrinceIntegrator
+    from .time_domain import radau, reference
+
     if method == "fast":
         return FastIntegrator(rtol)
     if method == "reference":

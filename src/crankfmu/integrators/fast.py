@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError, SchemeError
+from . import tableau
 from .base import Integrator, Trajectory
 
 
@@ -32,17 +33,21 @@ def load_kernel():
     of this package from wherever the host extracted it (fmpy: a new temporary directory per run),
     so the kernel compiled there would be compiled again on every run (about 15 s). The copy's
     path depends only on its content: every FMU and process with the same kernel shares one
-    compilation, and a changed kernel gets a new one. Where that directory cannot be written the
-    package's own file is used.
+    compilation, and a changed kernel gets a new one (the tableau's file counts: numba freezes
+    its arrays into the machine code). Where that directory cannot be written the package's own
+    file is used. The module's name is the same in every copy of the package (numba's cache
+    refers to its functions by module name, and an FMU's package has a private name of its
+    own), so it cannot import its siblings: the tableau is handed in before it runs.
     """
     source = Path(__file__).with_name("kernel.py")
     text = source.read_bytes()
-    name = "crankfmu_kernel_" + hashlib.sha256(text).hexdigest()[:16]
+    digest = hashlib.sha256(text + Path(tableau.__file__).read_bytes()).hexdigest()[:16]
+    name = f"crankfmu_kernel_{digest}"
     if name in sys.modules:
         return sys.modules[name]
     path = source
     try:
-        folder = Path(os.environ.get("CRANKFMU_CACHE") or Path.home() / ".cache" / "crankfmu") / name
+        folder = Path(os.environ.get("CRANKFMU_CACHE") or Path.home() / ".cache" / "crankfmu") / f"kernel_{digest}"
         target = folder / "kernel.py"
         if not target.is_file() or target.read_bytes() != text:
             folder.mkdir(parents=True, exist_ok=True)
@@ -54,6 +59,7 @@ def load_kernel():
         pass
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
+    module.tableau = tableau
     sys.modules[name] = module
     spec.loader.exec_module(module)
     return module

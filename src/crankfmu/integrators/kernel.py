@@ -26,15 +26,19 @@ import math
 import os
 
 import numpy as np
-from scipy.integrate._ivp.rk import RK45
 
-_A = np.ascontiguousarray(RK45.A)
-_B = np.ascontiguousarray(RK45.B)
-_C = np.ascontiguousarray(RK45.C)
-_E = np.ascontiguousarray(RK45.E)
-_P = np.ascontiguousarray(RK45.P)
+# ``tableau`` is integrators/tableau.py, put into this module's namespace by fast.load_kernel
+# before it runs this file: the file runs as a copy outside the package (see there), so it cannot
+# import its siblings
+tableau = globals()["tableau"]
+
+_A = np.ascontiguousarray(tableau.A)
+_B = np.ascontiguousarray(tableau.B)
+_C = np.ascontiguousarray(tableau.C)
+_E = np.ascontiguousarray(tableau.E)
+_P = np.ascontiguousarray(tableau.P)
 DENSE_P = _P        # the dense output's polynomial coefficients, for evaluating stored steps
-N_STAGES = 6
+N_STAGES = tableau.N_STAGES
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 TWO_PI = 2.0 * math.pi
 

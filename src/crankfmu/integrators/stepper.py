@@ -1,6 +1,6 @@
 """An error-controlled Runge-Kutta stepper whose whole state can be saved and restored.
 
-Dormand-Prince 5(4) with scipy's RK45 tableau and its quartic dense output, stepping the
+Dormand-Prince 5(4) (the tableau and its quartic dense output from tableau.py), stepping the
 movement equation mode by mode: after each accepted step the mode's event surfaces are checked;
 a crossing is located on the dense output and the step is recomputed to end exactly on it, then
 the mode changes (the motor line's kink, sliding on a jump, the slider forces' switches).
@@ -18,15 +18,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate._ivp.rk import RK45
 
 from ..errors import ParameterError, SchemeError
 from ..dynamics.equation import Mode
+from . import tableau
 from .base import Integrator, Trajectory
 
-_A, _B, _C, _E, _P = RK45.A, RK45.B, RK45.C, RK45.E, RK45.P
-_N_STAGES = RK45.n_stages
-_ERROR_EXPONENT = -1.0 / (RK45.error_estimator_order + 1)
+_A, _B, _C, _E, _P = tableau.A, tableau.B, tableau.C, tableau.E, tableau.P
+_N_STAGES = tableau.N_STAGES
+_ERROR_EXPONENT = -1.0 / (tableau.ERROR_ESTIMATOR_ORDER + 1)
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
 
 

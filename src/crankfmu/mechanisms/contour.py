@@ -40,6 +40,7 @@ import numpy as np
 
 from ..errors import AssemblyError, DefinitionError
 from ..expressions import Expression, parse
+from ..numerics import bounded_minimum, brent_root
 
 TWO_PI = 2.0 * math.pi
 
@@ -658,15 +659,13 @@ class Mechanism:
         e.g. dphi3/dphi1) vanishes, each with whether it rises through zero there: the extreme
         positions of a rocker or a slider. Sign changes on a grid, then Brent's method on the
         analytic transfer function."""
-        from scipy.optimize import brentq
-
         grid = np.linspace(0.0, TWO_PI, n_grid + 1)
         values = transfer(self.kinematics(grid))
         f = lambda a: float(transfer(self.kinematics(np.array([a])))[0])  # noqa: E731
         out = []
         for i in range(n_grid):
             if values[i] == 0.0 or values[i] * values[i + 1] < 0.0:
-                root = grid[i] if values[i] == 0.0 else brentq(f, grid[i], grid[i + 1], xtol=1e-15, rtol=1e-15)
+                root = grid[i] if values[i] == 0.0 else brent_root(f, grid[i], grid[i + 1], xtol=1e-15, rtol=1e-15)
                 out.append((root % TWO_PI, bool(values[i + 1] > 0.0)))
         return sorted(out)
 
@@ -685,12 +684,9 @@ class Mechanism:
                 f"(residual {scale:.3g} m); check the mechanism file")
         i = int(np.argmin(cond))
         # refine the minimum between grid points: a lock can hide between two of them
-        from scipy.optimize import minimize_scalar
         h = grid[1] - grid[0]
-        res = minimize_scalar(lambda a: float(self.conditioning(a)[0]),
-                              bounds=(grid[i] - h, grid[i] + h), method="bounded",
-                              options={"xatol": 1e-12})
-        worst, at = min((float(res.fun), float(res.x)), (float(cond[i]), float(grid[i])))
+        x, fx = bounded_minimum(lambda a: float(self.conditioning(a)[0]), grid[i] - h, grid[i] + h, xatol=1e-12)
+        worst, at = min((fx, x), (float(cond[i]), float(grid[i])))
         if worst < min_conditioning:
             raise self._assembly_error(
                 at, f"the mechanism locks at a dead point (conditioning {worst:.2e} < {min_conditioning:g})")

@@ -1,0 +1,86 @@
+"""The variables every crankfmu result and FMU exposes (shared/FMU_CONTRACT.md): the one home of
+each output's and input's name, SI unit, description, causality and initial dependencies.
+
+Read by ``simulation.Result`` and timeseries.csv (the columns), the FMU's variable registration
+(``fmi.slave``), the modelDescription writer (``fmi.build``: units, UnitDefinitions,
+InitialUnknowns) and the harness. A scenario's own parameters and ``[[outputs]]`` carry their units
+in the scenario and mechanism files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One contract variable.
+
+    ``initial``: what the output depends on at initialisation, as parameter names and the groups
+    ``*geometry`` (lengths and masses of the mechanism file), ``*loads`` (the scenario's load
+    parameters) and ``*all`` (every parameter and input); () for an output fixed at the start."""
+
+    name: str
+    unit: str
+    description: str
+    causality: str = "output"
+    initial: tuple[str, ...] = ("*all",)
+
+
+TIME = Variable("time", "s", "simulation time", "independent", ())
+
+OUTPUTS = (
+    Variable("phi1", "rad", "crank angle, unwrapped (keeps growing past 2*pi)", initial=("phi1_start",)),
+    Variable("omega1", "rad/s", "crank angular speed", initial=("omega1_start",)),
+    Variable("epsilon1", "rad/s2", "crank angular acceleration"),
+    Variable("M_motor", "N.m", "motor torque on the crank",
+             initial=("omega1_start", "A", "B", "A_low", "B_low", "omega_switch")),
+    Variable("M_load", "N.m", "all external loads (weights, technological loads) reduced to the crank",
+             initial=("phi1_start", "omega1_start", "*geometry", "*loads")),
+    Variable("J_red", "kg.m2", "reduced moment of inertia at the crank, flywheel included",
+             initial=("phi1_start", "J_flywheel", "*geometry")),
+    Variable("E_kin", "J", "kinetic energy of the whole mechanism",
+             initial=("phi1_start", "omega1_start", "J_flywheel", "*geometry")),
+    # the work integrals ride along in the state: a host checks the energy balance
+    # E_kin(t) - E_kin(0) = W_motor + W_load + W_ext without quadrature error
+    Variable("W_motor", "J", "work done by the motor on the crank since the start", initial=()),
+    Variable("W_load", "J", "work done by the loads (weights, technological loads) since the start", initial=()),
+    Variable("W_ext", "J", "work done by tau_ext since the start", initial=()),
+)
+
+INPUTS = (
+    Variable("tau_ext", "N.m", "extra torque on the crank from outside (the coupling port)", "input", ()),
+)
+
+#: columns of timeseries.csv and fields of Result, in order, with their units
+COLUMNS = {v.name: v.unit for v in (TIME, *OUTPUTS)}
+
+#: the motor line's parameters (tunable in the FMU)
+MOTOR_PARAMETERS = ("A", "B", "A_low", "B_low", "omega_switch")
+
+#: SI base-unit exponents of every unit crankfmu declares (FMI UnitDefinitions)
+BASE_UNITS = {
+    "1": {},
+    "s": {"s": 1},
+    "m": {"m": 1},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "J": {"kg": 1, "m": 2, "s": -2},
+    "kg.m2": {"kg": 1, "m": 2},
+    "kg/m": {"kg": 1, "m": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "m/s": {"m": 1, "s": -1},
+    "kg": {"kg": 1},
+    "N.s/m": {"kg": 1, "s": -1},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "A": {"A": 1},
+    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
+    "Ohm": {"kg": 1, "m": 2, "s": -3, "A": -2},
+    "H": {"kg": 1, "m": 2, "s": -2, "A": -2},
+    "N.m/A": {"kg": 1, "m": 2, "s": -2, "A": -1},
+    "V/(rad/s)": {"kg": 1, "m": 2, "s": -2, "A": -1, "rad": -1},
+    "A/(rad/s)": {"A": 1, "s": 1, "rad": -1},
+}

@@ -1,0 +1,138 @@
+"""Small numerical tools of the core, on numpy alone.
+
+The core (mechanisms, dynamics, the fast integrator) runs inside the FMUs, where only numpy may be
+assumed on the host's machine; scipy stays for the studies and the reference integrators, which
+run in crankfmu's own environment. Each tool here is the textbook method, stated once:
+
+- ``brent_root``: Brent's method (Brent 1973, ch. 4) for a bracketed root;
+- ``bounded_minimum``: Brent's parabolic/golden-section minimiser on an interval (ch. 5);
+- ``periodic_cubic_spline``: the C2 periodic cubic spline on a uniform grid; its second
+  derivatives solve a circulant system (M[i-1] + 4 M[i] + M[i+1] = 6 d2y[i] / h**2), diagonal in
+  Fourier space, so one FFT solves it exactly.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import DefinitionError
+
+_EPS = np.finfo(float).eps
+
+
+def brent_root(f, a: float, b: float, xtol: float = 1e-15, rtol: float = 4 * _EPS, maxiter: int = 200) -> float:
+    """A root of ``f`` in [a, b], where f(a) and f(b) differ in sign (or one is zero)."""
+    fa, fb = float(f(a)), float(f(b))
+    if fa == 0.0:
+        return a
+    if fb == 0.0:
+        return b
+    if fa * fb > 0.0:
+        raise DefinitionError(f"brent_root: f({a:g}) = {fa:g} and f({b:g}) = {fb:g} have the same sign")
+    c, fc = a, fa
+    d = e = b - a
+    for _ in range(maxiter):
+        if fb * fc > 0.0:
+            c, fc = a, fa
+            d = e = b - a
+        if abs(fc) < abs(fb):
+            a, b, c = b, c, b
+            fa, fb, fc = fb, fc, fb
+        tol = 2.0 * rtol * abs(b) + 0.5 * xtol
+        m = 0.5 * (c - b)
+        if abs(m) <= tol or fb == 0.0:
+            return b
+        if abs(e) >= tol and abs(fa) > abs(fb):
+            s = fb / fa
+            if a == c:                                   # secant
+                p, q = 2.0 * m * s, 1.0 - s
+            else:                                        # inverse quadratic interpolation
+                q, r = fa / fc, fb / fc
+                p = s * (2.0 * m * q * (q - r) - (b - a) * (r - 1.0))
+                q = (q - 1.0) * (r - 1.0) * (s - 1.0)
+            if p > 0.0:
+                q = -q
+            p = abs(p)
+            if 2.0 * p < min(3.0 * m * q - abs(tol * q), abs(e * q)):
+                e, d = d, p / q
+            else:
+                d = e = m                                # bisection
+        else:
+            d = e = m
+        a, fa = b, fb
+        b += d if abs(d) > tol else math.copysign(tol, m)
+        fb = float(f(b))
+    return b
+
+
+def bounded_minimum(f, lo: float, hi: float, xatol: float = 1e-12, maxiter: int = 500) -> tuple[float, float]:
+    """(x, f(x)) at a local minimum of ``f`` in [lo, hi] (Brent's method)."""
+    golden = 0.5 * (3.0 - math.sqrt(5.0))
+    a, b = lo, hi
+    x = w = v = a + golden * (b - a)
+    fx = fw = fv = float(f(x))
+    d = e = 0.0
+    for _ in range(maxiter):
+        mid = 0.5 * (a + b)
+        tol1 = math.sqrt(_EPS) * abs(x) + xatol / 3.0
+        tol2 = 2.0 * tol1
+        if abs(x - mid) <= tol2 - 0.5 * (b - a):
+            break
+        parabolic = False
+        if abs(e) > tol1:
+            r = (x - w) * (fx - fv)
+            q = (x - v) * (fx - fw)
+            p = (x - v) * q - (x - w) * r
+            q = 2.0 * (q - r)
+            if q > 0.0:
+                p = -p
+            q = abs(q)
+            if abs(p) < abs(0.5 * q * e) and q * (a - x) < p < q * (b - x):
+                e, d = d, p / q
+                u = x + d
+                if u - a < tol2 or b - u < tol2:
+                    d = math.copysign(tol1, mid - x)
+                parabolic = True
+        if not parabolic:
+            e = (b - x) if x < mid else (a - x)
+            d = golden * e
+        u = x + (d if abs(d) >= tol1 else math.copysign(tol1, d))
+        fu = float(f(u))
+        if fu <= fx:
+            if u < x:
+                b = x
+            else:
+                a = x
+            v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
+        else:
+            if u < x:
+                a = u
+            else:
+                b = u
+            if fu <= fw or w == x:
+                v, fv, w, fw = w, fw, u, fu
+            elif fu <= fv or v == x or v == w:
+                v, fv = u, fu
+    return x, fx
+
+
+def periodic_cubic_spline(values: np.ndarray, period: float) -> np.ndarray:
+    """Local cubic coefficients of the C2 periodic spline through ``values`` (functions x n samples
+    at k * period / n, k = 0..n-1): shape (functions, n, 4), c0 + u (c1 + u (c2 + u c3)) with u the
+    distance from the interval's left node."""
+    y = np.atleast_2d(np.asarray(values, dtype=float))
+    n = y.shape[1]
+    h = period / n
+    y_next = np.roll(y, -1, axis=1)
+    second_difference = y_next - 2.0 * y + np.roll(y, 1, axis=1)
+    eigen = 4.0 + 2.0 * np.cos(2.0 * math.pi * np.arange(n) / n)          # circulant [1 4 1]
+    M = np.fft.ifft(np.fft.fft(6.0 * second_difference / (h * h), axis=1) / eigen, axis=1).real
+    M_next = np.roll(M, -1, axis=1)
+    c = np.empty(y.shape + (4,))
+    c[..., 0] = y
+    c[..., 1] = (y_next - y) / h - h * (2.0 * M + M_next) / 6.0
+    c[..., 2] = 0.5 * M
+    c[..., 3] = (M_next - M) / (6.0 * h)
+    return c
