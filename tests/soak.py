@@ -6,7 +6,7 @@ in ``make test`` through tests/test_fmu_soak.py).
 Each process loads one FMU, instantiates it, initialises it, takes three 10 ms steps and exits.
 The hosts alternate: fmpy (a Python host) and the C driver of tests/c_host (dlopen(RTLD_LOCAL),
 no Python in the process, an empty environment). The cases cycle through: logging on, logging off,
-a refused parameter (J_flywheel = -1: the host sees fmi2Error) and a host that exits without
+a refused parameter (-1 for one whose minimum is 0: the host sees fmi2Error) and a host that exits without
 freeing the instance. An exit is abnormal when the process dies by a signal, hangs, exits with a
 status the case does not expect, or prints a C library heap error (``corrupted``, ``double free``).
 pythonfmu's library destructor used to abort about one fmpy process in two hundred at exit.
@@ -32,7 +32,7 @@ import sys
 from fmpy import read_model_description
 from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi1 import FMICallException
-where, case = sys.argv[1], sys.argv[2]
+where, case, refusable = sys.argv[1], sys.argv[2], sys.argv[3]
 md = read_model_description(where)
 vr = {v.name: v.valueReference for v in md.modelVariables}
 fmu = FMU2Slave(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
@@ -42,13 +42,13 @@ fmu.setupExperiment(startTime=0.0)
 fmu.enterInitializationMode()
 try:
     if case == "refused":
-        fmu.setReal([vr["J_flywheel"]], [-1.0])
+        fmu.setReal([vr[refusable]], [-1.0])
     fmu.exitInitializationMode()
     t = 0.0
     for _ in range(3):
         fmu.doStep(t, 0.01)
         t += 0.01
-    print("omega1", fmu.getReal([vr["omega1"]])[0])
+    print("output", fmu.getReal([next(v.valueReference for v in md.modelVariables if v.causality == "output")])[0])
 except FMICallException as exc:
     print("refused:", exc)
     if case != "refused":
@@ -72,14 +72,18 @@ def build_driver(where: Path) -> Path:
 
 def command(host: str, case: str, unzipped: str, md, driver: Path) -> tuple[list[str], set[int]]:
     """The command of one process and the exit statuses that are normal for it."""
+    # a parameter whose declared minimum makes -1 a refusal (J_flywheel in the mechanisms)
+    refusable = next(v.name for v in md.modelVariables
+                     if v.causality == "parameter" and v.min is not None and float(v.min) >= 0)
     if host == "fmpy":
-        return [sys.executable, "-c", FMPY_HOST, unzipped, case], {0}
+        return [sys.executable, "-c", FMPY_HOST, unzipped, case, refusable], {0}
     vr = {v.name: v.valueReference for v in md.modelVariables}
     env = ["env", "-i", f"FMU_DRIVER_LOGGING={'0' if case == 'quiet' else '1'}",
            f"FMU_DRIVER_NO_FREE={'1' if case == 'no-free' else '0'}"]
-    args = [str(driver), unzipped, md.coSimulation.modelIdentifier, md.guid, "3", "0.01", str(vr["omega1"])]
+    first_output = next(v.valueReference for v in md.modelVariables if v.causality == "output")
+    args = [str(driver), unzipped, md.coSimulation.modelIdentifier, md.guid, "3", "0.01", str(first_output)]
     if case == "refused":
-        return env + args + [f"{vr['J_flywheel']}=-1"], {1}
+        return env + args + [f"{vr[refusable]}=-1"], {1}
     return env + args, {0}
 
 

@@ -1,4 +1,5 @@
-"""Every FMU fails loudly and safely whatever the host's logging setting (tests/fuzz_host.py).
+"""Every FMU (the five mechanisms and Drive) fails loudly and safely whatever the host's logging
+setting (tests/fuzz_host.py).
 
 Each case is a child process (fmpy's FMU2Slave driving the FMU through raw FMI calls) with a time
 limit, so a crash or a hang is that case's failure. The children run two at a time (the machine's
@@ -28,7 +29,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-FMUS = ("FourBar", "ThreeLoop", "SliderCrank", "Shaper", "QuickReturn")
+FMUS = ("FourBar", "ThreeLoop", "SliderCrank", "Shaper", "QuickReturn", "Drive")
 GROUPS = ("parameters", "designs", "calls", "cycles", "instances")
 TIME_LIMIT = 600     # s per child: a hang fails the case
 CASES = [(fmu, group, logging) for fmu in FMUS for group in GROUPS for logging in (False, True)]
@@ -70,7 +71,9 @@ def test_fmu_fails_loudly_and_safely(reports, fmu, group, logging):
     if group == "parameters":
         assert counts["refused at fmi2SetReal"] > 0 and counts.get("accepted", 0) > 0
     elif group == "designs":
-        assert counts.get("designs stepped for 2 s", 0) >= 5 and counts["energy balances"] >= 5
+        assert counts.get("designs stepped for 2 s", 0) >= 5
+        if fmu != "Drive":                      # a mechanism: its energy balance on every run
+            assert counts["energy balances"] == counts["designs stepped for 2 s"]
     elif group == "calls":
         assert counts["refusals"] >= 15
     elif group == "cycles":

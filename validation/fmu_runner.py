@@ -39,6 +39,15 @@ class FmuRun:
         return self.values[name]
 
 
+def scenario_of(path) -> str | None:
+    """The scenario a crankfmu FMU names in its modelDescription, or None (Drive.fmu names a drive
+    file instead: it is checked by ``crankfmu hosts``)."""
+    with zipfile.ZipFile(path) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    node = root.find("VendorAnnotations/Tool[@name='crankfmu']/Scenario")
+    return node.get("name") if node is not None and node.get("name") else None
+
+
 class FmuUnderTest:
     def __init__(self, path):
         from fmpy import extract, read_model_description
@@ -56,13 +65,11 @@ class FmuUnderTest:
         self.unzipdir = extract(str(self.path))
 
     def _scenario_name(self) -> str:
-        with zipfile.ZipFile(self.path) as z:
-            root = ET.fromstring(z.read("modelDescription.xml"))
-        node = root.find("VendorAnnotations/Tool[@name='crankfmu']/Scenario")
-        if node is None or not node.get("name"):
+        name = scenario_of(self.path)
+        if name is None:
             raise CrankfmuError(f"{self.path.name} does not name its crankfmu scenario "
                                 "(VendorAnnotations/Tool[@name='crankfmu']/Scenario): not a crankfmu FMU?")
-        return node.get("name")
+        return name
 
     def close(self):
         shutil.rmtree(self.unzipdir, ignore_errors=True)

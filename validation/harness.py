@@ -21,7 +21,7 @@ from . import cases as hard_cases
 from . import work_precision
 from .checks import CheckList
 from .compare import cycles, energy_residual, max_abs_error, phi_quadrature_residual, relative_error
-from .fmu_runner import FmuUnderTest
+from .fmu_runner import FmuUnderTest, scenario_of
 from .paper import check_paper
 from .reference import reference_run
 from .report import plot_overlay, plot_work_precision, write_report
@@ -185,7 +185,8 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
 
 
 def run_from_args(args) -> int:
-    paths = args.fmu or sorted(str(p) for p in DEFAULT_FMUS.glob("*.fmu"))
+    # the mechanism FMUs (each names its scenario); Drive.fmu is checked by `crankfmu hosts`
+    paths = args.fmu or sorted(str(p) for p in DEFAULT_FMUS.glob("*.fmu") if scenario_of(p) is not None)
     if not paths:
         raise CrankfmuError(f"no FMUs in {DEFAULT_FMUS}/: build them with `make fmu`, or give --fmu PATH")
     checks, report = validate(paths, args.out, args.quick)

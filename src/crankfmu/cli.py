@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 
 from .errors import CrankfmuError
 from .integrators import METHODS
@@ -307,7 +308,32 @@ def build_parser() -> argparse.ArgumentParser:
     from .validation.harness import build_parser as validation_parser, run_from_args
     validation_parser(p)
     p.set_defaults(func=run_from_args)
+
+    p = sub.add_parser("ssp", help="FourBarDrive.ssp: FourBar.fmu driven by Drive.fmu (DC motor, PI speed "
+                                    "control), for third-party masters")
+    p.add_argument("--fmus", default="build/fmus", help="folder with FourBar.fmu and Drive.fmu (make fmu)")
+    p.add_argument("--out", required=True)
+    p.set_defaults(func=cmd_ssp)
+
+    p = sub.add_parser("hosts", help="the drop-in check: third-party masters (fmpy, ecos, ecospy, libcosim) on "
+                                      "FourBar.fmu and FourBarDrive.ssp; PASS/FAIL lines")
+    from .validation.hosts import build_parser as hosts_parser
+    hosts_parser(p)
+    p.set_defaults(func=lambda args: __import__("crankfmu.validation.hosts", fromlist=["run"]).run(
+        Path(args.fmus), Path(args.out), args.quick))
     return parser
+
+
+def cmd_ssp(args) -> int:
+    from .fmi.ssp import write_ssp
+
+    try:
+        path = write_ssp(Path(args.fmus), Path(args.out))
+    except FileNotFoundError as exc:
+        print(f"crankfmu: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {path}")
+    return 0
 
 
 def main(argv=None) -> int:

@@ -22,61 +22,17 @@ import numpy as np
 from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation, ReducedModel,
                        SliderForce, ViscousForce, Weights)
 from .dynamics.equation import STATE_SIZE
+from .datafiles import packaged, read_toml
 from .errors import AssemblyError, DefinitionError, ParameterError, ScenarioNotFound
 from .expressions import Expression, evaluate
 from .mechanisms import Mechanism, MechanismDefinition, load_mechanism
+from .parameters import Experiment, Parameter, parse_parameters  # noqa: F401 (Parameter: the scenario's API)
 
 _SCENARIOS = resources.files(__package__) / "scenarios"
 
 #: parameters every scenario must declare (shared/FMU_CONTRACT.md)
 CONTRACT_PARAMETERS = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel",
                        "phi1_start", "omega1_start", "g")
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """A named scenario parameter with its SI unit and valid range."""
-
-    name: str
-    value: float
-    unit: str
-    description: str = ""
-    min: float | None = None
-    max: float | None = None
-    min_inclusive: bool = True
-    max_inclusive: bool = True
-    tunable: bool = False
-
-    def range_text(self) -> str:
-        lo = "(-inf" if self.min is None else ("[" if self.min_inclusive else "(") + f"{self.min:g}"
-        hi = "inf)" if self.max is None else f"{self.max:g}" + ("]" if self.max_inclusive else ")")
-        return f"{lo}, {hi} {self.unit}".rstrip()
-
-    def check(self, value) -> float:
-        try:
-            v = float(value)
-        except (TypeError, ValueError):
-            raise ParameterError(f"parameter {self.name} must be a number, got {value!r}", self.name) from None
-        ok = math.isfinite(v)
-        if ok and self.min is not None:
-            ok = v >= self.min if self.min_inclusive else v > self.min
-        if ok and self.max is not None:
-            ok = v <= self.max if self.max_inclusive else v < self.max
-        if not ok:
-            raise ParameterError(
-                f"parameter {self.name} = {value!r} is out of range: valid range {self.range_text()} "
-                f"({self.description})", self.name)
-        return v
-
-
-@dataclass(frozen=True)
-class Experiment:
-    start_time: float = 0.0          # s
-    stop_time: float = 1.0           # s
-    output_interval: float = 1e-3    # s
-    tolerance: float = 1e-10         # 1
-    cycles: int = 5
-    summary_cycle: int = 4
 
 
 class Scenario:
@@ -94,15 +50,7 @@ class Scenario:
         except KeyError as exc:
             raise DefinitionError(f"{where}: missing {exc.args[0]!r}") from None
         self.title = data.get("title", self.name)
-        params = {}
-        for pname, spec in raw.items():
-            if not isinstance(spec, Mapping) or "value" not in spec or "unit" not in spec:
-                raise DefinitionError(f"{where}: parameter {pname} needs at least value and unit")
-            p = Parameter(pname, float(spec["value"]), spec["unit"], spec.get("description", ""),
-                          spec.get("min"), spec.get("max"), spec.get("min_inclusive", True),
-                          spec.get("max_inclusive", True), bool(spec.get("tunable", False)))
-            p.check(p.value)
-            params[pname] = p
+        params = parse_parameters(raw, where)
         missing = [n for n in CONTRACT_PARAMETERS if n not in params]
         if missing:
             raise DefinitionError(f"{where}: missing contract parameter(s) {', '.join(missing)}")
@@ -110,8 +58,7 @@ class Scenario:
         self.overrides: dict[str, float] = {}
         for k, v in (overrides or {}).items():
             self.overrides[k] = self._param(k).check(v)
-        exp = data.get("experiment", {})
-        self.experiment = Experiment(**{k: exp[k] for k in Experiment.__dataclass_fields__ if k in exp})
+        self.experiment = Experiment.from_dict(data.get("experiment", {}))
         if not self.experiment.stop_time > self.experiment.start_time:
             raise DefinitionError(f"{where}: experiment stop_time must exceed start_time")
 
@@ -298,25 +245,12 @@ class Model:
 
 
 def available_scenarios() -> list[str]:
-    return sorted(p.name[:-5] for p in _SCENARIOS.iterdir() if p.name.endswith(".toml"))
+    return packaged(_SCENARIOS)
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
     """A packaged scenario by name (``"seed000"``) or a scenario file by path."""
     if isinstance(name_or_path, Scenario):
         return name_or_path
-    path = Path(name_or_path)
-    if path.suffix == ".toml" and path.exists():
-        text, where, origin = path.read_text(), str(path), str(path)
-    else:
-        res = _SCENARIOS / f"{name_or_path}.toml"
-        if not res.is_file():
-            raise ScenarioNotFound(
-                f"unknown scenario {str(name_or_path)!r}: give a packaged name "
-                f"({', '.join(available_scenarios())}) or the path of a .toml scenario file")
-        text, where, origin = res.read_text(), f"scenario {name_or_path}", str(res)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DefinitionError(f"{where}: {exc}") from None
+    data, where, origin = read_toml(name_or_path, _SCENARIOS, "scenario", ScenarioNotFound)
     return Scenario(data, where, origin)

@@ -27,6 +27,7 @@ import sys
 import sysconfig
 import tempfile
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
@@ -42,7 +43,8 @@ PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's r
 RUNTIME = ("__init__.py", "contract.py", "errors.py", "expressions.py", "numerics.py", "scenario.py",
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "integrators/kernel.py",
-           "integrators/tableau.py", "fmi/__init__.py", "fmi/slave.py")
+           "integrators/tableau.py", "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/drive.py",
+           "parameters.py", "datafiles.py", "drives")
 
 
 def copy_runtime(dest: Path):
@@ -56,13 +58,47 @@ def copy_runtime(dest: Path):
             shutil.copy2(source, dest / entry)
 
 
-#: FMU name -> scenario
-FMUS = {"FourBar": "seed000", "ThreeLoop": "seed001", "SliderCrank": "seed002", "Shaper": "seed003",
-        "QuickReturn": "seed004"}
+#: FMU name -> (kind, data file): a scenario file (mechanism FMUs) or a drive file (Drive.fmu)
+FMUS = {"FourBar": ("scenario", "seed000"), "ThreeLoop": ("scenario", "seed001"),
+        "SliderCrank": ("scenario", "seed002"), "Shaper": ("scenario", "seed003"),
+        "QuickReturn": ("scenario", "seed004"), "Drive": ("drive", "dc_pi")}
 
-def complete_model_description(xml_bytes: bytes, units: dict[str, str], parameters: dict, scenario) -> bytes:
+
+@dataclass
+class Source:
+    """What an FMU is built from: its data file, the slave core that runs it, and what the
+    modelDescription says of it."""
+
+    kind: str                       # "scenario" or "drive"
+    name: str                       # the data file's name, passed to the core
+    title: str
+    experiment: object              # parameters.Experiment
+    core: str                       # "module:Class" inside the package
+    depends: dict                   # output -> initial dependencies (contract.Variable.initial)
+    groups: dict                    # "*geometry", "*loads" -> parameter names
+    reference: object = None        # () -> the default experiment's outputs as CSV text, or None
+
+
+def source_of(kind: str, name: str) -> Source:
+    if kind == "scenario":
+        from ..scenario import load_scenario
+
+        scenario = load_scenario(name)
+        definition = scenario.mechanism_definition()
+        groups = {"*geometry": sorted(set(definition.geometry_parameters) | set(definition.mass_parameters)),
+                  "*loads": sorted(scenario.load_parameters())}
+        return Source(kind, scenario.name, scenario.title, scenario.experiment, "fmi.slave:FmuCore",
+                      {v.name: v.initial for v in OUTPUTS}, groups, lambda: reference_result(scenario))
+    if kind == "drive":
+        from ..dynamics.drive import load_drive
+
+        drive = load_drive(name)
+        return Source(kind, drive.name, drive.title, drive.experiment, "fmi.drive:DriveCore", {}, {})
+    raise SystemExit(f"build: unknown kind {kind!r}")
+
+def complete_model_description(xml_bytes: bytes, units: dict[str, str], parameters: dict, source: Source) -> bytes:
     """pythonfmu's modelDescription with units, parameter ranges (min/max where a bound exists),
-    UnitDefinitions, DefaultExperiment, the scenario's name and InitialUnknowns."""
+    UnitDefinitions, DefaultExperiment, the data file's name and InitialUnknowns."""
     root = ET.fromstring(xml_bytes)
     variables = root.find("ModelVariables")
     index = {}
@@ -93,42 +129,32 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
     position = [c.tag for c in children].index("CoSimulation") + 1
     root.insert(position, unit_defs)
 
-    exp = scenario.experiment
+    exp = source.experiment
     for old in root.findall("DefaultExperiment"):
         root.remove(old)
     default = ET.Element("DefaultExperiment", startTime=repr(exp.start_time), stopTime=repr(exp.stop_time),
                          tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
     position = [c.tag for c in root].index("ModelVariables")
     root.insert(position, default)
-    # which scenario file the FMU implements: the harness runs the same file in process
+    # which data file the FMU implements: the harness runs the same file in process
     for old in root.findall("VendorAnnotations"):
         root.remove(old)
     vendor = ET.Element("VendorAnnotations")
     tool = ET.SubElement(vendor, "Tool", name="crankfmu")
-    ET.SubElement(tool, "Scenario", name=scenario.name)
+    ET.SubElement(tool, "Scenario" if source.kind == "scenario" else "Drive", name=source.name)
     root.insert(position + 1, vendor)
 
     structure = root.find("ModelStructure")
     for old in structure.findall("InitialUnknowns"):
         structure.remove(old)
-    definition = scenario.mechanism_definition()
-    geometry = set(definition.geometry_parameters) | set(definition.mass_parameters)
-    loads = set(scenario.load_parameters())
-    parameters = list(scenario.parameters)
     initial = ET.SubElement(structure, "InitialUnknowns")
     outputs = [sv.get("name") for sv in variables.findall("ScalarVariable") if sv.get("causality") == "output"]
-    depends = {v.name: v.initial for v in OUTPUTS}
+    everything = [sv.get("name") for sv in variables.findall("ScalarVariable")
+                  if sv.get("causality") in ("parameter", "input")]
     for name in outputs:
         deps = []
-        for d in depends.get(name, ("*all",)):
-            if d == "*geometry":
-                deps += sorted(geometry)
-            elif d == "*loads":
-                deps += sorted(loads)
-            elif d == "*all":
-                deps += parameters + ["tau_ext"]
-            else:
-                deps.append(d)
+        for d in source.depends.get(name, ("*all",)):
+            deps += everything if d == "*all" else source.groups.get(d, [d])
         refs = sorted({index[d] for d in deps if d in index})
         ET.SubElement(initial, "Unknown", index=str(index[name]), dependencies=" ".join(map(str, refs)))
     for element in root.iter():           # drop pythonfmu's whitespace before re-indenting
@@ -189,34 +215,34 @@ def reference_result(scenario) -> str:
     return "\n".join(lines) + "\n"
 
 
-def cross_check_options(scenario) -> str:
-    exp = scenario.experiment
+def cross_check_options(source: Source) -> str:
+    exp = source.experiment
     return (f"StartTime, {exp.start_time!r}\nStopTime, {exp.stop_time!r}\n"
             f"StepSize, {exp.output_interval!r}\nRelTol, {exp.tolerance!r}\n")
 
 
-def slave_script(name: str, scenario) -> str:
+def slave_script(name: str, source: Source) -> str:
     """The slave script of one FMU, from the one template."""
     from string import Template
 
+    module, cls = source.core.split(":")
     template = Template((HERE / "slave_script.py.in").read_text())
-    return template.substitute(NAME=name, SCENARIO=scenario.name, DESCRIPTION=repr(scenario.title))
+    return template.substitute(NAME=name, SOURCE=source.name, CORE_MODULE=module, CORE_CLASS=cls,
+                               DESCRIPTION=repr(source.title))
 
 
-def build(name: str, scenario_name: str, dest: Path) -> Path:
+def build(name: str, kind: str, data_name: str, dest: Path) -> Path:
     from pythonfmu import FmuBuilder
 
-    from crankfmu import load_scenario
-
     dest.mkdir(parents=True, exist_ok=True)
-    scenario = load_scenario(scenario_name)
+    source = source_of(kind, data_name)
     with tempfile.TemporaryDirectory() as tmp:
         # the package travels under a private name (see slave_script.py.in)
         private = Path(tmp) / "pkg" / f"crankfmu_{name}"
         script_dir = Path(tmp) / "script"
         script_dir.mkdir()
         script = script_dir / f"{name}.py"
-        script.write_text(slave_script(name, scenario))
+        script.write_text(slave_script(name, source))
         copy_runtime(private)
         sys.path.insert(0, str(private.parent))
         sys.path.insert(0, str(script_dir))
@@ -236,23 +262,25 @@ def build(name: str, scenario_name: str, dest: Path) -> Path:
             for item in zin.infolist():
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
-                    data = complete_model_description(data, slave_units, slave_parameters, scenario)
+                    data = complete_model_description(data, slave_units, slave_parameters, source)
                 if item.filename == binary:
                     item.filename = f"binaries/linux64/{name}_pythonfmu.so"
                 zout.writestr(item, data)
             zout.write(shim, binary)
             zout.writestr("resources/python_env.txt", python_env())
-            reference = reference_result(scenario)
-            zout.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=name))
-            zout.writestr(f"{LS_REF}/{name}_out.csv", reference)
-        (dest / f"{name}_ref.csv").write_text(reference)
-        (dest / f"{name}_ref.opt").write_text(cross_check_options(scenario))
+            reference = source.reference() if source.reference else None
+            if reference is not None:
+                zout.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=name))
+                zout.writestr(f"{LS_REF}/{name}_out.csv", reference)
+        if reference is not None:
+            (dest / f"{name}_ref.csv").write_text(reference)
+            (dest / f"{name}_ref.opt").write_text(cross_check_options(source))
     return out
 
 
 def _variables_of(name: str, resources: Path) -> tuple[dict[str, str], dict]:
-    """Units and parameters as the slave registered them (one source: crankfmu.fmi.slave and the
-    scenario file)."""
+    """Units and parameters as the slave registered them (one source: the slave core and the data
+    file)."""
     import importlib
 
     module = importlib.import_module(name)
@@ -264,8 +292,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--dest", default="build/fmus")
     args = parser.parse_args(argv)
-    for name, scenario in FMUS.items():
-        path = build(name, scenario, Path(args.dest))
+    for name, (kind, data_name) in FMUS.items():
+        path = build(name, kind, data_name, Path(args.dest))
         print(f"built {path}")
     return 0
 

@@ -1,0 +1,34 @@
+"""Reading crankfmu's data files (scenarios, mechanisms, drives): a packaged name or a path."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+from .errors import DefinitionError
+
+
+def packaged(folder) -> list[str]:
+    """Names of the packaged .toml files in ``folder`` (an importlib.resources traversable)."""
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def read_toml(name_or_path, folder, kind: str, not_found=DefinitionError) -> tuple[dict, str, str]:
+    """(data, where, origin) of a .toml file given by path, or packaged in ``folder`` by name.
+
+    ``where`` names the file in messages ("scenario seed000", or the path); ``origin`` is its
+    path. An unknown name raises ``not_found`` listing the packaged names; a syntax error
+    DefinitionError with the file and the line."""
+    path = Path(name_or_path)
+    if path.suffix == ".toml" and path.exists():
+        text, where, origin = path.read_text(), str(path), str(path)
+    else:
+        res = folder / f"{name_or_path}.toml"
+        if not res.is_file():
+            raise not_found(f"unknown {kind} {str(name_or_path)!r}: give a packaged name "
+                            f"({', '.join(packaged(folder))}) or the path of a .toml {kind} file")
+        text, where, origin = res.read_text(), f"{kind} {name_or_path}", str(res)
+    try:
+        return tomllib.loads(text), where, origin
+    except tomllib.TOMLDecodeError as exc:
+        raise DefinitionError(f"{where}: {exc}") from None

@@ -1,0 +1,88 @@
+"""A DC motor drive with a PI speed controller, acting on the crank (Drive.fmu, drives/*.toml).
+
+State: the armature current i (A) and the integral x (rad) of the crank speed error
+e = omega_set - omega. With the crank speed omega and the set-point as inputs:
+
+    u   = Kp e + Ki x                               armature voltage, V
+    L di/dt = u - R i - k_t n_gear omega            the motor turns n_gear times faster than the crank
+    dx/dt   = e
+    tau = n_gear k_t i                              torque on the crank, N.m (an ideal reducer)
+
+The motor's rotor inertia belongs to the crank side (reflected: n_gear**2 J_rotor, add it to
+J_flywheel), so the drive never needs the crank's acceleration.
+
+Between two communication points a co-simulation holds the inputs constant; the state then
+follows a linear system with constant input, whose solution ``step`` evaluates exactly (x grows
+linearly, i relaxes with the time constant L/R towards an affine function of time).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from importlib import resources
+
+from ..datafiles import read_toml
+from ..errors import DefinitionError
+from ..parameters import Experiment, parse_parameters
+
+_FILES = resources.files(__package__.rsplit(".", 1)[0]) / "drives"
+
+
+@dataclass(frozen=True)
+class DcDrive:
+    R: float           # Ohm
+    L: float           # H
+    k_t: float         # N.m/A
+    n_gear: float      # 1
+    Kp: float          # V/(rad/s)
+    Ki: float          # V/rad
+
+    def voltage(self, x, omega, omega_set):
+        return self.Kp * (omega_set - omega) + self.Ki * x
+
+    def torque(self, i):
+        return self.n_gear * self.k_t * i
+
+    def rhs(self, i, x, omega, omega_set):
+        """(di/dt, dx/dt)."""
+        return ((self.voltage(x, omega, omega_set) - self.R * i - self.k_t * self.n_gear * omega) / self.L,
+                omega_set - omega)
+
+    def step(self, i, x, omega, omega_set, h):
+        """(i, x) after h s with the inputs held constant: the exact solution."""
+        e = omega_set - omega
+        a = self.R / self.L
+        p = (self.Kp * e + self.Ki * x - self.k_t * self.n_gear * omega) / self.L   # forcing at the start, A/s
+        q = self.Ki * e / self.L                                                    # its slope, A/s2
+        one_minus = -math.expm1(-a * h)                                             # 1 - exp(-a h)
+        i_new = i * (1.0 - one_minus) + p * one_minus / a + q * (h / a - one_minus / (a * a))
+        return i_new, x + e * h
+
+
+@dataclass
+class DriveFile:
+    name: str
+    title: str
+    parameters: dict
+    inputs: dict
+    experiment: Experiment
+    where: str
+
+    def drive(self, values: dict) -> DcDrive:
+        return DcDrive(*(float(values[k]) for k in ("R", "L", "k_t", "n_gear", "Kp", "Ki")))
+
+
+def load_drive(name_or_path) -> DriveFile:
+    """A drive file: a packaged name (``"dc_pi"``) or a path to a .toml file."""
+    data, where, _ = read_toml(name_or_path, _FILES, "drive")
+    try:
+        params = parse_parameters(data["parameters"], where)
+        inputs = parse_parameters(data.get("inputs", {}), where)
+    except KeyError as exc:
+        raise DefinitionError(f"{where}: missing {exc.args[0]!r}") from None
+    missing = {"R", "L", "k_t", "n_gear", "Kp", "Ki", "i_start", "x_start"} - params.keys()
+    if missing:
+        raise DefinitionError(f"{where}: missing drive parameter(s) {', '.join(sorted(missing))}")
+    return DriveFile(data.get("name", str(name_or_path)), data.get("title", ""), params, inputs,
+                     Experiment.from_dict(data.get("experiment", {})), where)

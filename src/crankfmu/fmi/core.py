@@ -1,0 +1,355 @@
+"""What every crankfmu FMU does the same way: variables with units and ranges, the life cycle, the
+refusals and the FMU state. A model's slave (``slave.FmuCore`` for a mechanism, ``drive.DriveCore``
+for Drive.fmu) declares its variables and implements three hooks: ``initialise`` (build the model
+from the values set), ``advance`` (one communication step) and the model part of the state.
+
+Nothing raises into pythonfmu, which would turn any Python exception into fmi2Fatal and release
+the instance's Python objects: every FMI entry point of the slave is bound to a guarded method
+here (``attach``). A refusal logs a message naming the variable and its valid range with
+fmi2Error status (the shim in front of pythonfmu, ``shim/fmu_shim.c``, makes the call return
+fmi2Error and passes the message to the host whatever its logging setting), and every later call
+that needs a valid model fails the same way until a valid value is set. The life cycle is checked
+here: a call out of order (a step before initialisation, a fixed parameter set after it) is
+refused, not ignored.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import CrankfmuError, ParameterError
+from ..parameters import Parameter
+
+# life-cycle phases (FMI 2.0 co-simulation state machine, as far as a model needs it)
+INSTANTIATED, INITIALIZATION, STEPPING, REFUSED, TERMINATED = (
+    "instantiated", "initialization mode", "stepping", "refused", "terminated")
+#: the slave's FMI entry points and what each returns when it fails (see SlaveCore.attach)
+ENTRY_POINTS = {
+    "setup_experiment": None, "enter_initialization_mode": None, "exit_initialization_mode": None,
+    "do_step": False, "terminate": None,
+    "get_real": "nan", "set_real": None, "get_integer": 0, "set_integer": None,
+    "get_boolean": False, "set_boolean": None, "get_string": "", "set_string": None,
+    "_get_fmu_state": "state", "_set_fmu_state": None,
+}
+
+
+def time_matches(t_host: float, t_own: float, step: float) -> bool:
+    """Whether a host's communication point is the FMU's own time up to the host's rounding.
+
+    A host that accumulates t += h drifts by rounding only (far below a step); one that skips or
+    repeats a step is off by a whole step."""
+    return abs(t_host - t_own) <= 1e-9 * max(1.0, abs(t_own)) + 1e-6 * step
+
+
+class SlaveCore:
+    """Variables, life cycle, refusals and state of one FMU instance.
+
+    Subclasses declare variables with ``output``, ``input`` and ``parameter`` in their __init__,
+    then call ``attach``; they implement ``initialise()``, ``advance(t, target)`` (raise
+    CrankfmuError to refuse) and ``outputs_now()`` (the values whose finiteness is checked), and
+    extend ``get_fmu_state``/``set_fmu_state`` with their model's state."""
+
+    def __init__(self, slave, start_time: float = 0.0):
+        self.slave = slave
+        self.parameters: dict[str, Parameter] = {}
+        self.values: dict[str, float] = {}           # parameters and inputs
+        self.inputs: dict[str, Parameter] = {}
+        self.errors: dict[str, str] = {}              # refused values by variable: they block stepping
+        self.phase = INSTANTIATED
+        self.time = start_time
+        self.t_limit = math.inf
+        self.pending: set[str] = set()                # tunable parameters and inputs changed since the last step
+        self.units: dict[str, str] = {}
+        self.outputs: set[int] = set()
+
+    # ------------------------------------------------------------------ declaring variables
+    def output(self, name, unit, description, getter):
+        from pythonfmu.enums import Fmi2Causality, Fmi2Variability
+        from pythonfmu.variables import Real
+
+        self.slave.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
+                                          description=description, getter=getter))
+        self.units[name] = unit
+        self.outputs.add(len(self.slave.vars) - 1)
+
+    def input(self, p: Parameter):
+        """A continuous input with a start value; a non-finite value is refused."""
+        from pythonfmu.enums import Fmi2Causality, Fmi2Variability
+        from pythonfmu.variables import Real
+
+        self.inputs[p.name] = p
+        self.values[p.name] = p.value
+        self.slave.register_variable(Real(p.name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+                                          description=p.description, getter=lambda n=p.name: self.values[n],
+                                          setter=lambda v, n=p.name: self._set_input(n, v)))
+        self.units[p.name] = p.unit
+
+    def parameter(self, p: Parameter):
+        from pythonfmu.enums import Fmi2Causality, Fmi2Variability
+        from pythonfmu.variables import Real
+
+        self.parameters[p.name] = p
+        self.values[p.name] = p.value
+        variability = Fmi2Variability.tunable if p.tunable else Fmi2Variability.fixed
+        self.slave.register_variable(Real(p.name, causality=Fmi2Causality.parameter, variability=variability,
+                                          description=f"{p.description} (valid range {p.range_text()})",
+                                          getter=lambda n=p.name: self.values[n],
+                                          setter=lambda v, n=p.name: self._set_parameter(n, v)))
+        self.units[p.name] = p.unit
+
+    def attach(self):
+        """Bind every FMI entry point of the slave to its guarded method here.
+
+        pythonfmu calls them by attribute on the instance, so instance attributes take precedence
+        over Fmi2Slave's methods. A Python exception must never reach pythonfmu: it returns
+        fmi2Fatal and releases the instance's Python objects, and a later fmi2FreeInstance frees
+        them again. An unexpected exception is logged as fmi2Error with its text instead."""
+        for name, failed in ENTRY_POINTS.items():
+            setattr(self.slave, name, self._guarded(name, getattr(self, name.lstrip("_")), failed))
+
+    def _guarded(self, name, method, failed):
+        def entry(*args):
+            try:
+                # no floating-point warnings on the host's stderr: non-finite results are checked
+                # and refused with a message instead
+                with np.errstate(all="ignore"):
+                    return method(*args)
+            except Exception as exc:        # noqa: BLE001 - the host gets fmi2Error and the text
+                self._error(f"{name}: internal error {type(exc).__name__}: {exc}")
+                if failed == "nan":
+                    return [math.nan] * len(args[0])
+                if failed == "state":
+                    return {"invalid": f"{type(exc).__name__}: {exc}"}
+                if failed in (0, False, "") and args and isinstance(args[0], (list, tuple)):
+                    return [failed] * len(args[0])
+                return failed
+        return entry
+
+    # ------------------------------------------------------------------ messages
+    def log(self, message: str, status: str = "error"):
+        from pythonfmu.enums import Fmi2Status
+
+        self.slave.log(message, getattr(Fmi2Status, status))
+
+    def _error(self, message: str):
+        """Log with fmi2Error status: the shim makes the current call return fmi2Error."""
+        self.log(message, "error")
+
+    def _refuse(self, message: str, name: str):
+        """Log with fmi2Error status and block stepping until the value is corrected."""
+        self.errors[name] = f"{name}: {message}"
+        self._error(self.errors[name])
+
+    def _fail(self, message: str):
+        """The model can no longer go on (a refused design, a failed step): every later call that
+        needs it fails with this reason."""
+        self.phase = REFUSED
+        self._refuse(message, "model")
+
+    # ------------------------------------------------------------------ variables
+    def _variable(self, vr, kind: str):
+        var = self.slave.vars.get(vr) if isinstance(vr, int) else None
+        if var is None:
+            self._error(f"unknown value reference {vr!r}: this FMU's {kind} variables are 0..{len(self.slave.vars) - 1}")
+        return var
+
+    def get_real(self, vrs):
+        values = []
+        for vr in vrs:
+            var = self._variable(vr, "Real")
+            if var is None:
+                values.append(math.nan)
+            elif vr in self.outputs and self.phase == REFUSED:
+                self._error(f"{var.name}: no valid model to read it from ({self.errors.get('model', 'refused')})")
+                values.append(math.nan)
+            else:
+                values.append(float(var.getter()))
+        return values
+
+    def set_real(self, vrs, values):
+        if len(vrs) != len(values):
+            self._error(f"fmi2SetReal: {len(vrs)} value references but {len(values)} values")
+        for vr, value in zip(vrs, values):
+            var = self._variable(vr, "Real")
+            if var is None:
+                continue
+            if var.setter is None:
+                self._error(f"{var.name} is an output of this FMU: it cannot be set")
+                continue
+            var.setter(value)
+
+    def _no_variables(self, kind, vrs):
+        for vr in vrs:
+            self._error(f"unknown value reference {vr!r} of type {kind}: this FMU has Real variables only")
+
+    def get_integer(self, vrs):
+        self._no_variables("Integer", vrs)
+        return [0] * len(vrs)
+
+    def set_integer(self, vrs, values):
+        self._no_variables("Integer", vrs)
+
+    def get_boolean(self, vrs):
+        self._no_variables("Boolean", vrs)
+        return [False] * len(vrs)
+
+    def set_boolean(self, vrs, values):
+        self._no_variables("Boolean", vrs)
+
+    def get_string(self, vrs):
+        self._no_variables("String", vrs)
+        return [""] * len(vrs)
+
+    def set_string(self, vrs, values):
+        self._no_variables("String", vrs)
+
+    def _set_parameter(self, name: str, value):
+        p = self.parameters[name]
+        if self.phase in (STEPPING, TERMINATED) and not p.tunable:
+            self._error(f"{name} is a fixed parameter: it can only be set before fmi2ExitInitializationMode "
+                        f"(value kept: {self.values[name]!r}; valid range {p.range_text()})")
+            return
+        try:
+            v = p.check(value)
+        except ParameterError as exc:
+            self._refuse(str(exc), name)
+            return
+        if v != self.values[name] and self.phase == STEPPING:
+            self.pending.add(name)
+        self.values[name] = v
+        self.errors.pop(name, None)
+
+    def _set_input(self, name: str, value):
+        v = float(value)
+        if not math.isfinite(v):
+            p = self.inputs[name]
+            self._refuse(f"input {name} = {value!r} must be finite (valid range {p.range_text()})", name)
+            return
+        if v != self.values[name]:
+            self.values[name] = v
+            self.pending.add(name)
+        self.errors.pop(name, None)
+
+    # ------------------------------------------------------------------ life cycle
+    def _out_of_order(self, call: str, allowed: tuple) -> bool:
+        if self.phase in allowed:
+            return False
+        self._error(f"{call} is not allowed in {self.phase} (only in {' or '.join(allowed)})")
+        return True
+
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        if self._out_of_order("fmi2SetupExperiment", (INSTANTIATED,)):
+            return
+        start = float(start_time)
+        stop = math.inf if stop_time is None else float(stop_time)
+        if not math.isfinite(start):
+            self._refuse(f"startTime = {start_time!r} must be a finite time in s", "startTime")
+            return
+        if math.isnan(stop) or stop < start:
+            self._refuse(f"stopTime = {stop_time!r} must be >= startTime = {start!r} s", "stopTime")
+            return
+        self.errors.pop("startTime", None)
+        self.errors.pop("stopTime", None)
+        self.time, self.t_limit = start, stop
+
+    def enter_initialization_mode(self):
+        if not self._out_of_order("fmi2EnterInitializationMode", (INSTANTIATED,)):
+            self.phase = INITIALIZATION
+
+    def exit_initialization_mode(self):
+        """Build the model from the values now set; refuse a design that cannot work."""
+        if self._out_of_order("fmi2ExitInitializationMode", (INITIALIZATION,)):
+            return
+        if self.errors:
+            self._fail("cannot initialise: " + "; ".join(self.errors.values()))
+            return
+        try:
+            self.initialise()
+        except CrankfmuError as exc:
+            self._fail(str(exc))     # the message names the parameters involved
+            return
+        if not np.all(np.isfinite(self.outputs_now())):
+            self._fail(f"the initial state is not finite ({self.outputs_text()}): check the parameters")
+            return
+        self.pending.clear()
+        self.phase = STEPPING
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        if self.phase != STEPPING:
+            reason = {INSTANTIATED: "the model is not initialised (call fmi2ExitInitializationMode first)",
+                      INITIALIZATION: "the model is not initialised (call fmi2ExitInitializationMode first)",
+                      TERMINATED: "the instance was terminated"}.get(self.phase)
+            reason = reason or "; ".join(self.errors.values()) or "the model was refused"
+            self._error(f"fmi2DoStep: cannot step: {reason}")
+            return False
+        if self.errors:
+            self._error("fmi2DoStep: cannot step: " + "; ".join(self.errors.values()))
+            return False
+        if not (math.isfinite(step_size) and step_size > 0.0) or not math.isfinite(current_time):
+            self._error(f"fmi2DoStep: currentCommunicationPoint = {current_time!r} s must be finite and "
+                        f"communicationStepSize = {step_size!r} s finite and > 0")
+            return False
+        if not time_matches(current_time, self.time, step_size):
+            self._error(f"fmi2DoStep: currentCommunicationPoint = {current_time!r} s is not this FMU's time "
+                        f"{self.time!r} s (a step was skipped or repeated; roll back with fmi2SetFMUstate)")
+            return False
+        target = current_time + step_size
+        try:
+            self.advance(target)
+        except CrankfmuError as exc:
+            self._fail(f"step from t = {current_time:g} s failed: {exc}")
+            return False
+        self.pending.clear()
+        if not np.all(np.isfinite(self.outputs_now())):
+            self._fail(f"step from t = {current_time:g} s gave non-finite values ({self.outputs_text()})")
+            return False
+        self.time = target
+        return True
+
+    def terminate(self):
+        self.phase = TERMINATED
+
+    # ------------------------------------------------------------------ model hooks
+    def initialise(self):
+        raise NotImplementedError
+
+    def advance(self, target: float):
+        raise NotImplementedError
+
+    def outputs_now(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def outputs_text(self) -> str:
+        return ", ".join(f"{v:g}" for v in self.outputs_now())
+
+    # ------------------------------------------------------------------ FMU state
+    def get_fmu_state(self) -> dict:
+        """Everything that determines the continuation, as plain floats, strings and lists."""
+        return {"values": dict(self.values), "time": self.time, "errors": dict(self.errors),
+                "pending": sorted(self.pending), "phase": self.phase, "model": self.model_state()}
+
+    def set_fmu_state(self, state: dict):
+        if not isinstance(state, dict) or "invalid" in state or set(state) != set(self.get_fmu_state()):
+            self._error(f"fmi2SetFMUstate: not a state of this FMU ({str(state)[:200]})")
+            return
+        if state["model"] is not None and not self.can_restore():
+            self._error("fmi2SetFMUstate: the state was taken after initialisation; this instance is not initialised")
+            return
+        self.values = dict(state["values"])
+        self.time = state["time"]
+        self.errors = dict(state["errors"])
+        self.pending = set(state["pending"])
+        self.phase = state["phase"]
+        if state["model"] is not None:
+            self.restore_model_state(state["model"])
+
+    def model_state(self):
+        raise NotImplementedError
+
+    def can_restore(self) -> bool:
+        raise NotImplementedError
+
+    def restore_model_state(self, state):
+        raise NotImplementedError

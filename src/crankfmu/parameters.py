@@ -1,0 +1,75 @@
+"""Named parameters with SI units and valid ranges, and the default experiment: what scenario files
+and drive files declare, the FMUs expose and every refusal message quotes."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+from .errors import DefinitionError, ParameterError
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A named scenario parameter with its SI unit and valid range."""
+
+    name: str
+    value: float
+    unit: str
+    description: str = ""
+    min: float | None = None
+    max: float | None = None
+    min_inclusive: bool = True
+    max_inclusive: bool = True
+    tunable: bool = False
+
+    def range_text(self) -> str:
+        lo = "(-inf" if self.min is None else ("[" if self.min_inclusive else "(") + f"{self.min:g}"
+        hi = "inf)" if self.max is None else f"{self.max:g}" + ("]" if self.max_inclusive else ")")
+        return f"{lo}, {hi} {self.unit}".rstrip()
+
+    def check(self, value) -> float:
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ParameterError(f"parameter {self.name} must be a number, got {value!r}", self.name) from None
+        ok = math.isfinite(v)
+        if ok and self.min is not None:
+            ok = v >= self.min if self.min_inclusive else v > self.min
+        if ok and self.max is not None:
+            ok = v <= self.max if self.max_inclusive else v < self.max
+        if not ok:
+            raise ParameterError(
+                f"parameter {self.name} = {value!r} is out of range: valid range {self.range_text()} "
+                f"({self.description})", self.name)
+        return v
+
+
+@dataclass(frozen=True)
+class Experiment:
+    start_time: float = 0.0          # s
+    stop_time: float = 1.0           # s
+    output_interval: float = 1e-3    # s
+    tolerance: float = 1e-10         # 1
+    cycles: int = 5
+    summary_cycle: int = 4
+
+    @classmethod
+    def from_dict(cls, data: Mapping) -> "Experiment":
+        return cls(**{k: data[k] for k in cls.__dataclass_fields__ if k in data})
+
+
+def parse_parameters(raw: Mapping, where: str) -> dict[str, Parameter]:
+    """``[parameters]`` of a data file: each ``name = { value, unit, description, min, max,
+    min_inclusive, max_inclusive, tunable }``, the default checked against its own range."""
+    params = {}
+    for pname, spec in raw.items():
+        if not isinstance(spec, Mapping) or "value" not in spec or "unit" not in spec:
+            raise DefinitionError(f"{where}: parameter {pname} needs at least value and unit")
+        p = Parameter(pname, float(spec["value"]), spec["unit"], spec.get("description", ""),
+                      spec.get("min"), spec.get("max"), spec.get("min_inclusive", True),
+                      spec.get("max_inclusive", True), bool(spec.get("tunable", False)))
+        p.check(p.value)
+        params[pname] = p
+    return params

@@ -1,0 +1,231 @@
+"""Third-party co-simulation masters driving our FMUs and SSPs, each in a child process.
+
+The masters, all installed from PyPI (with Debian's libtbb12 for ecos) by the Makefile:
+
+- ``fmpy``: FMPy's ``simulate_fmu`` (Python, ctypes);
+- ``ecos``: the ``ecos`` command of the ecospy wheel, a C++ process with no Python of its own
+  (it loads our FMU's shim, which starts an interpreter itself);
+- ``ecospy``: ecospy's in-process API (the same C++ engine, loaded by Python);
+- ``libcosim``: libcosimpy, the Open Simulation Platform's libcosim (C++, FMI Library).
+
+``run(master, path, ...)`` runs one master on an FMU or an SSP in a child process (a crash or a hang
+of the master is a failed case, not a crash of the caller) and returns a ``MasterRun``: the
+sampled time and the requested variables, the master's exit status and what it printed.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import stat
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+MASTERS = ("fmpy", "ecos", "ecospy", "libcosim")
+TIME_LIMIT = 600
+
+
+@dataclass
+class MasterRun:
+    master: str
+    path: str
+    time: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    values: dict = field(default_factory=dict)       # "instance.variable" or "variable" -> array
+    returncode: int = 0
+    output: str = ""                                  # what the master printed (stdout + stderr)
+    error: str | None = None                          # set when the run did not complete
+
+    def __getitem__(self, name):
+        return self.values[name]
+
+
+def version(master: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version as package_version
+
+    package = {"fmpy": "fmpy", "ecos": "ecospy", "ecospy": "ecospy", "libcosim": "libcosimpy"}[master]
+    try:
+        return f"{package} {package_version(package)}"
+    except PackageNotFoundError:
+        return f"{package} (not installed)"
+
+
+def ecos_command() -> Path:
+    """The ``ecos`` executable inside the ecospy wheel (the wheel ships it without its exec bit)."""
+    import ecospy
+
+    exe = Path(ecospy.__file__).parent / "binaries" / "ecos"
+    if not os.access(exe, os.X_OK):
+        try:
+            exe.chmod(exe.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
+        except OSError as exc:
+            raise RuntimeError(f"{exe} is not executable and cannot be made so ({exc}): chmod +x it") from None
+    return exe
+
+
+def run(master: str, path, stop_time: float, step: float, variables: list[str],
+        start_values: dict | None = None, parameter_set: str | None = None, instance: str = "fmu") -> MasterRun:
+    """Run ``master`` on the FMU or SSP at ``path`` from 0 to ``stop_time`` at communication step
+    ``step``, recording ``variables`` (for an SSP: "instance.variable")."""
+    path = str(Path(path).resolve())
+    if master == "ecos":
+        return _run_ecos_cli(path, stop_time, step, variables, parameter_set)
+    job = {"master": master, "path": path, "stop_time": stop_time, "step": step, "variables": variables,
+           "start_values": start_values or {}, "parameter_set": parameter_set, "instance": instance}
+    cmd = [sys.executable, "-m", "crankfmu.validation.masters", json.dumps(job)]
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT)
+    except subprocess.TimeoutExpired:
+        return MasterRun(master, path, error=f"no answer within {TIME_LIMIT} s", returncode=-1)
+    out = done.stdout + done.stderr
+    lines = [line for line in done.stdout.splitlines() if line.startswith("RESULT ")]
+    if done.returncode != 0 or not lines:
+        return MasterRun(master, path, returncode=done.returncode, output=out,
+                         error=f"exit status {done.returncode}" + ("" if lines else ", no result"))
+    data = json.loads(lines[-1][7:])
+    return MasterRun(master, path, np.asarray(data["time"]), {k: np.asarray(v) for k, v in data["values"].items()},
+                     done.returncode, out, data.get("error"))
+
+
+def _run_ecos_cli(path, stop_time, step, variables, parameter_set) -> MasterRun:
+    with tempfile.TemporaryDirectory() as tmp:
+        # ecos passes an FMU's messages on at its debug level only
+        cmd = [str(ecos_command()), "simulate", "--path", path, "--stopTime", repr(stop_time),
+               "--stepSize", repr(step), "-l", "debug"]
+        if parameter_set:
+            cmd += ["--parameterSet", parameter_set]
+        try:
+            done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT, cwd=tmp)
+        except subprocess.TimeoutExpired:
+            return MasterRun("ecos", path, error=f"no answer within {TIME_LIMIT} s", returncode=-1)
+        out = done.stdout + done.stderr
+        files = sorted(Path(tmp).rglob("*.csv"))
+        if done.returncode != 0 or not files:
+            return MasterRun("ecos", path, returncode=done.returncode, output=out,
+                             error=f"exit status {done.returncode}" + ("" if files else ", no CSV written"))
+        columns: dict[str, list[float]] = {}
+        for f in files:                       # one CSV per FMU instance: "<instance>.csv"
+            with f.open() as handle:
+                rows = list(csv.reader(handle, skipinitialspace=True))
+            header = rows[0]
+            for k, name in enumerate(header):
+                key = name.split("[")[0].replace("::", ".")
+                columns[key] = [float(r[k]) for r in rows[1:]]
+        values = {}
+        for v in variables:
+            key = next((k for k in columns if k == v or k.endswith("." + v)), None)
+            if key is not None:
+                values[v] = np.asarray(columns[key])
+        return MasterRun("ecos", path, np.asarray(columns["time"]), values, done.returncode, out)
+
+
+# ------------------------------------------------------------------------------------ children
+def _child(job: dict) -> dict:
+    master = job["master"]
+    n = int(round(job["stop_time"] / job["step"]))
+    if master == "fmpy":
+        return _child_fmpy(job)
+    if master == "ecospy":
+        return _child_ecospy(job, n)
+    if master == "libcosim":
+        return _child_libcosim(job, n)
+    raise SystemExit(f"unknown master {master}")
+
+
+def _child_fmpy(job):
+    from fmpy import simulate_fmu
+
+    messages = []
+
+    def logger(component, instance, status, category, message):
+        messages.append(message.decode(errors="replace"))
+
+    try:
+        r = simulate_fmu(job["path"], stop_time=job["stop_time"], output_interval=job["step"],
+                         step_size=job["step"], start_values=job["start_values"], output=job["variables"],
+                         logger=logger, debug_logging=False)
+    except Exception as exc:                         # noqa: BLE001 - the refusal is the result
+        print("\n".join(messages))
+        return {"time": [], "values": {}, "error": f"{type(exc).__name__}: {exc}"}
+    print("\n".join(messages))
+    return {"time": r["time"].tolist(), "values": {v: r[v].tolist() for v in job["variables"]}}
+
+
+def _child_ecospy(job, n):
+    from ecospy import EcosSimulation, EcosSimulationStructure
+    from ecospy.lib import EcosLib
+
+    EcosLib.set_log_level("debug")       # ecos passes an FMU's messages on at its debug level only
+
+    structure = EcosSimulationStructure()
+    if job["path"].endswith(".ssp"):
+        sim = EcosSimulation(ssp_path=job["path"], step_size=job["step"])
+        names = job["variables"]
+    else:
+        structure.add_model(job["instance"], job["path"])
+        if job["start_values"]:
+            structure.add_parameter_set("given", {f"{job['instance']}::{k}": float(v)
+                                                  for k, v in job["start_values"].items()})
+        sim = EcosSimulation(structure=structure, step_size=job["step"])
+        names = [f"{job['instance']}.{v}" for v in job["variables"]]
+    try:
+        sim.init(parameter_set=job["parameter_set"] or ("given" if job["start_values"] else None))
+        times, rows = [0.0], [[sim.get_real(x.replace(".", "::", 1)) for x in names]]
+        for _ in range(n):
+            sim.step()
+            times.append(sim.get_time())
+            rows.append([sim.get_real(x.replace(".", "::", 1)) for x in names])
+    except Exception as exc:                         # noqa: BLE001
+        return {"time": [], "values": {}, "error": f"{type(exc).__name__}: {exc}"}
+    finally:
+        sim.terminate()
+    columns = np.array(rows).T
+    return {"time": times, "values": {v: c.tolist() for v, c in zip(job["variables"], columns)}}
+
+
+def _child_libcosim(job, n):
+    from libcosimpy.CosimEnums import CosimVariableType
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.WARNING)
+    step_ns = int(round(job["step"] * 1e9))
+    if job["path"].endswith(".ssp"):
+        execution = CosimExecution.from_ssp_file(job["path"], step_size=step_ns)
+    else:
+        execution = CosimExecution.from_step_size(step_ns)
+        execution.add_local_slave(CosimLocalSlave(fmu_path=job["path"], instance_name=job["instance"]))
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    names = job["variables"] if job["path"].endswith(".ssp") else [f"{job['instance']}.{v}" for v in job["variables"]]
+    refs = []
+    for name in names:
+        instance, variable = name.split(".", 1)
+        index = execution.slave_index_from_instance_name(instance)
+        vr = next(v.reference for v in execution.slave_variables(index) if v.name.decode() == variable)
+        refs.append((index, vr))
+    for k, value in job["start_values"].items():
+        index = execution.slave_index_from_instance_name(job["instance"])
+        vr = next(v.reference for v in execution.slave_variables(index) if v.name.decode() == k)
+        execution.real_initial_value(index, vr, float(value))
+    times, rows = [], []
+    for k in range(n):              # libcosim initialises on the first step
+        if not execution.step():
+            return {"time": times, "values": {}, "error": f"libcosim: the step to t = {(k + 1) * job['step']:g} s "
+                                                          f"failed (error code {execution.status().error_code})"}
+        times.append(execution.status().current_time * 1e-9)
+        rows.append([observer.last_real_values(i, [vr])[0] for i, vr in refs])
+    columns = np.array(rows).T
+    return {"time": times, "values": {v: c.tolist() for v, c in zip(job["variables"], columns)}}
+
+
+if __name__ == "__main__":
+    result = _child(json.loads(sys.argv[1]))
+    print("RESULT " + json.dumps(result), flush=True)
