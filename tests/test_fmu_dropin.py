@@ -166,3 +166,24 @@ def test_the_fmu_ships_only_what_runs_inside_it(fmu_path):
         assert study not in shipped
     assert {"fmi/slave.py", "integrators/kernel.py", "contract.py", "scenarios/seed000.toml"} <= shipped
     assert not any("__pycache__" in n for n in shipped)
+
+
+def test_the_ecos_cpp_master_runs_it_where_the_building_python_is_gone(elsewhere, reference, tmp_path):
+    """The ecos command (C++, no Python of its own) under env -i with an empty HOME: the shim finds
+    the fresh numpy-only environment through CRANKFMU_PYTHON."""
+    pytest.importorskip("ecospy")
+    from crankfmu.validation.masters import ecos_command
+
+    python = str(fresh_venv(PYTHONS[0]) / "bin" / "python3")
+    cmd = isolated(tmp_path, f"CRANKFMU_PYTHON={python}") + [
+        str(ecos_command()), "simulate", "--path", str(elsewhere), "--stopTime", "2", "--stepSize", "0.001", "-l", "debug"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    rows = (tmp_path / "FourBar.csv").read_text().splitlines()
+    header = [h.strip() for h in rows[0].split(",")]
+    k = header.index("instance::omega1[REAL]")
+    omega = np.array([float(r.split(",")[k]) for r in rows[1:]])
+    times = np.array([float(r.split(",")[1]) for r in rows[1:]])
+    ref = np.interp(times, reference.time, reference.omega1)
+    assert np.max(np.abs(omega - ref)) / np.max(np.abs(ref)) <= 1e-6     # ecos writes 6 decimals
+    assert "numba is not in use" in done.stdout + done.stderr
