@@ -2,8 +2,9 @@
 processes that cannot see the building environment (env -i, an empty HOME, the building Python
 recorded in the FMU made unreachable), a Python host and two C/C++ hosts.
 
-The other Pythons: Debian's python3 always (/usr/bin/python3), and pyenv's 3.12 and 3.13 where the
-machine has them (this image does; a fresh machine may not). Each gets a fresh virtual environment
+The other Pythons: Debian's python3 always (/usr/bin/python3), and pyenv's 3.10, 3.12 and 3.13
+where the machine has them (this image does; a fresh machine may not). Python 3.10 has no
+tomllib: the FMU reads the JSON copies of its data files the build ships. Each gets a fresh virtual environment
 with numpy and fmpy only, under build/dropin/ (made once, reused by later runs).
 """
 
@@ -28,7 +29,7 @@ HERE = Path(__file__).resolve().parent
 
 def other_pythons() -> list[str]:
     found = ["/usr/bin/python3"] if Path("/usr/bin/python3").exists() else []
-    for minor in ("3.12", "3.13"):
+    for minor in ("3.10", "3.12", "3.13"):
         found += sorted(glob.glob(str(Path.home() / ".pyenv" / "versions" / f"{minor}.*" / "bin" / "python3")))[-1:]
     return found
 

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
-import tomllib
+import json
 from pathlib import Path
 
 from .errors import DefinitionError
+
+try:
+    import tomllib
+except ImportError:         # Python 3.10, inside an FMU: the build ships each packaged file as JSON too
+    tomllib = None
 
 
 def packaged(folder) -> list[str]:
@@ -28,6 +33,10 @@ def read_toml(name_or_path, folder, kind: str, not_found=DefinitionError) -> tup
             raise not_found(f"unknown {kind} {str(name_or_path)!r}: give a packaged name "
                             f"({', '.join(packaged(folder))}) or the path of a .toml {kind} file")
         text, where, origin = res.read_text(), f"{kind} {name_or_path}", str(res)
+        if tomllib is None:
+            return json.loads((folder / f"{name_or_path}.json").read_text()), where, origin
+    if tomllib is None:
+        raise DefinitionError(f"{where}: reading a .toml file needs Python 3.11 or newer")
     try:
         return tomllib.loads(text), where, origin
     except tomllib.TOMLDecodeError as exc:

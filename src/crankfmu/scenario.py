@@ -11,7 +11,6 @@ after checking that the geometry assembles over the whole crank turn.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path

@@ -48,7 +48,11 @@ RUNTIME = ("__init__.py", "contract.py", "errors.py", "expressions.py", "numeric
 
 
 def copy_runtime(dest: Path):
-    """The runtime part of the package (RUNTIME) into ``dest``."""
+    """The runtime part of the package (RUNTIME) into ``dest``; each data file also as JSON, which
+    an FMU reads where tomllib is missing (Python 3.10: datafiles.read_toml)."""
+    import json
+    import tomllib
+
     for entry in RUNTIME:
         source = PACKAGE / entry
         if source.is_dir():
@@ -56,6 +60,8 @@ def copy_runtime(dest: Path):
         else:
             (dest / entry).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(source, dest / entry)
+    for toml in dest.rglob("*.toml"):
+        toml.with_suffix(".json").write_text(json.dumps(tomllib.loads(toml.read_text())))
 
 
 #: FMU name -> (kind, data file): a scenario file (mechanism FMUs) or a drive file (Drive.fmu)
