@@ -36,8 +36,9 @@ demo: fmu
 	$(BIN)/crankfmu flywheel seed003 --delta 0.05 --out $(OUT)/seed003
 	$(BIN)/crankfmu validate --out build/validation
 
+# one test file per worker: a file's module fixtures (the fuzz children, the drop-in venvs) run once
 test: fmu
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 	$(BIN)/crankfmu validate --quick --out build/validation-quick
 
 validate: fmu
