@@ -2,7 +2,7 @@
 #   make demo   creates .venv, installs crankfmu with its dependencies, builds the FMUs, runs the
 #               seed-000 job and the full validation harness (build/validation/report.md)
 #   make test   same bootstrap, then the test suite and the harness's --quick subset
-#   make soak   1,500 short FMU host processes, counting abnormal exits (about 30 min)
+#   make soak   1,800 short FMU host processes (300 per FMU), counting abnormal exits (about 20 min)
 #   make hosts  every third-party master on FourBar.fmu and FourBarDrive.ssp (about 2 min)
 PYTHON ?= python3
 VENV   := .venv
@@ -52,7 +52,7 @@ bench: fmu
 hosts: fmu
 	$(BIN)/crankfmu hosts --out build/hosts
 
-# 1,500 short host processes (300 per FMU: fmpy and the C driver, logging on and off, a refused
+# 1,800 short host processes (300 per FMU: fmpy and the C driver, logging on and off, a refused
 # parameter, a host exiting with the instance alive); exits 1 on any abnormal exit
 soak: fmu
 	$(BIN)/python tests/soak.py --per-fmu 300
