@@ -2,7 +2,7 @@
 #   make demo   creates .venv, installs crankfmu with its dependencies, builds the FMUs, runs the
 #               seed-000 job and the full validation harness (build/validation/report.md)
 #   make test   same bootstrap, then the test suite and the harness's --quick subset
-#   make soak   1,800 short FMU host processes (300 per FMU), counting abnormal exits (about 20 min)
+#   make soak   1,800 short FMU host processes (300 per FMU), counting abnormal exits (about 23 min)
 #   make hosts  every third-party master on FourBar.fmu and FourBarDrive.ssp (about 2 min)
 PYTHON ?= python3
 VENV   := .venv

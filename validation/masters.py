@@ -189,7 +189,6 @@ def _child_ecospy(job, n):
 
 
 def _child_libcosim(job, n):
-    from libcosimpy.CosimEnums import CosimVariableType
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver

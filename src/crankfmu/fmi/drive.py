@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..dynamics.drive import load_drive
-from ..parameters import Parameter
 from .core import SlaveCore
 
 OUTPUTS = (("tau", "N.m", "torque of the drive on the crank (n_gear k_t i)"),
