@@ -35,6 +35,17 @@ ENTRY_POINTS = {
 }
 
 
+#: the keys of an FMU state (SlaveCore.get_fmu_state): anything else is refused at fmi2SetFMUstate
+STATE_KEYS = {"values", "time", "errors", "pending", "phase", "model"}
+
+
+def all_finite(values: np.ndarray) -> bool:
+    """Whether every value is finite: one Python sum on the hot path (NaN and inf propagate into
+    it; cheaper than numpy's reductions on a few values), the elementwise test only when the sum is
+    not finite (it may have overflowed)."""
+    return math.isfinite(sum(values.tolist())) or bool(np.all(np.isfinite(values)))
+
+
 def time_matches(t_host: float, t_own: float, step: float) -> bool:
     """Whether a host's communication point is the FMU's own time up to the host's rounding.
 
@@ -99,6 +110,11 @@ class SlaveCore:
                                           setter=lambda v, n=p.name: self._set_parameter(n, v)))
         self.units[p.name] = p.unit
 
+    #: entry points whose numpy work may warn on extreme values (overflow while building a model):
+    #: run with numpy's warnings off, so nothing reaches the host's stderr; non-finite results are
+    #: refused with a message instead. A subclass adds "do_step" where its stepping is numpy code.
+    quiet_entry_points = ("exit_initialization_mode",)
+
     def attach(self):
         """Bind every FMI entry point of the slave to its guarded method here.
 
@@ -106,16 +122,21 @@ class SlaveCore:
         over Fmi2Slave's methods. A Python exception must never reach pythonfmu: it returns
         fmi2Fatal and releases the instance's Python objects, and a later fmi2FreeInstance frees
         them again. An unexpected exception is logged as fmi2Error with its text instead."""
+        self._getters = {vr: v.getter for vr, v in self.slave.vars.items()}
         for name, failed in ENTRY_POINTS.items():
             setattr(self.slave, name, self._guarded(name, getattr(self, name.lstrip("_")), failed))
 
     def _guarded(self, name, method, failed):
+        if name in self.quiet_entry_points:
+            loud = method
+
+            def method(*args):
+                with np.errstate(all="ignore"):
+                    return loud(*args)
+
         def entry(*args):
             try:
-                # no floating-point warnings on the host's stderr: non-finite results are checked
-                # and refused with a message instead
-                with np.errstate(all="ignore"):
-                    return method(*args)
+                return method(*args)
             except Exception as exc:        # noqa: BLE001 - the host gets fmi2Error and the text
                 self._error(f"{name}: internal error {type(exc).__name__}: {exc}")
                 if failed == "nan":
@@ -156,6 +177,12 @@ class SlaveCore:
         return var
 
     def get_real(self, vrs):
+        if self.phase != REFUSED:           # the hot path: hosts read outputs after every step
+            getters = self._getters
+            try:
+                return [float(getters[vr]()) for vr in vrs]
+            except KeyError:
+                pass                        # an unknown value reference: named below
         values = []
         for vr in vrs:
             var = self._variable(vr, "Real")
@@ -270,39 +297,44 @@ class SlaveCore:
         except CrankfmuError as exc:
             self._fail(str(exc))     # the message names the parameters involved
             return
-        if not np.all(np.isfinite(self.outputs_now())):
+        if not all_finite(self.outputs_now()):
             self._fail(f"the initial state is not finite ({self.outputs_text()}): check the parameters")
             return
         self.pending.clear()
         self.phase = STEPPING
 
-    def do_step(self, current_time: float, step_size: float) -> bool:
-        if self.phase != STEPPING:
-            reason = {INSTANTIATED: "the model is not initialised (call fmi2ExitInitializationMode first)",
-                      INITIALIZATION: "the model is not initialised (call fmi2ExitInitializationMode first)",
-                      TERMINATED: "the instance was terminated"}.get(self.phase)
-            reason = reason or "; ".join(self.errors.values()) or "the model was refused"
-            self._error(f"fmi2DoStep: cannot step: {reason}")
-            return False
-        if self.errors:
-            self._error("fmi2DoStep: cannot step: " + "; ".join(self.errors.values()))
-            return False
+    def _cannot_step(self) -> bool:
+        reason = {INSTANTIATED: "the model is not initialised (call fmi2ExitInitializationMode first)",
+                  INITIALIZATION: "the model is not initialised (call fmi2ExitInitializationMode first)",
+                  TERMINATED: "the instance was terminated"}.get(self.phase)
+        reason = reason or "; ".join(self.errors.values()) or "the model was refused"
+        self._error(f"fmi2DoStep: cannot step: {reason}")
+        return False
+
+    def _bad_step_arguments(self, current_time, step_size) -> bool:
         if not (math.isfinite(step_size) and step_size > 0.0) or not math.isfinite(current_time):
             self._error(f"fmi2DoStep: currentCommunicationPoint = {current_time!r} s must be finite and "
                         f"communicationStepSize = {step_size!r} s finite and > 0")
-            return False
-        if not time_matches(current_time, self.time, step_size):
+        else:
             self._error(f"fmi2DoStep: currentCommunicationPoint = {current_time!r} s is not this FMU's time "
                         f"{self.time!r} s (a step was skipped or repeated; roll back with fmi2SetFMUstate)")
-            return False
+        return False
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        if self.phase != STEPPING or self.errors:
+            return self._cannot_step()
         target = current_time + step_size
+        # one test on the hot path: NaN or inf in either argument makes the target non-finite
+        if not (step_size > 0.0 and math.isfinite(target) and time_matches(current_time, self.time, step_size)):
+            return self._bad_step_arguments(current_time, step_size)
         try:
             self.advance(target)
         except CrankfmuError as exc:
             self._fail(f"step from t = {current_time:g} s failed: {exc}")
             return False
-        self.pending.clear()
-        if not np.all(np.isfinite(self.outputs_now())):
+        if self.pending:
+            self.pending.clear()
+        if not all_finite(self.outputs_now()):
             self._fail(f"step from t = {current_time:g} s gave non-finite values ({self.outputs_text()})")
             return False
         self.time = target
@@ -326,12 +358,13 @@ class SlaveCore:
 
     # ------------------------------------------------------------------ FMU state
     def get_fmu_state(self) -> dict:
-        """Everything that determines the continuation, as plain floats, strings and lists."""
+        """Everything that determines the continuation, as plain floats, strings and lists (the
+        keys are STATE_KEYS)."""
         return {"values": dict(self.values), "time": self.time, "errors": dict(self.errors),
                 "pending": sorted(self.pending), "phase": self.phase, "model": self.model_state()}
 
     def set_fmu_state(self, state: dict):
-        if not isinstance(state, dict) or "invalid" in state or set(state) != set(self.get_fmu_state()):
+        if not isinstance(state, dict) or set(state) != STATE_KEYS:
             self._error(f"fmi2SetFMUstate: not a state of this FMU ({str(state)[:200]})")
             return
         if state["model"] is not None and not self.can_restore():

@@ -25,33 +25,34 @@ class DriveCore(SlaveCore):
         self.file = load_drive(drive_name)
         super().__init__(slave, self.file.experiment.start_time)
         self.state = np.zeros(2)             # i A, x rad
+        self.out = np.zeros(len(OUTPUTS))    # the outputs at the current time, filled once per step
         self.drive = None
-        for name, unit, description in OUTPUTS:
-            self.output(name, unit, description, lambda n=name: self._output(n))
+        for k, (name, unit, description) in enumerate(OUTPUTS):
+            self.output(name, unit, description, lambda k=k: float(self.out[k]))
         for p in self.file.inputs.values():
             self.input(p)
         for p in self.file.parameters.values():
             self.parameter(p)
         self.attach()
 
-    def _output(self, name: str) -> float:
+    def _update_outputs(self):
         i, x = self.state
-        if self.drive is None:
-            return 0.0
         u = self.drive.voltage(x, self.values["omega"], self.values["omega_set"])
-        return {"tau": self.drive.torque(i), "i": i, "u": u, "P_el": u * i}[name]
+        self.out[:] = self.drive.torque(i), i, u, u * i
 
     def initialise(self):
         self.drive = self.file.drive(self.values)
         self.state[:] = self.values["i_start"], self.values["x_start"]
+        self._update_outputs()
 
     def advance(self, target: float):
         if self.pending & {"Kp", "Ki"}:
             self.drive = self.file.drive(self.values)
         self.state[:] = self.drive.step(*self.state, self.values["omega"], self.values["omega_set"], target - self.time)
+        self._update_outputs()
 
     def outputs_now(self) -> np.ndarray:
-        return np.array([self._output(name) for name, _, _ in OUTPUTS])
+        return self.out
 
     def model_state(self):
         return None if self.drive is None else self.state.tolist()
@@ -62,3 +63,4 @@ class DriveCore(SlaveCore):
     def restore_model_state(self, state):
         self.drive = self.file.drive(self.values)
         self.state[:] = state
+        self._update_outputs()

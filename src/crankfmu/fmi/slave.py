@@ -88,6 +88,8 @@ class FmuCore(SlaveCore):
         self.parameter(Parameter(
             "rtol", self.scenario.experiment.tolerance, "1", min=0.0, min_inclusive=False,
             description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4), compiled)"))
+        if not kn.COMPILED:     # the kernel runs as numpy code: its overflow warnings stay quiet
+            self.quiet_entry_points = (*self.quiet_entry_points, "do_step")
         self.attach()
         if not kn.COMPILED:
             self.log(f"numba is not in use in the Python at {sys.prefix} (not importable, or CRANKFMU_JIT=0): "
@@ -114,8 +116,9 @@ class FmuCore(SlaveCore):
                      f"{table.tolerance:g}: the geometry is close to a dead point", "warning")
         y0 = np.array(self.model.y0, dtype=float)
         y0[0], y0[1] = v["phi1_start"], v["omega1_start"]
-        self.stepper = FastStepper(table, self._motor(), self.model.reduced.J_flywheel, v["rtol"], v[TAU_EXT.name])
-        self.row[:] = self.stepper.start(self.time, y0)
+        self.stepper = FastStepper(table, self._motor(), self.model.reduced.J_flywheel, v["rtol"], v[TAU_EXT.name],
+                                   row=self.row)
+        self.stepper.start(self.time, y0)
         self._quantity_values = None
 
     def advance(self, target: float):
@@ -125,7 +128,7 @@ class FmuCore(SlaveCore):
             self.stepper.set_tau_ext(self.values[TAU_EXT.name])
             self.stepper.restart(self.time)
         self._quantity_values = None
-        self.row[:] = self.stepper.advance(target, max(self.t_limit, target))
+        self.stepper.advance(target, max(self.t_limit, target))      # fills self.row
 
     def outputs_now(self) -> np.ndarray:
         return self.row

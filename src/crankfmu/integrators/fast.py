@@ -178,14 +178,15 @@ class FastStepper:
     restores it by copying, and a rolled-back step is recomputed bit for bit.
     """
 
-    def __init__(self, table, motor, J_flywheel: float, rtol: float, tau_ext: float = 0.0):
+    def __init__(self, table, motor, J_flywheel: float, rtol: float, tau_ext: float = 0.0, row=None):
         _check_rtol(rtol)
         self.table = table
         self.C, self.switch, self.forces = table.coefficients, table.switch_angles, table.forces
         self.P = parameters(motor, J_flywheel, tau_ext, rtol, rtol)
         self.ws = kn.Workspace(self.C.shape[0])
         self.state = np.zeros(kn.STATE_SIZE)
-        self.row = np.zeros(kn.OUT_SIZE)
+        # the output row, filled in place by every step (an FMU's getters read it directly)
+        self.row = np.zeros(kn.OUT_SIZE) if row is None else row
 
     def set_motor(self, motor):
         set_motor(self.P, motor)
