@@ -34,6 +34,15 @@ demo: fmu
 	$(BIN)/crankfmu sweep seed000 --param J_flywheel=0:20:100 --param B=10:30:100 --out $(OUT)/seed000-sweep --restart
 	$(BIN)/crankfmu equilibrium seed001 --omega 15,10,7,5 --out $(OUT)/seed001
 	$(BIN)/crankfmu flywheel seed003 --delta 0.05 --out $(OUT)/seed003
+	# the papers' mechanism figures beside each study's other figures, and one animation per mechanism
+	$(BIN)/crankfmu draw seed000 --out $(OUT)/mechanism_fig2.png
+	$(BIN)/crankfmu draw seed001 --out $(OUT)/seed001/mechanism_fig1.png
+	$(BIN)/crankfmu draw seed001 --reactions --out $(OUT)/seed001/reactions_at_60deg.png
+	$(BIN)/crankfmu draw seed002 --out $(OUT)/seed002/mechanism_fig2.png
+	$(BIN)/crankfmu draw seed003 --out $(OUT)/seed003/mechanism_fig1.png
+	$(BIN)/crankfmu draw seed004 --velocities --out $(OUT)/seed004/mechanism_fig1.png
+	$(BIN)/crankfmu animate seed000 --result $(OUT) --out $(OUT)/seed000_run.gif
+	for s in seed001 seed002 seed003 seed004; do $(BIN)/crankfmu animate $$s --out $(OUT)/$$s/mechanism.gif || exit 1; done
 	$(BIN)/crankfmu validate --out build/validation
 
 # one test file per worker: a file's module fixtures (the fuzz children, the drop-in venvs) run once

@@ -1,5 +1,7 @@
 """Command line: ``crankfmu simulate SCENARIO --out DIR [--method M] [--set NAME=VALUE ...]``,
-``crankfmu schemes SCENARIO --out DIR``, ``crankfmu validate [--fmu PATH ...] [--out DIR] [--quick]``."""
+``crankfmu schemes SCENARIO --out DIR``, ``crankfmu draw SCENARIO --at DEG --out FILE.png``,
+``crankfmu animate SCENARIO --out FILE.gif [--result DIR]``,
+``crankfmu validate [--fmu PATH ...] [--out DIR] [--quick]`` and the studies (``crankfmu --help``)."""
 
 from __future__ import annotations
 
@@ -235,6 +237,46 @@ def cmd_flywheel(args) -> int:
     return 0
 
 
+def _points(text: str | None):
+    return None if text is None else [p.strip() for p in text.split(",") if p.strip()]
+
+
+def cmd_draw(args) -> int:
+    from .pictures.draw import OVERLAYS, draw_figure, drawing_section, save
+    from .scenario import load_scenario
+
+    scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
+    section = drawing_section(scenario)
+    at = args.at if args.at is not None else float(section.get("at_deg", 0.0))
+    chosen = [o for o in OVERLAYS if getattr(args, o)]
+    show = chosen or ([] if args.plain else list(section.get("show", [])))
+    trace = _points(args.trace) if args.trace is not None else section.get("trace", [])
+    out = Path(args.out)
+    if out.suffix.lower() not in (".png", ".svg", ".pdf"):
+        raise CrankfmuError(f"--out {out}: a drawing is written as .png, .svg or .pdf")
+    fig = draw_figure(scenario, at, show, args.omega, trace, section.get("caption", ""))
+    save(fig, out)
+    print(f"{scenario.name}: the mechanism at phi1 = {at:g} deg" + (f" with {', '.join(show)}" if show else "")
+          + f": wrote {out}")
+    return 0
+
+
+def cmd_animate(args) -> int:
+    from .pictures.animate import animate
+    from .progress import ProgressBar
+    from .scenario import load_scenario
+
+    scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
+    bar = ProgressBar(args.frames, label=f"{scenario.name} animation")
+    try:
+        path = animate(scenario, args.out, args.result, _points(args.trace), args.frames, args.fps, args.omega,
+                       progress=bar)
+    finally:
+        bar.close()
+    print(f"{scenario.name}: {args.frames} frames at {args.fps} per s: wrote {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="crankfmu", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -302,6 +344,37 @@ def build_parser() -> argparse.ArgumentParser:
                                                      "scenario's [flywheel] eq3_steps_deg)")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.set_defaults(func=cmd_flywheel)
+
+    p = sub.add_parser("draw", help="the mechanism at one crank angle (PNG/SVG): links, joints, ground, mass "
+                                     "centres; optionally velocities, instant centres, joint reactions")
+    p.add_argument("scenario", help="packaged scenario name or path to a .toml file")
+    p.add_argument("--at", type=float, default=None, help="crank angle in deg (default: the scenario's [drawing] at_deg, else 0)")
+    p.add_argument("--out", required=True, help="FILE.png, .svg or .pdf")
+    p.add_argument("--velocities", action="store_true", help="velocity vectors of the points (at --omega)")
+    p.add_argument("--instant-centres", dest="instant_centres", action="store_true",
+                   help="the instant centres of the turning links")
+    p.add_argument("--reactions", action="store_true", help="the joint reactions of `crankfmu equilibrium` "
+                                                             "at this angle (constant crank speed --omega)")
+    p.add_argument("--plain", action="store_true", help="no overlays, even those of the scenario's [drawing] show")
+    p.add_argument("--omega", type=float, default=None, help="crank speed in rad/s for velocities and reactions "
+                   "(default: the scenario's [drawing], [kinematics] or [equilibrium] speed, else omega1_start)")
+    p.add_argument("--trace", default=None, metavar="P,Q", help="points whose path over a turn is drawn")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.set_defaults(func=cmd_draw)
+
+    p = sub.add_parser("animate", help="the mechanism moving (GIF, or MP4 with ffmpeg): a crank turn at constant "
+                                        "speed or a simulated run, traced points, omega1 with a cursor")
+    p.add_argument("scenario", help="packaged scenario name or path to a .toml file")
+    p.add_argument("--out", required=True, help="FILE.gif or FILE.mp4")
+    p.add_argument("--result", default=None, metavar="DIR", help="a run of `crankfmu simulate` (DIR/timeseries.csv) "
+                                                                   "to animate instead of a constant-speed turn")
+    p.add_argument("--trace", default=None, metavar="P,Q", help="points whose paths are traced (default: the "
+                                                                  "scenario's [drawing] trace)")
+    p.add_argument("--frames", type=int, default=120, help="frames, spread evenly over the motion (default 120)")
+    p.add_argument("--fps", type=int, default=20, help="frames per second (default 20)")
+    p.add_argument("--omega", type=float, default=None, help="constant crank speed in rad/s without --result")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.set_defaults(func=cmd_animate)
 
     p = sub.add_parser("validate", help="every FMU against the in-process reference and the papers: "
                                          "PASS/FAIL lines and DIR/report.md")

@@ -89,7 +89,14 @@ class Scenario:
 
     # ------------------------------------------------------------------ building the model
     def mechanism_definition(self) -> MechanismDefinition:
-        return load_mechanism(self.mechanism_name)
+        """The mechanism file: a packaged name, or a .toml path relative to this scenario's file
+        (a user keeps the two side by side) or to the working directory."""
+        name = self.mechanism_name
+        if str(name).endswith(".toml") and self.path and not Path(name).is_absolute():
+            beside = Path(self.path).parent / name
+            if beside.exists():
+                return load_mechanism(beside)
+        return load_mechanism(name)
 
     @property
     def quantities(self):

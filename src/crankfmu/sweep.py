@@ -266,6 +266,11 @@ def check_claims(scenario, result: SweepResult) -> list[dict]:
     return out
 
 
+#: the speed fluctuations drawn as contour lines on the steady-sweep map (typical design targets:
+#: 0.01-0.02 for generators and fine machines, 0.05 for machine tools, 0.1 for pumps and presses)
+DELTA_TARGETS = (0.01, 0.02, 0.05, 0.1)
+
+
 def plot_steady(result: SweepResult, out: Path, units: dict | None = None) -> list[Path]:
     """delta over the grid: a map for two swept parameters, curves for one (the first two axes;
     the others at their first value)."""
@@ -294,8 +299,19 @@ def plot_steady(result: SweepResult, out: Path, units: dict | None = None) -> li
                 key = _key(tuple({**fixed, a0.name: v0, a1.name: v1}[n] for n in names))
                 if key in rows:
                     grid[i, j] = rows[key]["delta"]
-        mesh = ax.pcolormesh(a0.values, a1.values, grid, shading="nearest", cmap="viridis")
-        fig.colorbar(mesh, ax=ax, label="delta = (omega1 max - min) / mean  [1]")
+        # delta spans decades over a design grid (a light flywheel to a heavy one): a logarithmic
+        # colour scale, and the design targets as labelled contour lines
+        from matplotlib.colors import LogNorm
+
+        positive = grid[np.isfinite(grid) & (grid > 0)]
+        norm = LogNorm(vmin=positive.min(), vmax=positive.max()) if positive.size and positive.max() > positive.min() else None
+        mesh = ax.pcolormesh(a0.values, a1.values, np.where(grid > 0, grid, np.nan), shading="nearest",
+                             cmap="viridis", norm=norm)
+        fig.colorbar(mesh, ax=ax, label="delta = (omega1 max - min) / mean  [1], log scale")
+        levels = [d for d in DELTA_TARGETS if positive.size and positive.min() < d < positive.max()]
+        if levels and min(len(a0.values), len(a1.values)) >= 2:
+            lines = ax.contour(a0.values, a1.values, grid, levels=levels, colors="white", linewidths=1.2)
+            ax.clabel(lines, fmt=lambda d: f"delta = {d:g}", fontsize=8, inline=True)
         ax.set_xlabel(f"{a0.name}  [{units.get(a0.name, '?')}]")
         ax.set_ylabel(f"{a1.name}  [{units.get(a1.name, '?')}]")
     ax.set_title("steady-cycle speed fluctuation" + (f" ({', '.join(f'{k} = {v:g}' for k, v in fixed.items())})"

@@ -19,7 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DefinitionError
-from ..expressions import evaluate
 from .inverse import prescribed_motion
 from .reduced import ReducedModel
 
@@ -86,7 +85,7 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
         A[:, r + 1, col] += fy
         A[:, r + 2, col] += (px - cx) * fy - (py - cy) * fx
 
-    axis = {j.name: _axis_angle(j.axis, kin, mechanism) for j in joints if j.kind == "prismatic"}
+    axis = {j.name: mechanism.angle_of(j.axis, kin) for j in joints if j.kind == "prismatic"}
     for k, joint in enumerate(joints):
         first, second = joint.links
         px, py = kin.point(joint.point)[:2]
@@ -143,11 +142,3 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
             couple[joint.name] = x[:, 2 * k + 1]
     return JointReactions(phi1=phi1, force=force, couple=couple, kind=kind, driving_moment=x[:, driver])
 
-
-def _axis_angle(axis: str, kin, mechanism) -> np.ndarray:
-    if axis == "phi1":
-        return kin.phi1
-    if axis in kin.q:
-        return kin.q[axis]
-    return np.full(kin.phi1.shape, evaluate(axis, {**mechanism.parameters, **mechanism.definition.constants},
-                                            f"joint axis {axis}"))

@@ -33,6 +33,7 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from ..contract import BASE_UNITS, OUTPUTS
+from . import documentation
 
 HERE = Path(__file__).resolve().parent
 PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's resources
@@ -83,6 +84,7 @@ class Source:
     depends: dict                   # output -> initial dependencies (contract.Variable.initial)
     groups: dict                    # "*geometry", "*loads" -> parameter names
     reference: object = None        # () -> the default experiment's outputs as CSV text, or None
+    documentation: object = None    # (modelDescription, parameters, reference CSV) -> {path in FMU: bytes}
 
 
 def source_of(kind: str, name: str) -> Source:
@@ -94,12 +96,14 @@ def source_of(kind: str, name: str) -> Source:
         groups = {"*geometry": sorted(set(definition.geometry_parameters) | set(definition.mass_parameters)),
                   "*loads": sorted(scenario.load_parameters())}
         return Source(kind, scenario.name, scenario.title, scenario.experiment, "fmi.slave:FmuCore",
-                      {v.name: v.initial for v in OUTPUTS}, groups, lambda: reference_result(scenario))
+                      {v.name: v.initial for v in OUTPUTS}, groups, lambda: reference_result(scenario),
+                      lambda fmu, md, params, ref: documentation.scenario_documentation(fmu, scenario, md, params, ref))
     if kind == "drive":
         from ..dynamics.drive import load_drive
 
         drive = load_drive(name)
-        return Source(kind, drive.name, drive.title, drive.experiment, "fmi.drive:DriveCore", {}, {})
+        return Source(kind, drive.name, drive.title, drive.experiment, "fmi.drive:DriveCore", {}, {},
+                      documentation=lambda fmu, md, params, ref: documentation.drive_documentation(fmu, drive, md, params))
     raise SystemExit(f"build: unknown kind {kind!r}")
 
 def complete_model_description(xml_bytes: bytes, units: dict[str, str], parameters: dict, source: Source) -> bytes:
@@ -264,17 +268,20 @@ def build(name: str, kind: str, data_name: str, dest: Path) -> Path:
         shim = compile_shim(name, Path(tmp) / f"{name}.so")
         binary = f"binaries/linux64/{name}.so"
         out = dest / f"{name}.fmu"
+        reference = source.reference() if source.reference else None
         with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
             for item in zin.infolist():
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
                     data = complete_model_description(data, slave_units, slave_parameters, source)
+                    docs = source.documentation(name, data, slave_parameters, reference)
                 if item.filename == binary:
                     item.filename = f"binaries/linux64/{name}_pythonfmu.so"
                 zout.writestr(item, data)
             zout.write(shim, binary)
             zout.writestr("resources/python_env.txt", python_env())
-            reference = source.reference() if source.reference else None
+            for path, content in docs.items():
+                zout.writestr(path, content)
             if reference is not None:
                 zout.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=name))
                 zout.writestr(f"{LS_REF}/{name}_out.csv", reference)

@@ -196,6 +196,8 @@ class MechanismDefinition:
     constants: dict[str, float] = field(default_factory=dict)
     source: str = ""
     joints: list[JointDefinition] = field(default_factory=list)
+    point_sources: dict[str, str] = field(default_factory=dict)   # [points] as written
+    contour_sources: list[tuple[str, str]] = field(default_factory=list)  # (name, equation) as written
 
     @property
     def variables(self) -> list[str]:
@@ -244,13 +246,14 @@ class MechanismDefinition:
                 raise DefinitionError(f"{where}: fixed point {p!r} must be [x, y]")
             fixed[p] = (str(xy[0]), str(xy[1]))
 
-        contours = []
+        contours, contour_sources = [], []
         for i, c in enumerate(contour_list):
             cname = c.get("name", str(i + 1))
             terms, bases = _parse_chain(c["equation"], f"{where}: contour {cname}", variables, {})
             if bases:
                 raise DefinitionError(f"{where}: contour {cname} must be a sum of u() terms")
             contours.append((cname, terms))
+            contour_sources.append((cname, str(c["equation"])))
         n_equations = 2 * len(contours)
         if n_equations != len(unknowns):
             raise DefinitionError(
@@ -320,7 +323,8 @@ class MechanismDefinition:
             name=name, title=data.get("title", name), unknowns=unknowns, fixed_points=fixed,
             contours=contours, points=points, links=links, branch=branch,
             closed_form=closed_form, guess=guess, constants=constants, source=data.get("source", ""),
-            joints=joints,
+            joints=joints, point_sources={p: str(src) for p, src in data.get("points", {}).items()},
+            contour_sources=contour_sources,
         )
 
     def bind(self, parameters: Mapping[str, float], *, use_closed_form: bool = True) -> "Mechanism":
@@ -640,6 +644,15 @@ class Mechanism:
             points=points,
             link_angles=links,
         )
+
+    def angle_of(self, angle: str, kin: Kinematics) -> np.ndarray:
+        """An angle named in the file (a slide's axis, a link's angle) at the kinematics' crank
+        angles, rad: phi1, an angle unknown, or a constant expression of the parameters."""
+        if angle == "phi1":
+            return kin.phi1
+        if angle in kin.q:
+            return kin.q[angle]
+        return np.full(kin.phi1.shape, _scalar(angle, self._env, f"{self.definition.name}: angle {angle}"))
 
     # ---------------------------------------------------------------- assembly
     def conditioning(self, phi1) -> np.ndarray:

@@ -1,0 +1,6 @@
+"""Seeing the mechanism: drawings (``crankfmu draw``) and animations (``crankfmu animate``) read
+from the mechanism file alone, and the label placement and overlap check every figure uses.
+
+``sketch`` (the drawing's topology and positions, numpy only) -> ``draw`` (matplotlib artists,
+overlays) -> ``animate`` (frames, GIF/MP4); ``labels`` serves both. Nothing here runs in an FMU.
+"""

@@ -1,0 +1,255 @@
+"""Drawings and animations of mechanisms (packaged and a user's own), the fixed study plots, and the
+FMU documentation: every figure is rendered and looked at (non-empty, no two texts overlapping by
+matplotlib's rendered extents), and the geometry it shows is checked against a second method."""
+
+from __future__ import annotations
+
+import math
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import numpy as np
+import pytest
+
+from crankfmu import load_scenario
+from crankfmu.cli import main
+from crankfmu.errors import CrankfmuError, ParameterError
+from crankfmu.output import pyplot
+from crankfmu.pictures.animate import animate, animation_figure
+from crankfmu.pictures.draw import OVERLAYS, draw_figure, save
+from crankfmu.pictures.labels import overlapping_texts
+from crankfmu.pictures.sketch import Sketch
+
+ROOT = Path(__file__).resolve().parents[1]
+USER = ROOT / "tests" / "data" / "user" / "sixbar_scenario.toml"
+MECHANISMS = {"packaged seed002": "seed002", "user six-bar": str(USER)}
+
+
+def ink(path: Path) -> float:
+    """Share of the image's pixels that are not white: a drawn figure has lines, not a blank page."""
+    from PIL import Image
+
+    img = np.asarray(Image.open(path).convert("L"), dtype=float)
+    return float(np.mean(img < 250))
+
+
+@pytest.mark.parametrize("which", MECHANISMS)
+def test_drawing_with_every_overlay_is_drawn_and_its_labels_do_not_overlap(which, tmp_path):
+    fig = draw_figure(load_scenario(MECHANISMS[which]), 40.0, OVERLAYS, trace=None)
+    assert overlapping_texts(fig) == []
+    texts = {t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text")) if t.get_text()}
+    assert {"A", "O"} <= texts                                  # point labels
+    assert any(t.startswith("v_A ") for t in texts)             # velocities with their magnitudes
+    assert any(t.startswith("F_") and t.endswith(" N") for t in texts)   # reactions
+    assert any(t.endswith(" m") and t[0].isdigit() for t in texts)       # the length scale
+    save(fig, tmp_path / "m.png")
+    assert ink(tmp_path / "m.png") > 0.02
+
+
+def test_the_drawn_instant_centre_is_where_the_normals_to_two_velocities_meet():
+    """Second method: seed 002's rod, I2 as the intersection of the normals to v_A and v_B (the
+    paper's construction, Fig. 2), against the sketch's I = P + k x v_P / w from the mass centre;
+    and I2A against the paper's graphical 0.56 m (read to 1.5 %)."""
+    scenario = load_scenario("seed002")
+    sketch = Sketch.of(scenario.assembled_mechanism()[0])
+    frames = sketch.frames([math.radians(30.0)])
+    ic = sketch.instant_centre(frames, "rod")
+    a, b = frames.xy["A"][0], frames.xy["B"][0]
+    va, vb = frames.v["A"][0], frames.v["B"][0]
+    # a + s va_perp = b + t vb_perp
+    perp = lambda v: np.array([-v[1], v[0]])  # noqa: E731
+    s, _ = np.linalg.solve(np.column_stack([perp(va), -perp(vb)]), b - a)
+    meet = a + s * perp(va)
+    assert np.allclose(ic, meet, rtol=0, atol=1e-12)
+    assert abs(np.hypot(*(ic - a)) - 0.56) / 0.56 < 0.015
+
+
+@pytest.mark.parametrize("which", MECHANISMS)
+def test_bars_and_blocks_sit_at_the_contour_engines_positions(which):
+    """The drawing moves its artists to the kinematics of the mechanism file: every pin marker at
+    the engine's point, every bar's ends on its link's joints, each block centred on its slide."""
+    from crankfmu.pictures.draw import MechanismPicture
+
+    scenario = load_scenario(MECHANISMS[which])
+    mechanism = scenario.assembled_mechanism()[0]
+    sketch = Sketch.of(mechanism)
+    phis = np.radians([0.0, 73.0, 200.0])
+    frames = sketch.frames(phis)
+    kin = mechanism.kinematics(phis)
+    fig, ax = pyplot().subplots()
+    picture = MechanismPicture(ax, sketch, frames, sketch.frames(np.linspace(0, 2 * np.pi, 73)))
+    for i in range(phis.size):
+        picture.update(i)
+        pins = np.column_stack(picture.pins.get_data())
+        expected = np.array([[kin.point(p)[0][i], kin.point(p)[1][i]] for p in [*sketch.ground_pins, *sketch.pins]])
+        assert np.allclose(pins, expected, atol=1e-12)
+        for link, line in picture.bars.items():
+            ends = np.column_stack(line.get_data())
+            joints = np.array([frames.xy[p][i] for p in sketch.link_points[link]])
+            for end in ends:
+                assert np.min(np.hypot(*(joints - end).T)) < 1e-12
+        for s in sketch.slides:
+            assert np.allclose(picture.blocks[s.joint].get_xy()[:4].mean(axis=0), frames.xy[s.point][i], atol=1e-12)
+    pyplot().close(fig)
+
+
+def test_a_links_with_three_joints_off_one_line_is_a_plate_and_a_slider_is_a_block():
+    sketch = Sketch.of(load_scenario(str(USER)).assembled_mechanism()[0])
+    assert sorted(sketch.link_points["plate"]) == ["A", "B", "P"]
+    assert [(s.block, s.guide) for s in sketch.slides] == [("slider", "ground")]
+    shaper = Sketch.of(load_scenario("seed003").assembled_mechanism()[0])
+    assert {(s.block, s.guide) for s in shaper.slides} == {("block", "lever"), ("ram", "ground")}
+
+
+@pytest.mark.parametrize("which", MECHANISMS)
+def test_animation_frames_keep_their_labels_apart_and_the_gif_has_every_frame(which, tmp_path):
+    scenario = load_scenario(MECHANISMS[which])
+    fig, frame, count = animation_figure(scenario, trace=None, frames=9)
+    for i in (0, 4, 8):
+        frame(i)
+        assert overlapping_texts(fig) == [], f"frame {i}"
+    pyplot().close(fig)
+    from PIL import Image
+
+    path = animate(scenario, tmp_path / "a.gif", frames=6, fps=10)
+    with Image.open(path) as img:
+        assert img.n_frames == 6
+        assert img.size[0] > 400
+        img.seek(3)
+        assert np.mean(np.asarray(img.convert("L")) < 250) > 0.02
+
+
+@pytest.mark.parametrize("name", ["seed000", "seed001", "seed003", "seed004"])
+def test_every_packaged_animation_and_drawing_keeps_its_texts_apart(name):
+    scenario = load_scenario(name)
+    fig, frame, count = animation_figure(scenario, frames=3)
+    for i in range(count):
+        frame(i)
+        assert overlapping_texts(fig) == [], f"frame {i}"
+    pyplot().close(fig)
+    fig = draw_figure(scenario, 100.0, OVERLAYS)
+    assert overlapping_texts(fig) == []
+    pyplot().close(fig)
+
+
+def test_animation_of_a_simulated_run_follows_its_crank_angle(tmp_path):
+    from crankfmu import simulate
+    from crankfmu.output import write_run
+
+    scenario = load_scenario("seed000")
+    write_run(simulate(scenario, method="fast"), tmp_path / "run")
+    fig, frame, count = animation_figure(scenario, result_dir=tmp_path / "run", trace=["B"], frames=5)
+    frame(count - 1)
+    readout = [t.get_text() for t in fig.texts if t.get_text().startswith("t = ")][0]
+    assert readout.startswith("t =   2.0000 s")
+    pyplot().close(fig)
+
+
+def test_bad_drawing_and_animation_requests_are_refused_with_the_parameter_named(tmp_path):
+    seed002 = load_scenario("seed002")
+    with pytest.raises(ParameterError, match="unknown overlay.*valid: velocities"):
+        draw_figure(seed002, 30.0, ["forces"])
+    with pytest.raises(ParameterError, match="trace: 'Z' is not a point.*points: O, A"):
+        draw_figure(seed002, 30.0, trace=["Z"])
+    with pytest.raises(ParameterError, match="--at must be a crank angle"):
+        draw_figure(seed002, math.nan)
+    with pytest.raises(ParameterError, match="omega1 = -1.*> 0"):
+        draw_figure(seed002, 30.0, ["velocities"], omega1=-1.0)
+    with pytest.raises(ParameterError, match="--frames must be an integer in \\[2, 2000\\]"):
+        animate(seed002, tmp_path / "a.gif", frames=1)
+    with pytest.raises(ParameterError, match="written as .gif or .mp4"):
+        animate(seed002, tmp_path / "a.avi")
+    with pytest.raises(CrankfmuError, match="no timeseries.csv there"):
+        animate(seed002, tmp_path / "a.gif", result_dir=tmp_path)
+    assert main(["draw", "seed002", "--out", str(tmp_path / "x.jpg")]) == 2
+
+
+def test_mp4_without_ffmpeg_is_refused_with_the_fix(tmp_path, monkeypatch):
+    import shutil
+
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    with pytest.raises(CrankfmuError, match="MP4 needs ffmpeg on the PATH.*write a .gif"):
+        animate(load_scenario("seed002"), tmp_path / "a.mp4")
+
+
+def test_draw_and_animate_commands_write_their_files(tmp_path, capsys):
+    assert main(["draw", str(USER), "--reactions", "--out", str(tmp_path / "u.svg")]) == 0
+    assert (tmp_path / "u.svg").read_text().lstrip().startswith("<?xml")
+    assert main(["animate", "seed004", "--frames", "3", "--out", str(tmp_path / "q.gif")]) == 0
+    assert (tmp_path / "q.gif").stat().st_size > 10_000
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_velocity_plan_has_no_overlapping_labels_and_a_square_frame_around_the_polygon(tmp_path):
+    from crankfmu.kinematic_plots import plot_velocity_plan
+    from crankfmu.kinematic_study import values_at
+
+    scenario = load_scenario("seed002")
+    _, detail = values_at(scenario, 30.0)
+    plt = pyplot()
+    captured = {}
+    original = plt.close
+    plt.close = lambda fig=None: captured.setdefault("fig", fig)
+    try:
+        plot_velocity_plan(detail, scenario.kinematics_study["relative"], tmp_path / "plan.png", "plan")
+    finally:
+        plt.close = original
+    fig = captured["fig"]
+    ax = fig.axes[0]
+    assert overlapping_texts(fig) == []
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert math.isclose(x1 - x0, y1 - y0, rel_tol=1e-9)
+    corners = np.array([[0.0, 0.0], *detail["velocities"].values()])
+    assert np.all(corners[:, 0] > x0) and np.all(corners[:, 0] < x1)
+    assert np.all(corners[:, 1] > y0) and np.all(corners[:, 1] < y1)
+    # the polygon fills the frame: no half of it empty
+    assert np.ptp(corners[:, 0]) > 0.5 * (x1 - x0) or np.ptp(corners[:, 1]) > 0.5 * (y1 - y0)
+    plt.close(fig)
+
+
+def test_steady_map_is_logarithmic_with_labelled_target_contours(tmp_path):
+    from matplotlib.colors import LogNorm
+
+    from crankfmu.sweep import SweepAxis, plot_steady, run_sweep
+
+    scenario = load_scenario("seed000")
+    axes = [SweepAxis.parse("J_flywheel=0:20:6", scenario), SweepAxis.parse("B=10:30:5", scenario)]
+    result = run_sweep(scenario, axes, tmp_path, scheduler="serial", study="steady")
+    plt = pyplot()
+    captured = {}
+    original = plt.close
+    plt.close = lambda fig=None: captured.setdefault("fig", fig)
+    try:
+        plot_steady(result, tmp_path, {"J_flywheel": "kg.m2", "B": "N.m.s/rad"})
+    finally:
+        plt.close = original
+    fig = captured["fig"]
+    mesh = fig.axes[0].collections[0]
+    assert isinstance(mesh.norm, LogNorm)
+    labels = sorted(t.get_text() for t in fig.axes[0].texts)
+    deltas = [r["delta"] for r in result.rows]
+    expected = [f"delta = {d:g}" for d in (0.01, 0.02, 0.05, 0.1) if min(deltas) < d < max(deltas)]
+    assert expected and set(expected) <= set(labels)
+    assert overlapping_texts(fig) == []
+    plt.close(fig)
+
+
+def test_every_fmu_carries_its_documentation(fmu_path):
+    """documentation/index.html (FMI 2.0, 2.10): every variable of the modelDescription with its unit,
+    the images it shows inside the FMU, the equations and the default experiment."""
+    for fmu in sorted(Path(fmu_path).parent.glob("*.fmu")):
+        with zipfile.ZipFile(fmu) as z:
+            names = set(z.namelist())
+            page = z.read("documentation/index.html").decode()
+            md = ET.fromstring(z.read("modelDescription.xml"))
+        for sv in md.find("ModelVariables"):
+            assert f"<td>{sv.get('name')}</td>" in page, (fmu.name, sv.get("name"))
+            real = sv.find("Real")
+            if real is not None and real.get("unit"):
+                assert f"<td>{real.get('unit')}</td>" in page
+        for src in __import__("re").findall(r'src="([^"]+)"', page):
+            assert f"documentation/{src}" in names, (fmu.name, src)
+        assert "Default experiment" in page and "Equations" in page
+        if fmu.name != "Drive.fmu":
+            assert "documentation/mechanism.png" in names and "J(phi1) domega1/dt" in page
