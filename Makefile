@@ -25,7 +25,8 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 fmu: $(STAMP)
-	$(BIN)/python fmu_build/build.py --dest build/fmus
+	for s in seed000 seed001 seed002 seed003 seed004; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
+	$(BIN)/crankfmu fmu dc_pi --drive --out build/fmus
 
 demo: fmu
 	$(BIN)/crankfmu simulate seed000 --out $(OUT)

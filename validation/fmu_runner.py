@@ -63,6 +63,21 @@ class FmuUnderTest:
         self.units = {v.name: (v.unit or (v.declaredType.unit if v.declaredType else None))
                       for v in self.model_description.modelVariables}
         self.unzipdir = extract(str(self.path))
+        self.scenario_source = self._scenario_source()
+
+    def _scenario_source(self) -> str:
+        """What the in-process reference loads: the packaged scenario by name, or, for an FMU built
+        from a user's scenario file, the copy the FMU carries (the same file the FMU runs)."""
+        with zipfile.ZipFile(self.path) as z:
+            root = ET.fromstring(z.read("modelDescription.xml"))
+        node = root.find("VendorAnnotations/Tool[@name='crankfmu']/Scenario")
+        inside = node.get("file") if node is not None else None
+        if not inside:
+            return self.scenario_name
+        path = Path(self.unzipdir) / "resources" / f"crankfmu_{self.name}" / inside
+        if not path.is_file():
+            raise CrankfmuError(f"{self.path.name} names its scenario file {inside} but does not carry it")
+        return str(path)
 
     def _scenario_name(self) -> str:
         name = scenario_of(self.path)

@@ -148,7 +148,7 @@ def validate(fmu_paths, out, quick: bool = False, echo=print) -> tuple[CheckList
             checks.holds(f"{Path(path).stem}.loads", False, note=str(exc))
             continue
         try:
-            scenario = load_scenario(fmu.scenario_name)
+            scenario = load_scenario(fmu.scenario_source)
             section = {"name": fmu.name, "scenario": scenario.name,
                        "intro": [f"`{fmu.path}`; scenario file `{scenario.where}`.", ""]}
             section.update(check_default(fmu, scenario, checks, out))

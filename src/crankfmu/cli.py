@@ -277,6 +277,23 @@ def cmd_animate(args) -> int:
     return 0
 
 
+def cmd_check(args) -> int:
+    from .check import check_scenario
+
+    report = check_scenario(args.scenario)
+    print(report.text())
+    print({0: "check passed", 1: "check FAILED", 2: "the files cannot be read"}[report.status])
+    return report.status
+
+
+def cmd_fmu(args) -> int:
+    from .fmi.build import build
+
+    path = build("drive" if args.drive else "scenario", args.source, Path(args.out), args.name)
+    print(f"built {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="crankfmu", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -375,6 +392,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--omega", type=float, default=None, help="constant crank speed in rad/s without --result")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.set_defaults(func=cmd_animate)
+
+    p = sub.add_parser("check", help="check a scenario and its mechanism file before building anything: names, "
+                                      "degree of freedom, Grashof, assembly, dead points, masses, J_red (exit 0/1/2)")
+    p.add_argument("scenario", help="packaged scenario name or path to a .toml scenario file")
+    p.set_defaults(func=cmd_check)
+
+    p = sub.add_parser("fmu", help="build the FMU (FMI 2.0 co-simulation) of a scenario: packaged, or your own "
+                                    "scenario file with its mechanism file beside it")
+    p.add_argument("source", metavar="SCENARIO", help="packaged scenario name (seed000) or path to a .toml scenario "
+                                                      "file (with --drive: a drive file)")
+    p.add_argument("--out", required=True, help="folder for NAME.fmu and its cross-check files NAME_ref.csv/.opt")
+    p.add_argument("--name", default=None, help="the FMU's model identifier (default: the file's fmu key)")
+    p.add_argument("--drive", action="store_true", help="SCENARIO is a drive file (Drive.fmu: drives/dc_pi.toml)")
+    p.set_defaults(func=cmd_fmu)
 
     p = sub.add_parser("validate", help="every FMU against the in-process reference and the papers: "
                                          "PASS/FAIL lines and DIR/report.md")

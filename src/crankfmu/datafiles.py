@@ -27,6 +27,8 @@ def read_toml(name_or_path, folder, kind: str, not_found=DefinitionError) -> tup
     path = Path(name_or_path)
     if path.suffix == ".toml" and path.exists():
         text, where, origin = path.read_text(), str(path), str(path)
+        if tomllib is None and path.with_suffix(".json").exists():     # a user's file inside an FMU
+            return json.loads(path.with_suffix(".json").read_text()), where, origin
     else:
         res = folder / f"{name_or_path}.toml"
         if not res.is_file():

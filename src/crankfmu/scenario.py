@@ -88,15 +88,18 @@ class Scenario:
         return f"Scenario({self.name!r}{extra})"
 
     # ------------------------------------------------------------------ building the model
-    def mechanism_definition(self) -> MechanismDefinition:
+    def mechanism_source(self) -> str | Path:
         """The mechanism file: a packaged name, or a .toml path relative to this scenario's file
         (a user keeps the two side by side) or to the working directory."""
         name = self.mechanism_name
         if str(name).endswith(".toml") and self.path and not Path(name).is_absolute():
             beside = Path(self.path).parent / name
             if beside.exists():
-                return load_mechanism(beside)
-        return load_mechanism(name)
+                return beside
+        return name
+
+    def mechanism_definition(self) -> MechanismDefinition:
+        return load_mechanism(self.mechanism_source())
 
     @property
     def quantities(self):

@@ -29,6 +29,16 @@ from ..parameters import Experiment, parse_parameters
 _FILES = resources.files(__package__.rsplit(".", 1)[0]) / "drives"
 
 
+#: the drive's constants, in DcDrive's order (a drive file must declare them as parameters)
+DRIVE_CONSTANTS = ("R", "L", "k_t", "n_gear", "Kp", "Ki")
+
+
+def available_drives() -> list[str]:
+    from ..datafiles import packaged
+
+    return packaged(_FILES)
+
+
 @dataclass(frozen=True)
 class DcDrive:
     R: float           # Ohm
@@ -68,9 +78,10 @@ class DriveFile:
     inputs: dict
     experiment: Experiment
     where: str
+    fmu: str = ""               # the model identifier of the FMU built from the file
 
     def drive(self, values: dict) -> DcDrive:
-        return DcDrive(*(float(values[k]) for k in ("R", "L", "k_t", "n_gear", "Kp", "Ki")))
+        return DcDrive(*(float(values[k]) for k in DRIVE_CONSTANTS))
 
 
 def load_drive(name_or_path) -> DriveFile:
@@ -81,8 +92,8 @@ def load_drive(name_or_path) -> DriveFile:
         inputs = parse_parameters(data.get("inputs", {}), where)
     except KeyError as exc:
         raise DefinitionError(f"{where}: missing {exc.args[0]!r}") from None
-    missing = {"R", "L", "k_t", "n_gear", "Kp", "Ki", "i_start", "x_start"} - params.keys()
+    missing = {*DRIVE_CONSTANTS, "i_start", "x_start"} - params.keys()
     if missing:
         raise DefinitionError(f"{where}: missing drive parameter(s) {', '.join(sorted(missing))}")
     return DriveFile(data.get("name", str(name_or_path)), data.get("title", ""), params, inputs,
-                     Experiment.from_dict(data.get("experiment", {})), where)
+                     Experiment.from_dict(data.get("experiment", {})), where, str(data.get("fmu", "")))

@@ -21,18 +21,20 @@ method from the FMU's own stepper.
 from __future__ import annotations
 
 import argparse
+import re
 import shutil
 import subprocess
 import sys
 import sysconfig
 import tempfile
 import zipfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from ..contract import BASE_UNITS, OUTPUTS
+from ..errors import CrankfmuError
 from . import documentation
 
 HERE = Path(__file__).resolve().parent
@@ -48,9 +50,10 @@ RUNTIME = ("__init__.py", "contract.py", "errors.py", "expressions.py", "numeric
            "parameters.py", "datafiles.py", "drives")
 
 
-def copy_runtime(dest: Path):
-    """The runtime part of the package (RUNTIME) into ``dest``; each data file also as JSON, which
-    an FMU reads where tomllib is missing (Python 3.10: datafiles.read_toml)."""
+def copy_runtime(dest: Path, files: dict | None = None):
+    """The runtime part of the package (RUNTIME) into ``dest``, and ``files`` (path -> text: a user's
+    data files); each data file also as JSON, which an FMU reads where tomllib is missing (Python
+    3.10: datafiles.read_toml)."""
     import json
     import tomllib
 
@@ -61,14 +64,26 @@ def copy_runtime(dest: Path):
         else:
             (dest / entry).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(source, dest / entry)
+    for path, text in (files or {}).items():
+        (dest / path).parent.mkdir(parents=True, exist_ok=True)
+        (dest / path).write_text(text)
     for toml in dest.rglob("*.toml"):
         toml.with_suffix(".json").write_text(json.dumps(tomllib.loads(toml.read_text())))
 
 
-#: FMU name -> (kind, data file): a scenario file (mechanism FMUs) or a drive file (Drive.fmu)
-FMUS = {"FourBar": ("scenario", "seed000"), "ThreeLoop": ("scenario", "seed001"),
-        "SliderCrank": ("scenario", "seed002"), "Shaper": ("scenario", "seed003"),
-        "QuickReturn": ("scenario", "seed004"), "Drive": ("drive", "dc_pi")}
+#: the data files the packaged FMUs are built from: every packaged scenario and drive file that
+#: names its FMU (``fmu = "FourBar"``); the FMU's model identifier lives in the file
+def packaged_sources() -> list[tuple[str, str]]:
+    """(kind, name) of every packaged data file with an ``fmu`` key, in file order."""
+    from ..dynamics.drive import available_drives, load_drive
+    from ..scenario import available_scenarios, load_scenario
+
+    return ([("scenario", n) for n in available_scenarios() if load_scenario(n).data.get("fmu")]
+            + [("drive", n) for n in available_drives() if load_drive(n).fmu])
+
+
+#: a model identifier names the binary and the C symbols' prefix: a C identifier
+IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 
 @dataclass
@@ -77,7 +92,8 @@ class Source:
     modelDescription says of it."""
 
     kind: str                       # "scenario" or "drive"
-    name: str                       # the data file's name, passed to the core
+    name: str                       # the data file's name
+    fmu: str                        # the FMU's model identifier (the file's ``fmu`` key, or --name)
     title: str
     experiment: object              # parameters.Experiment
     core: str                       # "module:Class" inside the package
@@ -85,9 +101,13 @@ class Source:
     groups: dict                    # "*geometry", "*loads" -> parameter names
     reference: object = None        # () -> the default experiment's outputs as CSV text, or None
     documentation: object = None    # (modelDescription, parameters, reference CSV) -> {path in FMU: bytes}
+    load: str = ""                  # what the core loads: the packaged name, or "user/<file>.toml" in the FMU
+    files: dict = field(default_factory=dict)   # a user's data files: path in the package -> text
 
 
-def source_of(kind: str, name: str) -> Source:
+def source_of(kind: str, name: str, fmu_name: str | None = None) -> Source:
+    """What to build: a packaged data file by name, or a user's scenario file by path (its
+    mechanism file, when given by path, travels with it)."""
     if kind == "scenario":
         from ..scenario import load_scenario
 
@@ -95,16 +115,55 @@ def source_of(kind: str, name: str) -> Source:
         definition = scenario.mechanism_definition()
         groups = {"*geometry": sorted(set(definition.geometry_parameters) | set(definition.mass_parameters)),
                   "*loads": sorted(scenario.load_parameters())}
-        return Source(kind, scenario.name, scenario.title, scenario.experiment, "fmi.slave:FmuCore",
-                      {v.name: v.initial for v in OUTPUTS}, groups, lambda: reference_result(scenario),
-                      lambda fmu, md, params, ref: documentation.scenario_documentation(fmu, scenario, md, params, ref))
+        fmu = _fmu_name(fmu_name or scenario.data.get("fmu"), scenario.where)
+        source = Source(kind, scenario.name, fmu, scenario.title, scenario.experiment, "fmi.slave:FmuCore",
+                        {v.name: v.initial for v in OUTPUTS}, groups, lambda: reference_result(scenario),
+                        lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params, ref),
+                        load=scenario.name)
+        if _is_path(name):
+            source.load, source.files = _user_files(scenario, name)
+        return source
     if kind == "drive":
         from ..dynamics.drive import load_drive
 
         drive = load_drive(name)
-        return Source(kind, drive.name, drive.title, drive.experiment, "fmi.drive:DriveCore", {}, {},
-                      documentation=lambda fmu, md, params, ref: documentation.drive_documentation(fmu, drive, md, params))
-    raise SystemExit(f"build: unknown kind {kind!r}")
+        return Source(kind, drive.name, _fmu_name(fmu_name or drive.fmu, drive.where),
+                      drive.title, drive.experiment, "fmi.drive:DriveCore", {}, {},
+                      documentation=lambda f, md, params, ref: documentation.drive_documentation(f, drive, md, params),
+                      load=drive.name)
+    raise CrankfmuError(f"build: unknown kind {kind!r}")
+
+
+def _is_path(name) -> bool:
+    return str(name).endswith(".toml") and Path(name).is_file()
+
+
+def _fmu_name(name, where: str) -> str:
+    if not name:
+        raise CrankfmuError(f"{where}: no FMU name: give --name NAME or write fmu = \"NAME\" in the scenario file")
+    if not IDENTIFIER.match(str(name)):
+        raise CrankfmuError(f"FMU name {name!r} (--name or the file's fmu key) must be a C identifier: a letter "
+                            "or _ then letters, digits or _")
+    return str(name)
+
+
+def _user_files(scenario, path) -> tuple[str, dict]:
+    """A user's scenario (and its mechanism file, when referenced by path) as files of the FMU's
+    package under ``user/``: the core loads ``user/<scenario>.toml`` and the mechanism beside it."""
+    files = {}
+    text = Path(path).read_text()
+    mechanism = str(scenario.mechanism_name)
+    if mechanism.endswith(".toml"):
+        definition_path = Path(scenario.mechanism_source())
+        files[f"user/{definition_path.name}"] = definition_path.read_text()
+        text, count = re.subn(r'^(\s*mechanism\s*=\s*)(["\']).*?\2', lambda m: f'{m.group(1)}"{definition_path.name}"',
+                              text, count=1, flags=re.M)
+        if count != 1:
+            raise CrankfmuError(f"{path}: the line mechanism = \"...\" was not found to point it at the FMU's copy")
+    load = f"user/{Path(path).name}"
+    files[load] = text
+    return load, files
+
 
 def complete_model_description(xml_bytes: bytes, units: dict[str, str], parameters: dict, source: Source) -> bytes:
     """pythonfmu's modelDescription with units, parameter ranges (min/max where a bound exists),
@@ -118,7 +177,7 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
         real = sv.find("Real")
         unit = units.get(name)
         if unit is None:
-            raise SystemExit(f"build: no unit for variable {name}")
+            raise CrankfmuError(f"build: no unit for variable {name}")
         if real is not None and unit != "1":
             real.set("unit", unit)
         p = parameters.get(name)
@@ -151,7 +210,9 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
         root.remove(old)
     vendor = ET.Element("VendorAnnotations")
     tool = ET.SubElement(vendor, "Tool", name="crankfmu")
-    ET.SubElement(tool, "Scenario" if source.kind == "scenario" else "Drive", name=source.name)
+    annotation = ET.SubElement(tool, "Scenario" if source.kind == "scenario" else "Drive", name=source.name)
+    if source.files:      # a user's scenario: where the FMU carries it (the harness reads that copy)
+        annotation.set("file", source.load)
     root.insert(position + 1, vendor)
 
     structure = root.find("ModelStructure")
@@ -185,9 +246,9 @@ def compile_shim(name: str, out: Path) -> Path:
     try:
         subprocess.run(cmd, check=True, capture_output=True, text=True)
     except FileNotFoundError:
-        raise SystemExit("build: gcc not found; it compiles the FMU's linux64 shim (apt-get install gcc)") from None
+        raise CrankfmuError("build: gcc not found; it compiles the FMU's linux64 shim (apt-get install gcc)") from None
     except subprocess.CalledProcessError as exc:
-        raise SystemExit(f"build: compiling the shim failed:\n{exc.stderr}") from None
+        raise CrankfmuError(f"build: compiling the shim failed:\n{exc.stderr}") from None
     return out
 
 
@@ -237,15 +298,18 @@ def slave_script(name: str, source: Source) -> str:
 
     module, cls = source.core.split(":")
     template = Template((HERE / "slave_script.py.in").read_text())
-    return template.substitute(NAME=name, SOURCE=source.name, CORE_MODULE=module, CORE_CLASS=cls,
+    return template.substitute(NAME=name, SOURCE=source.load, CORE_MODULE=module, CORE_CLASS=cls,
                                DESCRIPTION=repr(source.title))
 
 
-def build(name: str, kind: str, data_name: str, dest: Path) -> Path:
+def build(kind: str, data_name: str, dest: Path, name: str | None = None) -> Path:
+    """Build the FMU of a data file (a packaged name, or a user's scenario file by path) into
+    ``dest``; ``name`` overrides the file's ``fmu`` key. Returns the FMU's path."""
     from pythonfmu import FmuBuilder
 
+    source = source_of(kind, data_name, name)
+    name = source.fmu
     dest.mkdir(parents=True, exist_ok=True)
-    source = source_of(kind, data_name)
     with tempfile.TemporaryDirectory() as tmp:
         # the package travels under a private name (see slave_script.py.in)
         private = Path(tmp) / "pkg" / f"crankfmu_{name}"
@@ -253,7 +317,7 @@ def build(name: str, kind: str, data_name: str, dest: Path) -> Path:
         script_dir.mkdir()
         script = script_dir / f"{name}.py"
         script.write_text(slave_script(name, source))
-        copy_runtime(private)
+        copy_runtime(private, source.files)
         sys.path.insert(0, str(private.parent))
         sys.path.insert(0, str(script_dir))
         try:
@@ -305,9 +369,13 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--dest", default="build/fmus")
     args = parser.parse_args(argv)
-    for name, (kind, data_name) in FMUS.items():
-        path = build(name, kind, data_name, Path(args.dest))
-        print(f"built {path}")
+    try:
+        for kind, data_name in packaged_sources():
+            path = build(kind, data_name, Path(args.dest))
+            print(f"built {path}")
+    except CrankfmuError as exc:
+        print(f"build: error: {exc}", file=sys.stderr)
+        return 2
     return 0
 
 

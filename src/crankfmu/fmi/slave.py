@@ -24,6 +24,7 @@ The life cycle, the refusals and the guards that keep Python exceptions away fro
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -69,6 +70,8 @@ class FmuCore(SlaveCore):
     """Variables and model of a crankfmu FMU for one scenario."""
 
     def __init__(self, slave, scenario_name: str):
+        if scenario_name.endswith(".toml"):      # a user's scenario the build put in the package
+            scenario_name = str(Path(__file__).resolve().parents[1] / scenario_name)
         self.scenario = load_scenario(scenario_name)
         super().__init__(slave, self.scenario.experiment.start_time)
         self.row = np.zeros(len(ROW))       # the kernel's output row at the current time

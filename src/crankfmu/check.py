@@ -1,0 +1,242 @@
+"""``crankfmu check SCENARIO``: a scenario and its mechanism file checked before anything is built.
+
+Reported in order, each as OK, WARN or FAIL with the file, the section and the line where one
+applies:
+
+1. the files read (TOML syntax, required sections and keys: crankfmu's own parser);
+2. every name used in an expression is a parameter, a constant, phi1 or an unknown (all at once,
+   not the first only);
+3. the degree of freedom from the contour count (2 equations per contour for the unknowns, phi1
+   the one free coordinate) and, with joints, 2 per joint + 1 = 3 per moving link;
+4. each four-bar loop's Grashof class (s + l against p + q);
+5. assembly over the whole crank turn on the stated branch (AssemblyError names where and the
+   changed parameters' bounds) and the smallest |det| of the column-normalised contour Jacobian
+   with its crank angle (0 at a dead or change point);
+6. masses and inertias not negative, the reduced inertia J_red > 0 at every angle, the loads and
+   outputs built.
+
+Exit status: 0 when everything holds (warnings allowed), 1 when a check fails, 2 when the files
+cannot be read.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import AssemblyError, CrankfmuError, DefinitionError
+from .expressions import CONSTANTS, FUNCTIONS, Expression
+
+#: conditioning below which a geometry is reported as near a dead or change point (the
+#: transmission angle of a four-bar below about 3 deg)
+NEAR_DEAD_POINT = 0.05
+
+
+@dataclass
+class Finding:
+    level: str            # "OK", "WARN", "FAIL"
+    what: str
+    where: str = ""
+
+
+@dataclass
+class Report:
+    findings: list[Finding] = field(default_factory=list)
+    unreadable: bool = False
+
+    def add(self, level, what, where=""):
+        self.findings.append(Finding(level, what, where))
+
+    @property
+    def status(self) -> int:
+        if self.unreadable:
+            return 2
+        return 1 if any(f.level == "FAIL" for f in self.findings) else 0
+
+    def text(self) -> str:
+        return "\n".join(f"{f.level:4s} {f.what}" + (f"  [{f.where}]" if f.where else "") for f in self.findings)
+
+
+# ------------------------------------------------------------------------------------------ lines
+
+def locate(path: str | None, message: str) -> str:
+    """'file, line N' of the entry an error message names (a contour, point, link, joint, section),
+    found in the file's text; the file alone when the message names nothing findable."""
+    if not path or not Path(path).is_file():
+        return ""
+    lines = Path(path).read_text().splitlines()
+    patterns = []
+    m = re.search(r"line (\d+)", message)
+    if m:                                        # tomllib's own position
+        return f"{path}, line {m.group(1)}"
+    # an entry of a list ([[contours]], [[joints]]) by its name line, a table by its header, a key
+    # (a point, an unknown, a parameter) by its own line
+    for kind, how in (("contour", "entry"), ("joint", "entry"), ("link", "table"), ("fixed point", "key"),
+                      ("point", "key"), ("unknown", "key"), ("parameter", "key")):
+        m = re.search(rf"{kind} '?([A-Za-z_][\w'-]*?)'?(:| |$|,)", message)
+        if not m:
+            continue
+        name = re.escape(m.group(1).strip("'"))
+        patterns.append({"entry": rf"^\s*name\s*=\s*[\"']{name}[\"']", "table": rf"^\s*\[links\.{name}\]",
+                         "key": rf"^\s*{name}\s*="}[how])
+    for section in ("assembly", "unknowns", "fixed_points", "points", "parameters", "experiment"):
+        if f"[{section}]" in message or f"{section}" in message.split(":")[-1]:
+            patterns.append(rf"^\s*\[{section}\]")
+    for pattern in patterns:
+        for i, line in enumerate(lines, start=1):
+            if re.search(pattern, line):
+                return f"{path}, line {i}"
+    return str(path)
+
+
+# ------------------------------------------------------------------------------------------ names
+
+def unknown_names(definition, parameters: set[str]) -> list[tuple[str, set[str]]]:
+    """(where, names) for every expression of the mechanism file that uses a name which is no
+    parameter, constant, function, phi1 or unknown (closed-form steps may use earlier steps)."""
+    known = set(parameters) | set(definition.constants) | set(CONSTANTS) | set(FUNCTIONS) | {"phi1", "pi"}
+    known |= set(definition.unknowns)
+    problems = []
+
+    def check(source, where, extra=frozenset()):
+        names = Expression(source, where).names - known - set(extra)
+        if names:
+            problems.append((where, names))
+
+    for cname, terms in definition.contours:
+        for t in terms:
+            check(t.coefficient, f"contour {cname}")
+            check(t.offset, f"contour {cname}")
+    for p, (terms, xy) in definition.points.items():
+        for t in terms:
+            check(t.coefficient, f"point {p}")
+            check(t.offset, f"point {p}")
+        for c in xy:
+            check(c, f"fixed point {p}")
+    for lname, link in definition.links.items():
+        for text in (link.mass, link.inertia, link.angle):
+            check(text, f"link {lname}")
+    for j in definition.joints:
+        check(j.axis, f"joint {j.name}")
+    assigned: set[str] = set()
+    for name, expr in definition.closed_form or []:
+        check(expr.source, f"[assembly] closed form {name}", assigned)
+        assigned.add(name)
+    for u, text in (definition.guess or {}).items():
+        check(text, f"[assembly] guess {u}")
+    merged: dict[str, set] = {}
+    for where, names in problems:
+        merged.setdefault(where, set()).update(names)
+    return list(merged.items())
+
+
+# ------------------------------------------------------------------------------------------ Grashof
+
+def grashof(definition, values) -> list[str]:
+    """The Grashof class of each contour that is a four-bar loop (four terms of constant length,
+    one of them the crank phi1, one a constant direction: the frame), from the link lengths alone
+    (no assembly needed: it explains an assembly that fails)."""
+    env = {**values, **definition.constants}
+    out = []
+    for cname, terms in definition.contours:
+        if len(terms) != 4 or any(t.length for t in terms):
+            continue
+        crank = [t for t in terms if t.angle == "phi1"]
+        frame = [t for t in terms if t.angle is None]
+        if len(crank) != 1 or len(frame) != 1:
+            continue
+        lengths = {id(t): abs(float(Expression(t.coefficient).evaluate(env))) for t in terms}
+        ordered = sorted(lengths.values())
+        s, p, q, l = ordered
+        role = {id(crank[0]): "crank", id(frame[0]): "frame"}
+        shortest = role.get(min(lengths, key=lengths.get), "coupler or rocker")
+        if math.isclose(s + l, p + q, rel_tol=1e-9):
+            kind = "change point (s + l = p + q): the loop can fold; the branch is not unique at the fold"
+        elif s + l < p + q:
+            kind = {"crank": "Grashof crank-rocker (the crank is the shortest link: it turns fully)",
+                    "frame": "Grashof double crank (drag link: the frame is the shortest link)"}.get(
+                shortest, "Grashof double rocker (the coupler is the shortest link: the crank cannot turn fully)")
+        else:
+            kind = "non-Grashof triple rocker (s + l > p + q: no link turns fully)"
+        out.append(f"contour {cname}: {kind}; s + l = {s + l:.6g} m, p + q = {p + q:.6g} m")
+    return out
+
+
+# ------------------------------------------------------------------------------------------ the check
+
+def check_scenario(source) -> Report:
+    """Every check of the module doc on a scenario (a packaged name or a path)."""
+    from .scenario import load_scenario
+
+    report = Report()
+    path = str(source) if str(source).endswith(".toml") else None
+    try:
+        scenario = load_scenario(source)
+    except CrankfmuError as exc:
+        report.unreadable = True
+        report.add("FAIL", f"the scenario file cannot be read: {exc}", locate(path, str(exc)))
+        return report
+    report.add("OK", f"scenario {scenario.name} read ({len(scenario.parameters)} parameters)", scenario.where)
+    mech_path = scenario.mechanism_source()
+    mech_file = str(mech_path) if str(mech_path).endswith(".toml") else None
+    try:
+        definition = scenario.mechanism_definition()
+    except CrankfmuError as exc:
+        report.unreadable = True
+        report.add("FAIL", f"the mechanism file cannot be read: {exc}", locate(mech_file, str(exc)))
+        return report
+    report.add("OK", f"mechanism {definition.name} read: {len(definition.unknowns)} unknowns "
+               f"({', '.join(definition.unknowns)}), {len(definition.contours)} contour(s), "
+               f"{len(definition.links)} links, {len(definition.joints)} joints", mech_file or f"mechanism {definition.name}")
+
+    try:
+        bad = unknown_names(definition, set(scenario.parameters))
+    except DefinitionError as exc:          # an expression that does not parse or is not allowed
+        report.unreadable = True
+        report.add("FAIL", f"the mechanism file cannot be read: {exc}", locate(mech_file, str(exc)))
+        return report
+    for where, names in bad:
+        report.add("FAIL", f"{where}: unknown name(s) {', '.join(sorted(names))} (not a parameter of "
+                   f"{scenario.name}, a constant, phi1 or an unknown)", locate(mech_file, where))
+    if not bad:
+        report.add("OK", "every name in the mechanism's expressions is a parameter, constant, phi1 or unknown")
+
+    n_eq, n_unknown = 2 * len(definition.contours), len(definition.unknowns)
+    report.add("OK", f"1 degree of freedom: {len(definition.contours)} contour(s) give {n_eq} equations for "
+               f"{n_unknown} unknowns, phi1 free"
+               + (f"; {len(definition.joints)} joints give {2 * len(definition.joints)} reactions + the driving "
+                  f"moment = 3 x {len(definition.links)} links" if definition.joints else
+                  "; no [[joints]]: no joint reactions, the drawing joins points to their base points"))
+    if bad:
+        return report
+
+    try:
+        mechanism, worst, at = scenario.assembled_mechanism()
+    except (AssemblyError, DefinitionError) as exc:
+        for line in grashof(definition, scenario.values):
+            report.add("OK", line)
+        report.add("FAIL", str(exc), locate(mech_file, str(exc)))
+        return report
+    for line in grashof(definition, scenario.values):
+        report.add("OK", line)
+    level = "WARN" if worst < NEAR_DEAD_POINT else "OK"
+    report.add(level, f"assembles over the whole turn on the branch '{definition.branch}'; smallest |det| of the "
+               f"contour Jacobian {worst:.4g} at phi1 = {math.degrees(at) % 360:.2f} deg"
+               + (" (near a dead or change point: large forces and a stiff model there)" if level == "WARN" else ""))
+    try:
+        model = scenario.build()
+        quantities = scenario.quantities
+    except CrankfmuError as exc:
+        report.add("FAIL", str(exc), locate(path, str(exc)))
+        return report
+    masses = {l.name: (l.mass, l.inertia) for l in model.reduced.links}
+    report.add("OK", "masses and inertias >= 0: " + ", ".join(f"{n} {m:g} kg {i:g} kg.m2" for n, (m, i) in masses.items()))
+    J = model.reduced.coefficients(np.linspace(0.0, 2 * math.pi, 721))[0]
+    report.add("OK", f"J_red from {np.min(J):.6g} to {np.max(J):.6g} kg.m2 over the turn (> 0)")
+    report.add("OK", f"{len(model.reduced.loads)} loads, {len(quantities)} mechanism-specific outputs"
+               + (f" ({', '.join(q.name for q in quantities)})" if quantities else ""))
+    return report
