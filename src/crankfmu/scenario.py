@@ -21,6 +21,7 @@ import numpy as np
 from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation, ReducedModel,
                        SliderForce, ViscousForce, Weights)
 from .dynamics.equation import STATE_SIZE
+from .dynamics.user_loads import parse_user_load
 from .datafiles import packaged, read_toml
 from .errors import AssemblyError, DefinitionError, ParameterError, ScenarioNotFound
 from .expressions import Expression, evaluate
@@ -28,6 +29,9 @@ from .mechanisms import Mechanism, MechanismDefinition, load_mechanism
 from .parameters import Experiment, Parameter, parse_parameters  # noqa: F401 (Parameter: the scenario's API)
 
 _SCENARIOS = resources.files(__package__) / "scenarios"
+
+#: the load kinds a user writes as expressions (dynamics.user_loads)
+USER_LOADS = ("force", "couple", "spring_damper")
 
 #: parameters every scenario must declare (shared/FMU_CONTRACT.md)
 CONTRACT_PARAMETERS = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel",
@@ -138,7 +142,13 @@ class Scenario:
                         f"{self.name}: the {what} of link {lname} ({ld.mass if what == 'mass' else ld.inertia}"
                         f" = {v:g}) must be >= 0", lname)
             links.append(LinkInertia(lname, ld.centre, mass, inertia))
-        loads = [self._make_load(spec, mechanism, links, values) for spec in self.data.get("loads", [])]
+        loads = []
+        for i, spec in enumerate(self.data.get("loads", [])):
+            if spec.get("kind") in USER_LOADS:
+                loads += parse_user_load(spec, mechanism, {l.name for l in links}, values,
+                                         f"{self.where}: load {i + 1}")
+            else:
+                loads.append(self._make_load(spec, mechanism, links, values))
         reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads)
         J = reduced.coefficients(np.linspace(0, 2 * math.pi, 721))[0]
         if not np.min(J) > 0:
@@ -158,9 +168,12 @@ class Scenario:
             if spec.get("kind") == "weights":
                 names.add("g")
             for key, value in spec.items():
-                if key not in ("kind", "link", "point", "axis", "band") and isinstance(value, str):
-                    names |= Expression(value).names
-        return sorted(names)
+                if key in ("kind", "link", "links", "point", "a", "b", "axis", "band", "direction_of"):
+                    continue
+                for text in (value.values() if isinstance(value, dict) else [value]):
+                    if isinstance(text, str):
+                        names |= Expression(text).names
+        return sorted(names & set(self.parameters))
 
     def _make_load(self, spec, mechanism: Mechanism, links, values):
         kind = spec.get("kind")
@@ -189,8 +202,8 @@ class Scenario:
             return SliderForce.from_geometry(
                 mechanism, spec["point"], link, axis, self._load_value(spec, "forward", values, "N"),
                 self._load_value(spec, "backward", values, "N"), tuple(float(v) for v in band))
-        raise DefinitionError(f"{self.where}: unknown load kind {kind!r} "
-                              "(known: weights, dead_point_moment, viscous_force, slider_force)")
+        raise DefinitionError(f"{self.where}: unknown load kind {kind!r} (known: weights, dead_point_moment, "
+                              f"viscous_force, slider_force, {', '.join(USER_LOADS)})")
 
     def _load_value(self, spec, key: str, values, unit: str) -> float:
         """A load's magnitude (an expression of parameters), which must be >= 0."""

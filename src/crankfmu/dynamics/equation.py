@@ -34,7 +34,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .loads import SliderForce, interval_bounds, interval_width
+from .loads import interval_bounds, interval_width
 from .motor import MotorLine
 from .reduced import ReducedModel
 
@@ -88,7 +88,7 @@ class MovementEquation:
         self.n_rhs = 0
         self.sliders = reduced.sliders
         self._smooth_velocity_loads = [load for load in reduced.loads
-                                       if not load.position_only and not isinstance(load, SliderForce)]
+                                       if not load.position_only and load not in self.sliders]
 
     # -------------------------------------------------------------- scalar hot path
     def coefficients(self, phi1, omega1, mode: Mode):
@@ -100,8 +100,9 @@ class MovementEquation:
         if self.sliders and mode.direction != 0:
             _, forces = self.reduced.slider_schedule()
             side = 0 if mode.direction > 0 else 1
-            for s, load in enumerate(self.sliders):
-                q += forces[mode.interval, side, s] * kin.point(load.point)[2 + load.axis][0]
+            columns = [c for load in self.sliders for c in load.columns(kin)]
+            for s, column in enumerate(columns):
+                q += forces[mode.interval, side, s] * column[0]
         return J[0], half_dJ[0], q
 
     def rhs(self, t, y, mode: Mode):

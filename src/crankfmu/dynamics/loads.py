@@ -68,6 +68,7 @@ class ViscousForce:
     coefficient: float             # c, N.s/m
     link: str = ""                 # the link the point belongs to (where the force acts)
     position_only = False
+    linear_in_omega1 = True        # Q = c_lin(phi1) omega1: the fast path tabulates c_lin
     category = TECHNOLOGICAL
 
     def torque(self, kin: Kinematics, omega1=None):
@@ -159,6 +160,20 @@ class SliderForce:
         force = self.force(kin, omega1)
         return [AppliedLoad(self.link, self.point, *((force, 0.0) if self.axis == 0 else (0.0, force)))]
 
+    # the switched-load protocol (slider_schedule, the table, the movement equation): Q is the sum
+    # over columns of value * column, the columns functions of phi1 alone, the values constant
+    # between two switch angles for each direction of the crank
+    @property
+    def column_names(self) -> tuple[str, ...]:
+        return (f"{self.point}.{'xy'[self.axis]}",)
+
+    def columns(self, kin: Kinematics) -> list:
+        """dx/dphi1 (m/rad): the force's lever to the crank."""
+        return [kin.point(self.point)[2 + self.axis]]
+
+    def values(self, kin: Kinematics, omega1) -> list:
+        return [self.force(kin, omega1)]
+
 
 def slider_schedule(mechanism: Mechanism, sliders: list[SliderForce]):
     """Where slider forces switch and their constant values in between, for integrators that hold
@@ -170,17 +185,23 @@ def slider_schedule(mechanism: Mechanism, sliders: list[SliderForce]):
     N, the signed force of slider s on interval k (from switch_angles[k] to the next one round the
     turn) while omega1 > 0 (index 0) and omega1 < 0 (index 1). Reduced to the crank, slider s
     gives forces[k, d, s] * dx_s/dphi1.
+    Slider s here is column s of the switched loads (a SliderForce has one, a SwitchedLoad two).
     """
     # a band level is met once per direction, so angles closer than 1e-13 rad are one switch
     angles = sorted({round(a % TWO_PI, 13) for load in sliders for a in load.switch_angles(mechanism)})
     switch = np.array(angles, dtype=float)
-    forces = np.zeros((max(len(switch), 1), 2, len(sliders)))
+    n_columns = sum(len(load.column_names) for load in sliders)
+    forces = np.zeros((max(len(switch), 1), 2, n_columns))
     if len(switch):
         mids = 0.5 * (switch + np.append(switch[1:], switch[0] + TWO_PI))
         kin = mechanism.kinematics(mids % TWO_PI)
-        for s, load in enumerate(sliders):
-            forces[:, 0, s] = load.force(kin, 1.0)
-            forces[:, 1, s] = load.force(kin, -1.0)
+        s = 0
+        for load in sliders:
+            forward, backward = load.values(kin, 1.0), load.values(kin, -1.0)
+            for j in range(len(forward)):
+                forces[:, 0, s] = forward[j]
+                forces[:, 1, s] = backward[j]
+                s += 1
     return switch, forces
 
 

@@ -121,6 +121,8 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
         b[:, row[crank[0]] + 2] += reduced.J_flywheel * epsilon1
     for load in reduced.loads:
         for f in load.applied(kin, omega1):
+            if f.link == "ground":          # a spring anchored on the frame: the frame carries that end
+                continue
             r = row[f.link]
             cx, cy = centre[f.link]
             b[:, r] -= f.fx

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mechanisms import Kinematics, Mechanism
-from .loads import SliderForce, slider_schedule
+from .loads import slider_schedule
 
 
 @dataclass
@@ -38,7 +38,9 @@ class ReducedModel:
         self.loads = loads
         self.velocity_dependent = any(not load.position_only for load in loads)
         self._tables = {}
-        self.sliders = [load for load in loads if isinstance(load, SliderForce)]
+        # switched loads: constant or tabulated between switch angles, by direction (slider forces,
+        # direction-dependent user loads)
+        self.sliders = [load for load in loads if hasattr(load, "switch_angles") and not load.position_only]
         self._slider_schedule = None
 
     def table(self, tolerance: float = 1e-11):

@@ -13,11 +13,13 @@ spline's error is largest (the interval midpoints) and at a second, staggered se
 Velocity-dependent loads stay exact:
 
 - a viscous force is linear in omega1: Q = c_lin(phi1) * omega1, with c_lin tabulated;
-- a slider force (seed 001's F3/F7, seed 003's cutting force) is a force of constant magnitude
-  times dx/dphi1 on each interval between its switch angles (the slider's reversals and, with a
-  band, where it enters and leaves the band), the magnitude depending on the direction of motion,
-  i.e. on the sign of omega1. dx/dphi1 is tabulated; the interval and the direction are part of
-  the integrator's discrete state, and the switch angles and omega1 = 0 are located as events.
+- a switched load is a sum of columns, functions of phi1, each times a value constant on each
+  interval between the load's switch angles and for each direction of the crank: a slider force
+  (seed 001's F3/F7, seed 003's cutting force) is its magnitude times dx/dphi1 between the
+  slider's reversals (and its band's ends); a user's direction-dependent force or couple is its two
+  directions' torques, each switched on (1) or off (0) by the sign of the chosen velocity. The
+  columns are tabulated; the interval and the direction are part of the integrator's discrete
+  state, and the switch angles and omega1 = 0 are located as events.
 
 The motor line (a kink at omega_switch) is evaluated exactly by the integrators.
 """
@@ -32,7 +34,6 @@ import numpy as np
 
 from ..errors import DefinitionError, SchemeError
 from ..numerics import periodic_cubic_spline
-from .loads import SliderForce, ViscousForce
 from .reduced import ReducedModel
 
 TWO_PI = 2.0 * math.pi
@@ -48,7 +49,7 @@ class ReducedTable:
     coefficients  (n_functions, n, 4): local cubic c0 + u (c1 + u (c2 + u c3)), u = phi1 - phi1_i
                   functions: J of the links (kg.m2, the flywheel is a parameter), 0.5 J' (kg.m2/rad),
                   Q of the position-only loads (N.m), viscous coefficient (N.m.s/rad), then each
-                  slider force's dx/dphi1 (m/rad)
+                  switched load's columns (a slider force's dx/dphi1 in m/rad, a user load's torques)
     switch_angles (m,) rad in [0, 2 pi): where a slider force changes; empty without slider forces
     forces        (max(m, 1), 2, n_sliders) N: each slider force's signed value on interval k
                   (from switch_angles[k] to the next) with omega1 > 0 (index 0) and < 0 (index 1)
@@ -105,7 +106,7 @@ def _engine_values(reduced: ReducedModel, sliders, viscous, phi1) -> np.ndarray:
     for load in viscous:
         rows[Q_VISCOUS] = rows[Q_VISCOUS] + load.torque(kin, 1.0)
     for load in sliders:
-        rows.append(kin.point(load.point)[2 + load.axis])
+        rows += load.columns(kin)
     return np.array(rows)
 
 
@@ -120,11 +121,12 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
     """
     started = time.perf_counter()
     sliders = reduced.sliders
-    viscous = [load for load in reduced.loads if isinstance(load, ViscousForce)]
+    viscous = [load for load in reduced.loads if getattr(load, "linear_in_omega1", False)]
     for load in reduced.loads:
-        if not load.position_only and not isinstance(load, (SliderForce, ViscousForce)):
+        if not load.position_only and load not in sliders and load not in viscous:
             raise DefinitionError(f"the fast model cannot tabulate a {type(load).__name__} load "
-                                  "(velocity-dependent loads it knows: slider_force, viscous_force)")
+                                  "(velocity-dependent loads it knows: linear in omega1, or switched by a "
+                                  "velocity's direction)")
     n = n_start
     while True:
         nodes = np.linspace(0.0, TWO_PI, n + 1)
@@ -149,4 +151,4 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
         n *= 2
     switch, forces = reduced.slider_schedule()
     return ReducedTable(table.coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
-                        tuple(f"{load.point}.{'xy'[load.axis]}" for load in sliders))
+                        tuple(name for load in sliders for name in load.column_names))

@@ -1,0 +1,250 @@
+"""Loads a user writes in the scenario file, without Python (``[[loads]]`` kinds ``force``,
+``couple``, ``spring_damper``).
+
+Each is an expression of the parameters and of the position: the crank angle ``phi1``, every
+unknown of the contours (link angles, slider coordinates) and every point's coordinates
+``P_x``, ``P_y``. Each states its power, so the energy balance and the Newton-Euler reactions
+hold for it:
+
+- ``force`` at a point of a link, components ``fx``, ``fy`` (N): power F . v_P, reduced to the
+  crank Q = fx dx_P/dphi1 + fy dy_P/dphi1;
+- ``couple`` on a link, ``moment`` (N.m, counter-clockwise): power M w_link, Q = M q_link (on the
+  crank, q = 1: a constant or angle-dependent couple on the crank);
+- ``spring_damper`` between two points of two links: tension T = k (d - d0) + c dd/dt along the
+  line between them (d their distance), power -T dd/dt, Q = -k (d - d0) dd/dphi1 - c (dd/dphi1)^2 omega1.
+
+A ``force`` or ``couple`` may depend on the direction of a chosen velocity (``direction_of``: a
+point's coordinate ``"H.y"`` or an unknown such as ``"theta"``): ``increasing`` gives the values
+while that coordinate grows, ``decreasing`` while it falls (a pumping unit's polished-rod load:
+rods and fluid on the upstroke, buoyant rods on the downstroke, downward on both). Such a load
+depends on omega1 only through the sign of the chosen velocity: the integrators hold the
+direction as discrete state between the coordinate's extremes (switch angles located as events,
+like the slider forces), and the fast path tabulates its two position-dependent torques. The
+damper is linear in omega1 and goes with the viscous forces; nothing that depends on omega1 is
+tabulated as if it did not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import DefinitionError
+from ..expressions import Expression
+from ..mechanisms import Kinematics, Mechanism
+from .loads import TECHNOLOGICAL, AppliedLoad
+
+
+def position_env(mechanism: Mechanism, kin: Kinematics) -> dict:
+    """Names a load expression may use: parameters, constants, phi1, unknowns, P_x and P_y."""
+    env = {**mechanism.parameters, **mechanism.definition.constants, "phi1": kin.phi1}
+    env.update(kin.q)
+    for p in mechanism.point_names:
+        x, y = kin.point(p)[:2]
+        env[f"{p}_x"], env[f"{p}_y"] = x, y
+    return env
+
+
+def known_names(mechanism: Mechanism) -> set[str]:
+    return ({*mechanism.parameters, *mechanism.definition.constants, "phi1", *mechanism.unknown_names}
+            | {f"{p}_{a}" for p in mechanism.point_names for a in "xy"})
+
+
+@dataclass
+class ExpressionLoad:
+    """A force at a point (fx, fy) and/or a couple (moment) on ``link``, from expressions; with
+    ``direction_of`` the expressions of ``increasing`` or ``decreasing`` apply by the sign of the
+    chosen coordinate's velocity."""
+
+    link: str
+    point: str | None
+    increasing: dict                  # {"fx", "fy", "moment"} -> Expression
+    decreasing: dict | None = None    # None: no direction dependence
+    direction_of: str | None = None   # "P.x", "P.y" or an unknown
+    mechanism: Mechanism = field(default=None, repr=False)
+    category = TECHNOLOGICAL
+
+    @property
+    def position_only(self) -> bool:
+        return self.decreasing is None
+
+    # ---------------------------------------------------------------- evaluation
+    def _components(self, kin, which: dict):
+        env = position_env(self.mechanism, kin)
+        zero = np.zeros_like(kin.phi1)
+        return tuple(np.broadcast_to(np.asarray(which[k].evaluate(env), dtype=float), kin.phi1.shape) if k in which
+                     else zero for k in ("fx", "fy", "moment"))
+
+    def _torque_of(self, kin, which: dict):
+        fx, fy, m = self._components(kin, which)
+        q = kin.link_angle(self.link)[1]
+        out = m * q
+        if self.point is not None:
+            _, _, dx, dy, _, _ = kin.point(self.point)
+            out = out + fx * dx + fy * dy
+        return out
+
+    def _rate(self, kin):
+        """d(chosen coordinate)/dphi1."""
+        of = self.direction_of
+        if "." in of:
+            point, axis = of.split(".")
+            return kin.point(point)[2 + "xy".index(axis)]
+        return kin.dq[of]
+
+    def _selectors(self, kin, omega1):
+        rising = self._rate(kin) * np.asarray(omega1, dtype=float)
+        return np.where(rising > 0.0, 1.0, 0.0), np.where(rising < 0.0, 1.0, 0.0)
+
+    def torque(self, kin: Kinematics, omega1=None):
+        if self.decreasing is None:
+            return self._torque_of(kin, self.increasing)
+        up, down = self._selectors(kin, omega1)
+        return up * self._torque_of(kin, self.increasing) + down * self._torque_of(kin, self.decreasing)
+
+    def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
+        fx, fy, m = self._components(kin, self.increasing)
+        if self.decreasing is not None:
+            up, down = self._selectors(kin, omega1)
+            gx, gy, gm = self._components(kin, self.decreasing)
+            fx, fy, m = up * fx + down * gx, up * fy + down * gy, up * m + down * gm
+        return [AppliedLoad(self.link, self.point, fx, fy, m)]
+
+    # ---------------------------------------------------------------- the switched-load protocol
+    @property
+    def column_names(self) -> tuple[str, ...]:
+        return (f"{self.link} {self.direction_of} rising", f"{self.link} {self.direction_of} falling")
+
+    def columns(self, kin: Kinematics) -> list:
+        """The torque on the crank (N.m) of each direction's expressions: functions of phi1."""
+        return [self._torque_of(kin, self.increasing), self._torque_of(kin, self.decreasing)]
+
+    def values(self, kin: Kinematics, omega1) -> list:
+        """Which column acts (1) and which does not (0), by the chosen velocity's sign."""
+        return list(self._selectors(kin, omega1))
+
+    def switch_angles(self, mechanism: Mechanism) -> list[float]:
+        """The chosen coordinate's extremes: where its velocity changes sign."""
+        found = mechanism.stationary_angles(self._rate)
+        if not found:
+            raise DefinitionError(f"load on {self.link}: {self.direction_of} never changes direction over the "
+                                  "turn: give one expression without direction_of")
+        return [a for a, _ in found]
+
+
+@dataclass
+class Spring:
+    """The spring part of a spring-damper: tension k (d - d0) between points a (on link_a) and b."""
+
+    a: str
+    b: str
+    link_a: str
+    link_b: str
+    k: float
+    d0: float
+    position_only = True
+    category = TECHNOLOGICAL
+
+    def geometry(self, kin):
+        xa, ya, dxa, dya, _, _ = kin.point(self.a)
+        xb, yb, dxb, dyb, _, _ = kin.point(self.b)
+        ex, ey = xb - xa, yb - ya
+        d = np.hypot(ex, ey)
+        if np.any(d == 0.0):
+            raise DefinitionError(f"spring_damper {self.a}-{self.b}: the points meet (d = 0): no line of action")
+        ux, uy = ex / d, ey / d
+        dd = ux * (dxb - dxa) + uy * (dyb - dya)         # dd/dphi1
+        return d, ux, uy, dd
+
+    def tension(self, kin, omega1=None):
+        d, _, _, _ = self.geometry(kin)
+        return self.k * (d - self.d0)
+
+    def torque(self, kin: Kinematics, omega1=None):
+        _, _, _, dd = self.geometry(kin)
+        return -self.tension(kin, omega1) * dd
+
+    def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
+        _, ux, uy, _ = self.geometry(kin)
+        t = self.tension(kin, omega1)
+        # a tension pulls a towards b and b towards a
+        return [AppliedLoad(self.link_a, self.a, t * ux, t * uy), AppliedLoad(self.link_b, self.b, -t * ux, -t * uy)]
+
+
+@dataclass
+class Damper(Spring):
+    """The damper part: tension c dd/dt, linear in omega1 (tabulated as a viscous coefficient)."""
+
+    position_only = False
+    linear_in_omega1 = True
+
+    def tension(self, kin, omega1=None):
+        _, _, _, dd = self.geometry(kin)
+        return self.k * dd * np.asarray(omega1, dtype=float)     # k holds c here
+
+
+def parse_user_load(spec, mechanism: Mechanism, links: set[str], values: dict, where: str) -> list:
+    """The load objects of one ``[[loads]]`` entry of kind force, couple or spring_damper."""
+    kind = spec.get("kind")
+    known = known_names(mechanism)
+
+    def expression(text, key):
+        expr = Expression(str(text), f"{where}: {kind} {key}")
+        strange = expr.names - known
+        if strange:
+            raise DefinitionError(f"{where}: {kind} {key} = {text!r} uses unknown name(s) {', '.join(sorted(strange))} "
+                                  "(known: parameters, phi1, the unknowns, P_x and P_y of each point)")
+        return expr
+
+    def link_of(key="link"):
+        link = spec.get(key)
+        if link not in links:
+            raise DefinitionError(f"{where}: {kind} needs {key} = one of the links ({', '.join(sorted(links))}), got {link!r}")
+        return link
+
+    def point_of(key="point"):
+        point = spec.get(key)
+        if point not in mechanism.point_names:
+            raise DefinitionError(f"{where}: {kind} needs {key} = one of the points "
+                                  f"({', '.join(mechanism.point_names)}), got {point!r}")
+        return point
+
+    if kind in ("force", "couple"):
+        keys = ("fx", "fy") if kind == "force" else ("moment",)
+        link = link_of()
+        point = point_of() if kind == "force" else None
+        direction = spec.get("direction_of")
+        if direction is None:
+            if not any(k in spec for k in keys):
+                raise DefinitionError(f"{where}: {kind} needs {' or '.join(keys)} (expressions)")
+            return [ExpressionLoad(link, point, {k: expression(spec[k], k) for k in keys if k in spec},
+                                   mechanism=mechanism)]
+        if "." in str(direction):
+            p, _, axis = str(direction).partition(".")
+            if p not in mechanism.point_names or axis not in ("x", "y"):
+                raise DefinitionError(f"{where}: direction_of = {direction!r} must be POINT.x, POINT.y or an unknown")
+        elif direction not in mechanism.unknown_names:
+            raise DefinitionError(f"{where}: direction_of = {direction!r} must be POINT.x, POINT.y or an unknown "
+                                  f"({', '.join(mechanism.unknown_names)})")
+        sides = {}
+        for side in ("increasing", "decreasing"):
+            table = spec.get(side)
+            if not isinstance(table, dict) or not any(k in table for k in keys):
+                raise DefinitionError(f"{where}: {kind} with direction_of needs {side} = {{ {keys[0]} = \"...\" }}")
+            sides[side] = {k: expression(table[k], f"{side}.{k}") for k in keys if k in table}
+        return [ExpressionLoad(link, point, sides["increasing"], sides["decreasing"], str(direction), mechanism)]
+    if kind == "spring_damper":
+        pair = spec.get("links")
+        if not isinstance(pair, list) or len(pair) != 2 or any(l not in links | {"ground"} for l in pair):
+            raise DefinitionError(f"{where}: spring_damper needs links = [link of point a, link of point b]")
+        a, b = point_of("a"), point_of("b")
+        k = float(expression(spec.get("stiffness", "0"), "stiffness").evaluate(values))
+        c = float(expression(spec.get("damping", "0"), "damping").evaluate(values))
+        d0 = float(expression(spec.get("free_length", "0"), "free_length").evaluate(values))
+        for name, v in (("stiffness", k), ("damping", c), ("free_length", d0)):
+            if not (np.isfinite(v) and v >= 0):
+                raise DefinitionError(f"{where}: spring_damper {name} = {v:g} must be finite and >= 0")
+        out = [Spring(a, b, pair[0], pair[1], k, d0)] if k else []
+        return out + ([Damper(a, b, pair[0], pair[1], c, 0.0)] if c else [])
+    raise DefinitionError(f"{where}: not a user load kind: {kind!r}")
