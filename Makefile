@@ -25,7 +25,7 @@ $(STAMP): pyproject.toml
 venv: $(STAMP)
 
 fmu: $(STAMP)
-	for s in seed000 seed001 seed002 seed003 seed004; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
+	for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
 	$(BIN)/crankfmu fmu dc_pi --drive --out build/fmus
 
 demo: fmu
@@ -35,6 +35,12 @@ demo: fmu
 	$(BIN)/crankfmu sweep seed000 --param J_flywheel=0:20:100 --param B=10:30:100 --out $(OUT)/seed000-sweep --restart
 	$(BIN)/crankfmu equilibrium seed001 --omega 15,10,7,5 --out $(OUT)/seed001
 	$(BIN)/crankfmu flywheel seed003 --delta 0.05 --out $(OUT)/seed003
+	# the beam pumping unit (data files only): gearbox torque with and without counterbalance, a run
+	$(BIN)/crankfmu equilibrium pumpjack --omega 0.838 --out $(OUT)/pumpjack
+	$(BIN)/crankfmu equilibrium pumpjack --omega 0.838 --set m_cw=0 --out $(OUT)/pumpjack-no-counterbalance
+	$(BIN)/crankfmu simulate pumpjack --method fast --out $(OUT)/pumpjack
+	$(BIN)/crankfmu draw pumpjack --out $(OUT)/pumpjack/mechanism.png
+	$(BIN)/crankfmu animate pumpjack --result $(OUT)/pumpjack --out $(OUT)/pumpjack/run.gif
 	# the papers' mechanism figures beside each study's other figures, and one animation per mechanism
 	$(BIN)/crankfmu draw seed000 --out $(OUT)/mechanism_fig2.png
 	$(BIN)/crankfmu draw seed001 --out $(OUT)/seed001/mechanism_fig1.png

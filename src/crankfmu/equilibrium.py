@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .dynamics.inverse import EquilibriumMoment, equilibrium_moment
-from .dynamics.loads import SliderForce
+from .dynamics.loads import TECHNOLOGICAL
 from .dynamics.reactions import JointReactions, joint_reactions
 from .errors import ParameterError
 from .output import pyplot, turn_axis
@@ -74,10 +74,16 @@ def parse_speeds(text) -> list[float]:
 def cycle_breaks(model) -> list[float]:
     """Crank angles (rad) where a load jumps at constant forward speed, with 0 and 2 pi."""
     breaks = {0.0, TWO_PI}
-    for load in model.reduced.loads:
-        if isinstance(load, SliderForce):
-            breaks |= set(load.switch_angles(model.mechanism))
+    for load in model.reduced.sliders:        # every switched load: slider forces, direction-dependent loads
+        breaks |= set(load.switch_angles(model.mechanism))
     return sorted(breaks)
+
+
+def technological_torque(model, phi1, omega1) -> np.ndarray:
+    """The technological loads reduced to the crank (N.m) at crank angles phi1 and speed omega1."""
+    kin = model.mechanism.kinematics(phi1)
+    return sum((load.torque(kin, omega1) for load in model.reduced.loads if load.category == TECHNOLOGICAL),
+               np.zeros_like(kin.phi1))
 
 
 def cycle_mean(fn, breaks, max_width=math.radians(5.0), nodes=16) -> float:
@@ -106,9 +112,11 @@ def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> lis
     model = scenario.build()
     phi1 = np.linspace(0.0, TWO_PI, n_angles, endpoint=False)
     breaks = cycle_breaks(model)
-    tech_work = sum(load.work_per_cycle for load in model.reduced.loads if isinstance(load, SliderForce))
     results = []
     for w in speeds:
+        # the technological loads' work per turn forward (negative: they take work), at this speed
+        # (a viscous load's depends on it); a slider force's is also known in closed form (work_per_cycle)
+        tech_work = TWO_PI * cycle_mean(lambda p: technological_torque(model, p, w), breaks)
         moment = equilibrium_moment(model.reduced, phi1, w)
         mean = cycle_mean(lambda p: equilibrium_moment(model.reduced, p, w).total, breaks)
         results.append(SpeedResult(

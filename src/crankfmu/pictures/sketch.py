@@ -86,6 +86,13 @@ class Sketch:
                 guide = first if block == second else second
                 sketch.slides.append(Slide(j.name, j.point, j.axis, guide, block))
         blocks = {s.block for s in sketch.slides}
+        # points carried by a link besides its joints (a horsehead, a coupler point, a crank arm's
+        # counterweight): defined from one of the link's points by terms turning with its angle
+        for p, (base, angles) in _point_terms(definition).items():
+            for link, pts in points_of.items():
+                angle = definition.links[link].angle
+                if p not in pts and base in pts and angles and angles <= {angle}:
+                    pts.append(p)
         sketch.link_points = {l: pts for l, pts in points_of.items() if l not in blocks and len(pts) >= 2}
         return sketch
 
@@ -159,6 +166,21 @@ def _point_sources(definition) -> dict[str, str | None]:
         names = [n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and n.id in sources]
         sources[name] = names[0] if names else None
     return sources
+
+
+def _point_terms(definition) -> dict[str, tuple[str | None, set[str]]]:
+    """Each point's base point and the angle variables of its own terms, from the [points] text."""
+    import ast
+
+    variables = set(definition.variables)
+    out = {}
+    for name, text in definition.point_sources.items():
+        tree = ast.parse(text, mode="eval")
+        bases = [n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and n.id in definition.points]
+        angles = {n.id for call in ast.walk(tree) if isinstance(call, ast.Call) and getattr(call.func, "id", "") == "u"
+                  for n in ast.walk(call) if isinstance(n, ast.Name) and n.id in variables}
+        out[name] = (bases[0] if bases else None, angles)
+    return out
 
 
 def is_colinear(xy: np.ndarray, scale: float) -> bool:
