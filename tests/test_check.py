@@ -60,6 +60,8 @@ BAD_FILES = {
                              "cannot be assembled over the whole crank turn.*Newton's method did not converge", None),
     "too few contours": (("[[contours]]\nname = \"O-A-P-D-O\"", "[[nocontours]]\nname = \"O-A-P-D-O\""), None, 2,
                          "1 contour\\(s\\) give 2 equations for 4 unknowns", None),
+    "too many contours": (("[points]\n", "[[contours]]\nname = \"again\"\nequation = \"l1*u(phi1) + l2*u(phi2) + l3*u(phi3) - l0*u(0)\"\n\n[points]\n"),
+                          None, 2, "3 contour\\(s\\) give 6 equations for 4 unknowns", None),
     "branch never assembles": (None, ('l3 = { value = 0.4,', 'l3 = { value = 0.1,'), 1,
                                "cannot be assembled over the whole crank turn.*l3 = 0.1", None),
     "TOML syntax": (None, ('[parameters]', '[parameters'), 2, "cannot be read.*line", "sixbar_scenario.toml, line"),

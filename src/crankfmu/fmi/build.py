@@ -236,6 +236,24 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
     return parseString(text).toprettyxml(encoding="UTF-8", indent="  ")
 
 
+def pythonfmu_binaries() -> dict[str, Path]:
+    """pythonfmu's platform libraries, from its installed distribution's files: the pythonfmu that
+    ``import`` finds may be the copy inside an FMU this process has loaded (pythonfmu puts an FMU's
+    resources first on sys.path), which ships without its binaries, and FmuBuilder would then
+    silently build an FMU without them."""
+    from importlib.metadata import PackageNotFoundError, distribution
+
+    try:
+        dist = distribution("pythonfmu")
+    except PackageNotFoundError:
+        raise CrankfmuError("build: pythonfmu is not installed (python -m pip install pythonfmu)") from None
+    found = {Path(str(f)).parent.name: Path(dist.locate_file(f)) for f in dist.files or []
+             if "resources/binaries/" in str(f) and Path(str(f)).suffix in (".so", ".dll", ".dylib")}
+    if "linux64" not in found or not found["linux64"].is_file():
+        raise CrankfmuError(f"build: pythonfmu's linux64 library is missing from its installation ({dist.locate_file('pythonfmu')})")
+    return found
+
+
 def compile_shim(name: str, out: Path) -> Path:
     """gcc the shim for model ``name``; the FMI headers come with fmpy."""
     import fmpy
@@ -335,13 +353,16 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None) -> Pat
         reference = source.reference() if source.reference else None
         with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
             for item in zin.infolist():
+                if item.filename.startswith("binaries/"):
+                    continue                  # pythonfmu's binaries come from its installation, below
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
                     data = complete_model_description(data, slave_units, slave_parameters, source)
                     docs = source.documentation(name, data, slave_parameters, reference)
-                if item.filename == binary:
-                    item.filename = f"binaries/linux64/{name}_pythonfmu.so"
                 zout.writestr(item, data)
+            for platform, library in pythonfmu_binaries().items():
+                inner = f"{name}_pythonfmu.so" if platform == "linux64" else f"{name}{library.suffix}"
+                zout.write(library, f"binaries/{platform}/{inner}")
             zout.write(shim, binary)
             zout.writestr("resources/python_env.txt", python_env())
             for path, content in docs.items():
