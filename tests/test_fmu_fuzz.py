@@ -29,7 +29,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-FMUS = ("FourBar", "ThreeLoop", "SliderCrank", "Shaper", "QuickReturn", "Drive")
+FMUS = ("FourBar", "ThreeLoop", "SliderCrank", "Shaper", "QuickReturn", "Drive", "PumpJack")
 GROUPS = ("parameters", "designs", "calls", "cycles", "instances")
 TIME_LIMIT = 600     # s per child: a hang fails the case
 CASES = [(fmu, group, logging) for fmu in FMUS for group in GROUPS for logging in (False, True)]

@@ -123,10 +123,10 @@ static void shim_logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Statu
 {
     Shim* s = (Shim*)env;
     char buffer[8192], escaped[16384];
-    va_list ap;
-    va_start(ap, message);
-    vsnprintf(buffer, sizeof buffer, message, ap);
-    va_end(ap);
+    /* pythonfmu passes the text itself, with no arguments (Fmi2Logger::debugLog), not a format: read
+       as a format, a '%' in the text (a description's "10 % slip") made vsnprintf read arguments that
+       are not there and crash the host */
+    snprintf(buffer, sizeof buffer, "%s", message ? message : "");
     if (status > s->worst) s->worst = status;
     /* pythonfmu's own messages (a Python exception) come without a category */
     if (!category || !category[0]) category = status_category(status);
