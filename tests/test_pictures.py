@@ -109,6 +109,25 @@ def test_a_links_with_three_joints_off_one_line_is_a_plate_and_a_slider_is_a_blo
     assert {(s.block, s.guide) for s in shaper.slides} == {("block", "lever"), ("ram", "ground")}
 
 
+def test_a_mechanism_without_joints_is_drawn_from_its_point_definitions(tmp_path):
+    """No [[joints]]: each point is joined to the point it is defined from (A from O, B from A,
+    P from A, D from P), mass centres aside."""
+    import re
+    import shutil
+
+    text = (USER.parent / "sixbar.toml").read_text()
+    (tmp_path / "sixbar.toml").write_text(re.sub(r"\[\[joints\]\].*?(?=\n\[assembly\])", "", text, flags=re.S))
+    shutil.copy(USER, tmp_path / "scenario.toml")
+    scenario = load_scenario(str(tmp_path / "scenario.toml"))
+    sketch = Sketch.of(scenario.assembled_mechanism()[0])
+    assert not sketch.link_points and sorted(sketch.segments) == [("", "A", "B"), ("", "A", "P"), ("", "O", "A"),
+                                                                  ("", "P", "D")]
+    fig = draw_figure(scenario, 40.0, ["velocities", "instant_centres"])
+    assert overlapping_texts(fig) == []
+    save(fig, tmp_path / "n.png")
+    assert ink(tmp_path / "n.png") > 0.02
+
+
 @pytest.mark.parametrize("which", MECHANISMS)
 def test_animation_frames_keep_their_labels_apart_and_the_gif_has_every_frame(which, tmp_path):
     scenario = load_scenario(MECHANISMS[which])

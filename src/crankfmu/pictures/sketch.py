@@ -97,12 +97,13 @@ class Sketch:
         return sketch
 
     def _from_points(self):
-        """Without joints: each point joined to the point its definition starts from."""
+        """Without joints: each point joined to the point its definition starts from, except the
+        mass centres of turning links (inside their bars; a translating link's centre is its point)."""
         definition = self.mechanism.definition
-        centres = set(self.centres.values())
-        for name, source in _point_sources(definition).items():
-            if name not in centres and source is not None:
-                self.segments.append(("", source, name))
+        inside = {ld.centre for ld in definition.links.values() if ld.angle in definition.variables}
+        for name, (base, _) in _point_terms(definition).items():
+            if name not in inside and base is not None:
+                self.segments.append(("", base, name))
 
     @property
     def points(self) -> list[str]:
@@ -154,18 +155,6 @@ class Sketch:
         allxy = np.concatenate(list(frames.xy.values()))
         span = np.ptp(allxy, axis=0)
         return float(max(span.max(), 1e-9))
-
-
-def _point_sources(definition) -> dict[str, str | None]:
-    """Each point's base point from the mechanism file's ``[points]`` text (fixed points: None)."""
-    import ast
-
-    sources: dict[str, str | None] = {p: None for p in definition.fixed_points}
-    for name, text in definition.point_sources.items():
-        tree = ast.parse(text, mode="eval")
-        names = [n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and n.id in sources]
-        sources[name] = names[0] if names else None
-    return sources
 
 
 def _point_terms(definition) -> dict[str, tuple[str | None, set[str]]]:
