@@ -100,9 +100,16 @@ class MovementEquation:
         if self.sliders and mode.direction != 0:
             _, forces = self.reduced.slider_schedule()
             side = 0 if mode.direction > 0 else 1
-            columns = [c for load in self.sliders for c in load.columns(kin)]
-            for s, column in enumerate(columns):
-                q += forces[mode.interval, side, s] * column[0]
+            s = 0
+            for load in self.sliders:
+                n = len(load.column_names)
+                factors = forces[mode.interval, side, s:s + n]
+                s += n
+                # a direction-dependent load has one column switched on per interval: the other
+                # direction's expressions are not evaluated on this hot path
+                for factor, column in zip(factors, load.columns(kin, factors != 0.0)):
+                    if factor != 0.0:
+                        q += factor * column[0]
         return J[0], half_dJ[0], q
 
     def rhs(self, t, y, mode: Mode):

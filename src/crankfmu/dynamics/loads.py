@@ -167,8 +167,8 @@ class SliderForce:
     def column_names(self) -> tuple[str, ...]:
         return (f"{self.point}.{'xy'[self.axis]}",)
 
-    def columns(self, kin: Kinematics) -> list:
-        """dx/dphi1 (m/rad): the force's lever to the crank."""
+    def columns(self, kin: Kinematics, needed=None) -> list:
+        """dx/dphi1 (m/rad): the force's lever to the crank (``needed``: which columns a caller uses)."""
         return [kin.point(self.point)[2 + self.axis]]
 
     def values(self, kin: Kinematics, omega1) -> list:

@@ -116,9 +116,11 @@ class ExpressionLoad:
     def column_names(self) -> tuple[str, ...]:
         return (f"{self.link} {self.direction_of} rising", f"{self.link} {self.direction_of} falling")
 
-    def columns(self, kin: Kinematics) -> list:
-        """The torque on the crank (N.m) of each direction's expressions: functions of phi1."""
-        return [self._torque_of(kin, self.increasing), self._torque_of(kin, self.decreasing)]
+    def columns(self, kin: Kinematics, needed=(True, True)) -> list:
+        """The torque on the crank (N.m) of each direction's expressions: functions of phi1; a column
+        not ``needed`` is left at zero, unevaluated."""
+        return [self._torque_of(kin, which) if use else np.zeros_like(kin.phi1)
+                for which, use in zip((self.increasing, self.decreasing), needed)]
 
     def values(self, kin: Kinematics, omega1) -> list:
         """Which column acts (1) and which does not (0), by the chosen velocity's sign."""
