@@ -89,7 +89,8 @@ def pure_python_run(rtol: float, repeats: int) -> dict:
     code = f"""
 import json, statistics, time
 from crankfmu.scenario import load_scenario
-from crankfmu.integrators.fast import FastIntegrator, kn
+from crankfmu.integrators.fast import FastIntegrator
+from crankfmu.integrators.kernel import COMPILED
 import numpy as np
 m = load_scenario("seed000").build()
 times = np.linspace(0.0, 2.0, 2001)
@@ -97,7 +98,7 @@ I = FastIntegrator({rtol!r})
 ts = []
 for _ in range({repeats}):
     t = time.perf_counter(); tr = I.run(m.equation, 0.0, m.y0, 2.0, output_times=times); ts.append(time.perf_counter() - t)
-print(json.dumps({{"compiled": kn.COMPILED, "time": statistics.median(ts), "omega": tr.outputs["state"][1].tolist(),
+print(json.dumps({{"compiled": COMPILED, "time": statistics.median(ts), "omega": tr.outputs["state"][1].tolist(),
                    "n_rhs": tr.n_rhs}}))
 """
     env = {**os.environ, "CRANKFMU_JIT": "0"}
@@ -118,7 +119,9 @@ def main(argv=None) -> int:
 
     import crankfmu
     from crankfmu.integrators import SolveIvpIntegrator, make_integrator
-    from crankfmu.integrators.fast import FastIntegrator, kn
+    from crankfmu.dynamics.tabulated import table_of
+    from crankfmu.integrators.fast import FastIntegrator
+    from crankfmu.integrators.kernel import COMPILED
     from crankfmu.progress import ProgressBar
     from crankfmu.scenario import load_scenario
 
@@ -127,7 +130,7 @@ def main(argv=None) -> int:
     truth = crankfmu.simulate(scenario, method="reference", rtol=1e-13, output_times=grid).omega1
     model = scenario.build()
     started = time.perf_counter()
-    table = model.reduced.table()
+    table = table_of(model.reduced)
     table_time = time.perf_counter() - started
     rows = []
 
@@ -139,7 +142,7 @@ def main(argv=None) -> int:
     jobs = []
     fast_rtols = (1e-8, 1e-11) if args.quick else FAST_RTOLS
     for rtol in fast_rtols:
-        jobs.append(("crankfmu fast (numba)" if kn.COMPILED else "crankfmu fast (no numba)", rtol))
+        jobs.append(("crankfmu fast (numba)" if COMPILED else "crankfmu fast (no numba)", rtol))
     peer_rtols = (1e-8, 1e-11) if args.quick else PEER_RTOLS
     for method in PEERS:
         for rtol in peer_rtols:
@@ -202,7 +205,7 @@ def main(argv=None) -> int:
     bar(len(jobs) + 4)
     started = time.perf_counter()
     seven = load_scenario("seed001").build()
-    seven_table = seven.reduced.table()
+    seven_table = table_of(seven.reduced)
     seven_time = time.perf_counter() - started
     bar(len(jobs) + 6)
     bar.close()

@@ -155,8 +155,8 @@ def test_motor_line_with_a_jump_slides_on_the_switch(scenario):
     assert abs(result.energy_balance()["residual"]) < 1e-8
 
 
-def test_dopri5_stepper_agrees_with_the_reference_and_ends_on_the_kink(reference, scenario):
-    """The FMU's integrator in process: error-controlled, event on omega_switch, rtol honoured."""
+def test_dopri5_through_the_common_interface_agrees_with_the_reference_and_ends_on_the_kink(reference, scenario):
+    """scipy's RK45 segment by segment: error-controlled, event on omega_switch, rtol honoured."""
     d = crankfmu.simulate(scenario, method="dopri5", rtol=1e-10)
     assert np.max(np.abs(d.omega1 - reference.omega1) / np.abs(reference.omega1)) < 1e-7
     (t_kink, _), = d.trajectory.events

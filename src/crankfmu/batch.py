@@ -24,7 +24,9 @@ import numpy as np
 
 from .dynamics import MotorLine
 from .errors import CrankfmuError
-from .integrators.fast import TABLE_TOLERANCE, kn, parameters
+from .dynamics.tabulated import table_of
+from .integrators.fast import TABLE_TOLERANCE
+from .integrators.kernel import drivers, layout
 from .scenario import load_scenario
 
 #: parameters the kernel takes per design: designs differing only in these share a table
@@ -72,7 +74,7 @@ class SteadyBatch:
         if key not in self._models:
             try:
                 model = self.scenario.with_params(**dict(key)).build()
-                self._models[key] = (model, model.reduced.table(TABLE_TOLERANCE))
+                self._models[key] = (model, table_of(model.reduced, TABLE_TOLERANCE))
             except CrankfmuError as exc:
                 self._models[key] = exc
         return self._models[key]
@@ -98,16 +100,17 @@ class SteadyBatch:
                 result.failed += [{**designs[i], "reason": str(built)} for i in members]
                 continue
             model, table = built
-            params = np.zeros((len(members), kn.PARAM_SIZE))
+            params = np.zeros((len(members), layout.PARAM_SIZE))
             guesses = np.zeros(len(members))
             for row, i in enumerate(members):
                 v = checked[i]
                 motor = MotorLine(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
-                params[row] = parameters(motor, v["J_flywheel"], 0.0, self.rtol, self.rtol)
+                params[row] = layout.parameters(motor, v["J_flywheel"], 0.0, self.rtol, self.rtol)
                 guesses[row] = _omega_guess(table, v["J_flywheel"], motor, self._phi_grid)
-            out = np.zeros((len(members), kn.STEADY_SIZE))
-            kn.steady_batch(params, float(model.y0[0]), guesses, self.shoot_tol, self.max_turns,
-                            table.coefficients, table.switch_angles, table.forces, out)
+            out = np.zeros((len(members), layout.STEADY_SIZE))
+            drivers.steady_batch(params, float(model.y0[0]), guesses, self.shoot_tol, self.max_turns,
+                                 table.coefficients, table.switch_angles, table.forces, out,
+                                 *layout.Workspace(table.coefficients.shape[0]).arrays())
             for row, i in enumerate(members):
                 status = int(out[row, 6])
                 if status != 0:

@@ -205,29 +205,6 @@ def slider_schedule(mechanism: Mechanism, sliders: list[SliderForce]):
     return switch, forces
 
 
-def interval_bounds(switch_angles: np.ndarray, phi1: float, direction: int):
-    """(k, phi_lo, phi_hi): the switch interval holding crank angle ``phi1`` (rad, unwrapped) and its
-    unwrapped bounds (rad) around it. On a switch angle the interval the motion enters wins
-    (``direction`` +1: the one starting there, -1: the one ending there). Without switch angles:
-    (0, -inf, inf)."""
-    m = switch_angles.size
-    if m == 0:
-        return 0, -np.inf, np.inf
-    wrapped = phi1 - TWO_PI * np.floor(phi1 / TWO_PI)
-    k = int(np.searchsorted(switch_angles, wrapped, side="right")) - 1
-    k %= m
-    if direction < 0 and wrapped == switch_angles[k]:
-        k = (k - 1) % m
-    offset = (wrapped - switch_angles[k]) % TWO_PI
-    return k, phi1 - offset, phi1 - offset + interval_width(switch_angles, k)
-
-
-def interval_width(switch_angles: np.ndarray, k: int) -> float:
-    """Angle (rad) from switch angle k to the next one round the turn."""
-    end = switch_angles[k + 1] if k + 1 < switch_angles.size else switch_angles[0] + TWO_PI
-    return float(end - switch_angles[k])
-
-
 @dataclass
 class DeadPointMoment:
     """Technological moment of seed 000 eq. 18 acting on a rocker, counter-clockwise positive.

@@ -37,22 +37,10 @@ class ReducedModel:
         self.J_flywheel = float(J_flywheel)        # kg.m^2
         self.loads = loads
         self.velocity_dependent = any(not load.position_only for load in loads)
-        self._tables = {}
         # switched loads: constant or tabulated between switch angles, by direction (slider forces,
         # direction-dependent user loads)
         self.sliders = [load for load in loads if hasattr(load, "switch_angles") and not load.position_only]
         self._slider_schedule = None
-
-    def table(self, tolerance: float = 1e-11):
-        """The periodic tabulation of this model (see dynamics.tabulated), built once per tolerance.
-
-        The flywheel is not in it (a parameter of the fast integrators), so designs that differ
-        only in the flywheel or the motor share one table.
-        """
-        if tolerance not in self._tables:
-            from .tabulated import tabulate
-            self._tables[tolerance] = tabulate(self, tolerance)
-        return self._tables[tolerance]
 
     def slider_schedule(self):
         """(switch_angles rad, forces N) of the slider forces (see loads.slider_schedule), built once."""

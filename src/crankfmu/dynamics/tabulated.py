@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -152,3 +153,19 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
     switch, forces = reduced.slider_schedule()
     return ReducedTable(table.coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(name for load in sliders for name in load.column_names))
+
+
+#: tables built in this process, per model and tolerance: they live as long as their model
+_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def table_of(reduced: ReducedModel, tolerance: float = 1e-11) -> ReducedTable:
+    """The table of ``reduced`` to ``tolerance``, built once per model and tolerance.
+
+    The flywheel is not in it (a parameter of the fast integrators), so designs that differ only
+    in the flywheel or the motor share one table.
+    """
+    tables = _TABLES.setdefault(reduced, {})
+    if tolerance not in tables:
+        tables[tolerance] = tabulate(reduced, tolerance)
+    return tables[tolerance]

@@ -43,9 +43,9 @@ PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's r
 #: what runs inside an FMU, relative to the package: the core on numpy alone and the FMI shell's
 #: slave. Studies, plots, sweeps, the CLI, the harness, the build step and the scipy-based
 #: integrators stay out (tests/test_fmu_dropin.py runs the FMUs where scipy cannot be imported).
-RUNTIME = ("__init__.py", "contract.py", "errors.py", "expressions.py", "numerics.py", "scenario.py",
+RUNTIME = ("__init__.py", "compiled.py", "contract.py", "errors.py", "expressions.py", "numerics.py", "scenario.py",
            "mechanisms", "dynamics", "scenarios",
-           "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "integrators/kernel.py",
+           "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "integrators/kernel",
            "integrators/tableau.py", "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/drive.py",
            "parameters.py", "datafiles.py", "drives")
 

@@ -30,13 +30,16 @@ import numpy as np
 
 from ..contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS
 from ..dynamics import MotorLine
-from ..integrators.fast import TABLE_TOLERANCE, FastStepper, kn
+from ..dynamics import modes
+from ..dynamics.tabulated import table_of
+from ..integrators.fast import TABLE_TOLERANCE, FastStepper
+from ..integrators.kernel import COMPILED, layout
 from ..parameters import Parameter
 from ..scenario import load_scenario
 from .core import SlaveCore
 
 #: where each output sits in the kernel's output row (E_kin is computed from J_red and omega1)
-ROW = {name: i for i, name in enumerate(kn.ROW_FIELDS)}
+ROW = {name: i for i, name in enumerate(layout.ROW_FIELDS)}
 (TAU_EXT,) = INPUTS
 
 #: built designs of this process, most recent last: an instance that is reset, or freed and
@@ -59,7 +62,7 @@ def build_design(scenario, values: dict):
         _DESIGNS[key] = _DESIGNS.pop(key)           # most recent last
         return _DESIGNS[key]
     model = scenario.with_params(**values).build()
-    design = (model, model.reduced.table(TABLE_TOLERANCE))
+    design = (model, table_of(model.reduced, TABLE_TOLERANCE))
     _DESIGNS[key] = design
     while len(_DESIGNS) > _DESIGNS_KEPT:
         del _DESIGNS[next(iter(_DESIGNS))]
@@ -91,10 +94,10 @@ class FmuCore(SlaveCore):
         self.parameter(Parameter(
             "rtol", self.scenario.experiment.tolerance, "1", min=0.0, min_inclusive=False,
             description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4), compiled)"))
-        if not kn.COMPILED:     # the kernel runs as numpy code: its overflow warnings stay quiet
+        if not COMPILED:     # the kernel runs as numpy code: its overflow warnings stay quiet
             self.quiet_entry_points = (*self.quiet_entry_points, "do_step")
         self.attach()
-        if not kn.COMPILED:
+        if not COMPILED:
             self.log(f"numba is not in use in the Python at {sys.prefix} (not importable, or CRANKFMU_JIT=0): "
                      "the FMU steps its compiled kernel as plain Python, correct but about 10x slower per "
                      "step; to enable it: python -m pip install numba (in that Python)", "warning")
@@ -103,7 +106,8 @@ class FmuCore(SlaveCore):
         row = self.row
         if name == "E_kin":
             J, omega = ROW["J_red"], ROW["omega1"]
-            return lambda: 0.5 * float(row[J]) * float(row[omega]) ** 2
+            kinetic_energy = modes.python.kinetic_energy
+            return lambda: kinetic_energy(float(row[J]), float(row[omega]))
         i = ROW[name]
         return lambda: float(row[i])
 

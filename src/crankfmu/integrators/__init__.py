@@ -1,5 +1,11 @@
 """Integrators of the movement equation, all behind ``Integrator.run``.
 
+  fast         Dormand-Prince 5(4) compiled on the tabulated model (``kernel``), every switch
+               located: the FMUs' integrator and ``simulate``'s default
+  time_domain  scipy's solve_ivp, a segment per mode (the engine-based ``reference`` DOP853,
+               ``radau``, ``dopri5``: scipy's RK45): the independent checks
+  crank_angle  the papers' own schemes in the crank angle (seed 000 eq. 17, seed 003 eq. 3)
+
 The submodules are imported on first use: the FMUs ship the fast path only (``base``, ``fast``,
 ``kernel``, ``tableau``: numpy alone), the others need scipy.
 """
@@ -17,8 +23,8 @@ METHODS = ("fast", "reference", "radau", "dopri5", "badoiu-eq17", "lv-eq3")
 _WHERE = {
     "BadoiuEq17": "crank_angle", "CrankAngleScheme": "crank_angle", "LvEq3": "crank_angle",
     "FastIntegrator": "fast", "FastStepper": "fast",
-    "DormandPrinceIntegrator": "stepper", "DormandPrinceStepper": "stepper", "StepperState": "stepper",
-    "SolveIvpIntegrator": "time_domain", "radau": "time_domain", "reference": "time_domain",
+    "SolveIvpIntegrator": "time_domain", "dopri5": "time_domain", "radau": "time_domain",
+    "reference": "time_domain",
 }
 
 
@@ -36,8 +42,7 @@ def make_integrator(method: str, rtol: float | None = None, angle_step: float | 
     """
     from .crank_angle import BadoiuEq17, LvEq3
     from .fast import FastIntegrator
-    from .stepper import DormandPrinceIntegrator
-    from .time_domain import radau, reference
+    from .time_domain import dopri5, radau, reference
 
     if method == "fast":
         return FastIntegrator(rtol)
@@ -46,7 +51,7 @@ def make_integrator(method: str, rtol: float | None = None, angle_step: float | 
     if method == "radau":
         return radau(rtol)
     if method == "dopri5":
-        return DormandPrinceIntegrator(1e-10 if rtol is None else rtol)
+        return dopri5(rtol)
     step = math.radians(0.1) if angle_step is None else angle_step
     if method == "badoiu-eq17":
         return BadoiuEq17(step)
@@ -55,6 +60,5 @@ def make_integrator(method: str, rtol: float | None = None, angle_step: float | 
     raise ParameterError(f"unknown method {method!r}; valid methods: {', '.join(METHODS)}", "method")
 
 
-__all__ = ["METHODS", "BadoiuEq17", "CrankAngleScheme", "DormandPrinceIntegrator", "DormandPrinceStepper", "FastIntegrator", "FastStepper",
-           "Integrator", "LvEq3", "SolveIvpIntegrator", "StepperState", "Trajectory", "make_integrator",
-           "radau", "reference"]
+__all__ = ["METHODS", "BadoiuEq17", "CrankAngleScheme", "FastIntegrator", "FastStepper", "Integrator", "LvEq3",
+           "SolveIvpIntegrator", "Trajectory", "dopri5", "make_integrator", "radau", "reference"]

@@ -8,7 +8,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..dynamics.equation import SLIDE, STUCK, MovementEquation
+from ..dynamics.equation import MovementEquation
+from ..dynamics.modes import SLIDING, STUCK
 
 
 @dataclass
@@ -40,7 +41,7 @@ class Trajectory:
     def mode_at(self, times) -> np.ndarray | None:
         """Name of the mode (see ``modes``) at each time, or None when the run never slid on the
         motor switch nor got stuck (the outputs need the name only to tell those apart)."""
-        if not any(m in (SLIDE, STUCK) for _, m in self.modes):
+        if not any(m in (SLIDING, STUCK) for _, m in self.modes):
             return None
         starts = np.array([t for t, _ in self.modes])
         idx = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, len(starts) - 1)

@@ -92,7 +92,7 @@ class SolveIvpIntegrator(Integrator):
             i = min((k for k, te in enumerate(sol.t_events) if len(te)), key=lambda k: sol.t_events[k][0])
             t = float(sol.t_events[i][0])
             y = np.array(sol.y_events[i][0], dtype=float)
-            mode = equation.transition(mode, surfaces[i].kind, t, y)
+            mode = equation.transition(mode, surfaces[i].slot, t, y)
             events.append((t, surfaces[i].what))
             if mode.name != modes[-1][1]:
                 modes.append((t, mode.name))
@@ -112,3 +112,11 @@ def reference(rtol: float | None = None) -> SolveIvpIntegrator:
 def radau(rtol: float | None = None) -> SolveIvpIntegrator:
     """Radau IIA (implicit, order 5): a second, independent method for cross-checks."""
     return SolveIvpIntegrator("Radau", rtol=1e-11 if rtol is None else rtol, name="radau")
+
+
+def dopri5(rtol: float | None = None) -> SolveIvpIntegrator:
+    """scipy's RK45 (Dormand-Prince 5(4), explicit): the fast kernel's method family, stepped by
+    scipy's own implementation (an independent check of the compiled kernel's stepping). Default
+    rtol 1e-11: at 1e-10 the work integrals of seed 001 close the energy balance to 1.2e-9 only,
+    past the 1e-9 every engine-based run is held to."""
+    return SolveIvpIntegrator("RK45", rtol=1e-11 if rtol is None else rtol, name="dopri5")
