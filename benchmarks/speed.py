@@ -194,7 +194,7 @@ def main(argv=None) -> int:
     bar(len(jobs) + 3)
 
     # the steady-cycle sweep on Dask, and the seven-link model
-    from crankfmu.sweep import SweepAxis, run_sweep
+    from crankfmu.studies.sweep import SweepAxis, run_sweep
 
     side = int(round(math.sqrt(args.designs)))
     axes = [SweepAxis("J_flywheel", list(np.linspace(0.0, 20.0, side))), SweepAxis("B", list(np.linspace(10.0, 30.0, side)))]

@@ -14,7 +14,7 @@ from crankfmu.cli import main
 from crankfmu.dynamics.inverse import equilibrium_moment
 from crankfmu.dynamics.loads import SliderForce
 from crankfmu.dynamics.reactions import joint_reactions
-from crankfmu.equilibrium import equilibrium_study
+from crankfmu.studies.equilibrium import equilibrium_study
 from crankfmu.errors import AssemblyError, ParameterError
 
 SPEEDS = (15.0, 10.0, 7.0, 5.0)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import crankfmu
-from crankfmu.batch import steady_cycles
+from crankfmu.studies.batch import steady_cycles
 from crankfmu.dynamics.tabulated import tabulate
 from crankfmu.errors import ParameterError
 from crankfmu.dynamics.tabulated import table_of

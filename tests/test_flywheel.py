@@ -10,7 +10,7 @@ import pytest
 import crankfmu
 from crankfmu.cli import main
 from crankfmu.errors import AssemblyError, ParameterError
-from crankfmu.flywheel import design_flywheel, energy_swing, eq3_stability
+from crankfmu.studies.flywheel import design_flywheel, energy_swing, eq3_stability
 
 TARGET = 0.05
 
@@ -93,9 +93,9 @@ def test_flywheel_found_by_simulation_meets_the_target_in_a_time_domain_run(seed
 
 def test_no_flywheel_when_the_mechanism_already_meets_the_target(seed003):
     d = design_flywheel(seed003, 0.2)          # without a flywheel delta is 0.0618
-    assert d["J_F_simulated"] == 0.0
-    assert d["delta_achieved"] == d["delta_without_flywheel"] < 0.2
-    assert d["delta_achieved_crank_angle"] == pytest.approx(d["delta_achieved"], rel=1e-9)
+    assert d.J_F_simulated == 0.0
+    assert d.delta_achieved == d.delta_without_flywheel < 0.2
+    assert d.delta_achieved_crank_angle == pytest.approx(d.delta_achieved, rel=1e-9)
 
 
 def test_flywheel_outputs_written(flywheel_run):
@@ -109,21 +109,21 @@ def test_flywheel_outputs_written(flywheel_run):
 
 def test_eq3_stability_limit_near_the_linear_estimate(seed003):
     s = eq3_stability(seed003, [5.0, 9.0, 11.0, 20.0], turns=20, resolution_deg=0.05)
-    rows = {r["step_deg"]: r for r in s["rows"]}
+    rows = {r["step_deg"]: r for r in s.rows}
     assert rows[5.0]["stable"] and rows[9.0]["stable"]
     assert not rows[11.0]["stable"] and not rows[20.0]["stable"]
-    limit = s["limit"]["largest_stable_deg"]
+    limit = s.limit["largest_stable_deg"]
     # linearised: |1 - dphi B / (J omega1)| < 1 at the cycle's worst point, so the limit is at
     # least the estimate (taken at the worst point) and not far above it
-    assert s["linear_estimate_deg"] * 0.98 < limit < s["linear_estimate_deg"] * 1.2
+    assert s.linear_estimate_deg * 0.98 < limit < s.linear_estimate_deg * 1.2
     assert rows[5.0]["error"] < 0.15
 
 
 def test_a_bigger_flywheel_moves_the_eq3_limit(seed003):
     """2 J omega1 / B: ten times the inertia, about ten times the stable step."""
     s = eq3_stability(seed003.with_params(J_flywheel=9 * 31.0), [20.0, 60.0], turns=6)
-    assert s["linear_estimate_deg"] > 80
-    assert all(r["stable"] for r in s["rows"])
+    assert s.linear_estimate_deg > 80
+    assert all(r["stable"] for r in s.rows)
 
 
 def test_bad_flywheel_inputs(seed003, capsys, tmp_path):

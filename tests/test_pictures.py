@@ -15,7 +15,7 @@ import pytest
 from crankfmu import load_scenario
 from crankfmu.cli import main
 from crankfmu.errors import CrankfmuError, ParameterError
-from crankfmu.output import pyplot
+from crankfmu.plots import pyplot
 from crankfmu.pictures.animate import animate, animation_figure
 from crankfmu.pictures.draw import OVERLAYS, draw_figure, save
 from crankfmu.pictures.labels import overlapping_texts
@@ -208,8 +208,8 @@ def test_draw_and_animate_commands_write_their_files(tmp_path, capsys):
 
 
 def test_velocity_plan_has_no_overlapping_labels_and_a_square_frame_around_the_polygon(tmp_path):
-    from crankfmu.kinematic_plots import plot_velocity_plan
-    from crankfmu.kinematic_study import values_at
+    from crankfmu.plots import plot_velocity_plan
+    from crankfmu.studies.kinematics import values_at
 
     scenario = load_scenario("seed002")
     _, detail = values_at(scenario, 30.0)
@@ -237,7 +237,8 @@ def test_velocity_plan_has_no_overlapping_labels_and_a_square_frame_around_the_p
 def test_steady_map_is_logarithmic_with_labelled_target_contours(tmp_path):
     from matplotlib.colors import LogNorm
 
-    from crankfmu.sweep import SweepAxis, plot_steady, run_sweep
+    from crankfmu.plots import plot_steady
+    from crankfmu.studies.sweep import SweepAxis, run_sweep
 
     scenario = load_scenario("seed000")
     axes = [SweepAxis.parse("J_flywheel=0:20:6", scenario), SweepAxis.parse("B=10:30:5", scenario)]

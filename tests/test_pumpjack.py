@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from crankfmu import load_scenario, simulate
-from crankfmu.equilibrium import cycle_breaks, cycle_mean, technological_torque
+from crankfmu.studies.equilibrium import cycle_breaks, cycle_mean, technological_torque
 
 INCH = 0.0254
 

@@ -10,9 +10,9 @@ import pytest
 
 import crankfmu
 from crankfmu.cli import main
-from crankfmu.kinematic_study import cycle, time_series, values_at
+from crankfmu.studies.kinematics import cycle, time_series, values_at
 from crankfmu.mechanisms import load_mechanism
-from crankfmu.sweep import SweepAxis, run_sweep
+from crankfmu.studies.sweep import SweepAxis, run_sweep
 
 R, BL, AC, W = 0.25, 0.5, 0.3, 31.41          # seed 002: OA, AB, AC, omega1
 

@@ -72,7 +72,7 @@ def cosim_errors(runs: dict, reference: dict) -> list[dict]:
 
 
 def plot(rows: list[dict], reference: dict, runs: dict, out) -> None:
-    from crankfmu.output import pyplot
+    from crankfmu.plots import pyplot
 
     plt = pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))

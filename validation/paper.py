@@ -37,13 +37,13 @@ def settled_change(entry, model, fmu_run):
 
 def kinematic_cycle(entry, model, fmu_run):
     """``key`` (stroke, time_ratio, arm_swing) of the kinematic study's cycle at constant omega1."""
-    from crankfmu.kinematic_study import cycle
+    from crankfmu.studies.kinematics import cycle
     return cycle(model.scenario, [])[entry["key"]]
 
 
 def inertia_ratio(entry, model, fmu_run):
     """max|M_e - M_e,static| / max|M_e| at the constant crank speed ``omega1`` (seed 001 eq. 1)."""
-    from crankfmu.equilibrium import equilibrium_study
+    from crankfmu.studies.equilibrium import equilibrium_study
     return equilibrium_study(model.scenario, [float(entry["omega1"])])[0].summary()["inertia_ratio"]
 
 
@@ -70,7 +70,7 @@ def check_paper(scenario, model, fmu_run, checks, prefix: str):
     if study.get("paper"):
         # the paper's graphical values at its check position ([kinematics.paper]), within
         # [kinematics] paper_tolerance (relative): a drawing at 0.01 m/mm is read to about 1 mm
-        from crankfmu.kinematic_study import values_at
+        from crankfmu.studies.kinematics import values_at
         exact, detail = values_at(model.scenario, float(study["at_deg"]))
         rel = float(study.get("paper_tolerance", 0.015))
         for name, published in study["paper"].items():

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from crankfmu.output import pyplot
+from crankfmu.plots import pyplot
 
 
 def plot_overlay(fmu_run, ref, path: Path, title: str) -> Path:

@@ -65,7 +65,8 @@ def cmd_schemes(args) -> int:
 
     from .scenario import load_scenario
     from .simulation import simulate
-    from .studies import format_table, plot_startup, scheme_study
+    from .plots import plot_startup
+    from .studies.schemes import format_table, scheme_study
 
     scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
     steps = [float(s) for s in args.steps_deg.split(",")]
@@ -86,8 +87,8 @@ def cmd_kinematics(args) -> int:
     import json
     from pathlib import Path
 
-    from .kinematic_plots import plot_time_series, plot_velocity_plan
-    from .kinematic_study import compare_with_paper, time_series, values_at
+    from .plots import plot_time_series, plot_velocity_plan
+    from .studies.kinematics import compare_with_paper, time_series, values_at
     from .scenario import load_scenario
 
     scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
@@ -125,10 +126,11 @@ def cmd_sweep(args) -> int:
 
     import numpy as np
 
-    from .kinematic_plots import plot_families
+    from .plots import plot_families
     from .progress import ProgressBar
     from .scenario import load_scenario
-    from .sweep import SweepAxis, check_claims, plot_steady, run_sweep
+    from .plots import plot_steady
+    from .studies.sweep import SweepAxis, check_claims, run_sweep
 
     scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
     if not args.param:
@@ -181,7 +183,7 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_equilibrium(args) -> int:
-    from .equilibrium import equilibrium_study, write_study
+    from .studies.equilibrium import equilibrium_study, write_study
     from .scenario import load_scenario
 
     scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
@@ -204,7 +206,7 @@ def cmd_equilibrium(args) -> int:
 
 
 def cmd_flywheel(args) -> int:
-    from .flywheel import STUDY_STAGES, flywheel_study
+    from .studies.flywheel import STUDY_STAGES, flywheel_study
     from .progress import ProgressBar
     from .scenario import load_scenario
 
@@ -214,26 +216,26 @@ def cmd_flywheel(args) -> int:
         raise CrankfmuError(f"--steps-deg must be positive angles in deg, got {args.steps_deg!r}")
     bar = ProgressBar(STUDY_STAGES, label=f"{scenario.name} flywheel study")
     try:
-        d = flywheel_study(scenario, args.delta, args.out, steps, progress=bar)
+        study = flywheel_study(scenario, args.delta, args.out, steps, progress=bar)
     finally:
         bar.close()
-    st = d["eq3_stability"]
-    print(f"{scenario.name}: flywheel for delta = {d['delta_target']:g}")
-    print(f"  J_e            {d['J_e_min']:.4f} .. {d['J_e_max']:.4f} kg.m2 (min at {d['J_e_min_at_deg']:.1f} deg, "
-          f"max at {d['J_e_max_at_deg']:.1f} deg)")
-    print(f"  dW_max         {d['dW_max']:.3f} J, omega_m {d['omega_m']:.6f} rad/s (steady, no flywheel: "
-          f"delta {d['delta_without_flywheel']:.5f})")
-    print(f"  J_F eq. 17     {d['J_F_eq17']:.3f} kg.m2 (gives delta {d['delta_with_J_F_eq17']:.5f} when simulated)")
-    print(f"  J_F eq. 16     {d['J_F_eq16']:.3f} kg.m2")
-    print(f"  J_F simulated  {d['J_F_simulated']:.3f} kg.m2: delta {d['delta_achieved']:.6f}")
-    print(f"  peaks with it  omega1 -{100 * d['omega_peak_reduction']:.2f} %, |epsilon1| "
-          f"-{100 * d['epsilon_peak_reduction']:.2f} %")
-    if st["limit"]:
-        print(f"  eq. 3 stable up to {st['limit']['largest_stable_deg']:.3f} deg, unstable from "
-              f"{st['limit']['smallest_unstable_deg']:.3f} deg (linear estimate {st['linear_estimate_deg']:.3f} deg)")
+    d, st = study.design, study.stability
+    print(f"{scenario.name}: flywheel for delta = {d.delta_target:g}")
+    print(f"  J_e            {d.J_e_min:.4f} .. {d.J_e_max:.4f} kg.m2 (min at {d.J_e_min_at_deg:.1f} deg, "
+          f"max at {d.J_e_max_at_deg:.1f} deg)")
+    print(f"  dW_max         {d.dW_max:.3f} J, omega_m {d.omega_m:.6f} rad/s (steady, no flywheel: "
+          f"delta {d.delta_without_flywheel:.5f})")
+    print(f"  J_F eq. 17     {d.J_F_eq17:.3f} kg.m2 (gives delta {d.delta_with_J_F_eq17:.5f} when simulated)")
+    print(f"  J_F eq. 16     {d.J_F_eq16:.3f} kg.m2")
+    print(f"  J_F simulated  {d.J_F_simulated:.3f} kg.m2: delta {d.delta_achieved:.6f}")
+    print(f"  peaks with it  omega1 -{100 * d.omega_peak_reduction:.2f} %, |epsilon1| "
+          f"-{100 * d.epsilon_peak_reduction:.2f} %")
+    if st.limit:
+        print(f"  eq. 3 stable up to {st.limit['largest_stable_deg']:.3f} deg, unstable from "
+              f"{st.limit['smallest_unstable_deg']:.3f} deg (linear estimate {st.linear_estimate_deg:.3f} deg)")
     else:
-        print(f"  eq. 3: no stability limit within the steps tried (estimate {st['linear_estimate_deg']:.3f} deg)")
-    print(f"  wrote {args.out}/flywheel.json, " + ", ".join(d["plots"]))
+        print(f"  eq. 3: no stability limit within the steps tried (estimate {st.linear_estimate_deg:.3f} deg)")
+    print(f"  wrote {args.out}/flywheel.json, " + ", ".join(study.plots))
     return 0
 
 
@@ -294,6 +296,16 @@ def cmd_fmu(args) -> int:
     return 0
 
 
+
+def _scenario_command(sub, name: str, func, help: str):
+    """A subcommand on one scenario: SCENARIO, --out DIR and --set NAME=VALUE (repeatable)."""
+    p = sub.add_parser(name, help=help)
+    p.add_argument("scenario")
+    p.add_argument("--out", required=True)
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.set_defaults(func=func)
+    return p
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="crankfmu", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -309,29 +321,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="angle step of the crank-angle schemes in deg (default 0.1)")
     p.set_defaults(func=cmd_simulate)
 
-    p = sub.add_parser("schemes", help="the papers' crank-angle schemes against the reference: "
+    p = _scenario_command(sub, "schemes", cmd_schemes, "the papers' crank-angle schemes against the reference: "
                                        "convergence order and start-up")
-    p.add_argument("scenario")
-    p.add_argument("--out", required=True)
     p.add_argument("--steps-deg", default="1,0.1,0.01", help="comma-separated angle steps in deg")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.set_defaults(func=cmd_schemes)
-    p = sub.add_parser("kinematics", help="exact velocities, accelerations and instant centre at one crank "
+    p = _scenario_command(sub, "kinematics", cmd_kinematics, "exact velocities, accelerations and instant centre at one crank "
                                            "angle, time series beside the paper's approximation, velocity plan")
-    p.add_argument("scenario")
     p.add_argument("--at", type=float, required=True, help="crank angle in deg")
     p.add_argument("--omega", type=float, default=None, help="constant crank speed in rad/s (default: the paper's)")
-    p.add_argument("--out", required=True)
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.set_defaults(func=cmd_kinematics)
 
-    p = sub.add_parser("sweep", help="parameter sweep on Dask: kinematic peaks (peaks.csv, the families' "
+    p = _scenario_command(sub, "sweep", cmd_sweep, "parameter sweep on Dask: kinematic peaks (peaks.csv, the families' "
                                       "plots, the paper's claims) or steady cycles (steady.csv)")
-    p.add_argument("scenario")
     p.add_argument("--param", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                    help="a swept parameter (repeatable; the grid is every combination)")
-    p.add_argument("--out", required=True)
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.add_argument("--restart", action="store_true", help="recompute every design (default: resume the results file)")
     p.add_argument("--study", choices=("kinematic", "steady"), default=None,
                    help="kinematic: peaks over a turn at constant speed (default with a [kinematics] section); "
@@ -340,27 +341,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="Dask scheduler: 'local' (default: a local cluster, one worker process per core), "
                         "an address such as tcp://host:8786 (an existing cluster), or 'serial' (this process)")
     p.add_argument("--chunk", type=int, default=None, help="designs per Dask task (default 4 kinematic, 500 steady)")
-    p.set_defaults(func=cmd_sweep)
 
-    p = sub.add_parser("equilibrium", help="equilibrium moment over a cycle at constant crank speeds, with "
+    p = _scenario_command(sub, "equilibrium", cmd_equilibrium, "equilibrium moment over a cycle at constant crank speeds, with "
                                             "and without inertia, and the joint reactions (seed 001 Figs. 2-5)")
-    p.add_argument("scenario")
     p.add_argument("--omega", default=None, help="comma-separated crank speeds in rad/s (default: the "
                                                  "scenario's [equilibrium] omega1)")
     p.add_argument("--angles", type=int, default=None, help="crank angles per cycle (default 360)")
-    p.add_argument("--out", required=True)
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.set_defaults(func=cmd_equilibrium)
 
-    p = sub.add_parser("flywheel", help="flywheel for a target speed fluctuation: eqs. 16-17 and by simulation "
+    p = _scenario_command(sub, "flywheel", cmd_flywheel, "flywheel for a target speed fluctuation: eqs. 16-17 and by simulation "
                                          "of the steady cycle; J_e, the movement from the start, eq. 3 stability")
-    p.add_argument("scenario")
     p.add_argument("--delta", type=float, required=True, help="target coefficient of speed fluctuation, in (0, 1)")
-    p.add_argument("--out", required=True)
     p.add_argument("--steps-deg", default=None, help="comma-separated eq. 3 angle steps in deg (default: the "
                                                      "scenario's [flywheel] eq3_steps_deg)")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
-    p.set_defaults(func=cmd_flywheel)
 
     p = sub.add_parser("draw", help="the mechanism at one crank angle (PNG/SVG): links, joints, ground, mass "
                                      "centres; optionally velocities, instant centres, joint reactions")

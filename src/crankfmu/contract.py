@@ -58,6 +58,9 @@ COLUMNS = {v.name: v.unit for v in (TIME, *OUTPUTS)}
 #: the motor line's parameters (tunable in the FMU)
 MOTOR_PARAMETERS = ("A", "B", "A_low", "B_low", "omega_switch")
 
+#: parameters every scenario must declare, each with its value, unit and range in the scenario file
+CONTRACT_PARAMETERS = (*MOTOR_PARAMETERS, "J_flywheel", "phi1_start", "omega1_start", "g")
+
 #: SI base-unit exponents of every unit crankfmu declares (FMI UnitDefinitions)
 BASE_UNITS = {
     "1": {},

@@ -18,6 +18,7 @@ from typing import Mapping
 
 import numpy as np
 
+from .contract import CONTRACT_PARAMETERS
 from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation, ReducedModel,
                        SliderForce, ViscousForce, Weights)
 from .dynamics.equation import STATE_SIZE
@@ -32,11 +33,6 @@ _SCENARIOS = resources.files(__package__) / "scenarios"
 
 #: the load kinds a user writes as expressions (dynamics.user_loads)
 USER_LOADS = ("force", "couple", "spring_damper")
-
-#: parameters every scenario must declare (shared/FMU_CONTRACT.md)
-CONTRACT_PARAMETERS = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel",
-                       "phi1_start", "omega1_start", "g")
-
 
 class Scenario:
     """A scenario file, with parameter overrides."""

@@ -48,7 +48,7 @@ class Weights:
         if self.g == 0.0:
             return total
         for link, m in self.masses.items():
-            total -= m * self.g * kin.point(self.centres[link])[3]
+            total -= m * self.g * kin.point(self.centres[link]).dy
         return total
 
     def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
@@ -72,11 +72,11 @@ class ViscousForce:
     category = TECHNOLOGICAL
 
     def torque(self, kin: Kinematics, omega1=None):
-        d = kin.point(self.point)[2 + self.axis]
+        d = kin.point(self.point).ratio(self.axis)
         return -self.coefficient * d * d * np.asarray(omega1, dtype=float)
 
     def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
-        force = -self.coefficient * kin.point(self.point)[2 + self.axis] * np.asarray(omega1, dtype=float)
+        force = -self.coefficient * kin.point(self.point).ratio(self.axis) * np.asarray(omega1, dtype=float)
         return [AppliedLoad(self.link, self.point, *((force, 0.0) if self.axis == 0 else (0.0, force)))]
 
 
@@ -108,12 +108,12 @@ class SliderForce:
     @classmethod
     def from_geometry(cls, mechanism: Mechanism, point: str, link: str, axis: int, forward: float,
                       backward: float, band=(0.0, 1.0)) -> "SliderForce":
-        found = mechanism.stationary_angles(lambda kin: kin.point(point)[2 + axis])
+        found = mechanism.stationary_angles(lambda kin: kin.point(point).ratio(axis))
         if not found:
             raise DefinitionError(f"point {point!r} does not move back and forth along "
                                   f"{'xy'[axis]}: a slider force needs a slider")
         angles = tuple(a for a, _ in found)
-        x = mechanism.kinematics(np.array(angles)).point(point)[axis]
+        x = mechanism.kinematics(np.array(angles)).point(point).along(axis)
         return cls(point, link, axis, float(forward), float(backward), tuple(band),
                    float(np.min(x)), float(np.max(x)), angles)
 
@@ -130,8 +130,8 @@ class SliderForce:
             grid = np.linspace(0.0, 2.0 * np.pi, 721)
             stroke = self.high - self.low
             levels = {self.low + f * stroke for f in self.band} | {self.high - f * stroke for f in self.band}
-            x_of = lambda a: float(mechanism.kinematics(np.array([a])).point(self.point)[self.axis][0])  # noqa: E731
-            x = mechanism.kinematics(grid).point(self.point)[self.axis]
+            x_of = lambda a: float(mechanism.kinematics(np.array([a])).point(self.point).along(self.axis)[0])  # noqa: E731
+            x = mechanism.kinematics(grid).point(self.point).along(self.axis)
             for level in levels:
                 d = x - level
                 for i in np.nonzero(d[:-1] * d[1:] < 0.0)[0]:
@@ -154,7 +154,7 @@ class SliderForce:
         return force
 
     def torque(self, kin: Kinematics, omega1=None):
-        return self.force(kin, omega1) * kin.point(self.point)[2 + self.axis]
+        return self.force(kin, omega1) * kin.point(self.point).ratio(self.axis)
 
     def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
         force = self.force(kin, omega1)
@@ -169,7 +169,7 @@ class SliderForce:
 
     def columns(self, kin: Kinematics, needed=None) -> list:
         """dx/dphi1 (m/rad): the force's lever to the crank (``needed``: which columns a caller uses)."""
-        return [kin.point(self.point)[2 + self.axis]]
+        return [kin.point(self.point).ratio(self.axis)]
 
     def values(self, kin: Kinematics, omega1) -> list:
         return [self.force(kin, omega1)]

@@ -90,7 +90,7 @@ class ExpressionLoad:
         of = self.direction_of
         if "." in of:
             point, axis = of.split(".")
-            return kin.point(point)[2 + "xy".index(axis)]
+            return kin.point(point).ratio("xy".index(axis))
         return kin.dq[of]
 
     def _selectors(self, kin, omega1):

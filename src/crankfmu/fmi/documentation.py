@@ -54,7 +54,7 @@ def experiment_plot(reference_csv: str, title: str) -> bytes:
     """PNG of the reference result: omega1 and the motor torque over the default experiment."""
     import numpy as np
 
-    from ..output import pyplot
+    from ..plots import pyplot
 
     lines = reference_csv.strip().splitlines()
     header = [h.strip('"') for h in lines[0].split(",")]
@@ -83,7 +83,7 @@ def experiment_plot(reference_csv: str, title: str) -> bytes:
 
 def mechanism_png(scenario) -> bytes:
     """The scenario's drawing (its [drawing] angle and overlays) as PNG."""
-    from ..output import pyplot
+    from ..plots import pyplot
     from ..pictures.draw import draw_figure, drawing_section
 
     section = drawing_section(scenario)

@@ -34,7 +34,7 @@ from __future__ import annotations
 import ast
 import math
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import Mapping, NamedTuple
 
 import numpy as np
 
@@ -364,6 +364,26 @@ def _parse_joints(entries, where, variables, points, links) -> list[JointDefinit
 
 # --------------------------------------------------------------------------------------------
 
+class PointMotion(NamedTuple):
+    """A point's position (m) and its first and second derivatives by phi1 (m/rad, m/rad^2) at each
+    crank angle: eq. 11's t, p, tt, pp for a mass centre are dx, dy, ddx, ddy."""
+
+    x: np.ndarray
+    y: np.ndarray
+    dx: np.ndarray
+    dy: np.ndarray
+    ddx: np.ndarray
+    ddy: np.ndarray
+
+    def along(self, axis: int) -> np.ndarray:
+        """The position along axis 0 (x) or 1 (y), m."""
+        return self[axis]
+
+    def ratio(self, axis: int) -> np.ndarray:
+        """The velocity ratio d(position)/dphi1 along axis 0 (x) or 1 (y), m/rad."""
+        return self[2 + axis]
+
+
 @dataclass
 class Kinematics:
     """Positions and transfer functions at an array of crank angles.
@@ -378,10 +398,10 @@ class Kinematics:
     q: dict[str, np.ndarray]
     dq: dict[str, np.ndarray]
     ddq: dict[str, np.ndarray]
-    points: dict[str, tuple[np.ndarray, ...]]
+    points: dict[str, PointMotion]
     link_angles: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
 
-    def point(self, name: str):
+    def point(self, name: str) -> PointMotion:
         return self.points[name]
 
     def link_angle(self, link: str):
@@ -393,7 +413,7 @@ class Kinematics:
         pick = lambda d: {k: v[sel] for k, v in d.items()}  # noqa: E731
         return Kinematics(
             phi1=self.phi1[sel], q=pick(self.q), dq=pick(self.dq), ddq=pick(self.ddq),
-            points={k: tuple(a[sel] for a in v) for k, v in self.points.items()},
+            points={k: PointMotion(*(a[sel] for a in v)) for k, v in self.points.items()},
             link_angles={k: tuple(a[sel] for a in v) for k, v in self.link_angles.items()},
         )
 
@@ -626,7 +646,7 @@ class Mechanism:
         ddq = np.zeros_like(q)
         ddq[:, 1:] = np.linalg.solve(Ju, -rhs[..., None])[..., 0]
         x, y, dx, dy, ddx, ddy = self._chain_sums(L, c, s, dq, ddq)
-        points = {p: (x[:, k + i], y[:, k + i], dx[:, k + i], dy[:, k + i], ddx[:, k + i], ddy[:, k + i])
+        points = {p: PointMotion(x[:, k + i], y[:, k + i], dx[:, k + i], dy[:, k + i], ddx[:, k + i], ddy[:, k + i])
                   for i, p in enumerate(self.point_names)}
         names = self.unknown_names
         links = {}

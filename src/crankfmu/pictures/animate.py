@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CrankfmuError, ParameterError
-from .draw import MechanismPicture, TWO_PI, _check_trace, drawing_speed
+from .draw import MechanismPicture, TWO_PI, check_trace, drawing_speed
 from .labels import obstacle_boxes, place_labels
 from .sketch import Sketch
 
@@ -46,7 +46,7 @@ def read_run(result_dir) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def animate(scenario, out, result_dir=None, trace=None, frames: int = 120, fps: int = 20,
             omega1: float | None = None, progress=None) -> Path:
     """Write the animation to ``out`` (.gif or .mp4) and return its path."""
-    from ..output import pyplot
+    from ..plots import pyplot
 
     out = Path(out)
     if out.suffix.lower() not in (".gif", ".mp4"):
@@ -95,14 +95,14 @@ def _write_gif(fig, frame, count, out: Path, fps: int, progress):
 
 def animation_figure(scenario, result_dir=None, trace=None, frames: int = 120, omega1: float | None = None):
     """(figure, frame(i) that moves it to frame i, number of frames): the animation before writing."""
-    from ..output import pyplot
+    from ..plots import pyplot
 
     if not (isinstance(frames, int) and 2 <= frames <= 2000):
         raise ParameterError(f"--frames must be an integer in [2, 2000], got {frames!r}", "frames")
     section = dict(scenario.data.get("drawing", {}))
     mechanism = scenario.assembled_mechanism()[0]
     sketch = Sketch.of(mechanism)
-    trace = _check_trace(sketch, trace if trace is not None else section.get("trace", []))
+    trace = check_trace(sketch, trace if trace is not None else section.get("trace", []))
     if result_dir is None:
         w = drawing_speed(scenario, omega1)
         t_all = np.linspace(0.0, TWO_PI / w, 361)

@@ -225,7 +225,7 @@ def draw_figure(scenario, at_deg: float, show=(), omega1: float | None = None, t
     ``show``: any of OVERLAYS; velocities and reactions at constant crank speed ``omega1`` (rad/s,
     default ``drawing_speed``). ``trace``: points whose path over a turn is drawn."""
     from ..errors import ParameterError
-    from ..output import pyplot
+    from ..plots import pyplot
 
     unknown = set(show) - set(OVERLAYS)
     if unknown:
@@ -234,7 +234,7 @@ def draw_figure(scenario, at_deg: float, show=(), omega1: float | None = None, t
         raise ParameterError(f"--at must be a crank angle in deg, got {at_deg!r}", "at")
     mechanism = scenario.assembled_mechanism()[0]
     sketch = Sketch.of(mechanism)
-    trace = _check_trace(sketch, trace or [])
+    trace = check_trace(sketch, trace or [])
     phi = math.radians(at_deg)
     frames = sketch.frames([phi])
     turn = sketch.frames(np.linspace(0.0, TWO_PI, 361))
@@ -275,7 +275,7 @@ def draw_figure(scenario, at_deg: float, show=(), omega1: float | None = None, t
     return fig
 
 
-def _check_trace(sketch, trace) -> list:
+def check_trace(sketch, trace) -> list:
     from ..errors import ParameterError
 
     for p in trace:
@@ -373,7 +373,7 @@ def _reactions(ax, scenario, sketch, frames, picture, w, phi, labels, paths, key
 def save(fig, path) -> None:
     from pathlib import Path
 
-    from ..output import pyplot
+    from ..plots import pyplot
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

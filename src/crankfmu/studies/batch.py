@@ -22,12 +22,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .dynamics import MotorLine
-from .errors import CrankfmuError
-from .dynamics.tabulated import table_of
-from .integrators.fast import TABLE_TOLERANCE
-from .integrators.kernel import drivers, layout
-from .scenario import load_scenario
+from ..dynamics import MotorLine
+from ..errors import CrankfmuError
+from ..dynamics.tabulated import table_of
+from ..integrators.fast import TABLE_TOLERANCE
+from ..integrators.kernel import drivers, layout
+from ..scenario import load_scenario
 
 #: parameters the kernel takes per design: designs differing only in these share a table
 CHEAP = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel")

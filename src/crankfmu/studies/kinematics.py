@@ -17,14 +17,15 @@ import math
 
 import numpy as np
 
-from .errors import CrankfmuError, ParameterError
-from .mechanisms.quantities import evaluate_all
+from ..errors import CrankfmuError, ParameterError
+from ..mechanisms.quantities import evaluate_all
 from .paper_models import APPROXIMATIONS
 
 TWO_PI = 2.0 * math.pi
 
 
-def _study(scenario) -> dict:
+def study_settings(scenario) -> dict:
+    """The scenario's [kinematics] section (omega1, angles, the paper's values), or a clear error."""
     ks = scenario.kinematics_study
     if not ks:
         raise CrankfmuError(f"scenario {scenario.name} has no [kinematics] section: it is not a kinematic study")
@@ -32,7 +33,7 @@ def _study(scenario) -> dict:
 
 
 def crank_speed(scenario, omega1=None) -> float:
-    w = float(_study(scenario).get("omega1", 0.0) if omega1 is None else omega1)
+    w = float(study_settings(scenario).get("omega1", 0.0) if omega1 is None else omega1)
     if not (math.isfinite(w) and w > 0):
         raise ParameterError(f"omega1 must be a crank speed > 0 rad/s, got {w!r}", "omega1")
     return w
@@ -45,7 +46,7 @@ def values_at(scenario, at_deg: float, omega1: float | None = None) -> tuple[dic
     study's link, v_PQ for each relative pair, I<k>_x, I<k>_y and I<k>P for the instant centre.
     detail: the signed vectors, the units and the instant centre's construction.
     """
-    ks = _study(scenario)
+    ks = study_settings(scenario)
     if not math.isfinite(at_deg):
         raise ParameterError(f"--at must be a crank angle in deg, got {at_deg!r}", "at")
     w = crank_speed(scenario, omega1)
@@ -89,7 +90,7 @@ def values_at(scenario, at_deg: float, omega1: float | None = None) -> tuple[dic
 
 def compare_with_paper(scenario, values: dict) -> list[dict]:
     """Rows (name, exact, paper, relative difference) for the paper's published values."""
-    paper = _study(scenario).get("paper", {})
+    paper = study_settings(scenario).get("paper", {})
     return [{"name": k, "exact": values[k], "paper": float(v), "rel_diff": (float(v) - values[k]) / values[k]}
             for k, v in paper.items() if k in values]
 
@@ -97,7 +98,7 @@ def compare_with_paper(scenario, values: dict) -> list[dict]:
 def time_series(scenario, omega1: float | None = None, span: float | None = None, n: int = 2001) -> dict:
     """The scenario's outputs over time at constant omega1, the path of the study's point and, when
     the scenario names one, the paper's approximation of the same quantities and its largest errors."""
-    ks = _study(scenario)
+    ks = study_settings(scenario)
     w = crank_speed(scenario, omega1)
     span = float(ks.get("span", TWO_PI / w) if span is None else span)
     t = np.linspace(0.0, span, n)
@@ -127,7 +128,7 @@ def time_series(scenario, omega1: float | None = None, span: float | None = None
 def cycle(scenario, quantities, omega1: float | None = None, n: int = 3600) -> dict:
     """Quantities over one crank turn at constant omega1, their peaks, and for the study's slider and
     arm: stroke, time ratio (slow stroke over quick return, in crank angle = in time) and swing."""
-    ks = _study(scenario)
+    ks = study_settings(scenario)
     w = crank_speed(scenario, omega1)
     mechanism = scenario.assembled_mechanism()[0]
     phi = np.linspace(0.0, TWO_PI, n, endpoint=False)

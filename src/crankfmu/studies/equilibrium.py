@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .dynamics.inverse import EquilibriumMoment, equilibrium_moment
-from .dynamics.loads import TECHNOLOGICAL
-from .dynamics.reactions import JointReactions, joint_reactions
-from .errors import ParameterError
-from .output import pyplot, turn_axis
-from .scenario import load_scenario
+from ..dynamics.inverse import EquilibriumMoment, equilibrium_moment
+from ..dynamics.loads import TECHNOLOGICAL
+from ..dynamics.reactions import JointReactions, joint_reactions
+from ..errors import ParameterError
+from ..plots import plot_moments, plot_reactions
+from ..scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
 
@@ -33,6 +33,11 @@ class SpeedResult:
     reactions_static: JointReactions
     mean: float                     # N.m, exact cycle mean of M_e (piecewise Gauss-Legendre)
     tech_work: float                # J per turn, from the sliders' strokes (negative: resisting)
+
+    @property
+    def key(self) -> str:
+        """The speed as the study's files name it (equilibrium_<key>.csv, Me_omega<key>.png)."""
+        return speed_key(self.omega1)
 
     def summary(self) -> dict:
         total, static = self.moment.total, self.moment.static
@@ -158,41 +163,3 @@ def write_study(scenario, results: list[SpeedResult], out_dir) -> dict:
     return summary
 
 
-def plot_moments(scenario, results: list[SpeedResult], out: Path) -> list[Path]:
-    """One figure per speed, as the paper's Figs. 2-5: curve 1 with inertia, curve 2 without."""
-    plt = pyplot()
-    paths = []
-    for k, r in enumerate(results):
-        m = r.moment
-        deg = np.append(np.degrees(m.phi1), 360.0)
-        close = lambda a: np.append(a, a[0])  # noqa: E731
-        fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-        ax.plot(deg, close(m.total), lw=1.6, label="1: with inertia forces and moments")
-        ax.plot(deg, close(m.static), lw=1.2, ls="--", label="2: inertia neglected")
-        ax.axhline(r.mean, color="0.5", lw=0.8, ls=":", label=f"cycle mean {r.mean:.2f} N.m")
-        turn_axis(ax)
-        ax.set_ylabel("equilibrium moment M_e [N.m]")
-        s = r.summary()
-        ax.set_title(f"{scenario.name}: omega1 = {r.omega1:g} rad/s (Fig. {k + 2}); "
-                     f"inertia ratio {s['inertia_ratio']:.3f}")
-        ax.legend(loc="best", fontsize=8)
-        p = out / f"Me_omega{speed_key(r.omega1)}.png"
-        fig.savefig(p, dpi=120)
-        plt.close(fig)
-        paths.append(p)
-    return paths
-
-
-def plot_reactions(scenario, r: SpeedResult, path: Path) -> Path:
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-    deg = np.degrees(r.reactions.phi1)
-    for joint in r.reactions.force:
-        ax.plot(deg, r.reactions.magnitude(joint), lw=1.0, label=f"{joint} ({r.reactions.kind[joint]})")
-    turn_axis(ax)
-    ax.set_ylabel("joint reaction |F| [N]")
-    ax.set_title(f"{scenario.name}: joint reactions at omega1 = {r.omega1:g} rad/s")
-    ax.legend(loc="upper right", fontsize=7, ncol=2)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path

@@ -9,12 +9,11 @@ cycle, the largest error over the first cycle) and the time to complete the summ
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
-from .dynamics.equation import OMEGA, PHI
-from .simulation import Result, simulate
+from ..dynamics.equation import OMEGA, PHI
+from ..simulation import Result, simulate
 
 TWO_PI = 2.0 * math.pi
 
@@ -71,28 +70,3 @@ def format_table(rows: list[dict], cycle: int) -> str:
     return "\n".join(lines)
 
 
-def plot_startup(reference: Result, runs: dict, out: Path, method="badoiu-eq17") -> Path:
-    """omega1 over the first turn: the reference and the study's runs of ``method``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-    t_end = reference.cycle_bounds(1)[1] * 1.2
-    sel = reference.time <= t_end
-    ax.plot(reference.time[sel], reference.omega1[sel], "k", lw=2, label="reference (DOP853, time domain)")
-    for (m, deg), r in runs.items():
-        if m != method:
-            continue
-        keep = r.trajectory.t <= t_end
-        ax.plot(r.trajectory.t[keep], r.trajectory.y[OMEGA][keep], lw=1, label=f"{method}, {deg:g} deg")
-    ax.set_xlabel("time t [s]")
-    ax.set_ylabel("omega1 [rad/s]")
-    ax.set_title(f"{reference.scenario.name}: start-up, first crank turn")
-    ax.set_ylim(bottom=0)
-    ax.grid(alpha=0.3)
-    ax.legend()
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
-    return out

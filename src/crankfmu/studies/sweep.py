@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import CrankfmuError
-from .kinematic_study import _study, cycle
+from ..errors import CrankfmuError
+from .kinematics import cycle, study_settings
 
 STUDIES = ("kinematic", "steady")
 
@@ -69,8 +69,23 @@ class SweepResult:
     skipped: int = 0                                  # designs found in the results file (resume)
     path: Path | None = None                          # the results file
 
+    def _design(self, values: dict) -> tuple:
+        return design_key(values[a.name] for a in self.axes)
 
-def _key(values) -> tuple:
+    def row_at(self, values: dict) -> dict | None:
+        """The results row of the design with these swept values (name -> value), None if it failed."""
+        if getattr(self, "_rows", (None, -1))[1] != len(self.rows):       # built once per row count
+            self._rows = ({design_key(r[a.name] for a in self.axes): r for r in self.rows}, len(self.rows))
+        return self._rows[0].get(self._design(values))
+
+    def series_at(self, values: dict) -> dict | None:
+        """{quantity: values over phi1} of the design with these swept values, None if it failed."""
+        return self.series.get(self._design(values))
+
+
+def design_key(values) -> tuple:
+    """A design's swept values as a dictionary key: rounded, so that a value read back from the
+    results file (resume) finds the design of the grid."""
     return tuple(round(float(v), 12) for v in values)
 
 
@@ -161,7 +176,7 @@ def run_sweep(scenario, axes: list[SweepAxis], out: Path, progress=None, resume:
     if len(set(names)) != len(names):
         raise CrankfmuError(f"each --param may appear once, got {names}")
     if study == "kinematic":
-        ks = _study(scenario)
+        ks = study_settings(scenario)
         quantities = list(ks.get("sweep_quantities", []))
         if not quantities:
             raise CrankfmuError(f"scenario {scenario.name}: [kinematics] sweep_quantities is empty: nothing to sweep")
@@ -186,16 +201,16 @@ def run_sweep(scenario, axes: list[SweepAxis], out: Path, progress=None, resume:
             reader = csv.DictReader(f)
             if reader.fieldnames == columns:
                 for row in reader:
-                    done[_key(row[n] for n in names)] = {k: float(v) for k, v in row.items()}
+                    done[design_key(row[n] for n in names)] = {k: float(v) for k, v in row.items()}
     if not done:
         with results_path.open("w", newline="") as f:
             csv.writer(f).writerow(columns)
     grid = list(itertools.product(*(a.values for a in axes)))
     if study == "steady":
         # a steady design in the file is finished; a kinematic one is recomputed for the plots
-        result.rows += [done[_key(d)] for d in grid if _key(d) in done]
+        result.rows += [done[design_key(d)] for d in grid if design_key(d) in done]
         result.skipped = len(result.rows)
-        todo = [d for d in grid if _key(d) not in done]
+        todo = [d for d in grid if design_key(d) not in done]
     else:
         todo = grid
     chunks = [todo[i:i + chunk_size] for i in range(0, len(todo), chunk_size)]
@@ -214,10 +229,10 @@ def run_sweep(scenario, axes: list[SweepAxis], out: Path, progress=None, resume:
                     failed_writer.writerow([f"{v:.15g}" for v in design] + [reason])
                     continue
                 if series is not None:
-                    result.series[_key(design)] = series
+                    result.series[design_key(design)] = series
                     result.phi1 = phi1
                 result.rows.append(row)
-                if _key(design) in done:
+                if design_key(design) in done:
                     result.skipped += 1
                     continue
                 writer.writerow([f"{row[col]:.15g}" for col in columns])
@@ -234,7 +249,7 @@ def run_sweep(scenario, axes: list[SweepAxis], out: Path, progress=None, resume:
 def check_claims(scenario, result: SweepResult) -> list[dict]:
     """Each of the paper's ``[[kinematics.claims]]``: does |quantity| grow as the claim says, at the
     peaks (each family of the other parameters fixed) and over what share of the cycle pointwise?"""
-    ks = _study(scenario)
+    ks = study_settings(scenario)
     names = [a.name for a in result.axes]
     out = []
     for claim in ks.get("claims", []):
@@ -248,7 +263,7 @@ def check_claims(scenario, result: SweepResult) -> list[dict]:
             peak_ok, peak_n, shares, second = 0, 0, [], []
             for fixed in itertools.product(*(a.values for a in others)):
                 fixed_map = dict(zip([a.name for a in others], fixed))
-                keys = [_key(tuple({**fixed_map, p: v}[n] for n in names)) for v in order]
+                keys = [design_key(tuple({**fixed_map, p: v}[n] for n in names)) for v in order]
                 if any(k not in result.series for k in keys):
                     continue                   # a design of this family failed: no verdict
                 curves = np.array([np.abs(result.series[k][quantity]) for k in keys])
@@ -264,60 +279,3 @@ def check_claims(scenario, result: SweepResult) -> list[dict]:
                         "share_of_cycle_mean": float(np.mean(shares)) if shares else float("nan"),
                         "share_of_second_half_mean": float(np.mean(second)) if second else float("nan")})
     return out
-
-
-#: the speed fluctuations drawn as contour lines on the steady-sweep map (typical design targets:
-#: 0.01-0.02 for generators and fine machines, 0.05 for machine tools, 0.1 for pumps and presses)
-DELTA_TARGETS = (0.01, 0.02, 0.05, 0.1)
-
-
-def plot_steady(result: SweepResult, out: Path, units: dict | None = None) -> list[Path]:
-    """delta over the grid: a map for two swept parameters, curves for one (the first two axes;
-    the others at their first value)."""
-    from .output import pyplot
-
-    if not result.rows:
-        return []
-    plt = pyplot()
-    units = units or {}
-    axes = result.axes
-    names = [a.name for a in axes]
-    fixed = {a.name: a.values[0] for a in axes[2:]}
-    rows = {_key(r[n] for n in names): r for r in result.rows}
-    fig, ax = plt.subplots(figsize=(7.5, 5))
-    if len(axes) == 1:
-        xs = axes[0].values
-        ys = [rows[_key([x])]["delta"] if _key([x]) in rows else np.nan for x in xs]
-        ax.plot(xs, ys, "o-", ms=3)
-        ax.set_xlabel(f"{axes[0].name}  [{units.get(axes[0].name, '?')}]")
-        ax.set_ylabel("delta = (omega1 max - min) / mean  [1]")
-    else:
-        a0, a1 = axes[0], axes[1]
-        grid = np.full((len(a1.values), len(a0.values)), np.nan)
-        for i, v1 in enumerate(a1.values):
-            for j, v0 in enumerate(a0.values):
-                key = _key(tuple({**fixed, a0.name: v0, a1.name: v1}[n] for n in names))
-                if key in rows:
-                    grid[i, j] = rows[key]["delta"]
-        # delta spans decades over a design grid (a light flywheel to a heavy one): a logarithmic
-        # colour scale, and the design targets as labelled contour lines
-        from matplotlib.colors import LogNorm
-
-        positive = grid[np.isfinite(grid) & (grid > 0)]
-        norm = LogNorm(vmin=positive.min(), vmax=positive.max()) if positive.size and positive.max() > positive.min() else None
-        mesh = ax.pcolormesh(a0.values, a1.values, np.where(grid > 0, grid, np.nan), shading="nearest",
-                             cmap="viridis", norm=norm)
-        fig.colorbar(mesh, ax=ax, label="delta = (omega1 max - min) / mean  [1], log scale")
-        levels = [d for d in DELTA_TARGETS if positive.size and positive.min() < d < positive.max()]
-        if levels and min(len(a0.values), len(a1.values)) >= 2:
-            lines = ax.contour(a0.values, a1.values, grid, levels=levels, colors="white", linewidths=1.2)
-            ax.clabel(lines, fmt=lambda d: f"delta = {d:g}", fontsize=8, inline=True)
-        ax.set_xlabel(f"{a0.name}  [{units.get(a0.name, '?')}]")
-        ax.set_ylabel(f"{a1.name}  [{units.get(a1.name, '?')}]")
-    ax.set_title("steady-cycle speed fluctuation" + (f" ({', '.join(f'{k} = {v:g}' for k, v in fixed.items())})"
-                                                      if fixed else ""))
-    path = out / "delta.png"
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return [path]

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -32,9 +32,9 @@ from scipy.optimize import brentq
 
 from .batch import SteadyBatch
 from .equilibrium import cycle_breaks
-from .errors import CrankfmuError, ParameterError, SchemeError
-from .output import pyplot, turn_axis
-from .scenario import load_scenario
+from ..errors import CrankfmuError, ParameterError, SchemeError
+from ..plots import plot_flywheel, plot_inertia, plot_movement, plot_stability
+from ..scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
 
@@ -57,6 +57,73 @@ class SteadyCycle:
     @property
     def delta(self) -> float:
         return float((self.omega1.max() - self.omega1.min()) / self.omega_mean)
+
+
+@dataclass
+class FlywheelDesign:
+    """The flywheel for a target coefficient of speed fluctuation (what flywheel.json holds)."""
+
+    scenario: str
+    delta_target: float
+    J_e_min: float                  # kg.m2, the mechanism's own reduced inertia over the turn
+    J_e_max: float
+    J_e_mean: float
+    J_e_min_at_deg: float           # deg (paper's phi)
+    J_e_max_at_deg: float
+    dW_max: float                   # J, the largest swing of the loads' work (eq. 17)
+    omega_m: float                  # rad/s, the steady cycle's time mean without flywheel
+    J_F_eq17: float                 # kg.m2
+    J_F_eq16: float
+    J_F_simulated: float            # the J_F whose simulated steady cycle has delta_target
+    delta_achieved: float           # by the fast kernel's steady cycle (batch)
+    delta_achieved_crank_angle: float   # by the crank-angle form on the engine: the check
+    delta_without_flywheel: float
+    delta_without_flywheel_crank_angle: float
+    delta_with_J_F_eq17: float
+    steady_cycle_solves: int
+    omega_peak_without: float       # rad/s
+    omega_peak_with: float
+    omega_peak_reduction: float     # fraction of the value without flywheel
+    epsilon_peak_without: float     # rad/s2
+    epsilon_peak_with: float
+    epsilon_peak_reduction: float
+    without: SteadyCycle = field(repr=False)     # the steady cycles themselves (figures)
+    with_flywheel: SteadyCycle = field(repr=False)
+
+    UNITS = {"J_*": "kg.m2", "dW_max": "J", "omega_*": "rad/s", "epsilon_*": "rad/s2", "delta*": "1",
+             "steady_cycle_solves": "batch calls of the fast kernel (one or many flywheels each)",
+             "*_reduction": "1 (fraction of the value without flywheel)", "*_at_deg": "deg (paper's phi)"}
+
+    def summary(self) -> dict:
+        """The numbers (not the cycles) with their units, as flywheel.json writes them."""
+        numbers = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("without", "with_flywheel")}
+        return {**numbers, "units": self.UNITS}
+
+
+@dataclass
+class Eq3Stability:
+    """Where the angle step of the paper's eq. 3 stops being stable."""
+
+    turns: int
+    rows: list[dict]                # per step tried: step_deg, stable, error (rad/s), reason
+    limit: dict | None              # largest_stable_deg, smallest_unstable_deg (bisected)
+    linear_estimate_deg: float      # 2 J omega1 / B at the cycle's worst point
+    J_flywheel: float               # kg.m2
+
+
+@dataclass
+class FlywheelStudy:
+    """Everything ``crankfmu flywheel`` computes and writes."""
+
+    design: FlywheelDesign
+    stability: Eq3Stability
+    movement: dict                  # the run from the start: settled angle, eq. 3's error at 1 deg
+    plots: list[str]
+
+    def summary(self) -> dict:
+        """flywheel.json."""
+        return {**self.design.summary(), "eq3_stability": asdict(self.stability), "movement": self.movement,
+                "plots": self.plots}
 
 
 def _crank_angle_rhs(model):
@@ -160,8 +227,8 @@ def energy_swing(model, n: int = 20001) -> tuple[float, np.ndarray, np.ndarray]:
 
 
 def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: float = 1e-11,
-                    progress=None) -> dict:
-    """Everything flywheel.json holds for a target coefficient of speed fluctuation ``delta``.
+                    progress=None) -> FlywheelDesign:
+    """The flywheel for a target coefficient of speed fluctuation ``delta``.
 
     ``progress`` is called with 1, 2, 3 as the cycle without flywheel, the search and the cycle
     with the flywheel found are done."""
@@ -228,43 +295,41 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
                                                      omega_guess=free.omega1[0])
     if progress is not None:
         progress(3)
-    return {
-        "scenario": scenario.name,
-        "delta_target": delta,
-        "J_e_min": float(J_e.min()),
-        "J_e_max": float(J_e.max()),
-        "J_e_mean": float(J_e.mean()),
-        "J_e_min_at_deg": float(np.degrees(grid[np.argmin(J_e)] - phi0) % 360),
-        "J_e_max_at_deg": float(np.degrees(grid[np.argmax(J_e)] - phi0) % 360),
-        "dW_max": dW,
-        "omega_m": omega_m,
-        "J_F_eq17": J_eq17,
-        "J_F_eq16": J_eq16,
-        "J_F_simulated": float(J_sim),
-        "delta_achieved": delta_achieved,
-        "delta_achieved_crank_angle": fitted.delta,
-        "delta_without_flywheel": delta_free,
-        "delta_without_flywheel_crank_angle": free.delta,
-        "delta_with_J_F_eq17": delta_eq17,
-        "steady_cycle_solves": calls[0],
-        "omega_peak_without": float(free.omega1.max()),
-        "omega_peak_with": float(fitted.omega1.max()),
-        "omega_peak_reduction": float(1.0 - fitted.omega1.max() / free.omega1.max()),
-        "epsilon_peak_without": float(np.max(np.abs(free.epsilon1))),
-        "epsilon_peak_with": float(np.max(np.abs(fitted.epsilon1))),
-        "epsilon_peak_reduction": float(1.0 - np.max(np.abs(fitted.epsilon1)) / np.max(np.abs(free.epsilon1))),
-        "units": {"J_*": "kg.m2", "dW_max": "J", "omega_*": "rad/s", "epsilon_*": "rad/s2", "delta*": "1",
-                  "steady_cycle_solves": "batch calls of the fast kernel (one or many flywheels each)",
-                  "*_reduction": "1 (fraction of the value without flywheel)", "*_at_deg": "deg (paper's phi)"},
-        "_cycles": {"without": free, "with": fitted},
-    }
+    return FlywheelDesign(
+        scenario=scenario.name,
+        delta_target=delta,
+        J_e_min=float(J_e.min()),
+        J_e_max=float(J_e.max()),
+        J_e_mean=float(J_e.mean()),
+        J_e_min_at_deg=float(np.degrees(grid[np.argmin(J_e)] - phi0) % 360),
+        J_e_max_at_deg=float(np.degrees(grid[np.argmax(J_e)] - phi0) % 360),
+        dW_max=dW,
+        omega_m=omega_m,
+        J_F_eq17=J_eq17,
+        J_F_eq16=J_eq16,
+        J_F_simulated=float(J_sim),
+        delta_achieved=delta_achieved,
+        delta_achieved_crank_angle=fitted.delta,
+        delta_without_flywheel=delta_free,
+        delta_without_flywheel_crank_angle=free.delta,
+        delta_with_J_F_eq17=delta_eq17,
+        steady_cycle_solves=calls[0],
+        omega_peak_without=float(free.omega1.max()),
+        omega_peak_with=float(fitted.omega1.max()),
+        omega_peak_reduction=float(1.0 - fitted.omega1.max() / free.omega1.max()),
+        epsilon_peak_without=float(np.max(np.abs(free.epsilon1))),
+        epsilon_peak_with=float(np.max(np.abs(fitted.epsilon1))),
+        epsilon_peak_reduction=float(1.0 - np.max(np.abs(fitted.epsilon1)) / np.max(np.abs(free.epsilon1))),
+        without=free,
+        with_flywheel=fitted,
+    )
 
 
 # ---------------------------------------------------------------------------------------------
 # the paper's eq. 3 scheme: where its angle step stops being stable
 
 def eq3_stability(scenario, steps_deg, turns: int = 20, steady: SteadyCycle | None = None,
-                  resolution_deg: float = 0.01, progress=None) -> dict:
+                  resolution_deg: float = 0.01, progress=None) -> Eq3Stability:
     """Run eq. 3 (``lv-eq3``) from the scenario's start for ``turns`` crank turns at each angle step.
 
     A step is *stable* when the run completes and its last turn stays within 10 % of omega_m of
@@ -273,7 +338,7 @@ def eq3_stability(scenario, steps_deg, turns: int = 20, steady: SteadyCycle | No
     ``resolution_deg``. Linearising eq. 3 about the steady cycle gives the estimate
     dphi < 2 J omega1 / B (the motor line's slope B = -dM/domega1 is the stiff term).
     """
-    from .simulation import simulate
+    from ..simulation import simulate
 
     scenario = load_scenario(scenario)
     model = scenario.build()
@@ -315,8 +380,7 @@ def eq3_stability(scenario, steps_deg, turns: int = 20, steady: SteadyCycle | No
             else:
                 hi = mid
         limit = {"largest_stable_deg": lo, "smallest_unstable_deg": hi}
-    return {"turns": turns, "rows": rows, "limit": limit, "linear_estimate_deg": estimate,
-            "J_flywheel": scenario["J_flywheel"]}
+    return Eq3Stability(turns, rows, limit, estimate, scenario["J_flywheel"])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -327,10 +391,11 @@ def eq3_stability(scenario, steps_deg, turns: int = 20, steady: SteadyCycle | No
 STUDY_STAGES = 6
 
 
-def flywheel_study(scenario, delta: float, out_dir, steps_deg=None, progress=None) -> dict:
+def flywheel_study(scenario, delta: float, out_dir, steps_deg=None, progress=None) -> FlywheelStudy:
     """J_e, the equivalent torque and the movement from the start (Figs. 3, 5, 6), the flywheel
-    (eqs. 16-17 and simulated, Fig. 7) and the eq. 3 stability study; writes flywheel.json."""
-    from .simulation import simulate
+    (eqs. 16-17 and simulated, Fig. 7) and the eq. 3 stability study; writes flywheel.json and the
+    figures."""
+    from ..simulation import simulate
 
     scenario = load_scenario(scenario)
     out = Path(out_dir)
@@ -338,38 +403,34 @@ def flywheel_study(scenario, delta: float, out_dir, steps_deg=None, progress=Non
     spec = scenario.data.get("flywheel", {})
     offset = float(spec.get("angle_offset", 0.0))
     design = design_flywheel(scenario, delta, phi0=offset, progress=progress)
-    cycles = design.pop("_cycles")
     base = scenario.with_params(J_flywheel=0.0)
     steps = list(spec.get("eq3_steps_deg", [1, 2, 5, 10, 20])) if steps_deg is None else list(steps_deg)
     stability = eq3_stability(base, steps)
     if progress is not None:
         progress(4)
     # the movement from the start (Fig. 6): the reference and eq. 3 at 1 deg, three turns
-    t_end = 3.2 * cycles["without"].period
+    t_end = 3.2 * design.without.period
     reference = simulate(base, t_end=t_end)
     eq3 = simulate(base, t_end=t_end, method="lv-eq3", angle_step=math.radians(1.0))
     if progress is not None:
         progress(5)
-    settled = _settled_angle(reference, cycles["without"], offset)
+    settled = _settled_angle(reference, design.without, offset)
     eq3_phi, eq3_omega = eq3.trajectory.y[0], eq3.trajectory.y[1]
     both = eq3_phi <= reference.phi1[-1]
-    design.update(
-        eq3_stability=stability,
-        movement={"omega1_start": base["omega1_start"], "settled_within_1e-3_at_deg": settled,
-                  "eq3_1deg_max_error_first_3_turns": float(np.max(np.abs(
-                      eq3_omega[both] - reference.omega_at_angle(eq3_phi[both]))))},
-    )
-    (out / "flywheel.json").write_text(json.dumps(design, indent=2) + "\n")
+    movement = {"omega1_start": base["omega1_start"], "settled_within_1e-3_at_deg": settled,
+                "eq3_1deg_max_error_first_3_turns": float(np.max(np.abs(
+                    eq3_omega[both] - reference.omega_at_angle(eq3_phi[both]))))}
     plots = [
-        _plot_inertia(base, offset, out / "J_e.png"),
-        _plot_movement(reference, eq3, offset, out / "movement.png"),
-        _plot_flywheel(cycles, design, offset, out / "flywheel.png"),
-        _plot_stability(stability, out / "eq3_stability.png"),
+        plot_inertia(base, offset, out / "J_e.png"),
+        plot_movement(reference, eq3, offset, out / "movement.png"),
+        plot_flywheel(design, offset, out / "flywheel.png"),
+        plot_stability(stability, out / "eq3_stability.png"),
     ]
-    design["plots"] = [p.name for p in plots]
+    study = FlywheelStudy(design, stability, movement, [p.name for p in plots])
+    (out / "flywheel.json").write_text(json.dumps(study.summary(), indent=2) + "\n")
     if progress is not None:
         progress(STUDY_STAGES)
-    return design
+    return study
 
 
 def _settled_angle(result, steady: SteadyCycle, offset: float) -> float | None:
@@ -384,88 +445,3 @@ def _settled_angle(result, steady: SteadyCycle, offset: float) -> float | None:
     return float(np.degrees(phi[off[-1] + 1] - phi[0]))
 
 
-def _paper_deg(phi, offset):
-    return np.degrees(np.asarray(phi) - offset)
-
-
-def _plot_inertia(scenario, offset, path):
-    plt = pyplot()
-    model = scenario.build()
-    phi = offset + np.linspace(0.0, TWO_PI, 721)
-    J = model.reduced.coefficients(phi)[0]
-    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-    ax.plot(_paper_deg(phi, offset), J, lw=1.5)
-    ax.plot(_paper_deg(phi[::30], offset), J[::30], "o", ms=4, label="every 15 deg (the paper's step)")
-    turn_axis(ax, "crank angle phi = theta1 - 90 deg [deg]")
-    ax.set_ylabel("equivalent moment of inertia J_e [kg.m2]")
-    ax.set_title(f"{scenario.name}: J_e(phi), eq. 12 (Fig. 3); min {J.min():.3f}, max {J.max():.3f} kg.m2")
-    ax.legend()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
-
-
-def _plot_movement(reference, eq3, offset, path):
-    plt = pyplot()
-    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 8.5), constrained_layout=True, sharex=True)
-    deg = _paper_deg(reference.phi1, offset)
-    a1.plot(deg, reference.omega1, lw=1.5, label="reference (DOP853, time domain)")
-    a1.plot(_paper_deg(eq3.trajectory.y[0], offset), eq3.trajectory.y[1], lw=1, ls="--", label="eq. 3, 1 deg")
-    a1.set_ylabel("omega1 [rad/s]")
-    a1.legend()
-    a2.plot(deg, reference.epsilon1, lw=1.2)
-    a2.set_ylabel("epsilon1 [rad/s2]")
-    a3.plot(deg, reference.M_motor + reference.M_load, lw=1.2, label="M_motor + M_load (Fig. 5)")
-    a3.plot(deg, reference.M_load, lw=0.8, label="M_load (cutting force, weights)")
-    a3.set_ylabel("equivalent torque [N.m]")
-    a3.set_xlabel("crank angle phi from the start [deg]")
-    a3.legend(fontsize=8)
-    for ax in (a1, a2, a3):
-        ax.grid(alpha=0.3)
-    a1.set_title(f"{reference.scenario.name}: start at omega1 = {reference.omega1[0]:g} rad/s, no flywheel (Figs. 5-6)")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
-
-
-def _plot_flywheel(cycles, design, offset, path):
-    plt = pyplot()
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.5), constrained_layout=True, sharex=True)
-    for key, label in (("without", "no flywheel"), ("with", f"J_F = {design['J_F_simulated']:.1f} kg.m2")):
-        c = cycles[key]
-        a1.plot(_paper_deg(c.phi1, offset), c.omega1, label=f"{label}: delta {c.delta:.4f}")
-        a2.plot(_paper_deg(c.phi1, offset), c.epsilon1, label=label)
-    a1.set_ylabel("omega1 [rad/s]")
-    a2.set_ylabel("epsilon1 [rad/s2]")
-    turn_axis(a2, "crank angle phi [deg] (steady cycle)")
-    a1.set_title(f"steady cycle with and without flywheel (Fig. 7)\npeaks of omega1 "
-                 f"-{100 * design['omega_peak_reduction']:.2f} %, of |epsilon1| -{100 * design['epsilon_peak_reduction']:.1f} %")
-    for ax in (a1, a2):
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
-
-
-def _plot_stability(stability, path):
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-    ok = [r for r in stability["rows"] if r["stable"]]
-    bad = [r for r in stability["rows"] if not r["stable"]]
-    ax.loglog([r["step_deg"] for r in ok], [r["error"] for r in ok], "o-", label="stable: last-turn error")
-    for r in bad:
-        ax.axvline(r["step_deg"], color="C3", lw=0.8, alpha=0.6)
-    ax.axvline(stability["linear_estimate_deg"], color="k", ls="--", lw=1,
-               label=f"estimate 2 J omega1 / B = {stability['linear_estimate_deg']:.2f} deg")
-    if stability["limit"]:
-        ax.axvspan(stability["limit"]["largest_stable_deg"], stability["limit"]["smallest_unstable_deg"],
-                   color="C3", alpha=0.3, label=f"measured limit {stability['limit']['largest_stable_deg']:.2f} deg")
-    ax.set_xlabel("angle step of eq. 3 [deg] (red lines: unstable)")
-    ax.set_ylabel("max |omega1 error| over the last turn [rad/s]")
-    ax.set_title(f"eq. 3 step-size study ({stability['turns']} turns from the start, J_F = {stability['J_flywheel']:g})")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path

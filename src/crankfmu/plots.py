@@ -1,0 +1,404 @@
+"""Every figure crankfmu draws from numbers, in one module (the mechanism drawings and animations
+are ``pictures``): a run's crank speed (paper Figs. 3 and 4), the kinematic studies (seed 002
+Figs. 6-9, the velocity plan, seed 004's families and delta map), the equilibrium moments and joint
+reactions (seed 001 Figs. 2-5), the flywheel study (seed 003 Figs. 3, 5-7 and the eq. 3 step
+study) and the scheme study's start-up. Each takes a study's result and a path and returns the
+path(s) written; axes carry their units. matplotlib is imported only when a figure is drawn.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .dynamics.equation import OMEGA
+
+TWO_PI = 2.0 * math.pi
+#: the speed fluctuations drawn as contour lines on the steady-sweep map (typical design targets:
+#: 0.01-0.02 for generators and fine machines, 0.05 for machine tools, 0.1 for pumps and presses)
+DELTA_TARGETS = (0.01, 0.02, 0.05, 0.1)
+
+
+# --------------------------------------------------------------------------------------------
+# matplotlib and a crank-turn axis
+
+def pyplot():
+    """matplotlib.pyplot on the file-only Agg backend (no display on CI machines or in FMU hosts)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def turn_axis(ax, xlabel: str = "crank angle phi1 [deg]"):
+    """An x axis over one crank turn, 0..360 deg in steps of 45, with a light grid."""
+    ax.set_xlim(0, 360)
+    ax.set_xticks(range(0, 361, 45))
+    ax.set_xlabel(xlabel)
+    ax.grid(alpha=0.3)
+
+
+# --------------------------------------------------------------------------------------------
+# a run (crankfmu simulate) and the scheme study
+
+def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[Path]:
+    """Fig. 3 (omega1 over the first cycles) and Fig. 4 (omega1 over one settled cycle)."""
+    plt = pyplot()
+
+    paths = []
+    phi0 = result.phi1[0]
+    # Fig. 3: omega1 against the crank angle over `cycles` turns (or the whole run if shorter)
+    end_angle = phi0 + 2 * math.pi * cycles
+    sel = result.phi1 <= end_angle
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6.5), constrained_layout=True)
+    ax1.plot(np.degrees(result.phi1[sel] - phi0), result.omega1[sel], lw=1.2)
+    for k in range(1, cycles):
+        ax1.axvline(360 * k, color="0.8", lw=0.8, zorder=0)
+    ax1.set_xlabel("crank angle phi1 - phi1_start [deg]")
+    ax1.set_ylabel("omega1 [rad/s]")
+    ax1.set_title(f"{result.scenario.name}: crank speed over {cycles} kinematic cycles ({result.method})")
+    ax1.grid(alpha=0.3)
+    ax2.plot(result.time[sel], result.omega1[sel], lw=1.2, color="C1")
+    ax2.set_xlabel("time t [s]")
+    ax2.set_ylabel("omega1 [rad/s]")
+    ax2.grid(alpha=0.3)
+    p = out_dir / "omega1_cycles.png"
+    fig.savefig(p, dpi=120)
+    plt.close(fig)
+    paths.append(p)
+
+    # Fig. 4: omega1 over cycle `summary_cycle`, against the crank angle within the turn
+    stats = result.cycle_stats(summary_cycle)
+    phis = phi0 + 2 * math.pi * (summary_cycle - 1) + np.linspace(0, 2 * math.pi, 1441)
+    omega = result.omega_at_angle(phis)
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    ax.plot(np.degrees(phis - phis[0]), omega, lw=1.4)
+    ax.axhline(stats["omega1_mean"], color="0.5", ls="--", lw=0.8,
+               label=f"time mean {stats['omega1_mean']:.4f} rad/s")
+    turn_axis(ax, f"crank angle within cycle {summary_cycle} [deg]")
+    ax.set_ylabel("omega1 [rad/s]")
+    ax.set_title(f"cycle {summary_cycle}: min {stats['omega1_min']:.4f}, max {stats['omega1_max']:.4f} rad/s, "
+                 f"delta = {stats['delta']:.4f}")
+    ax.legend(loc="best")
+    p = out_dir / f"omega1_cycle{summary_cycle}.png"
+    fig.savefig(p, dpi=120)
+    plt.close(fig)
+    paths.append(p)
+    return paths
+
+
+def plot_startup(reference, runs: dict, out: Path, method="badoiu-eq17") -> Path:
+    """omega1 over the first turn: the reference and the study's runs of ``method``."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    t_end = reference.cycle_bounds(1)[1] * 1.2
+    sel = reference.time <= t_end
+    ax.plot(reference.time[sel], reference.omega1[sel], "k", lw=2, label="reference (DOP853, time domain)")
+    for (m, deg), r in runs.items():
+        if m != method:
+            continue
+        keep = r.trajectory.t <= t_end
+        ax.plot(r.trajectory.t[keep], r.trajectory.y[OMEGA][keep], lw=1, label=f"{method}, {deg:g} deg")
+    ax.set_xlabel("time t [s]")
+    ax.set_ylabel("omega1 [rad/s]")
+    ax.set_title(f"{reference.scenario.name}: start-up, first crank turn")
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# kinematic studies and sweeps
+
+def plot_time_series(ts: dict, out: Path, title: str) -> list[Path]:
+    plt = pyplot()
+    paths = []
+    approx = ts.get("approx", {})
+    for name, values in ts["exact"].items():
+        fig, ax = plt.subplots(figsize=(8, 4))
+        ax.plot(ts["time"], values, lw=1.6, label="exact (contour engine)")
+        if name in approx:
+            ax.plot(ts["time"], approx[name], "--", lw=1.0,
+                    label=f"paper's approximation, max error {ts['approx_errors'][name]:.3g} {ts['units'][name]}")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(f"{name} [{ts['units'][name]}]")
+        ax.set_title(f"{title}: {name}")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8)
+        fig.tight_layout()
+        paths.append(out / f"{name}.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+    if "path" in ts:
+        fig, ax = plt.subplots(figsize=(7, 4))
+        ax.plot(*ts["path"], lw=1.6, label="exact")
+        if "path" in approx:
+            ax.plot(*approx["path"], "--", lw=1.0,
+                    label=f"paper's approximation, max distance {ts['approx_errors']['path']:.3g} m")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_title(f"{title}: path of the rod's point")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        paths.append(out / "path.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+    return paths
+
+
+def plot_velocity_plan(detail: dict, relative, path: Path, title: str) -> Path:
+    """Pole p at the origin, each point's velocity drawn from it to scale, the relative velocities
+    joining their heads (the paper's Fig. 5b, from the computed velocities). The frame is square
+    around the polygon (pole included) with a margin for the labels, and the labels are placed
+    where they cover no other text, arrow or point (pictures.labels)."""
+    from .pictures.labels import label, obstacle_boxes, place_labels, renderer_of
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    vel = {p: np.array(v) for p, v in detail["velocities"].items()}
+    labels, paths = [], []
+    for i, (p, v) in enumerate(vel.items()):
+        ax.annotate("", xy=v, xytext=(0, 0), arrowprops=dict(arrowstyle="->", color=f"C{i}", lw=1.8))
+        paths.append(np.array([[0.0, 0.0], v]))
+        labels.append(label(ax, f"{p.lower()}: |v_{p}| = {np.hypot(*v):.3f} m/s", tuple(v), color=f"C{i}", fontsize=9))
+    for a, b in relative:
+        ax.annotate("", xy=vel[a], xytext=vel[b], arrowprops=dict(arrowstyle="->", color="0.4", ls="--"))
+        paths.append(np.array([vel[b], vel[a]]))
+        labels.append(label(ax, f"v_{a}{b} = {np.hypot(*(vel[a] - vel[b])):.3f} m/s", tuple(0.5 * (vel[a] + vel[b])),
+                            color="0.3", fontsize=8))
+    ax.plot(0, 0, "ko")
+    labels.append(label(ax, "p (pole)", (0.0, 0.0), fontsize=9))
+    corners = np.array([[0.0, 0.0], *vel.values()])
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    centre, half = 0.5 * (lo + hi), 0.5 * max(hi - lo) * 1.45
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_aspect("equal")
+    ax.set_xlabel("v_x [m/s]")
+    ax.set_ylabel("v_y [m/s]")
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    renderer = renderer_of(fig)
+    place_labels(fig, ax, labels, obstacle_boxes(ax, corners, paths), renderer=renderer)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_families(result, scenario, units: dict, out: Path) -> list[Path]:
+    """One PNG per quantity and swept parameter: a curve over the cycle for each of its values,
+    the other parameters at the grid value nearest the scenario's own."""
+    plt = pyplot()
+    paths = []
+    base = {a.name: min(a.values, key=lambda v: abs(v - scenario[a.name])) for a in result.axes}
+    quantities = next(iter(result.series.values())).keys() if result.series else []
+    deg = np.degrees(result.phi1) if result.phi1 is not None else None
+    for axis, quantity in itertools.product(result.axes, quantities):
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        for i, v in enumerate(axis.values):
+            series = result.series_at({**base, axis.name: v})
+            if series is not None:
+                ax.plot(deg, series[quantity], lw=1.2, label=f"{axis.name} = {v:g}")
+            else:
+                ax.plot([], [], lw=0, label=f"{axis.name} = {v:g}: cannot be assembled")
+        fixed = ", ".join(f"{k} = {v:g}" for k, v in base.items() if k != axis.name)
+        ax.set_title(f"{quantity} over a cycle, {axis.name} swept ({fixed})")
+        ax.set_xlabel("crank angle phi1 [deg]")
+        ax.set_ylabel(f"{quantity} [{units.get(quantity, '')}]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        paths.append(out / f"{quantity}_vs_{axis.name}.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+    return paths
+
+
+def plot_steady(result, out: Path, units: dict | None = None) -> list[Path]:
+    """delta over the grid: a map for two swept parameters, curves for one (the first two axes;
+    the others at their first value)."""
+    if not result.rows:
+        return []
+    plt = pyplot()
+    units = units or {}
+    axes = result.axes
+    fixed = {a.name: a.values[0] for a in axes[2:]}
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    if len(axes) == 1:
+        xs = axes[0].values
+        ys = [(result.row_at({axes[0].name: x}) or {"delta": np.nan})["delta"] for x in xs]
+        ax.plot(xs, ys, "o-", ms=3)
+        ax.set_xlabel(f"{axes[0].name}  [{units.get(axes[0].name, '?')}]")
+        ax.set_ylabel("delta = (omega1 max - min) / mean  [1]")
+    else:
+        a0, a1 = axes[0], axes[1]
+        grid = np.full((len(a1.values), len(a0.values)), np.nan)
+        for i, v1 in enumerate(a1.values):
+            for j, v0 in enumerate(a0.values):
+                row = result.row_at({**fixed, a0.name: v0, a1.name: v1})
+                if row is not None:
+                    grid[i, j] = row["delta"]
+        # delta spans decades over a design grid (a light flywheel to a heavy one): a logarithmic
+        # colour scale, and the design targets as labelled contour lines
+        from matplotlib.colors import LogNorm
+
+        positive = grid[np.isfinite(grid) & (grid > 0)]
+        norm = LogNorm(vmin=positive.min(), vmax=positive.max()) if positive.size and positive.max() > positive.min() else None
+        mesh = ax.pcolormesh(a0.values, a1.values, np.where(grid > 0, grid, np.nan), shading="nearest",
+                             cmap="viridis", norm=norm)
+        fig.colorbar(mesh, ax=ax, label="delta = (omega1 max - min) / mean  [1], log scale")
+        levels = [d for d in DELTA_TARGETS if positive.size and positive.min() < d < positive.max()]
+        if levels and min(len(a0.values), len(a1.values)) >= 2:
+            lines = ax.contour(a0.values, a1.values, grid, levels=levels, colors="white", linewidths=1.2)
+            ax.clabel(lines, fmt=lambda d: f"delta = {d:g}", fontsize=8, inline=True)
+        ax.set_xlabel(f"{a0.name}  [{units.get(a0.name, '?')}]")
+        ax.set_ylabel(f"{a1.name}  [{units.get(a1.name, '?')}]")
+    ax.set_title("steady-cycle speed fluctuation" + (f" ({', '.join(f'{k} = {v:g}' for k, v in fixed.items())})"
+                                                      if fixed else ""))
+    path = out / "delta.png"
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return [path]
+
+
+# --------------------------------------------------------------------------------------------
+# equilibrium moments and joint reactions
+
+def plot_moments(scenario, results: list, out: Path) -> list[Path]:
+    """One figure per speed, as the paper's Figs. 2-5: curve 1 with inertia, curve 2 without."""
+    plt = pyplot()
+    paths = []
+    for k, r in enumerate(results):
+        m = r.moment
+        deg = np.append(np.degrees(m.phi1), 360.0)
+        close = lambda a: np.append(a, a[0])  # noqa: E731
+        fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+        ax.plot(deg, close(m.total), lw=1.6, label="1: with inertia forces and moments")
+        ax.plot(deg, close(m.static), lw=1.2, ls="--", label="2: inertia neglected")
+        ax.axhline(r.mean, color="0.5", lw=0.8, ls=":", label=f"cycle mean {r.mean:.2f} N.m")
+        turn_axis(ax)
+        ax.set_ylabel("equilibrium moment M_e [N.m]")
+        s = r.summary()
+        ax.set_title(f"{scenario.name}: omega1 = {r.omega1:g} rad/s (Fig. {k + 2}); "
+                     f"inertia ratio {s['inertia_ratio']:.3f}")
+        ax.legend(loc="best", fontsize=8)
+        p = out / f"Me_omega{r.key}.png"
+        fig.savefig(p, dpi=120)
+        plt.close(fig)
+        paths.append(p)
+    return paths
+
+
+def plot_reactions(scenario, r, path: Path) -> Path:
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    deg = np.degrees(r.reactions.phi1)
+    for joint in r.reactions.force:
+        ax.plot(deg, r.reactions.magnitude(joint), lw=1.0, label=f"{joint} ({r.reactions.kind[joint]})")
+    turn_axis(ax)
+    ax.set_ylabel("joint reaction |F| [N]")
+    ax.set_title(f"{scenario.name}: joint reactions at omega1 = {r.omega1:g} rad/s")
+    ax.legend(loc="upper right", fontsize=7, ncol=2)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# the flywheel study
+
+def paper_deg(phi, offset):
+    return np.degrees(np.asarray(phi) - offset)
+
+
+def plot_inertia(scenario, offset, path):
+    plt = pyplot()
+    model = scenario.build()
+    phi = offset + np.linspace(0.0, TWO_PI, 721)
+    J = model.reduced.coefficients(phi)[0]
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    ax.plot(paper_deg(phi, offset), J, lw=1.5)
+    ax.plot(paper_deg(phi[::30], offset), J[::30], "o", ms=4, label="every 15 deg (the paper's step)")
+    turn_axis(ax, "crank angle phi = theta1 - 90 deg [deg]")
+    ax.set_ylabel("equivalent moment of inertia J_e [kg.m2]")
+    ax.set_title(f"{scenario.name}: J_e(phi), eq. 12 (Fig. 3); min {J.min():.3f}, max {J.max():.3f} kg.m2")
+    ax.legend()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_movement(reference, eq3, offset, path):
+    plt = pyplot()
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 8.5), constrained_layout=True, sharex=True)
+    deg = paper_deg(reference.phi1, offset)
+    a1.plot(deg, reference.omega1, lw=1.5, label="reference (DOP853, time domain)")
+    a1.plot(paper_deg(eq3.trajectory.y[0], offset), eq3.trajectory.y[1], lw=1, ls="--", label="eq. 3, 1 deg")
+    a1.set_ylabel("omega1 [rad/s]")
+    a1.legend()
+    a2.plot(deg, reference.epsilon1, lw=1.2)
+    a2.set_ylabel("epsilon1 [rad/s2]")
+    a3.plot(deg, reference.M_motor + reference.M_load, lw=1.2, label="M_motor + M_load (Fig. 5)")
+    a3.plot(deg, reference.M_load, lw=0.8, label="M_load (cutting force, weights)")
+    a3.set_ylabel("equivalent torque [N.m]")
+    a3.set_xlabel("crank angle phi from the start [deg]")
+    a3.legend(fontsize=8)
+    for ax in (a1, a2, a3):
+        ax.grid(alpha=0.3)
+    a1.set_title(f"{reference.scenario.name}: start at omega1 = {reference.omega1[0]:g} rad/s, no flywheel (Figs. 5-6)")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_flywheel(design, offset, path):
+    plt = pyplot()
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.5), constrained_layout=True, sharex=True)
+    for c, label in ((design.without, "no flywheel"), (design.with_flywheel, f"J_F = {design.J_F_simulated:.1f} kg.m2")):
+        a1.plot(paper_deg(c.phi1, offset), c.omega1, label=f"{label}: delta {c.delta:.4f}")
+        a2.plot(paper_deg(c.phi1, offset), c.epsilon1, label=label)
+    a1.set_ylabel("omega1 [rad/s]")
+    a2.set_ylabel("epsilon1 [rad/s2]")
+    turn_axis(a2, "crank angle phi [deg] (steady cycle)")
+    a1.set_title(f"steady cycle with and without flywheel (Fig. 7)\npeaks of omega1 "
+                 f"-{100 * design.omega_peak_reduction:.2f} %, of |epsilon1| -{100 * design.epsilon_peak_reduction:.1f} %")
+    for ax in (a1, a2):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_stability(stability, path):
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    ok = [r for r in stability.rows if r["stable"]]
+    bad = [r for r in stability.rows if not r["stable"]]
+    ax.loglog([r["step_deg"] for r in ok], [r["error"] for r in ok], "o-", label="stable: last-turn error")
+    for r in bad:
+        ax.axvline(r["step_deg"], color="C3", lw=0.8, alpha=0.6)
+    ax.axvline(stability.linear_estimate_deg, color="k", ls="--", lw=1,
+               label=f"estimate 2 J omega1 / B = {stability.linear_estimate_deg:.2f} deg")
+    if stability.limit:
+        ax.axvspan(stability.limit["largest_stable_deg"], stability.limit["smallest_unstable_deg"],
+                   color="C3", alpha=0.3, label=f"measured limit {stability.limit['largest_stable_deg']:.2f} deg")
+    ax.set_xlabel("angle step of eq. 3 [deg] (red lines: unstable)")
+    ax.set_ylabel("max |omega1 error| over the last turn [rad/s]")
+    ax.set_title(f"eq. 3 step-size study ({stability.turns} turns from the start, J_F = {stability.J_flywheel:g})")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
