@@ -183,12 +183,13 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_equilibrium(args) -> int:
-    from .studies.equilibrium import equilibrium_study, write_study
+    from .output import write_equilibrium
+    from .studies.equilibrium import equilibrium_study
     from .scenario import load_scenario
 
     scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
     results = equilibrium_study(scenario, args.omega, args.angles)
-    summary = write_study(scenario, results, args.out)
+    summary = write_equilibrium(scenario, results, args.out)
     print(f"{scenario.name}: equilibrium moment at constant crank speed ({results[0].moment.phi1.size} angles)")
     print(f"  {'omega1':>6s} {'Me_min':>9s} {'Me_max':>9s} {'Me_mean':>9s} {'min stat':>9s} {'max stat':>9s} "
           f"{'inertia':>8s}  [N.m; inertia ratio = max|Me - Me_static| / max|Me|]")
@@ -206,6 +207,7 @@ def cmd_equilibrium(args) -> int:
 
 
 def cmd_flywheel(args) -> int:
+    from .output import write_flywheel
     from .studies.flywheel import STUDY_STAGES, flywheel_study
     from .progress import ProgressBar
     from .scenario import load_scenario
@@ -216,7 +218,9 @@ def cmd_flywheel(args) -> int:
         raise CrankfmuError(f"--steps-deg must be positive angles in deg, got {args.steps_deg!r}")
     bar = ProgressBar(STUDY_STAGES, label=f"{scenario.name} flywheel study")
     try:
-        study = flywheel_study(scenario, args.delta, args.out, steps, progress=bar)
+        study = flywheel_study(scenario, args.delta, steps, progress=bar)
+        plots = write_flywheel(study, args.out)
+        bar(STUDY_STAGES)
     finally:
         bar.close()
     d, st = study.design, study.stability
@@ -235,7 +239,7 @@ def cmd_flywheel(args) -> int:
               f"{st.limit['smallest_unstable_deg']:.3f} deg (linear estimate {st.linear_estimate_deg:.3f} deg)")
     else:
         print(f"  eq. 3: no stability limit within the steps tried (estimate {st.linear_estimate_deg:.3f} deg)")
-    print(f"  wrote {args.out}/flywheel.json, " + ", ".join(study.plots))
+    print(f"  wrote {args.out}/flywheel.json, " + ", ".join(p.name for p in plots))
     return 0
 
 

@@ -52,6 +52,14 @@ INPUTS = (
     Variable("tau_ext", "N.m", "extra torque on the crank from outside (the coupling port)", "input", ()),
 )
 
+#: Drive.fmu's outputs (its inputs and parameters are the drive file's)
+DRIVE_OUTPUTS = (
+    Variable("tau", "N.m", "torque of the drive on the crank (n_gear k_t i)"),
+    Variable("i", "A", "armature current"),
+    Variable("u", "V", "armature voltage from the PI controller"),
+    Variable("P_el", "W", "electrical power into the armature (u i)"),
+)
+
 #: columns of timeseries.csv and fields of Result, in order, with their units
 COLUMNS = {v.name: v.unit for v in (TIME, *OUTPUTS)}
 

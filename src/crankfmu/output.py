@@ -1,4 +1,9 @@
-"""Writing results: timeseries.csv, summary.json and the PNG plots (paper Figs. 3 and 4)."""
+"""The reports: what each job writes from its result (CSV, JSON and the figures of ``plots``).
+
+A run of ``crankfmu simulate``: timeseries.csv, summary.json and paper Figs. 3-4; the equilibrium
+study: summary.json, one CSV per speed, the moments and reactions; the flywheel study:
+flywheel.json and its four figures. The studies compute and return dataclasses; writing is here.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .plots import plot_cycles
+from .plots import (plot_cycles, plot_flywheel, plot_inertia, plot_moments, plot_movement, plot_reactions,
+                    plot_stability)
 from .simulation import COLUMNS, Result
 
 
@@ -40,3 +46,45 @@ def write_run(result: Result, out_dir: str | Path) -> dict:
     write_summary(summary, out / "summary.json")
     plot_cycles(result, out, exp.cycles, exp.summary_cycle)
     return summary
+
+
+def write_equilibrium(scenario, results: list, out_dir) -> dict:
+    """summary.json (keyed by speed), equilibrium_<w>.csv and the figures; returns the summary."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {r.key: r.summary() for r in results}
+    summary["units"] = {"Me_*": "N.m", "inertia_ratio": "1", "omega1": "rad/s", "max_force_N": "N",
+                        "max_couple_Nm": "N.m", "technological_work_per_cycle_J": "J"}
+    summary["scenario"] = scenario.name
+    summary["parameters"] = scenario.values
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    for r in results:
+        m = r.moment
+        columns = {"phi1_deg": np.degrees(m.phi1), "Me": m.total, "Me_static": m.static,
+                   "Me_weights": m.weights, "Me_technological": m.technological, "Me_inertia": m.inertia}
+        for joint in r.reactions.force:
+            fx, fy = r.reactions.force[joint]
+            columns[f"{joint}_Fx"], columns[f"{joint}_Fy"] = fx, fy
+            if r.reactions.kind[joint] == "prismatic":
+                columns[f"{joint}_couple"] = r.reactions.couple[joint]
+        np.savetxt(out / f"equilibrium_{r.key}.csv", np.column_stack(list(columns.values())),
+                   delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
+    plot_moments(scenario, results, out)
+    plot_reactions(scenario, results[0], out / f"reactions_{results[0].key}.png")
+    return summary
+
+
+def write_flywheel(study, out_dir) -> list[Path]:
+    """flywheel.json and the flywheel study's figures (J_e, the movement, the flywheel, eq. 3)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    offset = study.angle_offset
+    plots = [
+        plot_inertia(study.scenario, offset, out / "J_e.png"),
+        plot_movement(study.reference, study.eq3, offset, out / "movement.png"),
+        plot_flywheel(study.design, offset, out / "flywheel.png"),
+        plot_stability(study.stability, out / "eq3_stability.png"),
+    ]
+    summary = {**study.summary(), "plots": [p.name for p in plots]}
+    (out / "flywheel.json").write_text(json.dumps(summary, indent=2) + "\n")
+    return plots

@@ -36,6 +36,8 @@ from xml.etree import ElementTree as ET
 from ..contract import BASE_UNITS, OUTPUTS
 from ..errors import CrankfmuError
 from . import documentation
+from . import drive as drive_core
+from . import slave
 
 HERE = Path(__file__).resolve().parent
 PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's resources
@@ -101,6 +103,7 @@ class Source:
     groups: dict                    # "*geometry", "*loads" -> parameter names
     reference: object = None        # () -> the default experiment's outputs as CSV text, or None
     documentation: object = None    # (modelDescription, parameters, reference CSV) -> {path in FMU: bytes}
+    variables: object = None        # () -> fmi.core.Declared: what the core registers
     load: str = ""                  # what the core loads: the packaged name, or "user/<file>.toml" in the FMU
     files: dict = field(default_factory=dict)   # a user's data files: path in the package -> text
 
@@ -119,7 +122,7 @@ def source_of(kind: str, name: str, fmu_name: str | None = None) -> Source:
         source = Source(kind, scenario.name, fmu, scenario.title, scenario.experiment, "fmi.slave:FmuCore",
                         {v.name: v.initial for v in OUTPUTS}, groups, lambda: reference_result(scenario),
                         lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params, ref),
-                        load=scenario.name)
+                        lambda: slave.declared(scenario), load=scenario.name)
         if _is_path(name):
             source.load, source.files = _user_files(scenario, name)
         return source
@@ -130,7 +133,7 @@ def source_of(kind: str, name: str, fmu_name: str | None = None) -> Source:
         return Source(kind, drive.name, _fmu_name(fmu_name or drive.fmu, drive.where),
                       drive.title, drive.experiment, "fmi.drive:DriveCore", {}, {},
                       documentation=lambda f, md, params, ref: documentation.drive_documentation(f, drive, md, params),
-                      load=drive.name)
+                      variables=lambda: drive_core.declared(drive), load=drive.name)
     raise CrankfmuError(f"build: unknown kind {kind!r}")
 
 
@@ -342,11 +345,12 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None) -> Pat
             raw = FmuBuilder.build_FMU(script, dest=Path(tmp) / f"{name}.fmu",
                                        project_files=[private],
                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-            slave_units, slave_parameters = _variables_of(name, private.parent)
         finally:
             sys.path.remove(str(private.parent))
             sys.path.remove(str(script_dir))
             sys.modules.pop(name, None)
+        declared = source.variables()
+        slave_units, slave_parameters = declared.units, {p.name: p for p in declared.parameters}
         shim = compile_shim(name, Path(tmp) / f"{name}.so")
         binary = f"binaries/linux64/{name}.so"
         out = dest / f"{name}.fmu"
@@ -374,16 +378,6 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None) -> Pat
             (dest / f"{name}_ref.csv").write_text(reference)
             (dest / f"{name}_ref.opt").write_text(cross_check_options(source))
     return out
-
-
-def _variables_of(name: str, resources: Path) -> tuple[dict[str, str], dict]:
-    """Units and parameters as the slave registered them (one source: the slave core and the data
-    file)."""
-    import importlib
-
-    module = importlib.import_module(name)
-    slave = getattr(module, name)(instance_name="build", resources=str(resources))
-    return dict(slave.core.units), dict(slave.core.parameters)
 
 
 def main(argv=None) -> int:

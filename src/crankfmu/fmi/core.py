@@ -16,6 +16,7 @@ refused, not ignored.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -54,6 +55,19 @@ def time_matches(t_host: float, t_own: float, step: float) -> bool:
     return abs(t_host - t_own) <= 1e-9 * max(1.0, abs(t_own)) + 1e-6 * step
 
 
+class Declared(NamedTuple):
+    """The variables an FMU declares, in order: what its core registers with pythonfmu and what the
+    build writes into modelDescription.xml (units, ranges), from one list."""
+
+    outputs: list                  # contract.Variable
+    inputs: list                   # parameters.Parameter (a start value and a range)
+    parameters: list               # parameters.Parameter
+
+    @property
+    def units(self) -> dict[str, str]:
+        return {v.name: v.unit for v in (*self.outputs, *self.inputs, *self.parameters)}
+
+
 class SlaveCore:
     """Variables, life cycle, refusals and state of one FMU instance.
 
@@ -76,6 +90,15 @@ class SlaveCore:
         self.outputs: set[int] = set()
 
     # ------------------------------------------------------------------ declaring variables
+    def declare(self, declared: "Declared", getters: dict):
+        """Register every declared variable; an output's value comes from ``getters[name]``."""
+        for v in declared.outputs:
+            self.output(v.name, v.unit, v.description, getters[v.name])
+        for p in declared.inputs:
+            self.input(p)
+        for p in declared.parameters:
+            self.parameter(p)
+
     def output(self, name, unit, description, getter):
         from pythonfmu.enums import Fmi2Causality, Fmi2Variability
         from pythonfmu.variables import Real

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contract import DRIVE_OUTPUTS as OUTPUTS
 from ..dynamics.drive import load_drive
-from .core import SlaveCore
+from .core import Declared, SlaveCore
 
-OUTPUTS = (("tau", "N.m", "torque of the drive on the crank (n_gear k_t i)"),
-           ("i", "A", "armature current"),
-           ("u", "V", "armature voltage from the PI controller"),
-           ("P_el", "W", "electrical power into the armature (u i)"))
+
+def declared(drive_file) -> Declared:
+    """The variables of Drive.fmu: the contract's drive outputs, the drive file's inputs and parameters."""
+    return Declared(list(OUTPUTS), list(drive_file.inputs.values()), list(drive_file.parameters.values()))
 
 
 class DriveCore(SlaveCore):
@@ -27,12 +28,7 @@ class DriveCore(SlaveCore):
         self.state = np.zeros(2)             # i A, x rad
         self.out = np.zeros(len(OUTPUTS))    # the outputs at the current time, filled once per step
         self.drive = None
-        for k, (name, unit, description) in enumerate(OUTPUTS):
-            self.output(name, unit, description, lambda k=k: float(self.out[k]))
-        for p in self.file.inputs.values():
-            self.input(p)
-        for p in self.file.parameters.values():
-            self.parameter(p)
+        self.declare(declared(self.file), {v.name: (lambda k=k: float(self.out[k])) for k, v in enumerate(OUTPUTS)})
         self.attach()
 
     def _update_outputs(self):

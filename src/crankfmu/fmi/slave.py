@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS
+from ..contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS, Variable
 from ..dynamics import MotorLine
 from ..dynamics import modes
 from ..dynamics.tabulated import table_of
@@ -36,7 +36,7 @@ from ..integrators.fast import TABLE_TOLERANCE, FastStepper
 from ..integrators.kernel import COMPILED, layout
 from ..parameters import Parameter
 from ..scenario import load_scenario
-from .core import SlaveCore
+from .core import Declared, SlaveCore
 
 #: where each output sits in the kernel's output row (E_kin is computed from J_red and omega1)
 ROW = {name: i for i, name in enumerate(layout.ROW_FIELDS)}
@@ -69,6 +69,18 @@ def build_design(scenario, values: dict):
     return design
 
 
+def declared(scenario) -> Declared:
+    """The variables of the FMU of ``scenario``: the contract's outputs and the scenario's
+    [[outputs]], the input tau_ext, the scenario's parameters and the integrator's rtol."""
+    definition = scenario.mechanism_definition()
+    outputs = [*OUTPUTS, *(Variable(q.name, q.unit(definition), q.description) for q in scenario.quantities)]
+    inputs = [Parameter(TAU_EXT.name, 0.0, TAU_EXT.unit, TAU_EXT.description)]
+    parameters = [*scenario.parameters.values(), Parameter(
+        "rtol", scenario.experiment.tolerance, "1", min=0.0, min_inclusive=False,
+        description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4), compiled)")]
+    return Declared(outputs, inputs, parameters)
+
+
 class FmuCore(SlaveCore):
     """Variables and model of a crankfmu FMU for one scenario."""
 
@@ -83,17 +95,9 @@ class FmuCore(SlaveCore):
         self.quantities = self.scenario.quantities
         self._quantity_values: dict[str, float] | None = None    # filled on first read after a step
 
-        for out in OUTPUTS:
-            self.output(out.name, out.unit, out.description, self._getter(out.name))
-        definition = self.scenario.mechanism_definition()
-        for q in self.quantities:
-            self.output(q.name, q.unit(definition), q.description, lambda n=q.name: self._quantity(n))
-        self.input(Parameter(TAU_EXT.name, 0.0, TAU_EXT.unit, TAU_EXT.description))
-        for p in self.scenario.parameters.values():
-            self.parameter(p)
-        self.parameter(Parameter(
-            "rtol", self.scenario.experiment.tolerance, "1", min=0.0, min_inclusive=False,
-            description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4), compiled)"))
+        getters = {out.name: self._getter(out.name) for out in OUTPUTS}
+        getters.update({q.name: (lambda n=q.name: self._quantity(n)) for q in self.quantities})
+        self.declare(declared(self.scenario), getters)
         if not COMPILED:     # the kernel runs as numpy code: its overflow warnings stay quiet
             self.quiet_entry_points = (*self.quiet_entry_points, "do_step")
         self.attach()

@@ -3,15 +3,13 @@ speeds, with and without the inertia forces and moments, the joint reactions, an
 user can read back: the cycle mean of M_e is the technological work per turn over 2 pi.
 
 ``equilibrium_study(scenario, [15, 10, 7, 5])`` returns one :class:`SpeedResult` per speed;
-``write_study`` writes summary.json, one CSV per speed and the figures.
+``output.write_equilibrium`` writes summary.json, one CSV per speed and the figures.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -19,7 +17,6 @@ from ..dynamics.inverse import EquilibriumMoment, equilibrium_moment
 from ..dynamics.loads import TECHNOLOGICAL
 from ..dynamics.reactions import JointReactions, joint_reactions
 from ..errors import ParameterError
-from ..plots import plot_moments, plot_reactions
 from ..scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
@@ -134,32 +131,5 @@ def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> lis
 
 def speed_key(w: float) -> str:
     return f"{w:g}"
-
-
-def write_study(scenario, results: list[SpeedResult], out_dir) -> dict:
-    """summary.json (keyed by speed), equilibrium_<w>.csv and the figures; returns the summary."""
-    scenario = load_scenario(scenario)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    summary = {speed_key(r.omega1): r.summary() for r in results}
-    summary["units"] = {"Me_*": "N.m", "inertia_ratio": "1", "omega1": "rad/s", "max_force_N": "N",
-                        "max_couple_Nm": "N.m", "technological_work_per_cycle_J": "J"}
-    summary["scenario"] = scenario.name
-    summary["parameters"] = scenario.values
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    for r in results:
-        m = r.moment
-        columns = {"phi1_deg": np.degrees(m.phi1), "Me": m.total, "Me_static": m.static,
-                   "Me_weights": m.weights, "Me_technological": m.technological, "Me_inertia": m.inertia}
-        for joint in r.reactions.force:
-            fx, fy = r.reactions.force[joint]
-            columns[f"{joint}_Fx"], columns[f"{joint}_Fy"] = fx, fy
-            if r.reactions.kind[joint] == "prismatic":
-                columns[f"{joint}_couple"] = r.reactions.couple[joint]
-        np.savetxt(out / f"equilibrium_{speed_key(r.omega1)}.csv", np.column_stack(list(columns.values())),
-                   delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
-    plot_moments(scenario, results, out)
-    plot_reactions(scenario, results[0], out / f"reactions_{speed_key(results[0].omega1)}.png")
-    return summary
 
 

@@ -21,10 +21,8 @@
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict, dataclass, field, fields
-from pathlib import Path
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -33,7 +31,6 @@ from scipy.optimize import brentq
 from .batch import SteadyBatch
 from .equilibrium import cycle_breaks
 from ..errors import CrankfmuError, ParameterError, SchemeError
-from ..plots import plot_flywheel, plot_inertia, plot_movement, plot_stability
 from ..scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
@@ -113,17 +110,20 @@ class Eq3Stability:
 
 @dataclass
 class FlywheelStudy:
-    """Everything ``crankfmu flywheel`` computes and writes."""
+    """Everything ``crankfmu flywheel`` computes: the flywheel, the eq. 3 study and the movement from
+    the start without flywheel (the reference and eq. 3 at 1 deg, for Fig. 6)."""
 
     design: FlywheelDesign
     stability: Eq3Stability
-    movement: dict                  # the run from the start: settled angle, eq. 3's error at 1 deg
-    plots: list[str]
+    movement: dict                  # settled angle (deg), eq. 3's largest error at 1 deg (rad/s)
+    scenario: object = field(repr=False)       # the scenario without flywheel
+    angle_offset: float = 0.0                  # rad, the paper's phi = 0
+    reference: object = field(default=None, repr=False)
+    eq3: object = field(default=None, repr=False)
 
     def summary(self) -> dict:
-        """flywheel.json."""
-        return {**self.design.summary(), "eq3_stability": asdict(self.stability), "movement": self.movement,
-                "plots": self.plots}
+        """What flywheel.json holds."""
+        return {**self.design.summary(), "eq3_stability": asdict(self.stability), "movement": self.movement}
 
 
 def _crank_angle_rhs(model):
@@ -387,19 +387,17 @@ def eq3_stability(scenario, steps_deg, turns: int = 20, steady: SteadyCycle | No
 # the study behind `crankfmu flywheel`: figures and flywheel.json
 
 #: what ``flywheel_study`` reports to ``progress``: 1..3 the flywheel (design_flywheel), 4 the eq. 3
-#: study, 5 the movement from the start, 6 the figures
+#: study, 5 the movement from the start (the caller's 6: the figures)
 STUDY_STAGES = 6
 
 
-def flywheel_study(scenario, delta: float, out_dir, steps_deg=None, progress=None) -> FlywheelStudy:
+def flywheel_study(scenario, delta: float, steps_deg=None, progress=None) -> FlywheelStudy:
     """J_e, the equivalent torque and the movement from the start (Figs. 3, 5, 6), the flywheel
-    (eqs. 16-17 and simulated, Fig. 7) and the eq. 3 stability study; writes flywheel.json and the
-    figures."""
+    (eqs. 16-17 and simulated, Fig. 7) and the eq. 3 stability study (output.write_flywheel writes
+    flywheel.json and the figures)."""
     from ..simulation import simulate
 
     scenario = load_scenario(scenario)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     spec = scenario.data.get("flywheel", {})
     offset = float(spec.get("angle_offset", 0.0))
     design = design_flywheel(scenario, delta, phi0=offset, progress=progress)
@@ -420,17 +418,7 @@ def flywheel_study(scenario, delta: float, out_dir, steps_deg=None, progress=Non
     movement = {"omega1_start": base["omega1_start"], "settled_within_1e-3_at_deg": settled,
                 "eq3_1deg_max_error_first_3_turns": float(np.max(np.abs(
                     eq3_omega[both] - reference.omega_at_angle(eq3_phi[both]))))}
-    plots = [
-        plot_inertia(base, offset, out / "J_e.png"),
-        plot_movement(reference, eq3, offset, out / "movement.png"),
-        plot_flywheel(design, offset, out / "flywheel.png"),
-        plot_stability(stability, out / "eq3_stability.png"),
-    ]
-    study = FlywheelStudy(design, stability, movement, [p.name for p in plots])
-    (out / "flywheel.json").write_text(json.dumps(study.summary(), indent=2) + "\n")
-    if progress is not None:
-        progress(STUDY_STAGES)
-    return study
+    return FlywheelStudy(design, stability, movement, base, offset, reference, eq3)
 
 
 def _settled_angle(result, steady: SteadyCycle, offset: float) -> float | None:
