@@ -162,9 +162,10 @@ def test_c_host_without_a_usable_python_gets_the_attempts_and_the_fix(driver, un
 def test_the_fmu_ships_only_what_runs_inside_it(fmu_path):
     with zipfile.ZipFile(fmu_path) as z:
         shipped = {n.split("crankfmu_FourBar/", 1)[1] for n in z.namelist() if "/crankfmu_FourBar/" in n}
-    for study in ("cli.py", "flywheel.py", "sweep.py", "batch.py", "simulation.py", "output.py", "fmi/build.py",
-                  "integrators/time_domain.py", "integrators/stepper.py", "integrators/crank_angle.py"):
+    for study in ("cli.py", "simulation.py", "output.py", "plots.py", "check.py", "fmi/build.py", "fmi/documentation.py",
+                  "integrators/time_domain.py", "integrators/crank_angle.py", "pictures/draw.py"):
         assert study not in shipped
+    assert not any(n.startswith(("studies/", "pictures/")) for n in shipped)    # no study, no drawing
     assert {"fmi/slave.py", "integrators/kernel/method.py", "dynamics/modes.py", "contract.py", "scenarios/seed000.toml"} <= shipped
     assert not any("__pycache__" in n for n in shipped)
 

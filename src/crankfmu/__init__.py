@@ -5,8 +5,10 @@
     >>> result = crankfmu.simulate(scenario)            # reference integrator
     >>> result.time, result.omega1                       # s, rad/s
 
-Data flows one way: geometry (mechanisms) -> kinematics (contour engine) -> reduced model
-(dynamics) -> integrator (integrators) -> outputs (simulation, output).
+Data flows one way, and imports with it: contract and data files -> mechanisms (contour engine)
+-> dynamics (reduced model, loads, motor, hybrid rules) -> integrators (one interface) ->
+scenario and simulation -> the FMI shell (fmi), the CLI and the studies (studies) -> the reports
+(output, plots, pictures).
 """
 
 from .contract import COLUMNS

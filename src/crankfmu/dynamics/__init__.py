@@ -1,4 +1,7 @@
-"""Dynamics: reduced inertia, loads, motor and the equation of motion."""
+"""Dynamics: the reduced model (inertia J, 0.5 J', loads reduced to the crank), the motor line, the
+hybrid rules of the movement equation (``modes``, shared with the compiled kernel), the movement
+equation on the contour engine (``equation``), its tabulation for the fast path (``tabulated``),
+inverse dynamics and joint reactions, and the DC drive."""
 
 from .equation import MovementEquation
 from .loads import AppliedLoad, DeadPointMoment, SliderForce, ViscousForce, Weights, rocker_extremes

@@ -16,6 +16,10 @@ The compiled fast kernel (``integrators.kernel``) calls these functions compiled
 the engine's ``MovementEquation`` calls the same functions as plain Python (``python_function``)
 on its objects. Neither restates a rule. Motor branches and directions are floats (what the
 kernel's state array holds).
+
+Every rule is inlined into the kernel (``jit_inline``): a compiled callee that is not inlined is
+pickled into the kernel's on-disk cache by its module's name, here ``crankfmu.dynamics.modes``, which
+an FMU (whose package has a private name) cannot import when it loads that cache.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..compiled import jit, jit_inline, python_function
+from ..compiled import jit_inline, python_function
 
 TWO_PI = 2.0 * math.pi
 
@@ -161,7 +165,7 @@ def interval_width(switch, k):
     return end - switch[k]
 
 
-@jit
+@jit_inline
 def interval_of(switch, phi, direction):
     """(k, phi_lo, phi_hi): the switch interval holding crank angle phi (rad, unwrapped) and its
     unwrapped bounds around it (rad). On a switch angle the interval the motion enters wins

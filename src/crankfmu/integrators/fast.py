@@ -1,7 +1,7 @@
 """The fast path: the compiled kernel on the tabulated reduced model, behind ``Integrator.run``.
 
 ``FastIntegrator`` is ``simulate(scenario, method="fast", rtol=...)``. It tabulates the model's
-reduced coefficients once (``ReducedModel.table``, cached on the model), then runs the kernel of
+reduced coefficients once (``tabulated.table_of``, once per model), then runs the kernel of
 :mod:`crankfmu.integrators.kernel` in chunks: each chunk fills the output rows that fall in it and
 stores its steps for dense output anywhere in the run. Link-level kinematics are never computed
 during the run; the contract outputs come from the tables.

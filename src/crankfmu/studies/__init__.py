@@ -1,5 +1,6 @@
 """The studies: what the CLI's study commands and the harness compute from the core, each a module
-returning dataclasses (the figures are ``crankfmu.plots``'s, the files each study's ``write_*``):
+returning dataclasses (the reports write them: ``crankfmu.output`` the files, ``crankfmu.plots`` the
+figures):
 
   kinematics    positions, velocities, accelerations over a cycle and at an angle (seed 002, 004)
   equilibrium   the equilibrium moment and joint reactions at constant speed (seed 001)
