@@ -65,6 +65,10 @@ class ReducedTable:
     build_time: float            # s
     slider_names: tuple[str, ...] = ()
 
+    def arrays(self) -> tuple:
+        """(coefficients, switch_angles, forces): the table as the compiled kernel takes it."""
+        return self.coefficients, self.switch_angles, self.forces
+
     @property
     def n_intervals(self) -> int:
         return self.coefficients.shape[1]

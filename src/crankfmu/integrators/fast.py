@@ -71,7 +71,7 @@ class FastIntegrator(Integrator):
             md = np.zeros((self.chunk, 4))
             status, i_out, n_store, n_ev, n_md = drivers.run_chunk(
                 S, float(t_end), times, i_out, rows, store, 0, ev, 0, md, 0,
-                C, switch, forces, P, *ws.arrays())
+                table.arrays(), P, ws.arrays())
             stores.append(store[:n_store])
             events += [(float(t), hybrid.event_name(int(slot), motor)) for t, slot, motor in ev[:n_ev]]
             modes += [(float(r[0]), _mode_name(r[1:], row=True)) for r in md[:n_md]]
@@ -111,6 +111,8 @@ class FastStepper:
         self.C, self.switch, self.forces = table.coefficients, table.switch_angles, table.forces
         self.P = layout.parameters(motor, J_flywheel, tau_ext, rtol, rtol)
         self.ws = layout.Workspace(self.C.shape[0])
+        # the arguments of every fmi2DoStep, built once
+        self.tables, self.scratch = table.arrays(), self.ws.arrays()
         self.state = np.zeros(layout.STATE_SIZE)
         # the output row, filled in place by every step (an FMU's getters read it directly)
         self.row = np.zeros(layout.OUT_SIZE) if row is None else row
@@ -126,7 +128,7 @@ class FastStepper:
         ws = self.ws
         self.state[:] = 0.0
         method.start(self.state, float(t), np.asarray(y, dtype=float), self.C, self.switch, self.forces, self.P,
-                 ws.work, ws.f)
+                     ws.work, ws.f)
         method.output_row(self.state, float(t), self.C, self.forces, self.P, ws.work, ws.f, self.row)
         return self.row
 
@@ -145,9 +147,7 @@ class FastStepper:
     def advance(self, t_target: float, t_limit: float) -> np.ndarray:
         """Step to t_target (steps may end up to t_limit); the output row at t_target
         (phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red)."""
-        ws = self.ws
-        status = drivers.advance(self.state, t_target, t_limit, self.C, self.switch, self.forces, self.P,
-                            *ws.arrays(), self.row)
+        status = drivers.advance(self.state, t_target, t_limit, self.tables, self.P, self.scratch, self.row)
         if status == layout.UNDERFLOW:
             raise SchemeError(f"fast: step size underflow at t = {self.state[layout.T]:.9g} s")
         return self.row

@@ -109,8 +109,7 @@ class SteadyBatch:
                 guesses[row] = _omega_guess(table, v["J_flywheel"], motor, self._phi_grid)
             out = np.zeros((len(members), layout.STEADY_SIZE))
             drivers.steady_batch(params, float(model.y0[0]), guesses, self.shoot_tol, self.max_turns,
-                                 table.coefficients, table.switch_angles, table.forces, out,
-                                 *layout.Workspace(table.coefficients.shape[0]).arrays())
+                                 table.arrays(), out, layout.Workspace(table.coefficients.shape[0]).arrays())
             for row, i in enumerate(members):
                 status = int(out[row, 6])
                 if status != 0:

@@ -30,11 +30,13 @@ _locate, _omega_slope = method.locate, method.omega_slope
 
 
 @_jit
-def advance(S, t_target, t_limit, C, switch, forces, P, work, Kst, ynew, tmp, f, g0, g1, y, f0, row):
+def advance(S, t_target, t_limit, tables, P, ws, row):
     """Step until S reaches t_target (steps may end up to t_limit), outputs at t_target into row.
 
     Returns 0, or UNDERFLOW on a step size underflow. The FMU's whole fmi2DoStep.
     """
+    C, switch, forces = tables
+    work, Kst, ynew, tmp, f, g0, g1, y, f0 = ws
     while S[T] < t_target:
         if step(S, t_limit, C, switch, forces, P, work, Kst, ynew, tmp, f, g0, g1, y, f0) == UNDERFLOW:
             return UNDERFLOW
@@ -43,8 +45,7 @@ def advance(S, t_target, t_limit, C, switch, forces, P, work, Kst, ynew, tmp, f,
 
 
 @_jit
-def run_chunk(S, t_end, times, i_out, rows, step_store, n_store, events, n_events, modes, n_modes,
-              C, switch, forces, P, work, Kst, ynew, tmp, f, g0, g1, y, f0):
+def run_chunk(S, t_end, times, i_out, rows, step_store, n_store, events, n_events, modes, n_modes, tables, P, ws):
     """Step towards t_end, filling output rows at ``times`` and storing each step for dense output.
 
     step_store (capacity x STATE_SIZE) receives S after each step, events (capacity x 3) the
@@ -52,6 +53,8 @@ def run_chunk(S, t_end, times, i_out, rows, step_store, n_store, events, n_event
     change. Returns (status, i_out, n_store, n_events, n_modes); status 0: t_end reached,
     1: a buffer is full (call again to continue), UNDERFLOW: step size underflow.
     """
+    C, switch, forces = tables
+    work, Kst, ynew, tmp, f, g0, g1, y, f0 = ws
     capacity = step_store.shape[0]
     while i_out < times.shape[0] and times[i_out] <= S[T]:      # outputs at the start time
         output_row(S, times[i_out], C, forces, P, work, f, rows[i_out])
@@ -117,13 +120,14 @@ def _step_extremes(S, t_end, C, forces, P, work, tmp, g, extremes):
 
 
 @_jit
-def one_turn(S, phi_start, omega_start, t_max, C, switch, forces, P, work, Kst, ynew, tmp, f, g0, g1, y, f0,
-             stats, extremes):
+def one_turn(S, phi_start, omega_start, t_max, tables, P, ws, stats, extremes):
     """Integrate one crank turn from (phi_start, omega_start) at t = 0.
 
     stats <- (omega1 at the end of the turn, min, max, period s). Returns 0, 2 when the crank
     stops or turns back before completing the turn (or takes longer than t_max), 3 on underflow.
     """
+    C, switch, forces = tables
+    work, Kst, ynew, tmp, f, g0, g1, y, f0 = ws
     for j in range(5):
         y[j] = 0.0
     y[0] = phi_start
@@ -157,8 +161,7 @@ def one_turn(S, phi_start, omega_start, t_max, C, switch, forces, P, work, Kst, 
 
 
 @_jit
-def steady_batch(params, phi_start, omega_guess, rtol_shoot, max_turns, C, switch, forces, out,
-                 work, Kst, ynew, tmp, f, g0, g1, y, f0):
+def steady_batch(params, phi_start, omega_guess, rtol_shoot, max_turns, tables, out, ws):
     """The steady cycle of each design (row of params): omega1 at the start of the turn found by
     secant shooting on omega1(after one turn) - omega1(start), then that turn's statistics.
 
@@ -176,8 +179,7 @@ def steady_batch(params, phi_start, omega_guess, rtol_shoot, max_turns, C, switc
         turns = 0
         for it in range(max_turns):
             t_max = 1000.0 * TWO_PI / max(abs(w), 1e-3)
-            code = one_turn(S, phi_start, w, t_max, C, switch, forces, P, work, Kst, ynew, tmp, f, g0, g1, y,
-                            f0, stats, extremes)
+            code = one_turn(S, phi_start, w, t_max, tables, P, ws, stats, extremes)
             turns += 1
             if code == 2:
                 status = STEADY_STALLS

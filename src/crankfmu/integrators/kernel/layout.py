@@ -70,5 +70,5 @@ class Workspace:
         self.f0 = np.zeros(N_Y)
 
     def arrays(self):
-        """The scratch arrays in the order the kernel's stepping functions take them."""
+        """The scratch arrays as one tuple, in the order the kernel's stepping functions take them."""
         return self.work, self.Kst, self.ynew, self.tmp, self.f, self.g0, self.g1, self.y, self.f0
