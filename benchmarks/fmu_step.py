@@ -36,20 +36,27 @@ def build_noop(dest: Path) -> Path:
     return Path(done.stdout.strip().splitlines()[-1])
 
 
-def step_loop(fmu_path: Path, step: float, stop: float):
-    """(seconds per step, omega1 after each step) of one run through FMU2Slave."""
+def initialised(fmu_path: Path, where: str | None = None):
+    """(FMU2Slave instantiated and initialised at t = 0, value references by name), extracted to
+    ``where`` (default: a new temporary directory)."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
     md = read_model_description(str(fmu_path))
-    where = extract(str(fmu_path))
-    vr = {v.name: v.valueReference for v in md.modelVariables}["omega1"]
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
+    unzipped = extract(str(fmu_path), unzipdir=where)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
                     instanceName="bench")
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}
+
+
+def step_loop(fmu_path: Path, step: float, stop: float):
+    """(seconds per step, omega1 after each step) of one run through FMU2Slave."""
+    fmu, refs = initialised(fmu_path)
+    vr = refs["omega1"]
     n = int(round(stop / step))
     omega = np.empty(n)
     t = 0.0
