@@ -20,9 +20,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from crankfmu.contract import COLUMNS
 from crankfmu.dynamics.equation import OMEGA, PHI, W_EXT, W_LOAD, W_MOTOR
 from crankfmu.errors import CrankfmuError
-from crankfmu.simulation import COLUMNS, simulate
+from crankfmu.simulation import simulate
 
 TWO_PI = 2.0 * math.pi
 

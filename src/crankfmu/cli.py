@@ -126,10 +126,9 @@ def cmd_sweep(args) -> int:
 
     import numpy as np
 
-    from .plots import plot_families
+    from .plots import plot_families, plot_steady
     from .progress import ProgressBar
     from .scenario import load_scenario
-    from .plots import plot_steady
     from .studies.sweep import SweepAxis, check_claims, run_sweep
 
     scenario = load_scenario(args.scenario).with_params(**_parse_sets(args.set))
@@ -300,7 +299,6 @@ def cmd_fmu(args) -> int:
     return 0
 
 
-
 def _scenario_command(sub, name: str, func, help: str):
     """A subcommand on one scenario: SCENARIO, --out DIR and --set NAME=VALUE (repeatable)."""
     p = sub.add_parser(name, help=help)
@@ -309,6 +307,7 @@ def _scenario_command(sub, name: str, func, help: str):
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     p.set_defaults(func=func)
     return p
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="crankfmu", description=__doc__)
@@ -325,16 +324,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="angle step of the crank-angle schemes in deg (default 0.1)")
     p.set_defaults(func=cmd_simulate)
 
-    p = _scenario_command(sub, "schemes", cmd_schemes, "the papers' crank-angle schemes against the reference: "
-                                       "convergence order and start-up")
+    p = _scenario_command(sub, "schemes", cmd_schemes,
+                          "the papers' crank-angle schemes against the reference: "
+                          "convergence order and start-up")
     p.add_argument("--steps-deg", default="1,0.1,0.01", help="comma-separated angle steps in deg")
-    p = _scenario_command(sub, "kinematics", cmd_kinematics, "exact velocities, accelerations and instant centre at one crank "
-                                           "angle, time series beside the paper's approximation, velocity plan")
+    p = _scenario_command(sub, "kinematics", cmd_kinematics,
+                          "exact velocities, accelerations and instant centre at one crank "
+                          "angle, time series beside the paper's approximation, velocity plan")
     p.add_argument("--at", type=float, required=True, help="crank angle in deg")
     p.add_argument("--omega", type=float, default=None, help="constant crank speed in rad/s (default: the paper's)")
 
-    p = _scenario_command(sub, "sweep", cmd_sweep, "parameter sweep on Dask: kinematic peaks (peaks.csv, the families' "
-                                      "plots, the paper's claims) or steady cycles (steady.csv)")
+    p = _scenario_command(sub, "sweep", cmd_sweep,
+                          "parameter sweep on Dask: kinematic peaks (peaks.csv, the families' "
+                          "plots, the paper's claims) or steady cycles (steady.csv)")
     p.add_argument("--param", action="append", default=[], metavar="NAME=START:STOP:COUNT",
                    help="a swept parameter (repeatable; the grid is every combination)")
     p.add_argument("--restart", action="store_true", help="recompute every design (default: resume the results file)")
@@ -346,14 +348,16 @@ def build_parser() -> argparse.ArgumentParser:
                         "an address such as tcp://host:8786 (an existing cluster), or 'serial' (this process)")
     p.add_argument("--chunk", type=int, default=None, help="designs per Dask task (default 4 kinematic, 500 steady)")
 
-    p = _scenario_command(sub, "equilibrium", cmd_equilibrium, "equilibrium moment over a cycle at constant crank speeds, with "
-                                            "and without inertia, and the joint reactions (seed 001 Figs. 2-5)")
+    p = _scenario_command(sub, "equilibrium", cmd_equilibrium,
+                          "equilibrium moment over a cycle at constant crank speeds, with "
+                          "and without inertia, and the joint reactions (seed 001 Figs. 2-5)")
     p.add_argument("--omega", default=None, help="comma-separated crank speeds in rad/s (default: the "
                                                  "scenario's [equilibrium] omega1)")
     p.add_argument("--angles", type=int, default=None, help="crank angles per cycle (default 360)")
 
-    p = _scenario_command(sub, "flywheel", cmd_flywheel, "flywheel for a target speed fluctuation: eqs. 16-17 and by simulation "
-                                         "of the steady cycle; J_e, the movement from the start, eq. 3 stability")
+    p = _scenario_command(sub, "flywheel", cmd_flywheel,
+                          "flywheel for a target speed fluctuation: eqs. 16-17 and by simulation "
+                          "of the steady cycle; J_e, the movement from the start, eq. 3 stability")
     p.add_argument("--delta", type=float, required=True, help="target coefficient of speed fluctuation, in (0, 1)")
     p.add_argument("--steps-deg", default=None, help="comma-separated eq. 3 angle steps in deg (default: the "
                                                      "scenario's [flywheel] eq3_steps_deg)")

@@ -14,7 +14,8 @@ import numpy as np
 
 from .plots import (plot_cycles, plot_flywheel, plot_inertia, plot_moments, plot_movement, plot_reactions,
                     plot_stability)
-from .simulation import COLUMNS, Result
+from .contract import COLUMNS
+from .simulation import Result
 
 
 def write_timeseries(result: Result, path: Path) -> Path:

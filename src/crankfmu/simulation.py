@@ -9,7 +9,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from .contract import COLUMNS  # noqa: F401 (Result and timeseries.csv columns, re-exported)
 from .dynamics.equation import OMEGA, PHI, W_EXT, W_LOAD, W_MOTOR
 from .errors import CrankfmuError, ParameterError
 from .integrators import Trajectory, make_integrator

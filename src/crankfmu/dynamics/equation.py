@@ -12,7 +12,7 @@ rules (the motor branch and Filippov sliding on a jump of the motor line, the sl
 direction at rest and switch intervals, the surfaces and what follows each) are
 :mod:`crankfmu.dynamics.modes`'s, the same functions the compiled fast kernel calls; this class
 evaluates them on the contour engine's kinematics for the engine-based integrators (``reference``,
-``radau``, ``rk45``).
+``radau``, ``dopri5``).
 """
 
 from __future__ import annotations

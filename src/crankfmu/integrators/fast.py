@@ -56,11 +56,10 @@ class FastIntegrator(Integrator):
 
     def run(self, equation, t0, y0, t_end, progress=None, output_times=None):
         table = table_of(equation.reduced, TABLE_TOLERANCE)
-        P = layout.parameters(equation.motor, equation.reduced.J_flywheel, equation.tau_ext, self.rtol, self.atol)
-        C, switch, forces = table.coefficients, table.switch_angles, table.forces
-        ws = layout.Workspace(C.shape[0])
-        S = np.zeros(layout.STATE_SIZE)
-        method.start(S, float(t0), np.asarray(y0, dtype=float), C, switch, forces, P, ws.work, ws.f)
+        stepper = FastStepper(table, equation.motor, equation.reduced.J_flywheel, self.rtol, equation.tau_ext,
+                              atol=self.atol)
+        stepper.start(t0, y0)
+        S = stepper.state
         times = np.zeros(0) if output_times is None else np.asarray(output_times, dtype=float)
         rows = np.zeros((times.size, layout.OUT_SIZE))
         i_out = 0
@@ -71,7 +70,7 @@ class FastIntegrator(Integrator):
             md = np.zeros((self.chunk, 4))
             status, i_out, n_store, n_ev, n_md = drivers.run_chunk(
                 S, float(t_end), times, i_out, rows, store, 0, ev, 0, md, 0,
-                table.arrays(), P, ws.arrays())
+                stepper.tables, stepper.P, stepper.scratch)
             stores.append(store[:n_store])
             events += [(float(t), hybrid.event_name(int(slot), motor)) for t, slot, motor in ev[:n_ev]]
             modes += [(float(r[0]), _mode_name(r[1:], row=True)) for r in md[:n_md]]
@@ -105,13 +104,13 @@ class FastStepper:
     restores it by copying, and a rolled-back step is recomputed bit for bit.
     """
 
-    def __init__(self, table, motor, J_flywheel: float, rtol: float, tau_ext: float = 0.0, row=None):
+    def __init__(self, table, motor, J_flywheel: float, rtol: float, tau_ext: float = 0.0, row=None,
+                 atol: float | None = None):
         _check_rtol(rtol)
         self.table = table
-        self.C, self.switch, self.forces = table.coefficients, table.switch_angles, table.forces
-        self.P = layout.parameters(motor, J_flywheel, tau_ext, rtol, rtol)
-        self.ws = layout.Workspace(self.C.shape[0])
-        # the arguments of every fmi2DoStep, built once
+        self.P = layout.parameters(motor, J_flywheel, tau_ext, rtol, rtol if atol is None else atol)
+        self.ws = layout.Workspace(table.coefficients.shape[0])
+        # what every kernel call takes, built once
         self.tables, self.scratch = table.arrays(), self.ws.arrays()
         self.state = np.zeros(layout.STATE_SIZE)
         # the output row, filled in place by every step (an FMU's getters read it directly)
@@ -125,17 +124,14 @@ class FastStepper:
 
     def start(self, t: float, y) -> np.ndarray:
         """Initialise at (t, y) and return the output row there."""
-        ws = self.ws
         self.state[:] = 0.0
-        method.start(self.state, float(t), np.asarray(y, dtype=float), self.C, self.switch, self.forces, self.P,
-                     ws.work, ws.f)
-        method.output_row(self.state, float(t), self.C, self.forces, self.P, ws.work, ws.f, self.row)
+        drivers.begin(self.state, float(t), np.asarray(y, dtype=float), self.tables, self.P, self.scratch, self.row)
         return self.row
 
     def restart(self, t: float):
         """Restart at t within the last step (a parameter or the input changed), keeping the
         proposed step size."""
-        y = np.zeros(5)
+        y = np.zeros(layout.N_Y)
         method.dense(self.state, float(t), y)
         h = self.state[layout.H]
         n_rhs, n_steps = self.state[layout.N_RHS], self.state[layout.N_STEPS]

@@ -130,8 +130,9 @@ class Sketch:
     def frames(self, phi1) -> Frames:
         phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
         kin = self.mechanism.kinematics(phi1)
-        xy = {p: np.column_stack((kin.point(p).x, kin.point(p).y)) for p in self.points}
-        v = {p: np.column_stack((kin.point(p).dx, kin.point(p).dy)) for p in self.points}
+        motion = {p: kin.point(p) for p in self.points}
+        xy = {p: np.column_stack((m.x, m.y)) for p, m in motion.items()}
+        v = {p: np.column_stack((m.dx, m.dy)) for p, m in motion.items()}
         angle = {l: kin.link_angle(l)[0] for l in self.mechanism.definition.links}
         rate = {l: kin.link_angle(l)[1] for l in self.mechanism.definition.links}
         for s in self.slides:           # a slide's axis may turn with a link (a guide on a lever)

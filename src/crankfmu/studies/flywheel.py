@@ -22,7 +22,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -70,31 +70,65 @@ class FlywheelDesign:
     dW_max: float                   # J, the largest swing of the loads' work (eq. 17)
     omega_m: float                  # rad/s, the steady cycle's time mean without flywheel
     J_F_eq17: float                 # kg.m2
-    J_F_eq16: float
     J_F_simulated: float            # the J_F whose simulated steady cycle has delta_target
     delta_achieved: float           # by the fast kernel's steady cycle (batch)
-    delta_achieved_crank_angle: float   # by the crank-angle form on the engine: the check
     delta_without_flywheel: float
-    delta_without_flywheel_crank_angle: float
     delta_with_J_F_eq17: float
     steady_cycle_solves: int
-    omega_peak_without: float       # rad/s
-    omega_peak_with: float
-    omega_peak_reduction: float     # fraction of the value without flywheel
-    epsilon_peak_without: float     # rad/s2
-    epsilon_peak_with: float
-    epsilon_peak_reduction: float
-    without: SteadyCycle = field(repr=False)     # the steady cycles themselves (figures)
+    without: SteadyCycle = field(repr=False)     # the steady cycles in the crank angle (engine)
     with_flywheel: SteadyCycle = field(repr=False)
 
     UNITS = {"J_*": "kg.m2", "dW_max": "J", "omega_*": "rad/s", "epsilon_*": "rad/s2", "delta*": "1",
              "steady_cycle_solves": "batch calls of the fast kernel (one or many flywheels each)",
              "*_reduction": "1 (fraction of the value without flywheel)", "*_at_deg": "deg (paper's phi)"}
+    #: flywheel.json's keys, in order (fields and the figures derived from the two cycles)
+    SUMMARY = ("scenario", "delta_target", "J_e_min", "J_e_max", "J_e_mean", "J_e_min_at_deg", "J_e_max_at_deg",
+               "dW_max", "omega_m", "J_F_eq17", "J_F_eq16", "J_F_simulated", "delta_achieved",
+               "delta_achieved_crank_angle", "delta_without_flywheel", "delta_without_flywheel_crank_angle",
+               "delta_with_J_F_eq17", "steady_cycle_solves", "omega_peak_without", "omega_peak_with",
+               "omega_peak_reduction", "epsilon_peak_without", "epsilon_peak_with", "epsilon_peak_reduction")
+
+    @property
+    def J_F_eq16(self) -> float:
+        """Eq. 16: eq. 17's flywheel less the mechanism's own mean reduced inertia (kg.m2)."""
+        return self.J_F_eq17 - self.J_e_mean
+
+    @property
+    def delta_achieved_crank_angle(self) -> float:
+        """delta of the crank-angle steady cycle with the flywheel found: the independent check."""
+        return self.with_flywheel.delta
+
+    @property
+    def delta_without_flywheel_crank_angle(self) -> float:
+        return self.without.delta
+
+    @property
+    def omega_peak_without(self) -> float:
+        return float(self.without.omega1.max())
+
+    @property
+    def omega_peak_with(self) -> float:
+        return float(self.with_flywheel.omega1.max())
+
+    @property
+    def omega_peak_reduction(self) -> float:
+        return float(1.0 - self.with_flywheel.omega1.max() / self.without.omega1.max())
+
+    @property
+    def epsilon_peak_without(self) -> float:
+        return float(np.max(np.abs(self.without.epsilon1)))
+
+    @property
+    def epsilon_peak_with(self) -> float:
+        return float(np.max(np.abs(self.with_flywheel.epsilon1)))
+
+    @property
+    def epsilon_peak_reduction(self) -> float:
+        return float(1.0 - np.max(np.abs(self.with_flywheel.epsilon1)) / np.max(np.abs(self.without.epsilon1)))
 
     def summary(self) -> dict:
         """The numbers (not the cycles) with their units, as flywheel.json writes them."""
-        numbers = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("without", "with_flywheel")}
-        return {**numbers, "units": self.UNITS}
+        return {**{name: getattr(self, name) for name in self.SUMMARY}, "units": self.UNITS}
 
 
 @dataclass
@@ -252,7 +286,6 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
     dW, _, _ = energy_swing(model)
     omega_m = free.omega_mean
     J_eq17 = dW / (omega_m ** 2 * delta)
-    J_eq16 = J_eq17 - float(np.mean(J_e))
 
     # delta(J_F) of many flywheels at once on the fast kernel, the table built once
     batch = SteadyBatch(base, rtol=rtol, shoot_tol=1e-12)
@@ -306,20 +339,11 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
         dW_max=dW,
         omega_m=omega_m,
         J_F_eq17=J_eq17,
-        J_F_eq16=J_eq16,
         J_F_simulated=float(J_sim),
         delta_achieved=delta_achieved,
-        delta_achieved_crank_angle=fitted.delta,
         delta_without_flywheel=delta_free,
-        delta_without_flywheel_crank_angle=free.delta,
         delta_with_J_F_eq17=delta_eq17,
         steady_cycle_solves=calls[0],
-        omega_peak_without=float(free.omega1.max()),
-        omega_peak_with=float(fitted.omega1.max()),
-        omega_peak_reduction=float(1.0 - fitted.omega1.max() / free.omega1.max()),
-        epsilon_peak_without=float(np.max(np.abs(free.epsilon1))),
-        epsilon_peak_with=float(np.max(np.abs(fitted.epsilon1))),
-        epsilon_peak_reduction=float(1.0 - np.max(np.abs(fitted.epsilon1)) / np.max(np.abs(free.epsilon1))),
         without=free,
         with_flywheel=fitted,
     )

@@ -30,6 +30,15 @@ _locate, _omega_slope = method.locate, method.omega_slope
 
 
 @_jit
+def begin(S, t, y, tables, P, ws, row):
+    """Initialise S at (t, y) and fill the output row there: the start of an FMU or of a run."""
+    C, switch, forces = tables
+    work, Kst, ynew, tmp, f, g0, g1, y_, f0 = ws
+    start(S, t, y, C, switch, forces, P, work, f)
+    output_row(S, t, C, forces, P, work, f, row)
+
+
+@_jit
 def advance(S, t_target, t_limit, tables, P, ws, row):
     """Step until S reaches t_target (steps may end up to t_limit), outputs at t_target into row.
 
@@ -217,6 +226,5 @@ def dense_many(store, times, out):
     t_nodes = store[:, T]
     last = store.shape[0] - 1
     for i in range(times.shape[0]):
-        k = np.searchsorted(t_nodes, times[i])
-        k = min(max(k, 1), max(last, 1))
-        dense(store[min(k, last)], times[i], out[i])
+        k = min(max(np.searchsorted(t_nodes, times[i]), 1), last)      # the step ending at or after t
+        dense(store[k], times[i], out[i])

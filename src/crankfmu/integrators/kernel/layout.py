@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from ...dynamics.modes import N_SLOTS
 from ..tableau import N_STAGES
 
 # ---- state array
@@ -64,8 +65,8 @@ class Workspace:
         self.ynew = np.zeros(N_Y)
         self.tmp = np.zeros(N_Y)
         self.f = np.zeros(N_Y)
-        self.g0 = np.zeros(5)
-        self.g1 = np.zeros(5)
+        self.g0 = np.zeros(N_SLOTS)
+        self.g1 = np.zeros(N_SLOTS)
         self.y = np.zeros(N_Y)
         self.f0 = np.zeros(N_Y)
 
