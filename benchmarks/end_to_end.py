@@ -6,7 +6,7 @@
   by hand from the four-bar's closed-form geometry (seed 000 only), at the same error.
 * The imports alone, in a fresh process.
 * The first run on a fresh machine: a new HOME (so no crankfmu kernel cache and no numba cache),
-  Python's bytecode written to a new prefix (so nothing of the package is compiled yet): the CLI's
+  a fresh copy of the package (nothing of it compiled yet, not even its bytecode): the CLI's
   ``crankfmu simulate seed000 --method fast`` and fmpy's first ``simulate_fmu`` of FourBar.fmu.
 * FourBar.fmu through fmpy, instantiate to free, beside a do-nothing FMU's whole run, and the
   reset + initialisation of a changed design.
@@ -165,10 +165,17 @@ def import_time() -> float:
 
 # ------------------------------------------------------------------ a fresh machine
 def fresh_environment(tmp: Path) -> dict:
-    """The environment of a first run: new HOME (no kernel or numba cache), bytecode to a new prefix."""
+    """The environment of a first run: a new HOME and cache (no kernel cache, no numba cache), and
+    a fresh copy of the package first on the path (its bytecode not yet compiled, as after an
+    installation; the dependencies keep the bytecode their installation compiled)."""
+    import shutil
+
+    import crankfmu
+
     env = {k: v for k, v in os.environ.items() if not k.startswith(("CRANKFMU_", "NUMBA_"))}
     (tmp / "home").mkdir(exist_ok=True)
-    env.update(HOME=str(tmp / "home"), PYTHONPYCACHEPREFIX=str(tmp / "pycache"), XDG_CACHE_HOME=str(tmp / "home" / ".cache"))
+    shutil.copytree(Path(crankfmu.__file__).parent, tmp / "site" / "crankfmu", ignore=shutil.ignore_patterns("__pycache__"))
+    env.update(HOME=str(tmp / "home"), XDG_CACHE_HOME=str(tmp / "home" / ".cache"), PYTHONPATH=str(tmp / "site"))
     return env
 
 

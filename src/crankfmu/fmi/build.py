@@ -59,10 +59,18 @@ def copy_runtime(dest: Path, files: dict | None = None):
     import json
     import tomllib
 
+    from ..precompile import ensure
+
+    # the kernel compiled ahead of time travels with the FMU when it is this package's kernel
+    shipped = ensure(quiet=True)
+
+    def ignore(folder, names):
+        return {n for n in names if n == "__pycache__" or (n == "precompiled" and not shipped)}
+
     for entry in RUNTIME:
         source = PACKAGE / entry
         if source.is_dir():
-            shutil.copytree(source, dest / entry, ignore=shutil.ignore_patterns("__pycache__"))
+            shutil.copytree(source, dest / entry, ignore=ignore)
         else:
             (dest / entry).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(source, dest / entry)

@@ -15,6 +15,13 @@ rule gets a new one. Where that directory cannot be written the package's own fi
 module's name is the same in every copy of the package (numba's cache refers to its functions by
 module name, and an FMU's package has a private name of its own), so a copy cannot import its
 siblings: the modules it reads are put into its namespace before it runs.
+
+Compiled ahead of time: ``crankfmu.precompile`` (run by the FMU build) compiles every kernel entry
+point for a generic x86-64 CPU (``compiled.py`` sets NUMBA_CPU_NAME=generic) into
+``precompiled/kernel_<digest>/`` beside this file, which the package and every FMU carry. A new
+cache directory is seeded from there (the files keep their modification times, which numba's index
+checks), so a first run on a fresh machine loads machine code instead of compiling it for 20 s. A
+precompiled kernel of another content hash is never used: a changed rule compiles afresh.
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -31,6 +39,40 @@ from .. import tableau
 from . import layout
 
 COMPILED = compiled.COMPILED
+
+
+#: where the package carries its kernels compiled ahead of time (crankfmu.precompile writes it)
+PRECOMPILED = Path(__file__).with_name("precompiled")
+
+
+def cache_root() -> Path:
+    """The per-user directory of compiled kernels: $CRANKFMU_CACHE, default ~/.cache/crankfmu."""
+    return Path(os.environ.get("CRANKFMU_CACHE") or Path.home() / ".cache" / "crankfmu")
+
+
+#: in a precompiled folder: each source file's modification time (ns) when it was compiled, and
+#: the folder of numba's index and machine code (its __pycache__ in the cache: pythonfmu leaves
+#: folders of that name out of an FMU)
+STAMPS = "mtimes.json"
+MACHINE_CODE = "numba"
+
+
+def _seed(shipped: Path, folder: Path):
+    """Copy a precompiled kernel into the cache through a temporary name (a concurrent process sees
+    it whole). numba's index holds its source file's modification time and size: the copy of the
+    source gets back the time it was compiled with (an FMU's zip does not keep it)."""
+    import json
+
+    partial = folder.with_name(f"{folder.name}.{os.getpid()}")
+    shutil.copytree(shipped, partial, dirs_exist_ok=True, ignore=shutil.ignore_patterns(MACHINE_CODE))
+    shutil.copytree(shipped / MACHINE_CODE, partial / "__pycache__", dirs_exist_ok=True)
+    for name, mtime_ns in json.loads((shipped / STAMPS).read_text()).items():
+        os.utime(partial / name, ns=(mtime_ns, mtime_ns))
+    try:
+        os.replace(partial, folder)
+    except OSError:                     # another process seeded it first (or the folder exists)
+        shutil.copytree(partial, folder, dirs_exist_ok=True)
+        shutil.rmtree(partial, ignore_errors=True)
 
 
 def _load(name: str, inputs: dict):
@@ -47,8 +89,11 @@ def _load(name: str, inputs: dict):
         return sys.modules[module_name]
     path = source
     try:
-        folder = Path(os.environ.get("CRANKFMU_CACHE") or Path.home() / ".cache" / "crankfmu") / f"kernel_{digest}"
+        folder = cache_root() / f"kernel_{digest}"
         target = folder / f"{name}.py"
+        shipped = PRECOMPILED / folder.name
+        if not (folder / "__pycache__").is_dir() and (shipped / STAMPS).is_file():
+            _seed(shipped, folder)
         if not target.is_file() or target.read_bytes() != text:
             folder.mkdir(parents=True, exist_ok=True)
             partial = folder / f"{name}.py.{os.getpid()}"
