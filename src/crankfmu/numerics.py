@@ -136,3 +136,39 @@ def periodic_cubic_spline(values: np.ndarray, period: float) -> np.ndarray:
     c[..., 2] = 0.5 * M
     c[..., 3] = (M_next - M) / (6.0 * h)
     return c
+
+
+def periodic_series(samples: np.ndarray) -> np.ndarray:
+    """The trigonometric interpolant of ``samples`` (functions x n at k 2 pi / n, n even) as its
+    real-FFT coefficients, shape (functions, n / 2 + 1); evaluated by :func:`series_on_grid`."""
+    return np.fft.rfft(np.atleast_2d(samples), axis=1)
+
+
+def series_on_grid(series: np.ndarray, n: int, m: int, shift: float = 0.0, derivative: bool = False) -> np.ndarray:
+    """The interpolant of ``n`` samples (``series`` from :func:`periodic_series`), or its first
+    derivative, at the ``m`` angles k 2 pi / m + shift (m a multiple of n): zero padding of the
+    spectrum, the n / 2 term split between +n/2 and -n/2 once it is no longer the grid's last."""
+    k = np.arange(m // 2 + 1)
+    padded = np.zeros((series.shape[0], m // 2 + 1), dtype=complex)
+    padded[:, :n // 2 + 1] = series * (m / n)
+    if m > n:
+        padded[:, n // 2] *= 0.5
+    if shift:
+        padded *= np.exp(1j * k * shift)
+    if derivative:
+        padded *= 1j * k
+    return np.fft.irfft(padded, m, axis=1)
+
+
+def periodic_hermite(values: np.ndarray, slopes: np.ndarray, period: float) -> np.ndarray:
+    """Local cubic coefficients (as :func:`periodic_cubic_spline`) of the C1 periodic Hermite
+    cubics through ``values`` with ``slopes`` at k * period / n."""
+    h = period / values.shape[1]
+    y_next, d_next = np.roll(values, -1, axis=1), np.roll(slopes, -1, axis=1)
+    secant = (y_next - values) / h
+    c = np.empty(values.shape + (4,))
+    c[..., 0] = values
+    c[..., 1] = slopes
+    c[..., 2] = (3.0 * secant - 2.0 * slopes - d_next) / h
+    c[..., 3] = (slopes + d_next - 2.0 * secant) / (h * h)
+    return c
