@@ -39,7 +39,24 @@ def read_toml(name_or_path, folder, kind: str, not_found=DefinitionError) -> tup
             return json.loads((folder / f"{name_or_path}.json").read_text()), where, origin
     if tomllib is None:
         raise DefinitionError(f"{where}: reading a .toml file needs Python 3.11 or newer")
-    try:
-        return tomllib.loads(text), where, origin
-    except tomllib.TOMLDecodeError as exc:
-        raise DefinitionError(f"{where}: {exc}") from None
+    return _parsed(text, where), where, origin
+
+
+#: text -> the parsed file, pickled: a data file read again in the same process (a sweep, an FMU's
+#: reset, a second simulate()) is not parsed again; it is the text read now that is looked up, so
+#: an edited file is parsed afresh, and each caller gets its own copy to change
+_PARSED: dict[str, bytes] = {}
+
+
+def _parsed(text: str, where: str) -> dict:
+    import pickle
+
+    if text not in _PARSED:
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise DefinitionError(f"{where}: {exc}") from None
+        if len(_PARSED) > 256:
+            _PARSED.clear()
+        _PARSED[text] = pickle.dumps(data)
+    return pickle.loads(_PARSED[text])

@@ -5,7 +5,10 @@ assumed on the host's machine; scipy stays for the studies and the reference int
 run in crankfmu's own environment. Each tool here is the textbook method, stated once:
 
 - ``brent_root``: Brent's method (Brent 1973, ch. 4) for a bracketed root;
-- ``bounded_minimum``: Brent's parabolic/golden-section minimiser on an interval (ch. 5);
+- ``bracketed_roots``: the secant method kept in its brackets, on many brackets at once, one
+  vectorised call of f per iteration;
+- ``grid_minimum``: a minimum on an interval by successively narrower grids, one vectorised call
+  per level;
 - ``periodic_cubic_spline``: the C2 periodic cubic spline on a uniform grid; its second
   derivatives solve a circulant system (M[i-1] + 4 M[i] + M[i+1] = 6 d2y[i] / h**2), diagonal in
   Fourier space, so one FFT solves it exactly.
@@ -67,54 +70,54 @@ def brent_root(f, a: float, b: float, xtol: float = 1e-15, rtol: float = 4 * _EP
     return b
 
 
-def bounded_minimum(f, lo: float, hi: float, xatol: float = 1e-12, maxiter: int = 500) -> tuple[float, float]:
-    """(x, f(x)) at a local minimum of ``f`` in [lo, hi] (Brent's method)."""
-    golden = 0.5 * (3.0 - math.sqrt(5.0))
-    a, b = lo, hi
-    x = w = v = a + golden * (b - a)
-    fx = fw = fv = float(f(x))
-    d = e = 0.0
+def bracketed_roots(f, a, b, fa, fb, xtol: float = 1e-15, rtol: float = 4 * _EPS, ftol: float = 0.0,
+                    maxiter: int = 100) -> np.ndarray:
+    """A root of the vectorised ``f`` in each bracket [a_i, b_i] (f(a_i), f(b_i) of opposite signs
+    or one zero), all brackets at once: one call of ``f`` per iteration on the brackets not yet
+    converged. The secant through the last two iterates (superlinear), kept inside the bracket,
+    which every value of f narrows: a secant point outside it, or not finite, is replaced by the
+    bracket's midpoint. A root is done when the step falls to xtol + 2 rtol |x|, or |f| to ``ftol``
+    (f's rounding level, below which a secant only follows rounding noise)."""
+    a, b = np.array(a, dtype=float), np.array(b, dtype=float)
+    fa, fb = np.array(fa, dtype=float), np.array(fb, dtype=float)
+    if np.any(fa * fb > 0.0):
+        raise DefinitionError("bracketed_roots: f has the same sign at both ends of a bracket")
+    x0, f0, x1, f1 = a.copy(), fa.copy(), b.copy(), fb.copy()
+    root = np.where(fa == 0.0, a, b)
+    active = (fa != 0.0) & (fb != 0.0)
     for _ in range(maxiter):
-        mid = 0.5 * (a + b)
-        tol1 = math.sqrt(_EPS) * abs(x) + xatol / 3.0
-        tol2 = 2.0 * tol1
-        if abs(x - mid) <= tol2 - 0.5 * (b - a):
+        if not np.any(active):
             break
-        parabolic = False
-        if abs(e) > tol1:
-            r = (x - w) * (fx - fv)
-            q = (x - v) * (fx - fw)
-            p = (x - v) * q - (x - w) * r
-            q = 2.0 * (q - r)
-            if q > 0.0:
-                p = -p
-            q = abs(q)
-            if abs(p) < abs(0.5 * q * e) and q * (a - x) < p < q * (b - x):
-                e, d = d, p / q
-                u = x + d
-                if u - a < tol2 or b - u < tol2:
-                    d = math.copysign(tol1, mid - x)
-                parabolic = True
-        if not parabolic:
-            e = (b - x) if x < mid else (a - x)
-            d = golden * e
-        u = x + (d if abs(d) >= tol1 else math.copysign(tol1, d))
-        fu = float(f(u))
-        if fu <= fx:
-            if u < x:
-                b = x
-            else:
-                a = x
-            v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
-        else:
-            if u < x:
-                a = u
-            else:
-                b = u
-            if fu <= fw or w == x:
-                v, fv, w, fw = w, fw, u, fu
-            elif fu <= fv or v == x or v == w:
-                v, fv = u, fu
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c = x1 - f1 * (x1 - x0) / (f1 - f0)
+        c = np.where((c >= lo) & (c <= hi), c, 0.5 * (lo + hi))
+        fc = np.zeros_like(c)
+        fc[active] = f(c[active])
+        keep_a = fc * fa < 0.0                       # the root lies between a and c
+        b, fb = np.where(keep_a, c, b), np.where(keep_a, fc, fb)
+        a, fa = np.where(keep_a, a, c), np.where(keep_a, fa, fc)
+        step = np.abs(c - x1)
+        x0, f0, x1, f1 = x1, f1, c, fc
+        root = np.where(active, c, root)
+        tol = 2.0 * rtol * np.abs(c) + xtol
+        active &= (np.abs(fc) > ftol) & (step > 0.5 * tol) & (np.abs(b - a) > tol)
+    return root
+
+
+def grid_minimum(f, lo: float, hi: float, points: int = 33, levels: int = 5) -> tuple[float, float]:
+    """(x, f(x)) at the smallest value of the vectorised ``f`` on [lo, hi]: the best of ``points``
+    equally spaced angles, then the same around it on an interval ``points - 1`` times narrower,
+    ``levels`` times (33 points, 5 levels: 1e-7 of the interval). Unlike a golden-section search it
+    compares many points per call, so a narrow dip beside a wider one is not missed."""
+    x = fx = None
+    for _ in range(levels):
+        xs = np.linspace(lo, hi, points)
+        values = np.asarray(f(xs), dtype=float)
+        j = int(np.argmin(values))
+        x, fx = float(xs[j]), float(values[j])
+        step = (hi - lo) / (points - 1)
+        lo, hi = x - step, x + step
     return x, fx
 
 

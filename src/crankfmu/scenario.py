@@ -146,7 +146,11 @@ class Scenario:
             else:
                 loads.append(self._make_load(spec, mechanism, links, values))
         reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads)
-        J = reduced.coefficients(np.linspace(0, 2 * math.pi, 721))[0]
+        # J = J_flywheel + the links' kinetic energy per omega1^2 / 2, a sum of terms >= 0 (masses
+        # and inertias were checked >= 0): a flywheel makes it positive at every angle; without
+        # one, it is checked on a grid
+        J = (np.array([values["J_flywheel"]]) if values["J_flywheel"] > 0
+             else reduced.coefficients(np.linspace(0, 2 * math.pi, 721))[0])
         if not np.min(J) > 0:
             raise ParameterError(
                 f"{self.name}: the reduced inertia J(phi1) must be > 0 at every angle (min {np.min(J):g} "

@@ -40,7 +40,7 @@ import numpy as np
 
 from ..errors import AssemblyError, DefinitionError
 from ..expressions import Expression, parse
-from ..numerics import bounded_minimum, brent_root
+from ..numerics import bracketed_roots, grid_minimum
 
 TWO_PI = 2.0 * math.pi
 
@@ -681,7 +681,9 @@ class Mechanism:
         By Hadamard's inequality it lies in [0, 1]; for the four-bar it is |sin(phi3 - phi2)|,
         the sine of the transmission angle.
         """
-        q = self.positions(phi1)
+        return self._conditioning_at(self.positions(phi1))
+
+    def _conditioning_at(self, q) -> np.ndarray:
         L, c, s = self._terms(q)
         Ju = self._jacobian(L, c, s)[:, :, 1:]
         Ju = Ju / np.linalg.norm(Ju, axis=1, keepdims=True)
@@ -690,17 +692,14 @@ class Mechanism:
     def stationary_angles(self, transfer, n_grid: int = 720) -> list[tuple[float, bool]]:
         """Crank angles (rad, in [0, 2 pi)) where ``transfer(kinematics)`` (a first transfer function,
         e.g. dphi3/dphi1) vanishes, each with whether it rises through zero there: the extreme
-        positions of a rocker or a slider. Sign changes on a grid, then Brent's method on the
-        analytic transfer function."""
+        positions of a rocker or a slider. Sign changes on a grid, then every root at once by
+        regula falsi on the analytic transfer function."""
         grid = np.linspace(0.0, TWO_PI, n_grid + 1)
         values = transfer(self.kinematics(grid))
-        f = lambda a: float(transfer(self.kinematics(np.array([a])))[0])  # noqa: E731
-        out = []
-        for i in range(n_grid):
-            if values[i] == 0.0 or values[i] * values[i + 1] < 0.0:
-                root = grid[i] if values[i] == 0.0 else brent_root(f, grid[i], grid[i + 1], xtol=1e-15, rtol=1e-15)
-                out.append((root % TWO_PI, bool(values[i + 1] > 0.0)))
-        return sorted(out)
+        i = np.nonzero((values[:-1] == 0.0) | (values[:-1] * values[1:] < 0.0))[0]
+        roots = bracketed_roots(lambda a: transfer(self.kinematics(a)), grid[i], grid[i + 1], values[i], values[i + 1],
+                                xtol=1e-15, rtol=1e-15, ftol=16 * np.finfo(float).eps * np.max(np.abs(values)))
+        return sorted((float(root) % TWO_PI, bool(rising)) for root, rising in zip(roots, values[i + 1] > 0.0))
 
     def check_assembly(self, n_grid: int = 3600, min_conditioning: float = 1e-6):
         """Refuse a geometry that cannot be assembled over the whole turn, or locks at a dead point.
@@ -708,8 +707,8 @@ class Mechanism:
         Returns (worst conditioning, crank angle where it occurs in rad).
         """
         grid = np.linspace(0.0, TWO_PI, n_grid, endpoint=False)
-        cond = self.conditioning(grid)
         q = self.positions(grid)
+        cond = self._conditioning_at(q)
         scale = np.max(np.abs(self.residual(q)))
         if scale > 1e-9 * self.length_scale:
             raise DefinitionError(
@@ -718,7 +717,7 @@ class Mechanism:
         i = int(np.argmin(cond))
         # refine the minimum between grid points: a lock can hide between two of them
         h = grid[1] - grid[0]
-        x, fx = bounded_minimum(lambda a: float(self.conditioning(a)[0]), grid[i] - h, grid[i] + h, xatol=1e-12)
+        x, fx = grid_minimum(self.conditioning, grid[i] - h, grid[i] + h)
         worst, at = min((fx, x), (float(cond[i]), float(grid[i])))
         if worst < min_conditioning:
             raise self._assembly_error(
