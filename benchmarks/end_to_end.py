@@ -4,6 +4,8 @@
   compiled), with its breakdown (loading the files, building the model, tabulating, the kernel,
   the outputs), against the peer the issue names: scipy's DOP853 on a right-hand side written here
   by hand from the four-bar's closed-form geometry (seed 000 only), at the same error.
+* The C RK4 limit (``c_rk4.c``): the same hand-written four-bar in C, RK4 at a fixed step with the
+  kink located, at the coarsest step reaching the same error.
 * The imports alone, in a fresh process.
 * The first run on a fresh machine: a new HOME (so no crankfmu kernel cache and no numba cache),
   a fresh copy of the package (nothing of it compiled yet, not even its bytecode): the CLI's
@@ -131,6 +133,26 @@ def fastest_peer(values: dict, y0, grid, truth, target: float, repeats: int):
         if error <= target and (found is None or seconds < found[2]):
             found = (rtol, error, seconds)
     return found
+
+
+def c_rk4_limit(values: dict, y0, grid, truth, target: float, repeats: int = 20):
+    """The C RK4 limit (``c_rk4.c``, gcc -O2): (steps per output interval, max omega1 error, fastest
+    of ``repeats`` runs in seconds) at the coarsest step that reaches ``target`` rad/s, or None."""
+    keys = ("l0", "l1", "l2", "l3", "q1", "q2", "q3", "Mr", "J_flywheel", "A", "B", "A_low", "B_low", "omega_switch")
+    args = [repr(float(values[k])) for k in keys] + [repr(float(y0[0])), repr(float(y0[1])),
+                                                     repr(float(grid[-1])), repr(float(grid[1] - grid[0]))]
+    with tempfile.TemporaryDirectory() as tmp:
+        exe = Path(tmp) / "c_rk4"
+        subprocess.run(["gcc", "-O2", "-o", str(exe), str(ROOT / "benchmarks" / "c_rk4.c"), "-lm"], check=True,
+                       capture_output=True)
+        for substeps in (1, 2, 4, 8, 16, 32, 64):
+            done = subprocess.run([str(exe), *args, str(substeps), str(repeats)], capture_output=True, text=True,
+                                  check=True)
+            numbers = np.array(done.stdout.split(), dtype=float)
+            error = float(np.max(np.abs(numbers[1:] - truth[1:])))
+            if error <= target:
+                return substeps, error, float(numbers[0])
+    return None
 
 
 # ------------------------------------------------------------------ simulate() and its breakdown

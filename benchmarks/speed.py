@@ -219,6 +219,7 @@ def main(argv=None) -> int:
     breakdowns = {name: end_to_end.simulate_breakdown(name, e2e_repeats) for name in ("seed000", "seed001", "seed003")}
     e2e_error = float(np.max(np.abs(np.interp(grid, breakdowns["seed000"]["time"], breakdowns["seed000"]["omega1"]) - truth)))
     peer = end_to_end.fastest_peer(dict(scenario.values), model.y0[:2], grid, truth, TARGET_ERROR, max(2, repeats // 2))
+    c_limit = end_to_end.c_rk4_limit(dict(scenario.values), model.y0[:2], grid, truth, TARGET_ERROR)
     imports = end_to_end.import_time()
     first = {} if args.quick else end_to_end.first_runs(Path(args.fmu) if Path(args.fmu).exists() else None)
     bar(len(jobs) + 6)
@@ -274,7 +275,9 @@ def main(argv=None) -> int:
             "simulate() end to end (seed 000, 0-2 s, error <= 1e-8 rad/s) <= 1/8 of scipy DOP853 on a hand-written "
             "right-hand side at the same error",
             f"{1e3 * e2e:.1f} ms at {e2e_error:.1e} rad/s; peer rtol {peer[0]:g}: {1e3 * peer[2]:.1f} ms at "
-            f"{peer[1]:.1e} rad/s; simulate / peer = {e2e / peer[2]:.2f}, target <= 0.125 (C RK4 limit: not measured here)",
+            f"{peer[1]:.1e} rad/s; simulate / peer = {e2e / peer[2]:.2f}, target <= 0.125 (the C RK4 limit: "
+            + (f"{1e3 * c_limit[2]:.2f} ms at {c_limit[1]:.1e} rad/s, {c_limit[0]} step(s) per ms)" if c_limit
+               else "did not reach the error)"),
             bool(e2e <= peer[2] / 8 and e2e_error <= TARGET_ERROR)))
     if fmu:
         targets17.append(("FourBar.fmu's default experiment through fmpy (instantiate to free) <= 2x a do-nothing FMU's",
@@ -299,7 +302,7 @@ def main(argv=None) -> int:
                                                 "seven_link_s": seven_time, "fast_over_dop853": ratio,
                                                 "end_to_end_ms": {n: {k: 1e3 * v for k, v in b.items() if isinstance(v, float)}
                                                                   for n, b in breakdowns.items()},
-                                                "imports_s": imports, "first_run_s": first,
+                                                "imports_s": imports, "first_run_s": first, "c_rk4_limit": c_limit,
                                                 "targets_issue_17": [{"target": t, "measured": m, "met": ok}
                                                                      for t, m, ok in targets17],
                                                 "targets": [{"target": t, "measured": m, "met": ok}

@@ -1,6 +1,9 @@
 """FourBar.fmu driven through fmpy: the FMU must agree with the in-process model."""
 
+import io
+import shutil
 import sys
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -178,17 +181,38 @@ def test_nan_input_is_refused(unzipped):
     inst.free()
 
 
-def test_fmu_runs_its_own_copy_of_the_package(fmu_path):
-    """Whatever this process imported (crankfmu, via an editable install), the FMU runs the copy in
-    the resources it was extracted to, also when loaded again from a new directory."""
+def test_fmu_runs_its_own_copy_of_the_package(fmu_path, tmp_path, monkeypatch):
+    """Whatever this process imported (crankfmu, via an editable install), the FMU runs the package
+    it carries, unpacked once into the cache under its content hash, also when loaded again from a
+    new directory (the first extraction deleted); where the cache cannot be written, beside the
+    archive in its own resources."""
     import sys
+    with zipfile.ZipFile(fmu_path) as z, zipfile.ZipFile(io.BytesIO(z.read("resources/crankfmu_FourBar.zip"))) as p:
+        digest = p.comment.decode()
+    def forget():                       # as a new host process: the FMU's package not imported
+        for key in [k for k in sys.modules if k == "crankfmu_FourBar" or k.startswith("crankfmu_FourBar.")]:
+            del sys.modules[key]
+
+    monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path / "cache"))
+    forget()
     for _ in range(2):
         where = extract(fmu_path)
         inst = Instance((where, read_model_description(fmu_path))).init()
         inst.step(0.01)
         shipped = Path(sys.modules["crankfmu_FourBar"].__file__).resolve()
-        assert shipped.is_relative_to(Path(where).resolve() / "resources")
+        assert shipped.is_relative_to((tmp_path / "cache" / f"fmu_{digest}").resolve())
         inst.free()
+        shutil.rmtree(where)
+    # a cache that cannot be written (a file where its folder should be; root ignores permissions)
+    monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path / "not-a-folder"))
+    (tmp_path / "not-a-folder").write_text("")
+    forget()
+    where = extract(fmu_path)
+    inst = Instance((where, read_model_description(fmu_path))).init()
+    inst.step(0.01)
+    shipped = Path(sys.modules["crankfmu_FourBar"].__file__).resolve()
+    assert shipped.is_relative_to(Path(where).resolve() / "resources" / "crankfmu_FourBar")
+    inst.free()
 
 
 def test_two_instances_reset_and_reload(unzipped):

@@ -1,6 +1,7 @@
 """The kernel compiled ahead of time (crankfmu.precompile): a first run on a fresh machine loads
 machine code and compiles nothing, in process and inside an FMU."""
 
+import io
 import json
 import subprocess
 import sys
@@ -41,14 +42,20 @@ def test_fresh_cache_compiles_nothing(precompiled, tmp_path):
         assert counts[entry][0] >= 1, entry
 
 
-def test_fmu_ships_the_kernel_it_runs(precompiled, fmu_path):
+def _package(fmu_path) -> zipfile.ZipFile:
+    """The package archive an FMU carries (fmi.build.pack)."""
     with zipfile.ZipFile(fmu_path) as z:
-        names = z.namelist()
-    for digest in digests():
-        folder = [n for n in names if f"/precompiled/kernel_{digest}/" in n]
-        assert any(n.endswith(STAMPS) for n in folder), digest
-        assert any(n.endswith(".nbi") and f"/{MACHINE_CODE}/" in n for n in folder), digest
-        assert any(n.endswith(".nbc") for n in folder), digest
+        return zipfile.ZipFile(io.BytesIO(z.read("resources/crankfmu_FourBar.zip")))
+
+
+def test_fmu_ships_the_kernel_it_runs(precompiled, fmu_path):
+    with _package(fmu_path) as package:
+        for digest in digests():
+            with zipfile.ZipFile(io.BytesIO(package.read(f"integrators/kernel/precompiled/kernel_{digest}.zip"))) as kernel:
+                inside = kernel.namelist()
+            assert STAMPS in inside, digest
+            assert any(n.startswith(f"{MACHINE_CODE}/") and n.endswith(".nbi") for n in inside), digest
+            assert any(n.endswith(".nbc") for n in inside), digest
 
 
 def test_fmu_first_run_with_empty_home_compiles_nothing(precompiled, fmu_path, tmp_path):
@@ -59,8 +66,11 @@ def test_fmu_first_run_with_empty_home_compiles_nothing(precompiled, fmu_path, t
     env = {"PATH": "/usr/bin:/bin", "HOME": str(home)}
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
-    with zipfile.ZipFile(fmu_path) as z:
-        shipped = {Path(n).name: z.read(n) for n in z.namelist() if n.endswith(".nbi")}
+    shipped = {}
+    with _package(fmu_path) as package:
+        for archive in (n for n in package.namelist() if "/precompiled/kernel_" in n):
+            with zipfile.ZipFile(io.BytesIO(package.read(archive))) as kernel:
+                shipped.update({Path(n).name: kernel.read(n) for n in kernel.namelist() if n.endswith(".nbi")})
     seeded = {p.name: p.read_bytes() for d in digests() for p in (home / ".cache" / "crankfmu" / f"kernel_{d}" / "__pycache__").glob("*.nbi")}
     assert shipped and seeded == shipped
 

@@ -74,10 +74,14 @@ class FmuUnderTest:
         inside = node.get("file") if node is not None else None
         if not inside:
             return self.scenario_name
-        path = Path(self.unzipdir) / "resources" / f"crankfmu_{self.name}" / inside
-        if not path.is_file():
-            raise CrankfmuError(f"{self.path.name} names its scenario file {inside} but does not carry it")
-        return str(path)
+        # the FMU carries its package as one archive (fmi.build.pack): its user/ files, unpacked
+        package = Path(self.unzipdir) / "resources" / f"crankfmu_{self.name}"
+        with zipfile.ZipFile(package.with_suffix(".zip")) as packed:
+            names = packed.namelist()
+            if inside not in names:
+                raise CrankfmuError(f"{self.path.name} names its scenario file {inside} but does not carry it")
+            packed.extractall(package, [n for n in names if n.startswith("user/")])
+        return str(package / inside)
 
     def _scenario_name(self) -> str:
         name = scenario_of(self.path)

@@ -5,7 +5,7 @@ code on disk. A user's first run on a fresh machine, and an FMU's first instanti
 with an empty cache, would wait for it. This step runs every kernel entry point once, in a child
 process with an empty cache (so nothing compiled earlier, for another CPU or kernel, is taken along),
 for a generic x86-64 CPU (``compiled.py``), and keeps the result in the package
-(``integrators/kernel/precompiled/kernel_<digest>/``). The kernel loader seeds a user's cache from
+(``integrators/kernel/precompiled/kernel_<digest>.zip``). The kernel loader seeds a user's cache from
 there; the FMU build ships it in every FMU (it runs this step when the kernel has changed).
 
 The entry points and their argument types: ``run_chunk`` and ``dense_many`` (``simulate(...,
@@ -25,6 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import zipfile
 from pathlib import Path
 
 from .errors import CrankfmuError
@@ -96,13 +97,15 @@ def precompile(destination: Path | None = None, quiet: bool = False) -> Path:
             raise CrankfmuError(f"precompile: compiling the kernel failed:\n{done.stderr[-4000:]}")
         partial = destination.with_name(destination.name + f".{os.getpid()}")
         shutil.rmtree(partial, ignore_errors=True)
+        partial.mkdir(parents=True)
         for digest in digests():
             compiled = Path(tmp) / "cache" / f"kernel_{digest}"
-            shutil.copytree(compiled, partial / f"kernel_{digest}", ignore=shutil.ignore_patterns("__pycache__"))
-            shutil.copytree(compiled / "__pycache__", partial / f"kernel_{digest}" / MACHINE_CODE,
-                            ignore=shutil.ignore_patterns("*.pyc"))
-            stamps = {f.name: f.stat().st_mtime_ns for f in compiled.glob("*.py")}
-            (partial / f"kernel_{digest}" / STAMPS).write_text(json.dumps(stamps))
+            with zipfile.ZipFile(partial / f"kernel_{digest}.zip", "w", zipfile.ZIP_DEFLATED) as archive:
+                for source in sorted(compiled.glob("*.py")):
+                    archive.write(source, source.name)
+                for code in sorted((compiled / "__pycache__").glob("*.nb[ic]")):
+                    archive.write(code, f"{MACHINE_CODE}/{code.name}")
+                archive.writestr(STAMPS, json.dumps({f.name: f.stat().st_mtime_ns for f in compiled.glob("*.py")}))
         os.replace(partial, destination)
     if not quiet:
         print(f"precompile: kernel {', '.join(digests())} compiled in {time.perf_counter() - started:.0f} s "
@@ -112,10 +115,10 @@ def precompile(destination: Path | None = None, quiet: bool = False) -> Path:
 
 def is_current(folder: Path | None = None) -> bool:
     """Whether ``folder`` (default: the package's) holds the compiled kernel of this package."""
-    from .integrators.kernel import PRECOMPILED, STAMPS
+    from .integrators.kernel import PRECOMPILED
 
     folder = Path(folder or PRECOMPILED)
-    return all((folder / f"kernel_{d}" / STAMPS).is_file() for d in digests())
+    return all((folder / f"kernel_{d}.zip").is_file() for d in digests())
 
 
 def ensure(quiet: bool = False) -> bool:

@@ -701,10 +701,12 @@ class Mechanism:
                                 xtol=1e-15, rtol=1e-15, ftol=16 * np.finfo(float).eps * np.max(np.abs(values)))
         return sorted((float(root) % TWO_PI, bool(rising)) for root, rising in zip(roots, values[i + 1] > 0.0))
 
-    def check_assembly(self, n_grid: int = 3600, min_conditioning: float = 1e-6):
+    def check_assembly(self, n_grid: int = 1440, min_conditioning: float = 1e-6):
         """Refuse a geometry that cannot be assembled over the whole turn, or locks at a dead point.
 
-        Returns (worst conditioning, crank angle where it occurs in rad).
+        The conditioning is scanned every 0.25 deg and its smallest value refined between the
+        neighbouring grid points (to 1e-7 of their spacing). Returns (worst conditioning, crank
+        angle where it occurs in rad).
         """
         grid = np.linspace(0.0, TWO_PI, n_grid, endpoint=False)
         q = self.positions(grid)

@@ -4,8 +4,8 @@
   method.py   Dormand-Prince 5(4) on the tables, events located (the hybrid rules: dynamics.modes)
   drivers.py  the loops callers run: an FMU step, a run on an output grid, steady cycles
 
-``method`` and ``drivers`` are imported from copies named by their content hash in a per-user
-cache directory ($CRANKFMU_CACHE, default ~/.cache/crankfmu). numba caches machine code beside
+``method`` and ``drivers`` are imported from copies named by their content hash in the per-user
+cache (crankfmu.cache: $CRANKFMU_CACHE, default ~/.cache/crankfmu). numba caches machine code beside
 the source file, keyed on its path. An FMU runs its own copy of this package from wherever the host
 extracted it (fmpy: a new temporary directory per run), so a kernel compiled there would be
 compiled again on every run (about 15 s). The copy's path depends only on its content and on the
@@ -34,6 +34,7 @@ import sys
 from pathlib import Path
 
 from ... import compiled
+from ...cache import cache_root, install
 from ...dynamics import modes
 from .. import tableau
 from . import layout
@@ -45,34 +46,32 @@ COMPILED = compiled.COMPILED
 PRECOMPILED = Path(__file__).with_name("precompiled")
 
 
-def cache_root() -> Path:
-    """The per-user directory of compiled kernels: $CRANKFMU_CACHE, default ~/.cache/crankfmu."""
-    return Path(os.environ.get("CRANKFMU_CACHE") or Path.home() / ".cache" / "crankfmu")
-
-
-#: in a precompiled folder: each source file's modification time (ns) when it was compiled, and
-#: the folder of numba's index and machine code (its __pycache__ in the cache: pythonfmu leaves
-#: folders of that name out of an FMU)
+#: in a precompiled kernel's archive (precompiled/kernel_<digest>.zip: one file, which a host
+#: extracting the FMU on every run writes faster than the forty of numba's cache): the source, each
+#: source file's modification time (ns) when it was compiled, and numba's index and machine code
+#: (its __pycache__ once in the cache)
 STAMPS = "mtimes.json"
 MACHINE_CODE = "numba"
 
 
 def _seed(shipped: Path, folder: Path):
-    """Copy a precompiled kernel into the cache through a temporary name (a concurrent process sees
-    it whole). numba's index holds its source file's modification time and size: the copy of the
-    source gets back the time it was compiled with (an FMU's zip does not keep it)."""
+    """Unpack a precompiled kernel into the cache. numba's index holds its source file's
+    modification time and size: the source gets back the time it was compiled with."""
     import json
+    import zipfile
 
-    partial = folder.with_name(f"{folder.name}.{os.getpid()}")
-    shutil.copytree(shipped, partial, dirs_exist_ok=True, ignore=shutil.ignore_patterns(MACHINE_CODE))
-    shutil.copytree(shipped / MACHINE_CODE, partial / "__pycache__", dirs_exist_ok=True)
-    for name, mtime_ns in json.loads((shipped / STAMPS).read_text()).items():
-        os.utime(partial / name, ns=(mtime_ns, mtime_ns))
-    try:
-        os.replace(partial, folder)
-    except OSError:                     # another process seeded it first (or the folder exists)
-        shutil.copytree(partial, folder, dirs_exist_ok=True)
-        shutil.rmtree(partial, ignore_errors=True)
+    def unpack(partial: Path):
+        with zipfile.ZipFile(shipped) as archive:
+            archive.extractall(partial)
+        shutil.copytree(partial / MACHINE_CODE, partial / "__pycache__", dirs_exist_ok=True)
+        shutil.rmtree(partial / MACHINE_CODE)
+        for name, mtime_ns in json.loads((partial / STAMPS).read_text()).items():
+            os.utime(partial / name, ns=(mtime_ns, mtime_ns))
+
+    if not folder.is_dir():
+        install(None, folder, before_rename=unpack)         # a new folder, renamed into place whole
+    else:                                                   # the source only (a run without numba)
+        unpack(folder)
 
 
 def _load(name: str, inputs: dict):
@@ -91,8 +90,8 @@ def _load(name: str, inputs: dict):
     try:
         folder = cache_root() / f"kernel_{digest}"
         target = folder / f"{name}.py"
-        shipped = PRECOMPILED / folder.name
-        if not (folder / "__pycache__").is_dir() and (shipped / STAMPS).is_file():
+        shipped = PRECOMPILED / f"{folder.name}.zip"
+        if not (folder / "__pycache__").is_dir() and shipped.is_file():
             _seed(shipped, folder)
         if not target.is_file() or target.read_bytes() != text:
             folder.mkdir(parents=True, exist_ok=True)

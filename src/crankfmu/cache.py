@@ -1,0 +1,49 @@
+"""crankfmu's per-user cache: where compiled kernels and FMU packages are kept between processes.
+
+The standard library only: an FMU's slave script loads this file by its path, before it has
+imported anything of the package it carries.
+
+``$CRANKFMU_CACHE``, default ``~/.cache/crankfmu``, holds
+
+  kernel_<digest>/   a kernel module and numba's machine code for it (integrators/kernel)
+  fmu_<digest>/      the package an FMU carries, copied out of the host's extraction directory
+                     (fmi/slave_script.py.in)
+
+Each folder is named by the content hash of what it holds and written whole under a temporary
+name, then renamed: a process sees a complete folder or none, and a changed content gets a new one.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+
+def cache_root() -> Path:
+    """$CRANKFMU_CACHE, default ~/.cache/crankfmu."""
+    return Path(os.environ.get("CRANKFMU_CACHE") or Path.home() / ".cache" / "crankfmu")
+
+
+def install(source: Path | None, folder: Path, before_rename=None) -> Path:
+    """Put ``folder`` in place unless it is there: a copy of the folder ``source`` (None: an empty
+    folder), on which ``before_rename(partial)`` runs before it is renamed into place. Returns
+    ``folder``; raises OSError where the cache cannot be written."""
+    if folder.is_dir():
+        return folder
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    partial = folder.with_name(f"{folder.name}.{os.getpid()}")
+    shutil.rmtree(partial, ignore_errors=True)
+    if source is None:
+        partial.mkdir()
+    else:
+        shutil.copytree(source, partial)
+    if before_rename is not None:
+        before_rename(partial)
+    try:
+        os.replace(partial, folder)
+    except OSError:                   # another process put it there first
+        shutil.rmtree(partial, ignore_errors=True)
+        if not folder.is_dir():
+            raise
+    return folder
