@@ -35,6 +35,8 @@ def test_speed_benchmark_prints_the_table_and_every_target_with_its_measure(fmu_
     judged = out.count("| MET |") + out.count("| NOT MET |")
     assert judged == 3 and out.count("| not measured |") == 2
     assert "hand-written right-hand side" in out
+    limit = re.search(r"the C RK4 limit: ([\d.]+) ms at (\S+) rad/s", out)      # measured, at the target error
+    assert limit and float(limit.group(2)) <= 1e-8
     import json
 
     data = json.loads((tmp_path / "speed.json").read_text())
