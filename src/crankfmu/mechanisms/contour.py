@@ -627,7 +627,9 @@ class Mechanism:
         """Positions and first and second transfer functions at each crank angle."""
         return self.kinematics_from_q(self.positions(phi1))
 
-    def kinematics_from_q(self, q) -> Kinematics:
+    def kinematics_from_q(self, q, second: bool = True) -> Kinematics:
+        """Kinematics at solved positions ``q``; with ``second`` False the second transfer functions
+        are not solved for and are NaN (a search on first transfer functions skips that solve)."""
         L, c, s = self._terms(q)
         J = self._jacobian(L, c, s)
         Ju, Jphi = J[:, :, 1:], J[:, :, 0]
@@ -639,12 +641,15 @@ class Mechanism:
         except np.linalg.LinAlgError:
             raise self._assembly_error(q[0, 0], "the contour Jacobian is singular (dead point)") from None
         k = self._n_contour_rows
-        _, _, _, _, ddx0, ddy0 = self._chain_sums(L, c, s, dq)  # ddq = 0: the quadratic part
-        rhs = np.empty((n, 2 * k))
-        rhs[:, 0::2] = ddx0[:, :k]
-        rhs[:, 1::2] = ddy0[:, :k]
-        ddq = np.zeros_like(q)
-        ddq[:, 1:] = np.linalg.solve(Ju, -rhs[..., None])[..., 0]
+        if second:
+            _, _, _, _, ddx0, ddy0 = self._chain_sums(L, c, s, dq)  # ddq = 0: the quadratic part
+            rhs = np.empty((n, 2 * k))
+            rhs[:, 0::2] = ddx0[:, :k]
+            rhs[:, 1::2] = ddy0[:, :k]
+            ddq = np.zeros_like(q)
+            ddq[:, 1:] = np.linalg.solve(Ju, -rhs[..., None])[..., 0]
+        else:
+            ddq = np.full_like(q, np.nan)
         x, y, dx, dy, ddx, ddy = self._chain_sums(L, c, s, dq, ddq)
         points = {p: PointMotion(x[:, k + i], y[:, k + i], dx[:, k + i], dy[:, k + i], ddx[:, k + i], ddy[:, k + i])
                   for i, p in enumerate(self.point_names)}
@@ -694,10 +699,11 @@ class Mechanism:
         e.g. dphi3/dphi1) vanishes, each with whether it rises through zero there: the extreme
         positions of a rocker or a slider. Sign changes on a grid, then every root at once by
         regula falsi on the analytic transfer function."""
+        first = lambda a: transfer(self.kinematics_from_q(self.positions(a), second=False))  # noqa: E731
         grid = np.linspace(0.0, TWO_PI, n_grid + 1)
-        values = transfer(self.kinematics(grid))
+        values = first(grid)
         i = np.nonzero((values[:-1] == 0.0) | (values[:-1] * values[1:] < 0.0))[0]
-        roots = bracketed_roots(lambda a: transfer(self.kinematics(a)), grid[i], grid[i + 1], values[i], values[i + 1],
+        roots = bracketed_roots(first, grid[i], grid[i + 1], values[i], values[i + 1],
                                 xtol=1e-15, rtol=1e-15, ftol=16 * np.finfo(float).eps * np.max(np.abs(values)))
         return sorted((float(root) % TWO_PI, bool(rising)) for root, rising in zip(roots, values[i + 1] > 0.0))
 
@@ -705,7 +711,7 @@ class Mechanism:
         """Refuse a geometry that cannot be assembled over the whole turn, or locks at a dead point.
 
         The conditioning is scanned every 0.25 deg and its smallest value refined between the
-        neighbouring grid points (to 1e-7 of their spacing). Returns (worst conditioning, crank
+        neighbouring grid points (to 4e-6 of their spacing, 2e-8 rad). Returns (worst conditioning, crank
         angle where it occurs in rad).
         """
         grid = np.linspace(0.0, TWO_PI, n_grid, endpoint=False)
@@ -719,7 +725,7 @@ class Mechanism:
         i = int(np.argmin(cond))
         # refine the minimum between grid points: a lock can hide between two of them
         h = grid[1] - grid[0]
-        x, fx = grid_minimum(self.conditioning, grid[i] - h, grid[i] + h)
+        x, fx = grid_minimum(self.conditioning, grid[i] - h, grid[i] + h, points=65, levels=3)
         worst, at = min((fx, x), (float(cond[i]), float(grid[i])))
         if worst < min_conditioning:
             raise self._assembly_error(
