@@ -168,14 +168,17 @@ def _from_series(engine, tolerance: float, n_first: int = 64, n_last: int = 4096
     the spline of the samples takes over.
     """
     budget = 0.5 * tolerance
+
+    def checks(n):                # the midpoints between n samples, then a staggered quarter of them
+        h = TWO_PI / n
+        return np.concatenate([(np.arange(n) + 0.5) * h, (np.arange(0, n, 4) + 0.3) * h])
+
     n = n_first
-    samples = engine(np.arange(n) * (TWO_PI / n))
+    first = engine(np.concatenate([np.arange(n) * (TWO_PI / n), checks(n)]))     # one engine call
+    samples, exact = first[:, :n], first[:, n:]
     last = math.inf
     while True:
         h = TWO_PI / n
-        nodes = np.arange(n) * h
-        staggered = nodes[::4] + 0.3 * h
-        exact = engine(np.concatenate([nodes + 0.5 * h, staggered]))
         scale = np.maximum(_scale(samples), _scale(exact))
         series = periodic_series(samples)
         interpolant = np.concatenate([series_on_grid(series, n, n, 0.5 * h),
@@ -189,6 +192,7 @@ def _from_series(engine, tolerance: float, n_first: int = 64, n_last: int = 4096
         merged = np.empty((samples.shape[0], 2 * n))
         merged[:, 0::2], merged[:, 1::2] = samples, exact[:, :n]
         samples, n = merged, 2 * n
+        exact = engine(checks(n))
     m = max(n, 1024)
     while True:
         hm = TWO_PI / m
