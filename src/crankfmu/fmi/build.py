@@ -356,14 +356,14 @@ def cross_check_options(source: Source) -> str:
             f"StepSize, {exp.output_interval!r}\nRelTol, {exp.tolerance!r}\n")
 
 
-def slave_script(name: str, source: Source) -> str:
-    """The slave script of one FMU, from the one template."""
+def slave_script(name: str, source: Source, digest: str) -> str:
+    """The slave script of one FMU, from the one template; ``digest``: its package's content hash."""
     from string import Template
 
     module, cls = source.core.split(":")
     template = Template((HERE / "slave_script.py.in").read_text())
     return template.substitute(NAME=name, SOURCE=source.load, CORE_MODULE=module, CORE_CLASS=cls,
-                               DESCRIPTION=repr(source.title))
+                               DESCRIPTION=repr(source.title), DIGEST=digest)
 
 
 def build(kind: str, data_name: str, dest: Path, name: str | None = None) -> Path:
@@ -380,9 +380,10 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None) -> Pat
         script_dir = Path(tmp) / "script"
         script_dir.mkdir()
         script = script_dir / f"{name}.py"
-        script.write_text(slave_script(name, source))
         copy_runtime(private, source.files, source.data)
         archive = pack(private)
+        with zipfile.ZipFile(archive) as packed:
+            script.write_text(slave_script(name, source, packed.comment.decode()))
         sys.path.insert(0, str(private.parent))
         sys.path.insert(0, str(script_dir))
         try:
