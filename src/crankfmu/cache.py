@@ -6,7 +6,7 @@ imported anything of the package it carries.
 ``$CRANKFMU_CACHE``, default ``~/.cache/crankfmu``, holds
 
   kernel_<digest>/   a kernel module and numba's machine code for it (integrators/kernel)
-  fmu_<digest>/      the package an FMU carries, copied out of the host's extraction directory
+  fmu_<digest>/      the package an FMU carries, unpacked from the archive in its resources
                      (fmi/slave_script.py.in)
 
 Each folder is named by the content hash of what it holds and written whole under a temporary
@@ -25,21 +25,17 @@ def cache_root() -> Path:
     return Path(os.environ.get("CRANKFMU_CACHE") or Path.home() / ".cache" / "crankfmu")
 
 
-def install(source: Path | None, folder: Path, before_rename=None) -> Path:
-    """Put ``folder`` in place unless it is there: a copy of the folder ``source`` (None: an empty
-    folder), on which ``before_rename(partial)`` runs before it is renamed into place. Returns
-    ``folder``; raises OSError where the cache cannot be written."""
+def install(folder: Path, fill) -> Path:
+    """Put ``folder`` in place unless it is there: ``fill(partial)`` writes its content into a new
+    folder, which is then renamed into place. Returns ``folder``; raises OSError where the cache
+    cannot be written."""
     if folder.is_dir():
         return folder
     folder.parent.mkdir(parents=True, exist_ok=True)
     partial = folder.with_name(f"{folder.name}.{os.getpid()}")
     shutil.rmtree(partial, ignore_errors=True)
-    if source is None:
-        partial.mkdir()
-    else:
-        shutil.copytree(source, partial)
-    if before_rename is not None:
-        before_rename(partial)
+    partial.mkdir()
+    fill(partial)
     try:
         os.replace(partial, folder)
     except OSError:                   # another process put it there first

@@ -77,25 +77,26 @@ def run_entry_points():
     steady_cycles(load_scenario("seed000"), [{"J_flywheel": 10.0}])
 
 
-def precompile(destination: Path | None = None, quiet: bool = False) -> Path:
-    """Compile the kernel in a child process with an empty cache and put its folders into
-    ``destination`` (default: the package's ``precompiled`` folder), replacing what was there."""
+def precompile(quiet: bool = False) -> Path:
+    """Compile the kernel in a child process with an empty cache and put one archive per kernel
+    module into the package's ``precompiled`` folder, replacing what was there."""
     from .integrators.kernel import COMPILED, MACHINE_CODE, PRECOMPILED, STAMPS
 
     if not COMPILED:
         raise CrankfmuError("precompile: numba is not importable here (or CRANKFMU_JIT=0): nothing to compile")
-    destination = Path(destination or PRECOMPILED)
+    if not quiet:
+        print("precompile: compiling the fast path's kernel ahead of time (about 30 s, once per kernel)", flush=True)
     started = time.perf_counter()
-    # the old copy goes first: the child would otherwise seed its empty cache from it
-    shutil.rmtree(destination, ignore_errors=True)
+    # the old archives go first: the child would otherwise seed its empty cache from them
+    shutil.rmtree(PRECOMPILED, ignore_errors=True)
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, CRANKFMU_CACHE=str(Path(tmp) / "cache"), NUMBA_CPU_NAME="generic")
         env.pop("NUMBA_CPU_FEATURES", None)
-        code = "from crankfmu.precompile import run_entry_points; run_entry_points()"
-        done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+        done = subprocess.run([sys.executable, "-c", "from crankfmu.precompile import run_entry_points; run_entry_points()"],
+                              env=env, capture_output=True, text=True)
         if done.returncode != 0:
             raise CrankfmuError(f"precompile: compiling the kernel failed:\n{done.stderr[-4000:]}")
-        partial = destination.with_name(destination.name + f".{os.getpid()}")
+        partial = PRECOMPILED.with_name(f"{PRECOMPILED.name}.{os.getpid()}")
         shutil.rmtree(partial, ignore_errors=True)
         partial.mkdir(parents=True)
         for digest in digests():
@@ -103,22 +104,21 @@ def precompile(destination: Path | None = None, quiet: bool = False) -> Path:
             with zipfile.ZipFile(partial / f"kernel_{digest}.zip", "w", zipfile.ZIP_DEFLATED) as archive:
                 for source in sorted(compiled.glob("*.py")):
                     archive.write(source, source.name)
-                for code in sorted((compiled / "__pycache__").glob("*.nb[ic]")):
-                    archive.write(code, f"{MACHINE_CODE}/{code.name}")
+                for machine_code in sorted((compiled / "__pycache__").glob("*.nb[ic]")):
+                    archive.write(machine_code, f"{MACHINE_CODE}/{machine_code.name}")
                 archive.writestr(STAMPS, json.dumps({f.name: f.stat().st_mtime_ns for f in compiled.glob("*.py")}))
-        os.replace(partial, destination)
+        os.replace(partial, PRECOMPILED)
     if not quiet:
         print(f"precompile: kernel {', '.join(digests())} compiled in {time.perf_counter() - started:.0f} s "
-              f"into {destination}")
-    return destination
+              f"into {PRECOMPILED}")
+    return PRECOMPILED
 
 
-def is_current(folder: Path | None = None) -> bool:
-    """Whether ``folder`` (default: the package's) holds the compiled kernel of this package."""
+def is_current() -> bool:
+    """Whether the package holds the compiled kernel of this package."""
     from .integrators.kernel import PRECOMPILED
 
-    folder = Path(folder or PRECOMPILED)
-    return all((folder / f"kernel_{d}.zip").is_file() for d in digests())
+    return all((PRECOMPILED / f"kernel_{d}.zip").is_file() for d in digests())
 
 
 def ensure(quiet: bool = False) -> bool:

@@ -68,7 +68,7 @@ def copy_runtime(dest: Path, files: dict | None = None, data=()):
     from ..precompile import ensure
 
     # the kernel compiled ahead of time travels with the FMU when it is this package's kernel
-    shipped = ensure(quiet=True)
+    shipped = ensure()
 
     def ignore(folder, names):
         skip = {n for n in names if n == "__pycache__" or (n == "precompiled" and not shipped)}

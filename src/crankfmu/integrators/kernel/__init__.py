@@ -18,10 +18,10 @@ siblings: the modules it reads are put into its namespace before it runs.
 
 Compiled ahead of time: ``crankfmu.precompile`` (run by the FMU build) compiles every kernel entry
 point for a generic x86-64 CPU (``compiled.py`` sets NUMBA_CPU_NAME=generic) into
-``precompiled/kernel_<digest>/`` beside this file, which the package and every FMU carry. A new
-cache directory is seeded from there (the files keep their modification times, which numba's index
-checks), so a first run on a fresh machine loads machine code instead of compiling it for 20 s. A
-precompiled kernel of another content hash is never used: a changed rule compiles afresh.
+``precompiled/kernel_<digest>.zip`` beside this file, which the package and every FMU carry. A new
+cache folder is unpacked from there (the source gets back the modification time numba's index
+recorded), so a first run on a fresh machine loads machine code instead of compiling it for 20 s.
+A precompiled kernel of another content hash is never used: a changed rule compiles afresh.
 """
 
 from __future__ import annotations
@@ -29,7 +29,6 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
-import shutil
 import sys
 from pathlib import Path
 
@@ -63,14 +62,13 @@ def _seed(shipped: Path, folder: Path):
     def unpack(partial: Path):
         with zipfile.ZipFile(shipped) as archive:
             archive.extractall(partial)
-        shutil.copytree(partial / MACHINE_CODE, partial / "__pycache__", dirs_exist_ok=True)
-        shutil.rmtree(partial / MACHINE_CODE)
+        os.replace(partial / MACHINE_CODE, partial / "__pycache__")
         for name, mtime_ns in json.loads((partial / STAMPS).read_text()).items():
             os.utime(partial / name, ns=(mtime_ns, mtime_ns))
 
     if not folder.is_dir():
-        install(None, folder, before_rename=unpack)         # a new folder, renamed into place whole
-    else:                                                   # the source only (a run without numba)
+        install(folder, unpack)         # a new folder, renamed into place whole
+    else:                               # the source only, from a run without numba
         unpack(folder)
 
 
