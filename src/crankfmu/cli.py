@@ -407,6 +407,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--drive", action="store_true", help="SCENARIO is a drive file (Drive.fmu: drives/dc_pi.toml)")
     p.set_defaults(func=cmd_fmu)
 
+    p = sub.add_parser("precompile", help="compile the fast path's kernel ahead of time into the package (about "
+                                           "30 s; crankfmu fmu runs it when the kernel has changed)")
+    p.set_defaults(func=cmd_precompile)
+
     p = sub.add_parser("validate", help="every FMU against the in-process reference and the papers: "
                                          "PASS/FAIL lines and DIR/report.md")
     from .validation.harness import build_parser as validation_parser, run_from_args
@@ -426,6 +430,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=lambda args: __import__("crankfmu.validation.hosts", fromlist=["run"]).run(
         Path(args.fmus), Path(args.out), args.quick))
     return parser
+
+
+def cmd_precompile(args) -> int:
+    from .precompile import precompile
+
+    precompile()
+    return 0
 
 
 def cmd_ssp(args) -> int:

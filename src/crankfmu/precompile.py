@@ -1,4 +1,4 @@
-"""Compile the fast path's kernel ahead of time: ``python -m crankfmu.precompile``.
+"""Compile the fast path's kernel ahead of time: ``crankfmu precompile``.
 
 numba compiles the kernel on its first call (about 20 s on a 2-core machine) and caches the machine
 code on disk. A user's first run on a fresh machine, and an FMU's first instantiation in a host
@@ -17,7 +17,6 @@ fresh cache seeded from the package and checks that numba compiled nothing.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shutil
@@ -138,21 +137,3 @@ def ensure(quiet: bool = False) -> bool:
         return False
     return True
 
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--if-changed", action="store_true", help="only when the package's kernel is not current")
-    args = parser.parse_args(argv)
-    try:
-        if args.if_changed:
-            ensure()
-        else:
-            precompile()
-    except CrankfmuError as exc:
-        print(f"precompile: error: {exc}", file=sys.stderr)
-        return 2
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

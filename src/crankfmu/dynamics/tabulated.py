@@ -106,8 +106,11 @@ def _evaluate(coefficients: np.ndarray, phi1) -> np.ndarray:
     h = TWO_PI / n
     wrapped = phi1 - TWO_PI * np.floor(phi1 / TWO_PI)
     i = np.minimum((wrapped / h).astype(np.int64), n - 1)
-    u = wrapped - i * h
-    c = coefficients[:, i, :]
+    return _horner(coefficients[:, i, :], wrapped - i * h)
+
+
+def _horner(c: np.ndarray, u) -> np.ndarray:
+    """Local cubics c0 + u (c1 + u (c2 + u c3)) (coefficients on the last axis) at offsets u."""
     return c[..., 0] + u * (c[..., 1] + u * (c[..., 2] + u * c[..., 3]))
 
 
@@ -197,7 +200,7 @@ def _from_series(engine, tolerance: float, n_first: int = 64, n_last: int = 4096
     while True:
         hm = TWO_PI / m
         cubics = periodic_hermite(series_on_grid(series, n, m), series_on_grid(series, n, m, derivative=True), TWO_PI)
-        at_midpoints = cubics[..., 0] + 0.5 * hm * (cubics[..., 1] + 0.5 * hm * (cubics[..., 2] + 0.5 * hm * cubics[..., 3]))
+        at_midpoints = _horner(cubics, 0.5 * hm)
         cubic_error = float(np.max(np.max(np.abs(at_midpoints - series_on_grid(series, n, m, 0.5 * hm)), axis=1) / scale))
         if cubic_error <= budget:
             return cubics, error + cubic_error, f"Fourier series of {n} samples, Hermite cubics on {m} intervals"

@@ -528,10 +528,12 @@ class Mechanism:
 
     def residual(self, q):
         """Contour equations F(q) (rows x1, y1, x2, y2, ...), m."""
-        L, c, s = self._terms(q)
+        return self._residual_of(*self._terms(q))
+
+    def _residual_of(self, L, c, s):
         x, y = self._chain_sums(L, c, s)
         k = self._n_contour_rows
-        F = np.empty((q.shape[0], 2 * k))
+        F = np.empty((L.shape[0], 2 * k))
         F[:, 0::2] = x[:, :k]
         F[:, 1::2] = y[:, :k]
         return F
@@ -686,10 +688,9 @@ class Mechanism:
         By Hadamard's inequality it lies in [0, 1]; for the four-bar it is |sin(phi3 - phi2)|,
         the sine of the transmission angle.
         """
-        return self._conditioning_at(self.positions(phi1))
+        return self._conditioning_of(*self._terms(self.positions(phi1)))
 
-    def _conditioning_at(self, q) -> np.ndarray:
-        L, c, s = self._terms(q)
+    def _conditioning_of(self, L, c, s) -> np.ndarray:
         Ju = self._jacobian(L, c, s)[:, :, 1:]
         Ju = Ju / np.linalg.norm(Ju, axis=1, keepdims=True)
         return np.abs(np.linalg.det(Ju))
@@ -697,8 +698,8 @@ class Mechanism:
     def stationary_angles(self, transfer, n_grid: int = 720) -> list[tuple[float, bool]]:
         """Crank angles (rad, in [0, 2 pi)) where ``transfer(kinematics)`` (a first transfer function,
         e.g. dphi3/dphi1) vanishes, each with whether it rises through zero there: the extreme
-        positions of a rocker or a slider. Sign changes on a grid, then every root at once by
-        regula falsi on the analytic transfer function."""
+        positions of a rocker or a slider. Sign changes on a grid, then every root at once by the
+        secant method in its bracket (numerics.bracketed_roots) on the analytic transfer function."""
         first = lambda a: transfer(self.kinematics_from_q(self.positions(a), second=False))  # noqa: E731
         grid = np.linspace(0.0, TWO_PI, n_grid + 1)
         values = first(grid)
@@ -715,9 +716,9 @@ class Mechanism:
         angle where it occurs in rad).
         """
         grid = np.linspace(0.0, TWO_PI, n_grid, endpoint=False)
-        q = self.positions(grid)
-        cond = self._conditioning_at(q)
-        scale = np.max(np.abs(self.residual(q)))
+        terms = self._terms(self.positions(grid))           # the positions' terms, for both checks
+        cond = self._conditioning_of(*terms)
+        scale = np.max(np.abs(self._residual_of(*terms)))
         if scale > 1e-9 * self.length_scale:
             raise DefinitionError(
                 f"{self.definition.name}: the closed form does not satisfy the contour equations "
@@ -725,7 +726,7 @@ class Mechanism:
         i = int(np.argmin(cond))
         # refine the minimum between grid points: a lock can hide between two of them
         h = grid[1] - grid[0]
-        x, fx = grid_minimum(self.conditioning, grid[i] - h, grid[i] + h, points=65, levels=3)
+        x, fx = grid_minimum(self.conditioning, grid[i] - h, grid[i] + h)
         worst, at = min((fx, x), (float(cond[i]), float(grid[i])))
         if worst < min_conditioning:
             raise self._assembly_error(
