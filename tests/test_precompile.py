@@ -30,8 +30,16 @@ def precompiled():
     assert ensure(quiet=True), "the package's kernel could not be precompiled"
 
 
-def test_fresh_cache_compiles_nothing(precompiled, tmp_path):
+@pytest.mark.parametrize("first_without_numba", [False, True])
+def test_fresh_cache_compiles_nothing(precompiled, tmp_path, first_without_numba):
+    """Also when a run without numba (CRANKFMU_JIT=0: a host's Python without it) filled the cache
+    first: its folders then hold the kernel's source and bytecode, and numba's code is added."""
     env = {"PATH": "/usr/bin:/bin", "HOME": str(tmp_path / "home"), "CRANKFMU_CACHE": str(tmp_path / "cache")}
+    if first_without_numba:
+        plain = subprocess.run([sys.executable, "-c", "from crankfmu.precompile import run_entry_points; run_entry_points()"],
+                               env={**env, "CRANKFMU_JIT": "0"}, capture_output=True, text=True, timeout=600)
+        assert plain.returncode == 0, plain.stderr
+        assert not list((tmp_path / "cache").glob("kernel_*/__pycache__/*.nbi"))
     done = subprocess.run([sys.executable, "-c", PROBE], env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     counts = json.loads(done.stdout.splitlines()[-1])

@@ -29,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -62,7 +63,8 @@ def _seed(shipped: Path, folder: Path):
     def unpack(partial: Path):
         with zipfile.ZipFile(shipped) as archive:
             archive.extractall(partial)
-        os.replace(partial / MACHINE_CODE, partial / "__pycache__")
+        shutil.copytree(partial / MACHINE_CODE, partial / "__pycache__", dirs_exist_ok=True)
+        shutil.rmtree(partial / MACHINE_CODE)
         for name, mtime_ns in json.loads((partial / STAMPS).read_text()).items():
             os.utime(partial / name, ns=(mtime_ns, mtime_ns))
 
@@ -89,7 +91,9 @@ def _load(name: str, inputs: dict):
         folder = cache_root() / f"kernel_{digest}"
         target = folder / f"{name}.py"
         shipped = PRECOMPILED / f"{folder.name}.zip"
-        if not (folder / "__pycache__").is_dir() and shipped.is_file():
+        # numba's machine code, where numba runs and has no index here yet (a run without numba
+        # leaves only Python's bytecode in __pycache__)
+        if COMPILED and shipped.is_file() and not any((folder / "__pycache__").glob("*.nbi")):
             _seed(shipped, folder)
         if not target.is_file() or target.read_bytes() != text:
             folder.mkdir(parents=True, exist_ok=True)
