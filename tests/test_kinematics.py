@@ -1,11 +1,13 @@
 """The contour engine against the paper's numbers and against independent methods."""
 
 import math
+from importlib.resources import files
 
 import numpy as np
 import pytest
 
 from crankfmu.dynamics import rocker_extremes
+from crankfmu.errors import AssemblyError
 from crankfmu.mechanisms import load_mechanism
 
 GEOMETRY = dict(l0=0.75, l1=0.2, l2=0.5, l3=0.55, q1=5.5, q2=4.0, q3=3.75)
@@ -125,3 +127,25 @@ def test_conditioning_is_the_transmission_angle_sine(fourbar):
     kin = fourbar.kinematics(ANGLES)
     expected = np.abs(np.sin(kin.q["phi3"] - kin.q["phi2"]))
     assert np.max(np.abs(fourbar.conditioning(ANGLES) - expected)) < 1e-12
+
+
+def test_worst_conditioning_matches_a_dense_independent_scan(fourbar):
+    """check_assembly's worst conditioning (0.25 deg scan, one refinement between scan angles) is the
+    smallest |sin(phi3 - phi2)| of the independent geometry on 200,000 angles; its error is the
+    refinement's, about half the curvature times (step / 2)^2, 3e-9."""
+    worst, at = fourbar.check_assembly()
+    phi1 = np.linspace(0.0, 2 * np.pi, 200_000, endpoint=False)
+    phi2, phi3, _ = independent_fourbar(phi1)
+    dense = np.abs(np.sin(phi3 - phi2))
+    assert worst == pytest.approx(dense.min(), abs=1e-8)
+    assert abs(at - phi1[np.argmin(dense)]) < 1e-3
+
+
+def test_a_closed_form_that_jumps_between_branches_is_refused_where_it_jumps(tmp_path):
+    """Both assembly branches satisfy the contour equations, so only the conditioning's change of
+    sign shows a closed form that swaps them mid-turn (here at 100.1 deg, between scan angles)."""
+    text = ((files("crankfmu.mechanisms") / "files" / "fourbar.toml").read_text()
+            .replace("branch*acos", "sign(radians(100.1) - phi1)*acos"))
+    (tmp_path / "jumping.toml").write_text(text)
+    with pytest.raises(AssemblyError, match=r"at phi1 = 100\.100 deg the mechanism passes a dead point"):
+        load_mechanism(str(tmp_path / "jumping.toml")).bind(GEOMETRY).check_assembly()

@@ -112,10 +112,11 @@ class Scenario:
         """The ``[kinematics]`` section: the paper's constant-speed kinematic study."""
         return dict(self.data.get("kinematics", {}))
 
-    def assembled_mechanism(self):
+    def assembled_mechanism(self, definition: MechanismDefinition | None = None):
         """(mechanism, worst conditioning, crank angle rad where it occurs) for these parameter values,
-        assembly checked over the whole turn; AssemblyError names the bound of each changed parameter."""
-        definition = self.mechanism_definition()
+        assembly checked over the whole turn; AssemblyError names the bound of each changed parameter.
+        ``definition``: the scenario's mechanism definition, when the caller has it already."""
+        definition = definition or self.mechanism_definition()
         mechanism = definition.bind(self.values)
         try:
             worst, at = mechanism.check_assembly()
@@ -127,7 +128,7 @@ class Scenario:
         """Mechanism, reduced model, motor and equation of motion for these parameter values."""
         values = self.values
         definition = self.mechanism_definition()
-        mechanism, worst, at = self.assembled_mechanism()
+        mechanism, worst, at = self.assembled_mechanism(definition)
         links = []
         for lname, ld in definition.links.items():
             mass = evaluate(ld.mass, values, f"{self.name}: mass of {lname}")
@@ -236,7 +237,7 @@ class Scenario:
 
         def assembles(v):
             try:
-                definition.bind({**self.values, name: v}).check_assembly(n_grid=720)
+                definition.bind({**self.values, name: v}).check_assembly(coarse=True)
                 return True
             except AssemblyError:
                 return False

@@ -40,9 +40,11 @@ import numpy as np
 
 from ..errors import AssemblyError, DefinitionError
 from ..expressions import Expression, parse
-from ..numerics import bracketed_roots, grid_minimum
+from ..numerics import bracketed_roots, determinants
 
 TWO_PI = 2.0 * math.pi
+#: crank angles of the turn scan (every 0.25 deg): the assembly check and stationary angles
+SCAN_POINTS = 1440
 
 
 # --------------------------------------------------------------------------------------------
@@ -384,6 +386,28 @@ class PointMotion(NamedTuple):
         return self[2 + axis]
 
 
+class _OnDemand(Mapping):
+    """A mapping computed on first use: the points' motions, which a search on a link's transfer
+    function (stationary_angles, several engine calls a model build) never reads."""
+
+    def __init__(self, compute):
+        self._compute, self._items = compute, None
+
+    def _all(self) -> dict:
+        if self._items is None:
+            self._items, self._compute = self._compute(), None
+        return self._items
+
+    def __getitem__(self, key):
+        return self._all()[key]
+
+    def __iter__(self):
+        return iter(self._all())
+
+    def __len__(self) -> int:
+        return len(self._all())
+
+
 @dataclass
 class Kinematics:
     """Positions and transfer functions at an array of crank angles.
@@ -398,7 +422,7 @@ class Kinematics:
     q: dict[str, np.ndarray]
     dq: dict[str, np.ndarray]
     ddq: dict[str, np.ndarray]
-    points: dict[str, PointMotion]
+    points: Mapping[str, PointMotion]
     link_angles: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
 
     def point(self, name: str) -> PointMotion:
@@ -453,6 +477,14 @@ class Mechanism:
         self._ang_idx = np.array(ai, dtype=int)
         self._has_len = self._len_idx >= 0
         self._has_ang = self._ang_idx >= 0
+        # terms share few distinct angles (a link's angle, plus a constant offset): cos and sin are
+        # taken once per distinct angle and spread over the terms, a third of the work on a four-bar
+        angle_keys = list(zip(self._ang_idx.tolist(), self._offset.tolist()))
+        distinct = sorted(set(angle_keys))
+        self._angle_of_term = np.array([distinct.index(key) for key in angle_keys], dtype=int)
+        self._distinct_idx = np.array([i for i, _ in distinct], dtype=int)
+        self._distinct_has = self._distinct_idx >= 0
+        self._distinct_offset = np.array([o for _, o in distinct], dtype=float)
         # incidence matrices turn per-term values into per-chain sums with one matmul
         self._sum = np.zeros((n_terms, n_chains))
         self._sum[np.arange(n_terms), owner] = 1.0
@@ -483,17 +515,19 @@ class Mechanism:
         self._closed_form = definition.closed_form if use_closed_form else None
         self._env = env
         self._table = None
+        self._scan = None
         if self._closed_form is None:
             self._table = self._continuation_table()
 
     # ---------------------------------------------------------------- terms
     def _terms(self, q):
         L = self._coef * np.where(self._has_len, q[:, self._len_idx], 1.0)
-        theta = np.where(self._has_ang, q[:, self._ang_idx], 0.0) + self._offset
-        return L, np.cos(theta), np.sin(theta)
+        theta = np.where(self._distinct_has, q[:, self._distinct_idx], 0.0) + self._distinct_offset
+        return L, np.cos(theta)[:, self._angle_of_term], np.sin(theta)[:, self._angle_of_term]
 
-    def _chain_sums(self, L, c, s, dq=None, ddq=None):
-        """Positions, and with dq (and ddq) first (and second) derivatives, of every chain."""
+    def _chain_sums(self, L, c, s, dq=None, ddq=None, second: bool = True):
+        """Positions, and with dq (and ddq) first (and second) derivatives, of every chain; with
+        ``second`` False the second derivatives are NaN, not computed."""
         x = (L * c) @ self._sum + self._const[0]
         y = (L * s) @ self._sum + self._const[1]
         if dq is None:
@@ -502,6 +536,9 @@ class Mechanism:
         dth = dq @ self._ang_incidence.T
         dx = (dL * c - L * dth * s) @ self._sum
         dy = (dL * s + L * dth * c) @ self._sum
+        if not second:
+            unknown = np.full_like(dx, np.nan)
+            return x, y, dx, dy, unknown, unknown
         if ddq is None:
             ddL = ddth = 0.0
         else:
@@ -550,7 +587,8 @@ class Mechanism:
             env["phi1"] = phi1
             with np.errstate(invalid="ignore", divide="ignore"):
                 for name, expr in self._closed_form:
-                    env[name] = np.broadcast_to(expr.evaluate(env), phi1.shape)
+                    value = expr.evaluate(env)
+                    env[name] = value if np.shape(value) == phi1.shape else np.broadcast_to(value, phi1.shape)
             q = np.column_stack([phi1] + [env[u] for u in self.unknown_names])
             bad = ~np.all(np.isfinite(q), axis=1)
             if np.any(bad):
@@ -629,10 +667,11 @@ class Mechanism:
         """Positions and first and second transfer functions at each crank angle."""
         return self.kinematics_from_q(self.positions(phi1))
 
-    def kinematics_from_q(self, q, second: bool = True) -> Kinematics:
+    def kinematics_from_q(self, q, second: bool = True, terms=None) -> Kinematics:
         """Kinematics at solved positions ``q``; with ``second`` False the second transfer functions
-        are not solved for and are NaN (a search on first transfer functions skips that solve)."""
-        L, c, s = self._terms(q)
+        are not solved for and are NaN (a search on first transfer functions skips that solve).
+        ``terms``: the positions' terms (``_terms(q)``), when the caller has them."""
+        L, c, s = self._terms(q) if terms is None else terms
         J = self._jacobian(L, c, s)
         Ju, Jphi = J[:, :, 1:], J[:, :, 0]
         n = q.shape[0]
@@ -652,9 +691,11 @@ class Mechanism:
             ddq[:, 1:] = np.linalg.solve(Ju, -rhs[..., None])[..., 0]
         else:
             ddq = np.full_like(q, np.nan)
-        x, y, dx, dy, ddx, ddy = self._chain_sums(L, c, s, dq, ddq)
-        points = {p: PointMotion(x[:, k + i], y[:, k + i], dx[:, k + i], dy[:, k + i], ddx[:, k + i], ddy[:, k + i])
-                  for i, p in enumerate(self.point_names)}
+
+        def points():
+            x, y, dx, dy, ddx, ddy = self._chain_sums(L, c, s, dq, ddq, second)
+            return {p: PointMotion(x[:, k + i], y[:, k + i], dx[:, k + i], dy[:, k + i], ddx[:, k + i], ddy[:, k + i])
+                    for i, p in enumerate(self.point_names)}
         names = self.unknown_names
         links = {}
         for lname, (idx, const) in self._links.items():
@@ -668,7 +709,7 @@ class Mechanism:
             q={u: q[:, j + 1] for j, u in enumerate(names)},
             dq={u: dq[:, j + 1] for j, u in enumerate(names)},
             ddq={u: ddq[:, j + 1] for j, u in enumerate(names)},
-            points=points,
+            points=_OnDemand(points),
             link_angles=links,
         )
 
@@ -691,47 +732,87 @@ class Mechanism:
         return self._conditioning_of(*self._terms(self.positions(phi1)))
 
     def _conditioning_of(self, L, c, s) -> np.ndarray:
+        return np.abs(self._signed_conditioning_of(L, c, s))
+
+    def _signed_conditioning_of(self, L, c, s) -> np.ndarray:
+        """det of the column-normalised contour Jacobian: continuous along an assembly branch, so a
+        change of its sign between two crank angles puts a dead point between them."""
         Ju = self._jacobian(L, c, s)[:, :, 1:]
-        Ju = Ju / np.linalg.norm(Ju, axis=1, keepdims=True)
-        return np.abs(np.linalg.det(Ju))
+        return determinants(Ju / np.linalg.norm(Ju, axis=1, keepdims=True))
+
+    def _turn_scan(self):
+        """(crank angles, positions, their terms) every 0.25 deg over one turn, computed once per
+        bound mechanism: the assembly check and the search for stationary angles both start there."""
+        if self._scan is None:
+            grid = np.linspace(0.0, TWO_PI, SCAN_POINTS, endpoint=False)
+            q = self.positions(grid)
+            self._scan = (grid, q, self._terms(q))
+        return self._scan
 
     def stationary_angles(self, transfer, n_grid: int = 720) -> list[tuple[float, bool]]:
         """Crank angles (rad, in [0, 2 pi)) where ``transfer(kinematics)`` (a first transfer function,
         e.g. dphi3/dphi1) vanishes, each with whether it rises through zero there: the extreme
-        positions of a rocker or a slider. Sign changes on a grid, then every root at once by the
-        secant method in its bracket (numerics.bracketed_roots) on the analytic transfer function."""
+        positions of a rocker or a slider. Sign changes on ``n_grid`` angles of the turn scan (n_grid
+        divides its 1440), then every root at once by the secant method in its bracket
+        (numerics.bracketed_roots) on the analytic transfer function."""
+        if SCAN_POINTS % n_grid:
+            raise ValueError(f"stationary_angles: n_grid must divide {SCAN_POINTS}, got {n_grid}")
         first = lambda a: transfer(self.kinematics_from_q(self.positions(a), second=False))  # noqa: E731
-        grid = np.linspace(0.0, TWO_PI, n_grid + 1)
-        values = first(grid)
+        scan, q, terms = self._turn_scan()
+        every = SCAN_POINTS // n_grid
+        values = transfer(self.kinematics_from_q(q[::every], second=False, terms=[t[::every] for t in terms]))
+        grid, values = np.append(scan[::every], TWO_PI), np.append(values, values[0])    # periodic
         i = np.nonzero((values[:-1] == 0.0) | (values[:-1] * values[1:] < 0.0))[0]
         roots = bracketed_roots(first, grid[i], grid[i + 1], values[i], values[i + 1],
                                 xtol=1e-15, rtol=1e-15, ftol=16 * np.finfo(float).eps * np.max(np.abs(values)))
         return sorted((float(root) % TWO_PI, bool(rising)) for root, rising in zip(roots, values[i + 1] > 0.0))
 
-    def check_assembly(self, n_grid: int = 1440, min_conditioning: float = 1e-6):
+    def check_assembly(self, coarse: bool = False, min_conditioning: float = 1e-6):
         """Refuse a geometry that cannot be assembled over the whole turn, or locks at a dead point.
 
-        The conditioning is scanned every 0.25 deg and its smallest value refined between the
-        neighbouring grid points (to 4e-6 of their spacing, 2e-8 rad). Returns (worst conditioning, crank
-        angle where it occurs in rad).
+        The conditioning's sign is followed over the turn scan (every 0.25 deg; every 0.5 deg if
+        ``coarse``): a change of sign between two angles is a dead point between them. Where it keeps
+        its sign, its smallest magnitude is refined on 65 angles between the neighbouring scan
+        angles, whose signs are followed too: a lock too narrow to change the sign of any of them
+        still brings the magnitude there down quadratically. Returns (worst conditioning, crank
+        angle where it occurs in rad), the worst value to about 3e-9.
         """
-        grid = np.linspace(0.0, TWO_PI, n_grid, endpoint=False)
-        terms = self._terms(self.positions(grid))           # the positions' terms, for both checks
-        cond = self._conditioning_of(*terms)
+        if coarse:
+            grid = np.linspace(0.0, TWO_PI, SCAN_POINTS // 2, endpoint=False)
+            terms = self._terms(self.positions(grid))
+        else:
+            grid, _, terms = self._turn_scan()
         scale = np.max(np.abs(self._residual_of(*terms)))
         if scale > 1e-9 * self.length_scale:
             raise DefinitionError(
                 f"{self.definition.name}: the closed form does not satisfy the contour equations "
                 f"(residual {scale:.3g} m); check the mechanism file")
-        i = int(np.argmin(cond))
-        # refine the minimum between grid points: a lock can hide between two of them
+        signed = self._signed_conditioning_of(*terms)
         h = grid[1] - grid[0]
-        x, fx = grid_minimum(self.conditioning, grid[i] - h, grid[i] + h)
-        worst, at = min((fx, x), (float(cond[i]), float(grid[i])))
+        self._refuse_sign_change(grid, h, signed, np.append(signed[1:], signed[0]))
+        i = int(np.argmin(np.abs(signed)))
+        # refine the minimum between scan angles: a lock can hide between two of them
+        near = np.linspace(grid[i] - h, grid[i] + h, 65)
+        near_signed = self._signed_conditioning_of(*self._terms(self.positions(near)))
+        self._refuse_sign_change(near[:-1], near[1] - near[0], near_signed[:-1], near_signed[1:])
+        j = int(np.argmin(np.abs(near_signed)))
+        worst, at = min((abs(float(near_signed[j])), float(near[j])), (abs(float(signed[i])), float(grid[i])))
         if worst < min_conditioning:
             raise self._assembly_error(
                 at, f"the mechanism locks at a dead point (conditioning {worst:.2e} < {min_conditioning:g})")
         return worst, at
+
+    def _refuse_sign_change(self, angles, h, signed, signed_next):
+        """AssemblyError at the first dead point that a sign change of the conditioning between
+        ``angles`` and ``angles + h`` puts there, located to rounding."""
+        flips = np.nonzero(np.signbit(signed) != np.signbit(signed_next))[0]
+        if flips.size:
+            k = flips[:1]
+            signed_at = lambda a: self._signed_conditioning_of(*self._terms(self.positions(a)))  # noqa: E731
+            at = bracketed_roots(signed_at, angles[k], angles[k] + h, signed[k], signed_next[k])[0]
+            raise self._assembly_error(
+                at, "the mechanism passes a dead point (the contour Jacobian's determinant changes sign; "
+                    "or the closed form jumps between assembly branches)")
 
     def _assembly_error(self, phi1, reason):
         params = self.definition.geometry_parameters
