@@ -80,3 +80,23 @@ def test_progress_bar_in_a_log_file_writes_a_line_every_10_percent():
     bar.close()
     lines = bar.stream.getvalue().splitlines()
     assert 10 <= len(lines) <= 11 and "\r" not in bar.stream.getvalue() and lines[-1].startswith("run [####")
+
+
+def test_validate_and_hosts_parse_their_own_options_and_load_only_when_run(capsys):
+    """Every other subcommand starts without importing the harnesses (0.4 s of cases and
+    references); validate and hosts still refuse an unknown option with their own usage."""
+    import subprocess
+    import sys
+
+    code = ("import sys, crankfmu.cli; crankfmu.cli.build_parser(); "
+            "print(sorted(m for m in sys.modules if m.startswith('crankfmu.validation')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]"
+    for command in ("validate", "hosts"):
+        with pytest.raises(SystemExit) as info:
+            main([command, "--no-such-option"])
+        assert info.value.code == 2
+        assert f"crankfmu {command}: error: unrecognized arguments: --no-such-option" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["validate", "--help"])
+    assert "--quick" in capsys.readouterr().out
