@@ -70,3 +70,22 @@ def test_motor_line_is_continuous_at_the_switch(model):
     assert m.torque(m.omega_switch, True) == pytest.approx(m.torque(m.omega_switch, False), abs=1e-12)
     assert m.torque_at(4.0) == pytest.approx(301 - 0.2 * 4.0)
     assert m.torque_at(6.0) == pytest.approx(400 - 20 * 6.0)
+
+
+def test_a_banded_slider_force_switches_where_the_slider_crosses_its_band():
+    """Seed 003's cutting force acts over 0.05..0.95 of the ram's stroke: it switches at the two
+    extremes (rate zero) and where the ram's position, evaluated again at each found angle,
+    crosses the band's levels, once each way, to rounding of the stroke."""
+    import crankfmu
+
+    model = crankfmu.load_scenario("seed003").build()
+    (ram,) = model.reduced.sliders
+    angles = np.array(ram.switch_angles(model.mechanism))
+    motion = model.mechanism.kinematics(angles).point(ram.point)
+    x, rate = motion.along(ram.axis), motion.ratio(ram.axis)
+    stroke = ram.high - ram.low
+    levels = np.array([ram.low + f * stroke for f in ram.band])
+    at_extreme = np.abs(rate) < 1e-9 * np.max(np.abs(rate))
+    assert at_extreme.sum() == 2 and angles.size == 6
+    assert np.max(np.min(np.abs(x[~at_extreme, None] - levels[None, :]), axis=1)) < 1e-12 * stroke
+    assert sorted(np.argmin(np.abs(x[~at_extreme, None] - levels[None, :]), axis=1)) == [0, 0, 1, 1]

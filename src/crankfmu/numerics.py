@@ -4,7 +4,6 @@ The core (mechanisms, dynamics, the fast integrator) runs inside the FMUs, where
 assumed on the host's machine; scipy stays for the studies and the reference integrators, which
 run in crankfmu's own environment. Each tool here is the textbook method, stated once:
 
-- ``brent_root``: Brent's method (Brent 1973, ch. 4) for a bracketed root;
 - ``bracketed_roots``: the secant method kept in its brackets, on many brackets at once, one
   vectorised call of f per iteration;
 - ``determinants``: determinants of a batch of small matrices;
@@ -24,61 +23,22 @@ from .errors import DefinitionError
 _EPS = np.finfo(float).eps
 
 
-def brent_root(f, a: float, b: float, xtol: float = 1e-15, rtol: float = 4 * _EPS, maxiter: int = 200) -> float:
-    """A root of ``f`` in [a, b], where f(a) and f(b) differ in sign (or one is zero)."""
-    fa, fb = float(f(a)), float(f(b))
-    if fa == 0.0:
-        return a
-    if fb == 0.0:
-        return b
-    if fa * fb > 0.0:
-        raise DefinitionError(f"brent_root: f({a:g}) = {fa:g} and f({b:g}) = {fb:g} have the same sign")
-    c, fc = a, fa
-    d = e = b - a
-    for _ in range(maxiter):
-        if fb * fc > 0.0:
-            c, fc = a, fa
-            d = e = b - a
-        if abs(fc) < abs(fb):
-            a, b, c = b, c, b
-            fa, fb, fc = fb, fc, fb
-        tol = 2.0 * rtol * abs(b) + 0.5 * xtol
-        m = 0.5 * (c - b)
-        if abs(m) <= tol or fb == 0.0:
-            return b
-        if abs(e) >= tol and abs(fa) > abs(fb):
-            s = fb / fa
-            if a == c:                                   # secant
-                p, q = 2.0 * m * s, 1.0 - s
-            else:                                        # inverse quadratic interpolation
-                q, r = fa / fc, fb / fc
-                p = s * (2.0 * m * q * (q - r) - (b - a) * (r - 1.0))
-                q = (q - 1.0) * (r - 1.0) * (s - 1.0)
-            if p > 0.0:
-                q = -q
-            p = abs(p)
-            if 2.0 * p < min(3.0 * m * q - abs(tol * q), abs(e * q)):
-                e, d = d, p / q
-            else:
-                d = e = m                                # bisection
-        else:
-            d = e = m
-        a, fa = b, fb
-        b += d if abs(d) > tol else math.copysign(tol, m)
-        fb = float(f(b))
-    return b
-
-
 def bracketed_roots(f, a, b, fa, fb, xtol: float = 1e-15, rtol: float = 4 * _EPS, ftol: float = 0.0,
-                    maxiter: int = 100) -> np.ndarray:
+                    maxiter: int = 100, levels=None) -> np.ndarray:
     """A root of the vectorised ``f`` in each bracket [a_i, b_i] (f(a_i), f(b_i) of opposite signs
     or one zero), all brackets at once: one call of ``f`` per iteration on the brackets not yet
     converged. The secant through the last two iterates (superlinear), kept inside the bracket,
     which every value of f narrows: a secant point outside it, or not finite, is replaced by the
     bracket's midpoint. A root is done when the step falls to xtol + 2 rtol |x|, or |f| to ``ftol``
-    (f's rounding level, below which a secant only follows rounding noise)."""
+    (f's rounding level, below which a secant only follows rounding noise).
+
+    With ``levels``, bracket i seeks f = levels[i] instead (fa, fb, ftol stay those of f - level):
+    the crossings of several levels by one function in one search."""
     a, b = np.array(a, dtype=float), np.array(b, dtype=float)
     fa, fb = np.array(fa, dtype=float), np.array(fb, dtype=float)
+    if levels is not None:
+        levels = np.broadcast_to(np.asarray(levels, dtype=float), a.shape)
+        f = _minus_levels(f, levels)
     if np.any(fa * fb > 0.0):
         raise DefinitionError("bracketed_roots: f has the same sign at both ends of a bracket")
     x0, f0, x1, f1 = a.copy(), fa.copy(), b.copy(), fb.copy()
@@ -92,7 +52,7 @@ def bracketed_roots(f, a, b, fa, fb, xtol: float = 1e-15, rtol: float = 4 * _EPS
             c = x1 - f1 * (x1 - x0) / (f1 - f0)
         c = np.where((c >= lo) & (c <= hi), c, 0.5 * (lo + hi))
         fc = np.zeros_like(c)
-        fc[active] = f(c[active])
+        fc[active] = f(c[active]) if levels is None else f(c[active], active)
         keep_a = fc * fa < 0.0                       # the root lies between a and c
         b, fb = np.where(keep_a, c, b), np.where(keep_a, fc, fb)
         a, fa = np.where(keep_a, a, c), np.where(keep_a, fa, fc)
@@ -102,6 +62,10 @@ def bracketed_roots(f, a, b, fa, fb, xtol: float = 1e-15, rtol: float = 4 * _EPS
         tol = 2.0 * rtol * np.abs(c) + xtol
         active &= (np.abs(fc) > ftol) & (step > 0.5 * tol) & (np.abs(b - a) > tol)
     return root
+
+
+def _minus_levels(f, levels):
+    return lambda x, active: f(x) - levels[active]
 
 
 def determinants(A: np.ndarray) -> np.ndarray:
