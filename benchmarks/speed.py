@@ -275,7 +275,7 @@ def main(argv=None) -> int:
             "simulate() end to end (seed 000, 0-2 s, error <= 1e-8 rad/s) <= 1/8 of scipy DOP853 on a hand-written "
             "right-hand side at the same error",
             f"{1e3 * e2e:.1f} ms at {e2e_error:.1e} rad/s; peer rtol {peer[0]:g}: {1e3 * peer[2]:.1f} ms at "
-            f"{peer[1]:.1e} rad/s; simulate / peer = {e2e / peer[2]:.2f}, target <= 0.125 (the C RK4 limit: "
+            f"{peer[1]:.1e} rad/s; simulate / peer = {e2e / peer[2]:.3f}, target <= 0.125 (the C RK4 limit: "
             + (f"{1e3 * c_limit[2]:.2f} ms at {c_limit[1]:.1e} rad/s, {c_limit[0]} step(s) per ms)" if c_limit
                else "did not reach the error)"),
             bool(e2e <= peer[2] / 8 and e2e_error <= TARGET_ERROR)))
