@@ -105,13 +105,13 @@ class Expression:
     def __init__(self, source, where: str = "expression", functions: Mapping | None = None):
         self.source = source if isinstance(source, str) else repr(float(source))
         self.where = where
-        self.functions = dict(FUNCTIONS if functions is None else functions)
-        names, self._code = _compile(self.source, where, FUNCTIONS if functions is None else self.functions)
+        self.functions = FUNCTIONS if functions is None else dict(functions)
+        names, self._code = _compile(self.source, where, self.functions)
         self.names = set(names)
         # functions and constants are the globals of the evaluation and the bound names its locals,
         # so an evaluation (a closed-form position is evaluated ~100 times a model build) copies
         # nothing but the names it reads
-        self._globals = (_DEFAULT_GLOBALS if functions is None
+        self._globals = (_DEFAULT_GLOBALS if self.functions is FUNCTIONS
                          else {"__builtins__": {}, **self.functions, **CONSTANTS})
 
     def evaluate(self, env: Mapping[str, object]):

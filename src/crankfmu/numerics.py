@@ -36,9 +36,7 @@ def bracketed_roots(f, a, b, fa, fb, xtol: float = 1e-15, rtol: float = 4 * _EPS
     the crossings of several levels by one function in one search."""
     a, b = np.array(a, dtype=float), np.array(b, dtype=float)
     fa, fb = np.array(fa, dtype=float), np.array(fb, dtype=float)
-    if levels is not None:
-        levels = np.broadcast_to(np.asarray(levels, dtype=float), a.shape)
-        f = _minus_levels(f, levels)
+    levels = np.broadcast_to(np.asarray(0.0 if levels is None else levels, dtype=float), a.shape)
     if np.any(fa * fb > 0.0):
         raise DefinitionError("bracketed_roots: f has the same sign at both ends of a bracket")
     x0, f0, x1, f1 = a.copy(), fa.copy(), b.copy(), fb.copy()
@@ -52,7 +50,7 @@ def bracketed_roots(f, a, b, fa, fb, xtol: float = 1e-15, rtol: float = 4 * _EPS
             c = x1 - f1 * (x1 - x0) / (f1 - f0)
         c = np.where((c >= lo) & (c <= hi), c, 0.5 * (lo + hi))
         fc = np.zeros_like(c)
-        fc[active] = f(c[active]) if levels is None else f(c[active], active)
+        fc[active] = f(c[active]) - levels[active]
         keep_a = fc * fa < 0.0                       # the root lies between a and c
         b, fb = np.where(keep_a, c, b), np.where(keep_a, fc, fb)
         a, fa = np.where(keep_a, a, c), np.where(keep_a, fa, fc)
@@ -62,10 +60,6 @@ def bracketed_roots(f, a, b, fa, fb, xtol: float = 1e-15, rtol: float = 4 * _EPS
         tol = 2.0 * rtol * np.abs(c) + xtol
         active &= (np.abs(fc) > ftol) & (step > 0.5 * tol) & (np.abs(b - a) > tol)
     return root
-
-
-def _minus_levels(f, levels):
-    return lambda x, active: f(x) - levels[active]
 
 
 def determinants(A: np.ndarray) -> np.ndarray:

@@ -16,7 +16,6 @@ import numpy as np
 
 from ..errors import DefinitionError
 from ..mechanisms import Kinematics, Mechanism
-from ..numerics import bracketed_roots
 
 WEIGHTS, TECHNOLOGICAL = "weights", "technological"
 TWO_PI = 2.0 * np.pi
@@ -127,21 +126,10 @@ class SliderForce:
         the slider's extreme positions and, with a band, where it enters and leaves it."""
         angles = list(self.extremes)
         if self.band != (0.0, 1.0):
-            grid = np.linspace(0.0, 2.0 * np.pi, 721)
             stroke = self.high - self.low
             levels = {self.low + f * stroke for f in self.band} | {self.high - f * stroke for f in self.band}
-            x_of = lambda a: mechanism.kinematics_from_q(  # noqa: E731
-                mechanism.positions(a), second=False).point(self.point).along(self.axis)
-            x = x_of(grid)
-            # every crossing of every level in one search (levels: the level each bracket seeks)
-            i, level = [], []
-            for value in levels:
-                crossing = np.nonzero((x[:-1] - value) * (x[1:] - value) < 0.0)[0]
-                i, level = i + list(crossing), level + [value] * crossing.size
-            i, level = np.array(i, dtype=int), np.array(level)
-            angles += list(bracketed_roots(x_of, grid[i], grid[i + 1], x[i] - level, x[i + 1] - level,
-                                           xtol=1e-14, ftol=16 * np.finfo(float).eps * np.max(np.abs(x)),
-                                           levels=level))
+            angles += [a for a, _, _ in mechanism.crossings(lambda kin: kin.point(self.point).along(self.axis),
+                                                             sorted(levels))]
         unique: list[float] = []
         for a in sorted(a % (2.0 * np.pi) for a in angles):
             if not unique or a - unique[-1] > 1e-9:   # a band level is met once per direction

@@ -202,13 +202,13 @@ def _from_series(engine, tolerance: float, n_first: int = 64, n_last: int = 4096
     # predicts (the bound is pessimistic, by up to 1.4 in m on the seeds), so one build usually does
     amplitude = np.abs(series) * (2.0 / n)
     amplitude[:, 0] *= 0.5
-    fourth = np.sum(np.arange(series.shape[1]) ** 4 * amplitude, axis=1) / scale
-    m = max(n, 2 ** round(math.log2(max(TWO_PI * (float(np.max(fourth)) / (384.0 * budget)) ** 0.25, 1.0))))
+    fourth = float(np.max(np.sum(np.arange(series.shape[1]) ** 4 * amplitude, axis=1) / scale))
+    m = max(n, 2 ** round(math.log2(max(TWO_PI * (fourth / (384.0 * budget)) ** 0.25, 1.0))))
     m = min(m, m_last)
     while True:
         hm = TWO_PI / m
         cubics = periodic_hermite(series_on_grid(series, n, m), series_on_grid(series, n, m, derivative=True), TWO_PI)
-        cubic_error = hm ** 4 / 384.0 * float(np.max(fourth))    # proven: no angle can exceed it
+        cubic_error = hm ** 4 / 384.0 * fourth                   # proven: no angle can exceed it
         if cubic_error > budget:                                 # the bound is pessimistic: measure
             at_midpoints = _horner(cubics, 0.5 * hm)
             cubic_error = float(np.max(np.max(np.abs(at_midpoints - series_on_grid(series, n, m, 0.5 * hm)),

@@ -729,10 +729,10 @@ class Mechanism:
         By Hadamard's inequality it lies in [0, 1]; for the four-bar it is |sin(phi3 - phi2)|,
         the sine of the transmission angle.
         """
-        return self._conditioning_of(*self._terms(self.positions(phi1)))
+        return np.abs(self._signed_conditioning(phi1))
 
-    def _conditioning_of(self, L, c, s) -> np.ndarray:
-        return np.abs(self._signed_conditioning_of(L, c, s))
+    def _signed_conditioning(self, phi1) -> np.ndarray:
+        return self._signed_conditioning_of(*self._terms(self.positions(phi1)))
 
     def _signed_conditioning_of(self, L, c, s) -> np.ndarray:
         """det of the column-normalised contour Jacobian: continuous along an assembly branch, so a
@@ -752,20 +752,33 @@ class Mechanism:
     def stationary_angles(self, transfer, n_grid: int = 720) -> list[tuple[float, bool]]:
         """Crank angles (rad, in [0, 2 pi)) where ``transfer(kinematics)`` (a first transfer function,
         e.g. dphi3/dphi1) vanishes, each with whether it rises through zero there: the extreme
-        positions of a rocker or a slider. Sign changes on ``n_grid`` angles of the turn scan (n_grid
-        divides its 1440), then every root at once by the secant method in its bracket
-        (numerics.bracketed_roots) on the analytic transfer function."""
+        positions of a rocker or a slider."""
+        return [(angle, rising) for angle, rising, _ in self.crossings(transfer, [0.0], n_grid)]
+
+    def crossings(self, quantity, levels, n_grid: int = 720) -> list[tuple[float, bool, float]]:
+        """(crank angle rad in [0, 2 pi), whether it rises there, level) wherever
+        ``quantity(kinematics)`` (positions and first transfer functions: a slider's position, a
+        rocker's rate) crosses one of ``levels`` over a turn, sorted by angle. Sign changes on
+        ``n_grid`` angles of the turn scan (n_grid divides its 1440), then every crossing at once by
+        the secant method in its bracket (numerics.bracketed_roots) on the analytic quantity."""
         if SCAN_POINTS % n_grid:
-            raise ValueError(f"stationary_angles: n_grid must divide {SCAN_POINTS}, got {n_grid}")
-        first = lambda a: transfer(self.kinematics_from_q(self.positions(a), second=False))  # noqa: E731
+            raise ValueError(f"crossings: n_grid must divide {SCAN_POINTS}, got {n_grid}")
+        at = lambda a: quantity(self.kinematics_from_q(self.positions(a), second=False))  # noqa: E731
         scan, q, terms = self._turn_scan()
         every = SCAN_POINTS // n_grid
-        values = transfer(self.kinematics_from_q(q[::every], second=False, terms=[t[::every] for t in terms]))
+        values = quantity(self.kinematics_from_q(q[::every], second=False, terms=[t[::every] for t in terms]))
         grid, values = np.append(scan[::every], TWO_PI), np.append(values, values[0])    # periodic
-        i = np.nonzero((values[:-1] == 0.0) | (values[:-1] * values[1:] < 0.0))[0]
-        roots = bracketed_roots(first, grid[i], grid[i + 1], values[i], values[i + 1],
-                                xtol=1e-15, rtol=1e-15, ftol=16 * np.finfo(float).eps * np.max(np.abs(values)))
-        return sorted((float(root) % TWO_PI, bool(rising)) for root, rising in zip(roots, values[i + 1] > 0.0))
+        i, level = [], []
+        for value in levels:
+            d = values - value
+            found = np.nonzero((d[:-1] == 0.0) | (d[:-1] * d[1:] < 0.0))[0]
+            i, level = i + list(found), level + [value] * found.size
+        i, level = np.array(i, dtype=int), np.array(level, dtype=float)
+        roots = bracketed_roots(at, grid[i], grid[i + 1], values[i] - level, values[i + 1] - level,
+                                xtol=1e-15, rtol=1e-15, ftol=16 * np.finfo(float).eps * np.max(np.abs(values)),
+                                levels=level)
+        return sorted((float(root) % TWO_PI, bool(rising), float(v))
+                      for root, rising, v in zip(roots, values[i + 1] > level, level))
 
     def check_assembly(self, coarse: bool = False, min_conditioning: float = 1e-6):
         """Refuse a geometry that cannot be assembled over the whole turn, or locks at a dead point.
@@ -793,7 +806,7 @@ class Mechanism:
         i = int(np.argmin(np.abs(signed)))
         # refine the minimum between scan angles: a lock can hide between two of them
         near = np.linspace(grid[i] - h, grid[i] + h, 65)
-        near_signed = self._signed_conditioning_of(*self._terms(self.positions(near)))
+        near_signed = self._signed_conditioning(near)
         self._refuse_sign_change(near[:-1], near[1] - near[0], near_signed[:-1], near_signed[1:])
         j = int(np.argmin(np.abs(near_signed)))
         worst, at = min((abs(float(near_signed[j])), float(near[j])), (abs(float(signed[i])), float(grid[i])))
@@ -808,8 +821,7 @@ class Mechanism:
         flips = np.nonzero(np.signbit(signed) != np.signbit(signed_next))[0]
         if flips.size:
             k = flips[:1]
-            signed_at = lambda a: self._signed_conditioning_of(*self._terms(self.positions(a)))  # noqa: E731
-            at = bracketed_roots(signed_at, angles[k], angles[k] + h, signed[k], signed_next[k])[0]
+            at = bracketed_roots(self._signed_conditioning, angles[k], angles[k] + h, signed[k], signed_next[k])[0]
             raise self._assembly_error(
                 at, "the mechanism passes a dead point (the contour Jacobian's determinant changes sign; "
                     "or the closed form jumps between assembly branches)")
