@@ -47,8 +47,8 @@ def test_simulate_with_the_paper_scheme_and_a_set(tmp_path):
     (["simulate", "seed000", "--t-end", "0"], "duration must be > 0"),
     (["simulate", "seed000", "--set", "omega1_start=0", "--method", "lv-eq3"], "lv-eq3 cannot run this case"),
 ])
-def test_bad_input_exits_2_with_a_message(tmp_path, capsys, args, message):
-    assert main(args + ["--out", str(tmp_path / "x")]) == 2
+def test_bad_input_exits_1_with_one_line(tmp_path, capsys, args, message):
+    assert main(args + ["--out", str(tmp_path / "x")]) == 1
     assert message in capsys.readouterr().err
 
 

@@ -130,7 +130,7 @@ def test_bad_flywheel_inputs(seed003, capsys, tmp_path):
     for bad in (0.0, -0.05, 1.0, float("nan")):
         with pytest.raises(ParameterError, match="delta"):
             design_flywheel(seed003, bad)
-    assert main(["flywheel", "seed003", "--delta", "0", "--out", str(tmp_path)]) == 2
+    assert main(["flywheel", "seed003", "--delta", "0", "--out", str(tmp_path)]) == 1
     assert "delta" in capsys.readouterr().err
     with pytest.raises(AssemblyError, match="l4"):
         seed003.with_params(l4=0.005).build()

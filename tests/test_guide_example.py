@@ -7,12 +7,11 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import numpy as np
 import pytest
 
-from crankfmu import load_scenario, simulate
 from crankfmu.check import check_scenario
 from crankfmu.cli import main
+from conftest import assert_two_integrators_agree_and_energy_closes
 
 GUIDE = Path(__file__).resolve().parents[1] / "docs" / "mechanism-files.md"
 
@@ -40,13 +39,7 @@ def test_the_guides_example_simulates_alike_with_two_integrators_and_closes_its_
     """fast (compiled Dormand-Prince on the tabulated model) against reference (DOP853 on the contour
     engine, rtol 1e-12): both at their default tolerances reach about 1e-8 rad/s on the other
     examples; 1e-6 relative leaves room for this one's slider-force switches."""
-    scenario = load_scenario(str(files / "press_scenario.toml"))
-    times = np.linspace(0.0, scenario.experiment.stop_time, 3001)
-    fast = simulate(scenario, method="fast", output_times=times)
-    reference = simulate(scenario, method="reference", output_times=times)
-    assert np.max(np.abs(fast.omega1 - reference.omega1)) < 1e-6 * np.max(np.abs(reference.omega1))
-    e = reference.summary()["energy_balance"]
-    assert abs(e["residual"]) < 1e-8 * (abs(e["W_motor"]) + abs(e["W_load"]) + 1.0)
+    assert_two_integrators_agree_and_energy_closes(files / "press_scenario.toml")
 
 
 def test_the_guides_example_becomes_a_validated_fmu(files, tmp_path, capsys, fmu_path):

@@ -183,5 +183,5 @@ def test_cli_kinematics_and_sweep(tmp_path, capsys):
 ])
 def test_bad_kinematic_input(argv, message, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    assert main(argv) == 2
+    assert main(argv) == 1
     assert message in capsys.readouterr().err

@@ -188,7 +188,7 @@ def test_bad_drawing_and_animation_requests_are_refused_with_the_parameter_named
         animate(seed002, tmp_path / "a.avi")
     with pytest.raises(CrankfmuError, match="no timeseries.csv there"):
         animate(seed002, tmp_path / "a.gif", result_dir=tmp_path)
-    assert main(["draw", "seed002", "--out", str(tmp_path / "x.jpg")]) == 2
+    assert main(["draw", "seed002", "--out", str(tmp_path / "x.jpg")]) == 1
 
 
 def test_mp4_without_ffmpeg_is_refused_with_the_fix(tmp_path, monkeypatch):

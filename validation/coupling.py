@@ -20,6 +20,7 @@ import numpy as np
 from crankfmu.dynamics.drive import load_drive
 from crankfmu.fmi.ssp import MOTOR_OFF
 from crankfmu.scenario import load_scenario
+from crankfmu.atomic import save_figure
 
 STEPS = (1e-2, 1e-3, 1e-4)
 
@@ -98,5 +99,5 @@ def plot(rows: list[dict], reference: dict, runs: dict, out) -> None:
     ax2.set_title("co-simulation error against the one-model reference")
     ax2.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    save_figure(fig, out, dpi=120)
     plt.close(fig)

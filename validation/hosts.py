@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from . import coupling, masters
+from crankfmu.atomic import write_text
 
 REFUSAL = "J_flywheel: parameter J_flywheel = -1.0 is out of range: valid range [0, inf) kg.m2"
 LIBCOSIM_ABORT = ("libcosim aborts (SIGABRT) after showing the refusal: cosim::error thrown from "
@@ -132,11 +133,11 @@ def run(fmus: Path, out: Path, quick: bool) -> int:
     rows = ssp_runs(report, ssp, steps, coupled, None if quick else out)
     summary = {"masters": {m: masters.version(m) for m in masters.MASTERS}, "cosim_errors": rows,
                "lines": report.lines, "passed": report.passed, "failed": report.failed}
-    (out / "hosts.json").write_text(json.dumps(summary, indent=1))
+    write_text(out / "hosts.json", json.dumps(summary, indent=1))
     table = ["| master | step (s) | max abs omega1 error (rad/s) | relative to max omega1 |", "|---|---|---|---|"]
     table += [f"| {r['master']} ({masters.version(r['master'])}) | {r['step']:g} | {r.get('omega1_error', float('nan')):.4g} | "
               f"{r.get('relative', float('nan')):.3g} |" for r in rows]
-    (out / "hosts.md").write_text("# Drop-in check\n\n" + "\n".join(f"    {line}" for line in report.lines) +
+    write_text(out / "hosts.md", "# Drop-in check\n\n" + "\n".join(f"    {line}" for line in report.lines) +
                                   "\n\n## FourBarDrive.ssp against the coupled model in process\n\n" + "\n".join(table) + "\n")
     print(f"{report.passed} passed, {report.failed} failed")
     return 1 if report.failed else 0

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from crankfmu.plots import pyplot
+from crankfmu.atomic import save_figure, write_text
 
 
 def plot_overlay(fmu_run, ref, path: Path, title: str) -> Path:
@@ -30,7 +31,7 @@ def plot_overlay(fmu_run, ref, path: Path, title: str) -> Path:
     bottom.set_xlabel("time [s]")
     bottom.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -53,7 +54,7 @@ def plot_work_precision(points, path: Path, title: str) -> Path:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -149,5 +150,5 @@ def write_report(out: Path, sections: list[dict], checks, quick: bool, elapsed: 
             lines.append("")
     lines += ["## Every check", "", "```"] + [c.line() for c in checks.items] + ["```", ""]
     path = out / "report.md"
-    path.write_text("\n".join(lines))
+    write_text(path, "\n".join(lines))
     return path

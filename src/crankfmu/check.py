@@ -75,7 +75,7 @@ def locate(path: str | None, message: str) -> str:
         return f"{path}, line {m.group(1)}"
     # an entry of a list ([[contours]], [[joints]]) by its name line, a table by its header, a key
     # (a point, an unknown, a parameter) by its own line
-    for kind, how in (("contour", "entry"), ("joint", "entry"), ("link", "table"), ("fixed point", "key"),
+    for kind, how in (("contour", "entry"), ("joint", "entry"), ("output", "entry"), ("link", "table"), ("fixed point", "key"),
                       ("point", "key"), ("unknown", "key"), ("parameter", "key")):
         m = re.search(rf"{kind} '?([A-Za-z_][\w'-]*?)'?(:| |$|,)", message)
         if not m:
@@ -239,4 +239,23 @@ def check_scenario(source) -> Report:
     report.add("OK", f"J_red from {np.min(J):.6g} to {np.max(J):.6g} kg.m2 over the turn (> 0)")
     report.add("OK", f"{len(model.reduced.loads)} loads, {len(quantities)} mechanism-specific outputs"
                + (f" ({', '.join(q.name for q in quantities)})" if quantities else ""))
+    fmu_declarations(report, source, scenario, path)
     return report
+
+
+def fmu_declarations(report: Report, source, scenario, path):
+    """What ``crankfmu fmu`` would refuse in the files (fmi.build.preflight, the same function):
+    the model identifier, each variable's name and unit, the DefaultExperiment."""
+    from .fmi.build import preflight
+
+    name = scenario.data.get("fmu")
+    if not name:
+        report.add("WARN", "no fmu = \"NAME\" in the scenario file: crankfmu fmu needs --name NAME", path or "")
+    try:
+        source = preflight("scenario", str(source) if isinstance(source, (str, Path)) else scenario,
+                           None if name else "Unnamed")
+    except CrankfmuError as exc:
+        report.add("FAIL", f"crankfmu fmu would refuse it: {exc}", locate(path, str(exc)))
+        return
+    report.add("OK", f"the FMU's declarations: model identifier {source.fmu}, {len(source.variables().units)} "
+               "variables with distinct names and readable SI units, the DefaultExperiment")

@@ -7,11 +7,13 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
 from .errors import CrankfmuError
 from .integrators import METHODS
+from .atomic import write_text
 
 
 def _parse_sets(items: list[str]) -> dict[str, float]:
@@ -77,7 +79,7 @@ def cmd_schemes(args) -> int:
     print(format_table(rows, scenario.experiment.summary_cycle))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "schemes.json").write_text(json.dumps(rows, indent=2) + "\n")
+    write_text(out / "schemes.json", json.dumps(rows, indent=2) + "\n")
     plot_startup(reference, runs, out / "startup.png")
     print(f"wrote {out}/schemes.json, startup.png")
     return 0
@@ -97,10 +99,10 @@ def cmd_kinematics(args) -> int:
     ts = time_series(scenario, args.omega)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "values.json").write_text(json.dumps(values, indent=2) + "\n")
+    write_text(out / "values.json", json.dumps(values, indent=2) + "\n")
     detail.update(paper_comparison=rows, approximation=ts.get("approx_name"),
                   approximation_max_errors=ts.get("approx_errors"))
-    (out / "values_detail.json").write_text(json.dumps(detail, indent=2) + "\n")
+    write_text(out / "values_detail.json", json.dumps(detail, indent=2) + "\n")
     units = detail["units"]
     print(f"{scenario.name} at phi1 = {args.at:g} deg, omega1 = {detail['omega1']:g} rad/s (exact kinematics):")
     paper = {r["name"]: r for r in rows}
@@ -152,7 +154,7 @@ def cmd_sweep(args) -> int:
         units = {q.name: q.unit(definition) for q in scenario.quantities}
         plots = plot_families(result, scenario, units, out)
         claims = check_claims(scenario, result)
-        (out / "claims.json").write_text(json.dumps(claims, indent=2) + "\n")
+        write_text(out / "claims.json", json.dumps(claims, indent=2) + "\n")
         print("  " + " ".join(f"{c:>14s}" for c in result.columns))
         for row in result.rows:
             print("  " + " ".join(f"{row[c]:14.6g}" for c in result.columns))
@@ -440,11 +442,7 @@ def cmd_precompile(args) -> int:
 def cmd_ssp(args) -> int:
     from .fmi.ssp import write_ssp
 
-    try:
-        path = write_ssp(Path(args.fmus), Path(args.out))
-    except FileNotFoundError as exc:
-        print(f"crankfmu: error: {exc}", file=sys.stderr)
-        return 2
+    path = write_ssp(Path(args.fmus), Path(args.out))
     print(f"wrote {path}")
     return 0
 
@@ -462,8 +460,22 @@ def main(argv=None) -> int:
             return importlib.import_module(delegate).main(rest)
         return args.func(args)
     except CrankfmuError as exc:
-        print(f"crankfmu: error: {exc}", file=sys.stderr)
-        return 2
+        print(f"crankfmu: error: {_one_line(exc)}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("crankfmu: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:     # a bug or the machine (disk full, permissions): one line, not a traceback
+        if os.environ.get("CRANKFMU_TRACEBACK"):
+            raise
+        print(f"crankfmu: error: {type(exc).__name__}: {_one_line(exc)} (CRANKFMU_TRACEBACK=1 shows where)",
+              file=sys.stderr)
+        return 1
+
+
+def _one_line(exc) -> str:
+    """An error's message on one line (a compiler's output, a multi-line cause)."""
+    return " | ".join(line.strip() for line in str(exc).splitlines() if line.strip()) or type(exc).__name__
 
 
 if __name__ == "__main__":

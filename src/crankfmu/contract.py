@@ -68,31 +68,3 @@ MOTOR_PARAMETERS = ("A", "B", "A_low", "B_low", "omega_switch")
 
 #: parameters every scenario must declare, each with its value, unit and range in the scenario file
 CONTRACT_PARAMETERS = (*MOTOR_PARAMETERS, "J_flywheel", "phi1_start", "omega1_start", "g")
-
-#: SI base-unit exponents of every unit crankfmu declares (FMI UnitDefinitions)
-BASE_UNITS = {
-    "1": {},
-    "s": {"s": 1},
-    "m": {"m": 1},
-    "rad": {"rad": 1},
-    "rad/s": {"rad": 1, "s": -1},
-    "rad/s2": {"rad": 1, "s": -2},
-    "N.m": {"kg": 1, "m": 2, "s": -2},
-    "J": {"kg": 1, "m": 2, "s": -2},
-    "kg.m2": {"kg": 1, "m": 2},
-    "kg/m": {"kg": 1, "m": -1},
-    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
-    "m/s2": {"m": 1, "s": -2},
-    "m/s": {"m": 1, "s": -1},
-    "kg": {"kg": 1},
-    "N.s/m": {"kg": 1, "s": -1},
-    "N": {"kg": 1, "m": 1, "s": -2},
-    "A": {"A": 1},
-    "W": {"kg": 1, "m": 2, "s": -3},
-    "V": {"kg": 1, "m": 2, "s": -3, "A": -1},
-    "Ohm": {"kg": 1, "m": 2, "s": -3, "A": -2},
-    "H": {"kg": 1, "m": 2, "s": -2, "A": -2},
-    "N.m/A": {"kg": 1, "m": 2, "s": -2, "A": -1},
-    "V/(rad/s)": {"kg": 1, "m": 2, "s": -2, "A": -1, "rad": -1},
-    "V/rad": {"kg": 1, "m": 2, "s": -3, "A": -1, "rad": -1},
-}

@@ -16,17 +16,19 @@ from .plots import (plot_cycles, plot_flywheel, plot_inertia, plot_moments, plot
                     plot_stability)
 from .contract import COLUMNS
 from .simulation import Result
+from .atomic import replacing, write_text
 
 
 def write_timeseries(result: Result, path: Path) -> Path:
     """Plain CSV, one header line; the units are listed in summary.json ("columns")."""
     data = np.column_stack([getattr(result, c) for c in COLUMNS])
-    np.savetxt(path, data, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.15g")
+    with replacing(path) as partial:
+        np.savetxt(partial, data, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.15g")
     return path
 
 
 def write_summary(summary: dict, path: Path) -> Path:
-    path.write_text(json.dumps(summary, indent=2, default=_json_default) + "\n")
+    write_text(path, json.dumps(summary, indent=2, default=_json_default) + "\n")
     return path
 
 
@@ -58,7 +60,7 @@ def write_equilibrium(scenario, results: list, out_dir) -> dict:
                         "max_couple_Nm": "N.m", "technological_work_per_cycle_J": "J"}
     summary["scenario"] = scenario.name
     summary["parameters"] = scenario.values
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     for r in results:
         m = r.moment
         columns = {"phi1_deg": np.degrees(m.phi1), "Me": m.total, "Me_static": m.static,
@@ -68,8 +70,9 @@ def write_equilibrium(scenario, results: list, out_dir) -> dict:
             columns[f"{joint}_Fx"], columns[f"{joint}_Fy"] = fx, fy
             if r.reactions.kind[joint] == "prismatic":
                 columns[f"{joint}_couple"] = r.reactions.couple[joint]
-        np.savetxt(out / f"equilibrium_{r.key}.csv", np.column_stack(list(columns.values())),
-                   delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
+        with replacing(out / f"equilibrium_{r.key}.csv") as partial:
+            np.savetxt(partial, np.column_stack(list(columns.values())),
+                       delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
     plot_moments(scenario, results, out)
     plot_reactions(scenario, results[0], out / f"reactions_{results[0].key}.png")
     return summary
@@ -87,5 +90,5 @@ def write_flywheel(study, out_dir) -> list[Path]:
         plot_stability(study.stability, out / "eq3_stability.png"),
     ]
     summary = {**study.summary(), "plots": [p.name for p in plots]}
-    (out / "flywheel.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_text(out / "flywheel.json", json.dumps(summary, indent=2) + "\n")
     return plots

@@ -4,10 +4,12 @@ and drive files declare, the FMUs expose and every refusal message quotes."""
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Mapping
 
 from .errors import DefinitionError, ParameterError
+from .units import check_unit
 
 
 @dataclass(frozen=True)
@@ -60,16 +62,43 @@ class Experiment:
         return cls(**{k: data[k] for k in cls.__dataclass_fields__ if k in data})
 
 
+#: a parameter's name: an expression reads it, the FMU exposes it, a C host and an SSP connect it
+NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+
+#: the keys a parameter may have, each with the type its value must have
+_KEYS = {"value": (int, float), "unit": str, "description": str, "min": (int, float), "max": (int, float),
+         "min_inclusive": bool, "max_inclusive": bool, "tunable": bool}
+
+
 def parse_parameters(raw: Mapping, where: str) -> dict[str, Parameter]:
     """``[parameters]`` of a data file: each ``name = { value, unit, description, min, max,
-    min_inclusive, max_inclusive, tunable }``, the default checked against its own range."""
+    min_inclusive, max_inclusive, tunable }``, the default checked against its own range. Every
+    refusal names the file and the parameter (``crankfmu check`` finds its line from that)."""
+    if not isinstance(raw, Mapping):
+        raise DefinitionError(f"{where}: [parameters] must be a table of name = {{ value, unit, ... }}")
     params = {}
     for pname, spec in raw.items():
+        if not NAME.match(pname):
+            raise DefinitionError(f"{where}: parameter {pname}: a name is a letter or _ then letters, digits or _ "
+                                  "(expressions, the FMU and its hosts use it)")
         if not isinstance(spec, Mapping) or "value" not in spec or "unit" not in spec:
             raise DefinitionError(f"{where}: parameter {pname} needs at least value and unit")
+        for key, value in spec.items():
+            if key not in _KEYS:
+                raise DefinitionError(f"{where}: parameter {pname}: unknown key {key!r}; the keys are "
+                                      f"{', '.join(_KEYS)}")
+            if not isinstance(value, _KEYS[key]) or (_KEYS[key] != bool and isinstance(value, bool)):
+                kind = {str: "a string", bool: "true or false"}.get(_KEYS[key], "a number")
+                raise DefinitionError(f"{where}: parameter {pname}: {key} must be {kind}, got {value!r}")
+        check_unit(spec["unit"], f"{where}: parameter {pname}")
         p = Parameter(pname, float(spec["value"]), spec["unit"], spec.get("description", ""),
                       spec.get("min"), spec.get("max"), spec.get("min_inclusive", True),
-                      spec.get("max_inclusive", True), bool(spec.get("tunable", False)))
-        p.check(p.value)
+                      spec.get("max_inclusive", True), spec.get("tunable", False))
+        if p.min is not None and p.max is not None and not p.min <= p.max:
+            raise DefinitionError(f"{where}: parameter {pname}: min {p.min:g} exceeds max {p.max:g}")
+        try:
+            p.check(p.value)
+        except ParameterError as exc:
+            raise DefinitionError(f"{where}: parameter {pname}: its value is out of its own range: {exc}") from None
         params[pname] = p
     return params

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .dynamics.equation import OMEGA
+from .atomic import save_figure
 
 TWO_PI = 2.0 * math.pi
 #: the speed fluctuations drawn as contour lines on the steady-sweep map (typical design targets:
@@ -67,7 +68,7 @@ def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[
     ax2.set_ylabel("omega1 [rad/s]")
     ax2.grid(alpha=0.3)
     p = out_dir / "omega1_cycles.png"
-    fig.savefig(p, dpi=120)
+    save_figure(fig, p, dpi=120)
     plt.close(fig)
     paths.append(p)
 
@@ -85,7 +86,7 @@ def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[
                  f"delta = {stats['delta']:.4f}")
     ax.legend(loc="best")
     p = out_dir / f"omega1_cycle{summary_cycle}.png"
-    fig.savefig(p, dpi=120)
+    save_figure(fig, p, dpi=120)
     plt.close(fig)
     paths.append(p)
     return paths
@@ -109,7 +110,7 @@ def plot_startup(reference, runs: dict, out: Path, method="badoiu-eq17") -> Path
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.savefig(out, dpi=120)
+    save_figure(fig, out, dpi=120)
     plt.close(fig)
     return out
 
@@ -134,7 +135,7 @@ def plot_time_series(ts: dict, out: Path, title: str) -> list[Path]:
         ax.legend(loc="upper right", fontsize=8)
         fig.tight_layout()
         paths.append(out / f"{name}.png")
-        fig.savefig(paths[-1], dpi=110)
+        save_figure(fig, paths[-1], dpi=110)
         plt.close(fig)
     if "path" in ts:
         fig, ax = plt.subplots(figsize=(7, 4))
@@ -150,7 +151,7 @@ def plot_time_series(ts: dict, out: Path, title: str) -> list[Path]:
         ax.legend(fontsize=8)
         fig.tight_layout()
         paths.append(out / "path.png")
-        fig.savefig(paths[-1], dpi=110)
+        save_figure(fig, paths[-1], dpi=110)
         plt.close(fig)
     return paths
 
@@ -190,7 +191,7 @@ def plot_velocity_plan(detail: dict, relative, path: Path, title: str) -> Path:
     fig.tight_layout()
     renderer = renderer_of(fig)
     place_labels(fig, ax, labels, obstacle_boxes(ax, corners, paths), renderer=renderer)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -219,7 +220,7 @@ def plot_families(result, scenario, units: dict, out: Path) -> list[Path]:
         ax.legend(fontsize=8)
         fig.tight_layout()
         paths.append(out / f"{quantity}_vs_{axis.name}.png")
-        fig.savefig(paths[-1], dpi=110)
+        save_figure(fig, paths[-1], dpi=110)
         plt.close(fig)
     return paths
 
@@ -267,7 +268,7 @@ def plot_steady(result, out: Path, units: dict | None = None) -> list[Path]:
                                                       if fixed else ""))
     path = out / "delta.png"
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return [path]
 
@@ -294,7 +295,7 @@ def plot_moments(scenario, results: list, out: Path) -> list[Path]:
                      f"inertia ratio {s['inertia_ratio']:.3f}")
         ax.legend(loc="best", fontsize=8)
         p = out / f"Me_omega{r.key}.png"
-        fig.savefig(p, dpi=120)
+        save_figure(fig, p, dpi=120)
         plt.close(fig)
         paths.append(p)
     return paths
@@ -310,7 +311,7 @@ def plot_reactions(scenario, r, path: Path) -> Path:
     ax.set_ylabel("joint reaction |F| [N]")
     ax.set_title(f"{scenario.name}: joint reactions at omega1 = {r.omega1:g} rad/s")
     ax.legend(loc="upper right", fontsize=7, ncol=2)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -334,7 +335,7 @@ def plot_inertia(scenario, offset, path):
     ax.set_ylabel("equivalent moment of inertia J_e [kg.m2]")
     ax.set_title(f"{scenario.name}: J_e(phi), eq. 12 (Fig. 3); min {J.min():.3f}, max {J.max():.3f} kg.m2")
     ax.legend()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -357,7 +358,7 @@ def plot_movement(reference, eq3, offset, path):
     for ax in (a1, a2, a3):
         ax.grid(alpha=0.3)
     a1.set_title(f"{reference.scenario.name}: start at omega1 = {reference.omega1[0]:g} rad/s, no flywheel (Figs. 5-6)")
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -376,7 +377,7 @@ def plot_flywheel(design, offset, path):
     for ax in (a1, a2):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -399,6 +400,6 @@ def plot_stability(stability, path):
     ax.set_title(f"eq. 3 step-size study ({stability.turns} turns from the start, J_F = {stability.J_flywheel:g})")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path

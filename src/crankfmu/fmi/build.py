@@ -28,13 +28,16 @@ import sys
 import sysconfig
 import tempfile
 import zipfile
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
-from ..contract import BASE_UNITS, OUTPUTS
+from ..contract import OUTPUTS
 from ..errors import CrankfmuError
+from .. import units as si
+from ..atomic import replacing
 from . import documentation
 from . import drive as drive_core
 from . import slave
@@ -46,6 +49,7 @@ PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's r
 #: slave. Studies, plots, sweeps, the CLI, the harness, the build step and the scipy-based
 #: integrators stay out (tests/test_fmu_dropin.py runs the FMUs where scipy cannot be imported).
 RUNTIME = ("__init__.py", "cache.py", "compiled.py", "contract.py", "errors.py", "expressions.py", "numerics.py", "scenario.py",
+           "units.py",
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "integrators/kernel",
            "integrators/tableau.py", "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/drive.py",
@@ -225,7 +229,7 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
         if unit is None:
             raise CrankfmuError(f"build: no unit for variable {name}")
         if real is not None and unit != "1":
-            real.set("unit", unit)
+            real.set("unit", si.fmi_name(unit))
         p = parameters.get(name)
         if real is not None and p is not None:
             # FMI's min/max are inclusive: an exclusive bound is declared as the bound itself and
@@ -237,9 +241,9 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
     # UnitDefinitions must come before ModelVariables (after LogCategories / DefaultExperiment order:
     # CoSimulation, UnitDefinitions, TypeDefinitions, LogCategories, DefaultExperiment, ...)
     unit_defs = ET.Element("UnitDefinitions")
-    for unit in sorted({u for u in units.values() if u != "1"}):
+    for unit in sorted({si.fmi_name(u) for u in units.values() if u != "1"}):
         u = ET.SubElement(unit_defs, "Unit", name=unit)
-        ET.SubElement(u, "BaseUnit", {k: str(v) for k, v in BASE_UNITS[unit].items()})
+        ET.SubElement(u, "BaseUnit", {k: str(v) for k, v in si.base_units(unit).items()})
     children = list(root)
     position = [c.tag for c in children].index("CoSimulation") + 1
     root.insert(position, unit_defs)
@@ -366,62 +370,122 @@ def slave_script(name: str, source: Source, digest: str) -> str:
                                DESCRIPTION=repr(source.title), DIGEST=digest)
 
 
+def preflight(kind: str, data_name: str, name: str | None = None) -> Source:
+    """Everything the build would refuse in the files, before anything is built: the model
+    identifier, each variable's name (a C identifier, declared once), its unit (``units``), its
+    start inside its own range, and the DefaultExperiment. ``crankfmu check`` runs the same.
+    Returns the Source; raises CrankfmuError listing every problem found."""
+    source = source_of(kind, data_name, name)
+    declared = source.variables()
+    problems = []
+    seen: dict[str, str] = {}
+    for role, variables in (("output", declared.outputs), ("input", declared.inputs),
+                            ("parameter", declared.parameters)):
+        for v in variables:
+            if not IDENTIFIER.match(v.name):
+                problems.append(f"{role} {v.name!r}: a variable's name must be a C identifier (hosts, SSP "
+                                "connections and CSV columns use it)")
+            if v.name in seen or v.name == "time":
+                problems.append(f"{role} {v.name!r}: the name is taken by " + (f"the {seen[v.name]} of that name"
+                                if v.name in seen else "the FMU's independent variable"))
+            seen.setdefault(v.name, role)
+            try:
+                si.fmi_name(v.unit)
+            except si.UnitError as exc:
+                problems.append(f"{role} {v.name}: {exc}")
+    exp = source.experiment
+    for what, ok in (("stop_time > start_time", exp.stop_time > exp.start_time),
+                     ("output_interval > 0", exp.output_interval > 0),
+                     ("output_interval <= stop_time - start_time", exp.output_interval <= exp.stop_time - exp.start_time),
+                     ("tolerance > 0", exp.tolerance > 0)):
+        if not ok:
+            problems.append(f"[experiment] needs {what} (the FMU's DefaultExperiment)")
+    if problems:
+        raise CrankfmuError(f"{source.name}: " + "; ".join(problems))
+    return source
+
+
+@contextmanager
+def stage(fmu: str, what: str):
+    """Name the stage of the build in any failure inside it: the CLI prints one line."""
+    try:
+        yield
+    except CrankfmuError as exc:
+        raise CrankfmuError(f"{fmu}.fmu: {what}: {exc}") from exc
+    except Exception as exc:        # anything else is a bug or the machine: the message says which stage
+        raise CrankfmuError(f"{fmu}.fmu: {what} failed: {type(exc).__name__}: {exc}") from exc
+
+
 def build(kind: str, data_name: str, dest: Path, name: str | None = None) -> Path:
     """Build the FMU of a data file (a packaged name, or a user's scenario file by path) into
-    ``dest``; ``name`` overrides the file's ``fmu`` key. Returns the FMU's path."""
+    ``dest``; ``name`` overrides the file's ``fmu`` key. Returns the FMU's path.
+
+    Every file it writes (the FMU and its cross-check files) is written whole or not at all: a
+    failure at any stage leaves ``dest`` as it was (``atomic.replacing``)."""
     from pythonfmu import FmuBuilder
 
-    source = source_of(kind, data_name, name)
+    source = preflight(kind, data_name, name)
     name = source.fmu
     dest.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory() as tmp:
+    out = dest / f"{name}.fmu"
+    with tempfile.TemporaryDirectory() as tmp, ExitStack() as written:
         # the package travels under a private name (see slave_script.py.in)
         private = Path(tmp) / "pkg" / f"crankfmu_{name}"
         script_dir = Path(tmp) / "script"
         script_dir.mkdir()
         script = script_dir / f"{name}.py"
-        copy_runtime(private, source.files, source.data)
-        archive = pack(private)
-        with zipfile.ZipFile(archive) as packed:
-            script.write_text(slave_script(name, source, packed.comment.decode()))
+        with stage(name, "copying the package"):
+            copy_runtime(private, source.files, source.data)
+        with stage(name, "packing the package"):
+            archive = pack(private)
+            with zipfile.ZipFile(archive) as packed:
+                script.write_text(slave_script(name, source, packed.comment.decode()))
         sys.path.insert(0, str(private.parent))
         sys.path.insert(0, str(script_dir))
         try:
-            raw = FmuBuilder.build_FMU(script, dest=Path(tmp) / f"{name}.fmu",
-                                       project_files=[archive],
-                                       canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+            with stage(name, "pythonfmu's build of the slave"):
+                raw = FmuBuilder.build_FMU(script, dest=Path(tmp) / f"{name}.fmu",
+                                           project_files=[archive],
+                                           canGetAndSetFMUstate=True, canSerializeFMUstate=True)
         finally:
             sys.path.remove(str(private.parent))
             sys.path.remove(str(script_dir))
             sys.modules.pop(name, None)
-        declared = source.variables()
-        slave_units, slave_parameters = declared.units, {p.name: p for p in declared.parameters}
-        shim = compile_shim(name, Path(tmp) / f"{name}.so")
+        with stage(name, "declaring the variables"):
+            declared = source.variables()
+            slave_units, slave_parameters = declared.units, {p.name: p for p in declared.parameters}
+        with stage(name, "compiling the linux64 shim"):
+            shim = compile_shim(name, Path(tmp) / f"{name}.so")
+        with stage(name, "the reference run of the default experiment"):
+            reference = source.reference() if source.reference else None
         binary = f"binaries/linux64/{name}.so"
-        out = dest / f"{name}.fmu"
-        reference = source.reference() if source.reference else None
-        with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
+        partial = written.enter_context(replacing(out))
+        with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zout:
             for item in zin.infolist():
                 if item.filename.startswith("binaries/"):
                     continue                  # pythonfmu's binaries come from its installation, below
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
-                    data = complete_model_description(data, slave_units, slave_parameters, source)
-                    docs = source.documentation(name, data, slave_parameters, reference)
+                    with stage(name, "completing the modelDescription"):
+                        data = complete_model_description(data, slave_units, slave_parameters, source)
+                    with stage(name, "the documentation"):
+                        docs = source.documentation(name, data, slave_parameters, reference)
                 zout.writestr(item, data)
-            for platform, library in pythonfmu_binaries().items():
-                inner = f"{name}_pythonfmu.so" if platform == "linux64" else f"{name}{library.suffix}"
-                zout.write(library, f"binaries/{platform}/{inner}")
-            zout.write(shim, binary)
-            zout.writestr("resources/python_env.txt", python_env())
-            for path, content in docs.items():
-                zout.writestr(path, content)
-            if reference is not None:
-                zout.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=name))
-                zout.writestr(f"{LS_REF}/{name}_out.csv", reference)
+            with stage(name, "writing the FMU"):
+                for platform, library in pythonfmu_binaries().items():
+                    inner = f"{name}_pythonfmu.so" if platform == "linux64" else f"{name}{library.suffix}"
+                    zout.write(library, f"binaries/{platform}/{inner}")
+                zout.write(shim, binary)
+                zout.writestr("resources/python_env.txt", python_env())
+                for path, content in docs.items():
+                    zout.writestr(path, content)
+                if reference is not None:
+                    zout.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=name))
+                    zout.writestr(f"{LS_REF}/{name}_out.csv", reference)
         if reference is not None:
-            (dest / f"{name}_ref.csv").write_text(reference)
-            (dest / f"{name}_ref.opt").write_text(cross_check_options(source))
+            with stage(name, "writing the cross-check files"):
+                Path(written.enter_context(replacing(dest / f"{name}_ref.csv"))).write_text(reference)
+                Path(written.enter_context(replacing(dest / f"{name}_ref.opt"))).write_text(cross_check_options(source))
     return out
 
 
@@ -435,7 +499,7 @@ def main(argv=None) -> int:
             print(f"built {path}")
     except CrankfmuError as exc:
         print(f"build: error: {exc}", file=sys.stderr)
-        return 2
+        return 1
     return 0
 
 

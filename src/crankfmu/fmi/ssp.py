@@ -20,6 +20,9 @@ import zipfile
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
+from ..atomic import replacing
+from ..errors import CrankfmuError
+
 MOTOR_OFF = {"A": 0.0, "B": 0.0, "A_low": 0.0, "B_low": 0.0}
 CONNECTIONS = (("Drive", "tau", "FourBar", "tau_ext"), ("FourBar", "omega1", "Drive", "omega"))
 CONNECTORS = {"FourBar": (("omega1", "output"), ("tau_ext", "input")),
@@ -89,14 +92,14 @@ def write_ssp(fmus: Path, out: Path, stop_time: float = 2.0, step: float = 1e-3,
     fmus, out = Path(fmus), Path(out)
     for name in CONNECTORS:
         if not (fmus / f"{name}.fmu").is_file():
-            raise FileNotFoundError(f"no {name}.fmu in {fmus}: run `make fmu` first")
+            raise CrankfmuError(f"no {name}.fmu in {fmus}: run `make fmu` first")
     if drive_values is None:
         drive = load_drive("dc_pi")
         drive_values = {n: p.value for n, p in {**drive.parameters, **drive.inputs}.items() if n != "omega"}
     sets = parameter_sets(drive_values)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "FourBarDrive.ssp"
-    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+    with replacing(path) as partial, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("SystemStructure.ssd", _ssd(sets, stop_time, step))
         for name, per_component in sets.items():
             for comp, values in per_component.items():

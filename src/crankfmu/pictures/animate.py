@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import replacing
 from ..errors import CrankfmuError, ParameterError
 from .draw import MechanismPicture, TWO_PI, check_trace, drawing_speed
 from .labels import obstacle_boxes, place_labels
@@ -58,15 +59,17 @@ def animate(scenario, out, result_dir=None, trace=None, frames: int = 120, fps: 
     fig, frame, count = animation_figure(scenario, result_dir, trace, frames, omega1)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
-        if out.suffix.lower() == ".gif":
-            _write_gif(fig, frame, count, out, fps, progress)
-        else:
-            from matplotlib.animation import FFMpegWriter, FuncAnimation
+        with replacing(out) as partial:
+            if out.suffix.lower() == ".gif":
+                _write_gif(fig, frame, count, partial, fps, progress)
+            else:
+                from matplotlib.animation import FFMpegWriter, FuncAnimation
 
-            for artist in fig.findobj(lambda a: a.get_animated()):
-                artist.set_animated(False)
-            callback = (lambda k, n: progress(k + 1)) if progress is not None else None
-            FuncAnimation(fig, frame, frames=count).save(out, writer=FFMpegWriter(fps=fps), progress_callback=callback)
+                for artist in fig.findobj(lambda a: a.get_animated()):
+                    artist.set_animated(False)
+                callback = (lambda k, n: progress(k + 1)) if progress is not None else None
+                FuncAnimation(fig, frame, frames=count).save(partial, writer=FFMpegWriter(fps=fps),
+                                                             progress_callback=callback)
     finally:
         pyplot().close(fig)
     return out

@@ -17,6 +17,7 @@ import numpy as np
 
 from .labels import label, obstacle_boxes, place_labels, renderer_of
 from .sketch import Frames, Sketch, is_colinear
+from ..atomic import save_figure
 
 TWO_PI = 2.0 * math.pi
 PIN = dict(marker="o", ms=7, mfc="white", mec="black", mew=1.4, ls="none", zorder=6)
@@ -377,5 +378,5 @@ def save(fig, path) -> None:
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     pyplot().close(fig)

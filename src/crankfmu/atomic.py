@@ -1,0 +1,38 @@
+"""Files written whole or not at all: every artifact crankfmu writes (an FMU, an SSP, a report's
+CSV, JSON or figure) goes to a temporary name beside its final one and is moved into place only
+when complete, so a command that fails leaves no half-written file behind, and a reader never sees
+one (``os.replace`` is atomic within a folder)."""
+
+from __future__ import annotations
+
+import os
+from contextlib import contextmanager
+from pathlib import Path
+
+
+@contextmanager
+def replacing(path):
+    """Yields a temporary path beside ``path`` (same suffix, so writers that infer a format from it
+    still do); on leaving without an error the file there replaces ``path``, on an error it is
+    removed and ``path`` is left as it was."""
+    path = Path(path)
+    temporary = path.with_name(f".{path.stem}.part-{os.getpid()}{path.suffix}")
+    try:
+        yield temporary
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+def write_text(path, text: str) -> Path:
+    with replacing(path) as temporary:
+        Path(temporary).write_text(text)
+    return Path(path)
+
+
+def save_figure(fig, path, **savefig) -> Path:
+    """``fig.savefig(path, **savefig)``, whole or not at all (the format from the suffix)."""
+    path = Path(path)
+    with replacing(path) as temporary:
+        fig.savefig(temporary, format=path.suffix.lstrip(".") or None, **savefig)
+    return path
