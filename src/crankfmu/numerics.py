@@ -128,3 +128,130 @@ def periodic_hermite(values: np.ndarray, slopes: np.ndarray, period: float) -> n
     c[..., 2] = (3.0 * secant - 2.0 * slopes - d_next) / h
     c[..., 3] = (slopes + d_next - 2.0 * secant) / (h * h)
     return c
+
+
+#: golden section's interval ratio
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def one_sided_limits(f, at: np.ndarray, side: np.ndarray, step: float = 1e-6) -> np.ndarray:
+    """lim f(x) as x -> at from ``side`` (+1: from above, -1: from below) of each row of a vectorised
+    ``f`` (rows: functions): f at at + side*k*step, k = 1, 2, 3, extrapolated to ``at`` by the
+    quadratic through them (3 f1 - 3 f2 + f3, error O(step^3 f''')). The samples lie well off the
+    angle itself, whose side a load decides from its own rounding."""
+    k = np.array([1.0, 2.0, 3.0])
+    x = (np.asarray(at, float)[:, None] + np.asarray(side, float)[:, None] * step * k[None, :]).ravel()
+    values = np.atleast_2d(f(x)).reshape(-1, len(at), 3)
+    return 3.0 * values[..., 0] - 3.0 * values[..., 1] + values[..., 2]
+
+
+def extremes(f, breaks, cells: int = 1440, xtol: float = 1e-8, margin: float = 0.05) -> dict[str, np.ndarray]:
+    """The minimum and maximum of each row of the vectorised ``f`` (x -> (functions, x.size)) over
+    [breaks[0], breaks[-1]], and where they lie: located, not sampled.
+
+    ``breaks`` are where f may jump (a load switching on): between two of them f is smooth, and at
+    each its one-sided limits are candidates (a corner of M_e is the limit there, not a sample
+    near it). Each smooth piece is scanned on its own grid of about ``cells`` cells per span (not a
+    caller's output grid, so the result does not depend on one); every sample that is a local
+    extreme of the scan within ``margin`` of the row's range from its best sample is refined by
+    golden section between its neighbours to ``xtol`` (a cell's extreme differs from its samples
+    by at most h^2/8 max|f''|, far below 5 % of the range at a 0.25 deg scan; near an extreme f
+    differs from its peak by f''/2 dx^2, so dx = 1e-8 rad leaves the value exact to rounding).
+    Returns ``min``, ``min_at``, ``max``, ``max_at``: arrays with one entry per row."""
+    breaks = np.unique(np.asarray(breaks, dtype=float))
+    width = (breaks[-1] - breaks[0]) / cells
+    xs, piece = [], []
+    for i, (a, b) in enumerate(zip(breaks[:-1], breaks[1:])):
+        n = max(2, int(math.ceil((b - a) / width)))
+        xs.append(np.linspace(a, b, n + 1))
+        piece.append(np.full(n + 1, i))
+    x, piece = np.concatenate(xs), np.concatenate(piece)
+    first = np.r_[True, piece[1:] != piece[:-1]]
+    last = np.r_[piece[1:] != piece[:-1], True]
+    inner = ~(first | last)
+    y = np.empty((np.atleast_2d(f(x[:1])).shape[0], x.size))
+    y[:, inner] = np.atleast_2d(f(x[inner]))
+    ends = ~inner
+    y[:, ends] = one_sided_limits(f, x[ends], np.where(first[ends], 1.0, -1.0))
+    out = {}
+    for name, sign in (("min", 1.0), ("max", -1.0)):
+        s = sign * y
+        left = np.where(first, np.inf, np.roll(s, 1, axis=1))   # a piece's first sample has no left
+        right = np.where(last, np.inf, np.roll(s, -1, axis=1))
+        span = np.max(s, axis=1, keepdims=True) - np.min(s, axis=1, keepdims=True)
+        near = s <= np.min(s, axis=1, keepdims=True) + margin * span
+        # strict on the left: a plateau (a row constant over a stretch, or everywhere) gives one candidate
+        rows, idx = np.nonzero((s < left) & (s <= right) & near)
+
+        def on_rows(z, r):           # sign * f at z[i] on row r[i]: one call of f for all candidates
+            return sign * np.atleast_2d(f(z))[r, np.arange(z.size)]
+
+        # the bracket (a, b, c), f(b) lowest, around each candidate: its scan neighbours; at a
+        # piece's end, the end itself (its one-sided limit), the cell's midpoint and the next sample
+        end = first[idx] | last[idx]
+        other = np.clip(np.where(end, idx + np.where(first[idx], 1, -1), idx + 1), 0, x.size - 1)
+        before = np.maximum(idx - 1, 0)
+        a = np.where(end, x[idx], x[before])
+        c = x[other]
+        fa = np.where(end, s[rows, idx], s[rows, before])
+        fc = s[rows, other]
+        b, fb = x[idx].copy(), s[rows, idx].copy()
+        if np.any(end):
+            b[end] = 0.5 * (a[end] + c[end])
+            fb[end] = on_rows(b[end], rows[end])
+        # a bracket whose middle is lowest holds a smooth minimum; else the end's limit is the least
+        at, value = x[idx].copy(), s[rows, idx].copy()
+        keep = np.nonzero(~end | (fb < np.minimum(fa, fc)))[0]
+        if keep.size:
+            lo, hi = np.minimum(a[keep], c[keep]), np.maximum(a[keep], c[keep])
+            f_lo = np.where(a[keep] <= c[keep], fa[keep], fc[keep])
+            f_hi = np.where(a[keep] <= c[keep], fc[keep], fa[keep])
+            found, low = _parabolic_minimum(lambda z, which: on_rows(z, rows[keep][which]),
+                                            lo, b[keep], hi, f_lo, fb[keep], f_hi, xtol)
+            better = low < value[keep]
+            at[keep] = np.where(better, found, at[keep])
+            value[keep] = np.where(better, low, value[keep])
+        best_value = np.full(y.shape[0], np.inf)
+        best_at = np.full(y.shape[0], np.nan)
+        for r, a, v in zip(rows, at, value):
+            if v < best_value[r]:
+                best_value[r], best_at[r] = v, a
+        out[name], out[f"{name}_at"] = sign * best_value, best_at
+    return out
+
+
+def _parabolic_minimum(f, a, b, c, fa, fb, fc, xtol, maxiter: int = 60):
+    """A minimum of ``f`` inside each bracket a < b < c with f(b) <= f(a), f(c), all brackets at
+    once (one vectorised call of f per iteration): successive parabolic interpolation through the
+    bracket, safeguarded as in Brent's method (a vertex outside the bracket, or closer than xtol/2
+    to b, is replaced by the golden-section point of the larger side), until the bracket is
+    narrower than xtol or the step falls below it. Returns (x, f(x)) of the lowest point."""
+    a, b, c = (np.array(v, float) for v in (a, b, c))
+    fa, fb, fc = (np.array(v, float) for v in (fa, fb, fc))
+    active = np.ones(a.size, bool)
+    for _ in range(maxiter):
+        if not np.any(active):
+            break
+        with np.errstate(invalid="ignore", divide="ignore"):
+            p = (b - a) ** 2 * (fb - fc) - (b - c) ** 2 * (fb - fa)
+            q = (b - a) * (fb - fc) - (b - c) * (fb - fa)
+            u = b - 0.5 * p / q
+        golden = np.where(c - b > b - a, b + (1 - _GOLDEN) * (c - b), b - (1 - _GOLDEN) * (b - a))
+        bad = ~np.isfinite(u) | (u <= a) | (u >= c) | (np.abs(u - b) < 0.5 * xtol)
+        u = np.where(bad, golden, u)
+        fu = np.full(u.shape, np.inf)
+        fu[active] = f(u[active], np.nonzero(active)[0])
+        step = np.abs(u - b)
+        lower = fu < fb
+        right = u > b
+        # the new bracket: u replaces b when lower (b becomes an end), else u becomes an end
+        na = np.where(lower, np.where(right, b, a), np.where(right, a, u))
+        nfa = np.where(lower, np.where(right, fb, fa), np.where(right, fa, fu))
+        nc = np.where(lower, np.where(right, c, b), np.where(right, u, c))
+        nfc = np.where(lower, np.where(right, fc, fb), np.where(right, fu, fc))
+        nb, nfb = np.where(lower, u, b), np.where(lower, fu, fb)
+        a = np.where(active, na, a); fa = np.where(active, nfa, fa)
+        c = np.where(active, nc, c); fc = np.where(active, nfc, fc)
+        b = np.where(active, nb, b); fb = np.where(active, nfb, fb)
+        active &= (c - a > xtol) & (step > 0.5 * xtol)
+    return b, fb

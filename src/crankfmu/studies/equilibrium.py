@@ -17,6 +17,7 @@ from ..dynamics.inverse import EquilibriumMoment, equilibrium_moment
 from ..dynamics.loads import TECHNOLOGICAL
 from ..dynamics.reactions import JointReactions, joint_reactions
 from ..errors import ParameterError
+from ..numerics import extremes
 from ..scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
@@ -30,6 +31,7 @@ class SpeedResult:
     reactions_static: JointReactions
     mean: float                     # N.m, exact cycle mean of M_e (piecewise Gauss-Legendre)
     tech_work: float                # J per turn, from the sliders' strokes (negative: resisting)
+    located: dict                   # the extremes located on the exact functions (located_extremes)
 
     @property
     def key(self) -> str:
@@ -37,22 +39,56 @@ class SpeedResult:
         return speed_key(self.omega1)
 
     def summary(self) -> dict:
-        total, static = self.moment.total, self.moment.static
+        e = self.located
         return {
             "omega1": self.omega1,
-            "Me_min": float(total.min()),
-            "Me_max": float(total.max()),
+            "Me_min": e["Me_min"],
+            "Me_max": e["Me_max"],
             "Me_mean": self.mean,
-            "Me_min_static": float(static.min()),
-            "Me_max_static": float(static.max()),
-            "inertia_ratio": float(np.max(np.abs(total - static)) / np.max(np.abs(total))),
-            "Me_min_at_deg": float(np.degrees(self.moment.phi1[np.argmin(total)])),
-            "Me_max_at_deg": float(np.degrees(self.moment.phi1[np.argmax(total)])),
+            "Me_min_static": e["Me_min_static"],
+            "Me_max_static": e["Me_max_static"],
+            "inertia_ratio": e["inertia_ratio"],
+            "Me_min_at_deg": e["Me_min_at_deg"],
+            "Me_max_at_deg": e["Me_max_at_deg"],
             "technological_work_per_cycle_J": self.tech_work,
             "technological_work_over_2pi": -self.tech_work / TWO_PI,
-            "joint_reaction_peaks": self.reactions.peaks(),
-            "joint_reaction_peaks_static": self.reactions_static.peaks(),
+            "joint_reaction_peaks": e["joint_reaction_peaks"],
+            "joint_reaction_peaks_static": e["joint_reaction_peaks_static"],
         }
+
+
+def located_extremes(model, omega1: float, breaks) -> dict:
+    """M_e's extremes with and without inertia, the largest inertia share and the joint reactions'
+    peaks at constant omega1, each located by ``numerics.extremes`` on the exact functions (its own
+    scan, refined between samples, one-sided limits at the load switches): none depends on the
+    study's output grid."""
+    def moments(p):
+        m = equilibrium_moment(model.reduced, p, omega1)
+        return np.vstack([m.total, m.static, m.total - m.static])
+
+    m = extremes(moments, breaks)
+    largest_total = max(abs(m["min"][0]), abs(m["max"][0]))
+    largest_inertia = max(abs(m["min"][2]), abs(m["max"][2]))
+    out = {"Me_min": float(m["min"][0]), "Me_max": float(m["max"][0]),
+           "Me_min_static": float(m["min"][1]), "Me_max_static": float(m["max"][1]),
+           "inertia_ratio": float(largest_inertia / largest_total),
+           "Me_min_at_deg": float(np.degrees(m["min_at"][0]) % 360.0),
+           "Me_max_at_deg": float(np.degrees(m["max_at"][0]) % 360.0)}
+    if model.mechanism.definition.joints:
+        for key, inertia in (("joint_reaction_peaks", True), ("joint_reaction_peaks_static", False)):
+            kinds = joint_reactions(model.reduced, np.array([0.0]), omega1, inertia=inertia).kind
+
+            def magnitudes(p, inertia=inertia):
+                r = joint_reactions(model.reduced, p, omega1, inertia=inertia)
+                return np.vstack([r.magnitude(j) for j in kinds]
+                                 + [np.abs(r.couple[j]) for j in kinds if kinds[j] == "prismatic"])
+
+            peaks = extremes(magnitudes, breaks)["max"]
+            slides = iter(peaks[len(kinds):])
+            out[key] = {j: {"kind": kind, "max_force_N": float(peaks[i]),
+                            **({"max_couple_Nm": float(next(slides))} if kind == "prismatic" else {})}
+                        for i, (j, kind) in enumerate(kinds.items())}
+    return out
 
 
 def parse_speeds(text) -> list[float]:
@@ -125,7 +161,7 @@ def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> lis
             omega1=w, moment=moment,
             reactions=joint_reactions(model.reduced, phi1, w),
             reactions_static=joint_reactions(model.reduced, phi1, w, inertia=False),
-            mean=mean, tech_work=tech_work))
+            mean=mean, tech_work=tech_work, located=located_extremes(model, w, breaks)))
     return results
 
 

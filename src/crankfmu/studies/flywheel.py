@@ -31,6 +31,7 @@ from scipy.optimize import brentq
 from .batch import SteadyBatch
 from .equilibrium import cycle_breaks
 from ..errors import CrankfmuError, ParameterError, SchemeError
+from ..numerics import extremes
 from ..scenario import load_scenario
 
 TWO_PI = 2.0 * math.pi
@@ -280,6 +281,9 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
     model = base.build()
     grid = np.linspace(0.0, TWO_PI, 3601)
     J_e = model.reduced.coefficients(grid)[0]
+    # the reduced inertia's extremes located on the exact function (the mean is the grid's: the
+    # trapezoid rule on a periodic smooth function is exact to rounding)
+    J_e_ext = extremes(lambda p: model.reduced.coefficients(p)[0], [0.0, TWO_PI])
     free = steady_cycle(model, phi0, rtol)
     if progress is not None:
         progress(1)
@@ -331,11 +335,11 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
     return FlywheelDesign(
         scenario=scenario.name,
         delta_target=delta,
-        J_e_min=float(J_e.min()),
-        J_e_max=float(J_e.max()),
-        J_e_mean=float(J_e.mean()),
-        J_e_min_at_deg=float(np.degrees(grid[np.argmin(J_e)] - phi0) % 360),
-        J_e_max_at_deg=float(np.degrees(grid[np.argmax(J_e)] - phi0) % 360),
+        J_e_min=float(J_e_ext["min"][0]),
+        J_e_max=float(J_e_ext["max"][0]),
+        J_e_mean=float(J_e[:-1].mean()),
+        J_e_min_at_deg=float(np.degrees(J_e_ext["min_at"][0] - phi0) % 360),
+        J_e_max_at_deg=float(np.degrees(J_e_ext["max_at"][0] - phi0) % 360),
         dW_max=dW,
         omega_m=omega_m,
         J_F_eq17=J_eq17,

@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from ..numerics import extremes
 from ..errors import CrankfmuError, ParameterError
 from ..mechanisms.quantities import evaluate_all
 from .paper_models import APPROXIMATIONS
@@ -135,7 +136,14 @@ def cycle(scenario, quantities, omega1: float | None = None, n: int = 3600) -> d
     kin = mechanism.kinematics(phi)
     wanted = [q for q in scenario.quantities if q.name in quantities]
     series = evaluate_all(wanted, kin, w)
-    peaks = {f"max_abs_{k}": float(np.max(np.abs(v))) for k, v in series.items()}
+    # the peaks located on the exact transfer functions, not read off the n samples
+    if wanted:
+        located = extremes(lambda p: np.vstack(list(evaluate_all(wanted, mechanism.kinematics(p), w).values())),
+                           [0.0, TWO_PI])
+        peaks = {f"max_abs_{q.name}": float(max(abs(lo), abs(hi)))
+                 for q, lo, hi in zip(wanted, located["min"], located["max"])}
+    else:
+        peaks = {}
     out = {"phi1": phi, "series": series, "peaks": peaks}
     slider = ks.get("stroke_of")
     if slider:
