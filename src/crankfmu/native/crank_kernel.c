@@ -1,0 +1,600 @@
+/* crankfmu's kernel (crank_kernel.h): the Dormand-Prince step, its error norm, dense output and
+ * event location on the tabulated model, and the drivers callers run (an FMU step, a run on an
+ * output grid, steady cycles of many designs). The same arithmetic in the same order as the
+ * numba kernel it replaces, so that both give the same numbers (tests compare them). */
+#include "crank_kernel.h"
+
+#include <math.h>
+#include <string.h>
+
+static const double SAFETY = 0.9, MIN_FACTOR = 0.2, MAX_FACTOR = 10.0;
+#define ERROR_EXPONENT (-1.0 / (CK_ERROR_ESTIMATOR_ORDER + 1))
+
+/* scratch of one call, on the stack */
+typedef struct {
+    double work[CK_MAX_FUNCTIONS];
+    double Kst[CK_N_STAGES + 1][CK_N_Y];
+    double ynew[CK_N_Y], tmp[CK_N_Y], f[CK_N_Y], g0[CK_N_SLOTS], g1[CK_N_SLOTS], y[CK_N_Y], f0[CK_N_Y];
+} Scratch;
+
+int ck_layout(int* out, int n)
+{
+    const int values[] = {CK_T, CK_Y, CK_F, CK_H, CK_MOTOR, CK_DIRECTION, CK_INTERVAL, CK_PHI_LO, CK_PHI_HI,
+                          CK_T_PREV, CK_Y_PREV, CK_K, CK_N_RHS, CK_STEP_MOTOR, CK_STEP_DIRECTION, CK_STEP_INTERVAL,
+                          CK_N_STEPS, CK_STATE_SIZE, CK_N_Y, CK_PARAM_SIZE, CK_OUT_SIZE, CK_STEADY_SIZE,
+                          CK_N_STAGES, CK_N_SLOTS, CK_MAX_FUNCTIONS};
+    int count = (int)(sizeof values / sizeof values[0]);
+    for (int i = 0; i < count && i < n; i++) out[i] = values[i];
+    return count;
+}
+
+/* every tabulated function at phi into work[0:n_functions] */
+static void table_values(const CkTables* T, double phi, double* work)
+{
+    int n = T->n;
+    double h = CK_TWO_PI / n;
+    double wrapped = phi - CK_TWO_PI * floor(phi / CK_TWO_PI);
+    int i = (int)(wrapped / h);
+    if (i >= n) i = n - 1;
+    double u = wrapped - i * h;
+    for (int f = 0; f < T->n_functions; f++) {
+        const double* c = T->coefficients + ((size_t)f * n + i) * 4;
+        work[f] = c[0] + u * (c[1] + u * (c[2] + u * c[3]));
+    }
+}
+
+/* (J, 0.5 J', Q) with the slider forces of the given interval and direction */
+static void coefficients(double phi, double omega, double direction, double interval, const CkTables* T,
+                         const double* P, double* work, double* J, double* half_dJ, double* Q)
+{
+    table_values(T, phi, work);
+    *J = work[0] + P[CK_J_FLYWHEEL];
+    double q = work[2] + work[3] * omega;
+    if (direction != 0.0) {
+        int d = direction > 0.0 ? 0 : 1;
+        int k = (int)interval;
+        for (int s = 0; s < T->n_sliders; s++) q += T->forces[((size_t)k * 2 + d) * T->n_sliders + s] * work[4 + s];
+    }
+    *half_dJ = work[1];
+    *Q = q;
+}
+
+static double motor_torque(double omega, int high, const double* P)
+{
+    if (high) return ck_line_torque(P[CK_A_], P[CK_B_], omega);
+    return ck_line_torque(P[CK_A_LOW], P[CK_B_LOW], omega);
+}
+
+/* d/dt (phi1, omega1, W_motor, W_load, W_ext) into out; returns epsilon1, M, Q, J via pointers */
+static double rhs(double phi, double omega, double motor, double direction, double interval, const CkTables* T,
+                  const double* P, double* work, double* out, double* M_out, double* Q_out, double* J_out)
+{
+    double J, half_dJ, Q, M, eps;
+    coefficients(phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q);
+    double tau = P[CK_TAU_EXT];
+    if (direction == 0.0) {
+        M = motor_torque(0.0, motor == CK_HIGH, P);
+        eps = 0.0;
+        omega = 0.0;
+    } else if (motor == CK_SLIDE) {
+        M = ck_equivalent_torque(half_dJ, Q, tau, omega);
+        eps = 0.0;
+    } else {
+        M = motor_torque(omega, motor == CK_HIGH, P);
+        eps = ck_acceleration(J, half_dJ, Q, M, tau, omega);
+    }
+    out[0] = omega;
+    out[1] = eps;
+    out[2] = M * omega;
+    out[3] = Q * omega;
+    out[4] = tau * omega;
+    if (M_out) *M_out = M;
+    if (Q_out) *Q_out = Q;
+    if (J_out) *J_out = J;
+    return eps;
+}
+
+void ck_dense(const double* S, double t, double* out)
+{
+    double h = S[CK_T] - S[CK_T_PREV];
+    if (t == S[CK_T] || h == 0.0) {
+        for (int j = 0; j < 5; j++) out[j] = S[CK_Y + j];
+        return;
+    }
+    double x = (t - S[CK_T_PREV]) / h;
+    double p0 = x, p1 = x * x, p2 = x * x * x, p3 = x * x * x * x;
+    for (int j = 0; j < 5; j++) {
+        double acc = 0.0;
+        for (int s = 0; s < CK_N_STAGES + 1; s++)
+            acc += S[CK_K + 5 * s + j] * (CK_P[s][0] * p0 + CK_P[s][1] * p1 + CK_P[s][2] * p2 + CK_P[s][3] * p3);
+        out[j] = S[CK_Y_PREV + j] + h * acc;
+    }
+}
+
+/* motor branch from a state on omega1 = omega_switch */
+static double mode_on_switch(double phi, double direction, double interval, const CkTables* T, const double* P,
+                             double* work)
+{
+    double ws = P[CK_OMEGA_SWITCH], J, half_dJ, Q;
+    coefficients(phi, ws, direction, interval, T, P, work, &J, &half_dJ, &Q);
+    double rest = Q + P[CK_TAU_EXT] - half_dJ * ws * ws;
+    return ck_motor_on_switch(motor_torque(ws, 0, P), motor_torque(ws, 1, P), rest);
+}
+
+static double direction_at_rest(double phi, double motor, double interval, const CkTables* T, const double* P,
+                                double* work, double* f)
+{
+    double eps_forward = rhs(phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL, NULL, NULL);
+    double eps_backward = rhs(phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL, NULL, NULL);
+    return ck_direction_at_rest(eps_forward, eps_backward);
+}
+
+static void set_interval(double* S, const CkTables* T, double phi, double direction)
+{
+    double lo, hi;
+    int k = ck_interval_of(T->switch_angles, T->m, phi, direction, &lo, &hi);
+    S[CK_INTERVAL] = (double)k;
+    S[CK_PHI_LO] = lo;
+    S[CK_PHI_HI] = hi;
+}
+
+static void start(double* S, double t, const double* y, const CkTables* T, const double* P, Scratch* w)
+{
+    S[CK_T] = t;
+    for (int j = 0; j < 5; j++) {
+        S[CK_Y + j] = y[j];
+        S[CK_Y_PREV + j] = y[j];
+    }
+    S[CK_T_PREV] = t;
+    double omega = y[1], ws = P[CK_OMEGA_SWITCH];
+    double motor = ck_motor_of_speed(omega, ws);
+    double direction = ck_direction_of_speed(omega);
+    set_interval(S, T, y[0], direction);
+    if (omega == ws) motor = mode_on_switch(y[0], direction, S[CK_INTERVAL], T, P, w->work);
+    if (omega == 0.0 && T->n_sliders > 0) {
+        direction = direction_at_rest(y[0], motor, S[CK_INTERVAL], T, P, w->work, w->f);
+        set_interval(S, T, y[0], direction != 0.0 ? direction : 1.0);
+    }
+    S[CK_MOTOR] = motor;
+    S[CK_DIRECTION] = direction;
+    rhs(y[0], omega, motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
+    for (int j = 0; j < 5; j++) {
+        S[CK_F + j] = w->f[j];
+        for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = s == CK_N_STAGES ? w->f[j] : 0.0;
+    }
+    double d0 = 0.0, d1 = 0.0;
+    for (int j = 0; j < 5; j++) {
+        double scale = P[CK_ATOL] + P[CK_RTOL] * fabs(y[j]);
+        d0 += (y[j] / scale) * (y[j] / scale);
+        d1 += (w->f[j] / scale) * (w->f[j] / scale);
+    }
+    d0 = sqrt(d0 / 5.0);
+    d1 = sqrt(d1 / 5.0);
+    double h = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    S[CK_H] = fmin(h, P[CK_H_MAX]);
+    S[CK_N_RHS] += 1.0;
+    S[CK_STEP_MOTOR] = motor;
+    S[CK_STEP_DIRECTION] = direction;
+    S[CK_STEP_INTERVAL] = S[CK_INTERVAL];
+}
+
+/* one Dormand-Prince step from (t, y, f) in S's mode; stages into w->Kst */
+static void rk_step(const double* S, const double* y, const double* f, double h, const CkTables* T, const double* P,
+                    Scratch* w)
+{
+    double motor = S[CK_MOTOR], direction = S[CK_DIRECTION], interval = S[CK_INTERVAL];
+    for (int j = 0; j < 5; j++) w->Kst[0][j] = f[j];
+    for (int s = 1; s < CK_N_STAGES; s++) {
+        for (int j = 0; j < 5; j++) {
+            double acc = 0.0;
+            for (int r = 0; r < s; r++) acc += w->Kst[r][j] * CK_A[s][r];
+            w->tmp[j] = y[j] + h * acc;
+        }
+        rhs(w->tmp[0], w->tmp[1], motor, direction, interval, T, P, w->work, w->Kst[s], NULL, NULL, NULL);
+    }
+    for (int j = 0; j < 5; j++) {
+        double acc = 0.0;
+        for (int r = 0; r < CK_N_STAGES; r++) acc += w->Kst[r][j] * CK_B[r];
+        w->ynew[j] = y[j] + h * acc;
+    }
+    rhs(w->ynew[0], w->ynew[1], motor, direction, interval, T, P, w->work, w->Kst[CK_N_STAGES], NULL, NULL, NULL);
+}
+
+static double error_norm(const double* y, const double* ynew, const Scratch* w, double h, const double* P)
+{
+    double acc = 0.0;
+    for (int j = 0; j < 5; j++) {
+        double e = 0.0;
+        for (int s = 0; s < CK_N_STAGES + 1; s++) e += w->Kst[s][j] * CK_E[s];
+        double scale = P[CK_ATOL] + P[CK_RTOL] * fmax(fabs(y[j]), fabs(ynew[j]));
+        double r = h * e / scale;
+        acc += r * r;
+    }
+    return sqrt(acc / 5.0);
+}
+
+/* event functions of S's mode at state y into g; inactive slots get NaN */
+static void events(const double* S, const double* y, const CkTables* T, const double* P, double* work, double* g)
+{
+    double motor = S[CK_MOTOR], direction = S[CK_DIRECTION], ws = P[CK_OMEGA_SWITCH];
+    double m_low = 0.0, m_high = 0.0, equivalent = 0.0;
+    if (motor == CK_SLIDE) {
+        double J, half_dJ, Q;
+        coefficients(y[0], ws, direction, S[CK_INTERVAL], T, P, work, &J, &half_dJ, &Q);
+        equivalent = ck_equivalent_torque(half_dJ, Q, P[CK_TAU_EXT], ws);
+        m_low = motor_torque(ws, 0, P);
+        m_high = motor_torque(ws, 1, P);
+    }
+    int has_sliders = T->n_sliders > 0;
+    for (int slot = 0; slot < CK_N_SLOTS; slot++) {
+        if (ck_event_active(slot, motor, direction, S[CK_PHI_HI], has_sliders, ws))
+            g[slot] = ck_event_value(slot, y[0], y[1], motor, S[CK_PHI_LO], S[CK_PHI_HI], ws, m_low, m_high,
+                                     equivalent);
+        else
+            g[slot] = NAN;
+    }
+}
+
+/* discrete state after the event in slot at state y (adjusted onto the surface) */
+static void transition(double* S, int slot, double* y, const CkTables* T, const double* P, double* work, double* f)
+{
+    double ws = P[CK_OMEGA_SWITCH];
+    if (slot == CK_INTERVAL_END || slot == CK_INTERVAL_START) {
+        int forward = slot == CK_INTERVAL_END;
+        y[0] = forward ? S[CK_PHI_HI] : S[CK_PHI_LO];
+        double lo = S[CK_PHI_LO], hi = S[CK_PHI_HI];
+        int k = ck_next_interval(T->switch_angles, T->m, (int)S[CK_INTERVAL], &lo, &hi, forward);
+        S[CK_INTERVAL] = (double)k;
+        S[CK_PHI_LO] = lo;
+        S[CK_PHI_HI] = hi;
+        return;
+    }
+    y[1] = slot == CK_REST ? 0.0 : ws;
+    if (slot == CK_REST) S[CK_MOTOR] = ck_motor_at_rest(S[CK_MOTOR], ws);
+    if (ck_turns_forces(slot, ws, T->n_sliders > 0))
+        S[CK_DIRECTION] = direction_at_rest(y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, work, f);
+    if (slot == CK_REST) return;
+    if (S[CK_MOTOR] == CK_SLIDE)
+        S[CK_MOTOR] = ck_motor_after_sliding(slot);
+    else
+        S[CK_MOTOR] = mode_on_switch(y[0], S[CK_DIRECTION], S[CK_INTERVAL], T, P, work);
+}
+
+/* sign-true slope of omega1 (h domega1/dt) at x in [0, 1] of the last step's interpolant */
+static double omega_slope(const double* S, double x)
+{
+    double acc = 0.0;
+    for (int s = 0; s < CK_N_STAGES + 1; s++)
+        acc += S[CK_K + 5 * s + 1] * (CK_P[s][0] + x * (2.0 * CK_P[s][1] + x * (3.0 * CK_P[s][2] + x * 4.0 * CK_P[s][3])));
+    return acc;
+}
+
+/* time in [lo, hi] of the last step where g changes sign, by Illinois on the dense output: g is
+ * event slot `slot` of S's mode, phi1 - level for slot -1, the slope of omega1 for slot -2 */
+static double locate(const double* S, int slot, double level, double lo, double hi, double glo, double ghi,
+                     const CkTables* T, const double* P, double* work, double* tmp, double* g)
+{
+    for (int it = 0; it < 60; it++) {
+        double tm = hi - ghi * (hi - lo) / (ghi - glo);
+        if (!(lo < tm && tm < hi)) tm = 0.5 * (lo + hi);
+        ck_dense(S, tm, tmp);
+        double gm;
+        if (slot == -2)
+            gm = omega_slope(S, (tm - S[CK_T_PREV]) / (S[CK_T] - S[CK_T_PREV]));
+        else if (slot == -1)
+            gm = tmp[0] - level;
+        else {
+            events(S, tmp, T, P, work, g);
+            gm = g[slot];
+        }
+        if ((gm < 0.0) == (glo < 0.0)) {
+            lo = tm;
+            glo = gm;
+            ghi *= 0.5;
+        } else {
+            hi = tm;
+            ghi = gm;
+            glo *= 0.5;
+        }
+        if (hi - lo <= 1e-15 * fmax(1.0, fabs(hi))) break;
+    }
+    return hi;
+}
+
+/* one accepted step, not beyond t_limit, ending on the first event crossed */
+static int step(double* S, double t_limit, const CkTables* T, const double* P, Scratch* w)
+{
+    double t = S[CK_T];
+    for (int j = 0; j < 5; j++) {
+        w->y[j] = S[CK_Y + j];
+        w->f0[j] = S[CK_F + j];
+    }
+    double h = fmin(S[CK_H], P[CK_H_MAX]);
+    double n_rhs = S[CK_N_RHS];
+    double err = 0.0;
+    for (;;) {
+        if (t + h >= t_limit) h = t_limit - t;
+        if (h <= 1e-14 * fmax(1.0, fabs(t))) return CK_UNDERFLOW;
+        rk_step(S, w->y, w->f0, h, T, P, w);
+        n_rhs += CK_N_STAGES;
+        err = error_norm(w->y, w->ynew, w, h, P);
+        if (err <= 1.0) break;
+        h *= fmax(MIN_FACTOR, SAFETY * pow(err, ERROR_EXPONENT));
+    }
+    double factor = err == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(err, ERROR_EXPONENT));
+    double h_next = fmin(h * factor, P[CK_H_MAX]);
+    double t_new = t + h == t_limit ? t_limit : t + h;
+
+    events(S, w->y, T, P, w->work, w->g0);
+    events(S, w->ynew, T, P, w->work, w->g1);
+    S[CK_T_PREV] = t;
+    S[CK_T] = t_new;
+    for (int j = 0; j < 5; j++) {
+        S[CK_Y_PREV + j] = w->y[j];
+        S[CK_Y + j] = w->ynew[j];
+        for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = w->Kst[s][j];
+    }
+    S[CK_STEP_MOTOR] = S[CK_MOTOR];
+    S[CK_STEP_DIRECTION] = S[CK_DIRECTION];
+    S[CK_STEP_INTERVAL] = S[CK_INTERVAL];
+    int first_slot = -1;
+    double first_t = t_new;
+    for (int slot = 0; slot < CK_N_SLOTS; slot++) {
+        double a = w->g0[slot], b = w->g1[slot];
+        if (!ck_crosses(a, b, ck_event_rising(slot, S[CK_MOTOR], S[CK_DIRECTION]))) continue;
+        /* g1 is the search's scratch: a later slot reads its value at the earlier slot's event,
+         * which suffices (only a crossing before that event can end the step) */
+        double hi = locate(S, slot, 0.0, t, t_new, a, b, T, P, w->work, w->tmp, w->g1);
+        if (first_slot < 0 || hi < first_t) {
+            first_slot = slot;
+            first_t = hi;
+        }
+    }
+    if (first_slot < 0) {
+        for (int j = 0; j < 5; j++) S[CK_F + j] = w->Kst[CK_N_STAGES][j];
+        S[CK_H] = h_next;
+        S[CK_N_RHS] = n_rhs;
+        S[CK_N_STEPS] += 1.0;
+        return CK_NO_EVENT;
+    }
+    /* recompute the step so that it ends on the event, then change mode there */
+    double h_event = first_t - t;
+    rk_step(S, w->y, w->f0, h_event, T, P, w);
+    n_rhs += CK_N_STAGES;
+    S[CK_T] = first_t;
+    for (int j = 0; j < 5; j++)
+        for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = w->Kst[s][j];
+    transition(S, first_slot, w->ynew, T, P, w->work, w->f);
+    rhs(w->ynew[0], w->ynew[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
+    for (int j = 0; j < 5; j++) {
+        S[CK_Y + j] = w->ynew[j];
+        S[CK_F + j] = w->f[j];
+    }
+    S[CK_H] = fmax(h_next, h_event);
+    S[CK_N_RHS] = n_rhs + 1.0;
+    S[CK_N_STEPS] += 1.0;
+    return first_slot;
+}
+
+static void output_row(const double* S, double t, const CkTables* T, const double* P, double* work, double* f,
+                       double* row)
+{
+    ck_dense(S, t, row);
+    double motor, direction, interval;
+    if (t == S[CK_T]) {
+        motor = S[CK_MOTOR];
+        direction = S[CK_DIRECTION];
+        interval = S[CK_INTERVAL];
+    } else {
+        motor = S[CK_STEP_MOTOR];
+        direction = S[CK_STEP_DIRECTION];
+        interval = S[CK_STEP_INTERVAL];
+    }
+    double M, Q, J;
+    double eps = rhs(row[0], row[1], motor, direction, interval, T, P, work, f, &M, &Q, &J);
+    row[5] = eps;
+    row[6] = M;
+    row[7] = Q;
+    row[8] = J;
+}
+
+/* ------------------------------------------------------------------------------ the drivers */
+
+void ck_output_row(const double* S, double t, const CkTables* T, const double* P, double* row)
+{
+    Scratch w;
+    output_row(S, t, T, P, w.work, w.f, row);
+}
+
+void ck_begin(double* S, double t, const double* y, const CkTables* T, const double* P, double* row)
+{
+    Scratch w;
+    start(S, t, y, T, P, &w);
+    output_row(S, t, T, P, w.work, w.f, row);
+}
+
+int ck_step(double* S, double t_limit, const CkTables* T, const double* P)
+{
+    Scratch w;
+    return step(S, t_limit, T, P, &w);
+}
+
+int ck_advance(double* S, double t_target, double t_limit, const CkTables* T, const double* P, double* row)
+{
+    Scratch w;
+    while (S[CK_T] < t_target)
+        if (step(S, t_limit, T, P, &w) == CK_UNDERFLOW) return CK_UNDERFLOW;
+    output_row(S, t_target, T, P, w.work, w.f, row);
+    return 0;
+}
+
+int ck_run_chunk(double* S, double t_end, const double* times, int n_times, int* i_out, double* rows,
+                 double* step_store, int store_capacity, int* n_store, double* events_out, int event_capacity,
+                 int* n_events, double* modes, int mode_capacity, int* n_modes, const CkTables* T, const double* P)
+{
+    Scratch w;
+    while (*i_out < n_times && times[*i_out] <= S[CK_T]) {
+        output_row(S, times[*i_out], T, P, w.work, w.f, rows + (size_t)(*i_out) * CK_OUT_SIZE);
+        (*i_out)++;
+    }
+    while (S[CK_T] < t_end) {
+        if (*n_store >= store_capacity || *n_events >= event_capacity || *n_modes >= mode_capacity) return 1;
+        int slot = step(S, t_end, T, P, &w);
+        if (slot == CK_UNDERFLOW) return CK_UNDERFLOW;
+        while (*i_out < n_times && times[*i_out] <= S[CK_T]) {
+            output_row(S, times[*i_out], T, P, w.work, w.f, rows + (size_t)(*i_out) * CK_OUT_SIZE);
+            (*i_out)++;
+        }
+        memcpy(step_store + (size_t)(*n_store) * CK_STATE_SIZE, S, CK_STATE_SIZE * sizeof(double));
+        (*n_store)++;
+        if (slot >= 0) {
+            double* e = events_out + (size_t)(*n_events) * 3;
+            e[0] = S[CK_T];
+            e[1] = slot;
+            e[2] = S[CK_STEP_MOTOR];
+            (*n_events)++;
+            if (S[CK_MOTOR] != S[CK_STEP_MOTOR] || S[CK_DIRECTION] != S[CK_STEP_DIRECTION]) {
+                double* md = modes + (size_t)(*n_modes) * 4;
+                md[0] = S[CK_T];
+                md[1] = S[CK_MOTOR];
+                md[2] = S[CK_DIRECTION];
+                md[3] = S[CK_INTERVAL];
+                (*n_modes)++;
+            }
+        }
+    }
+    return 0;
+}
+
+void ck_dense_many(const double* store, int n_store, const double* times, int n_times, double* out)
+{
+    int last = n_store - 1;
+    for (int i = 0; i < n_times; i++) {
+        /* the first stored step ending at or after t (numpy's searchsorted, side left) */
+        int lo = 0, hi = n_store;
+        while (lo < hi) {
+            int mid = (lo + hi) / 2;
+            if (store[(size_t)mid * CK_STATE_SIZE + CK_T] < times[i]) lo = mid + 1; else hi = mid;
+        }
+        int k = lo < 1 ? 1 : lo;
+        if (k > last) k = last;
+        ck_dense(store + (size_t)k * CK_STATE_SIZE, times[i], out + (size_t)i * CK_N_Y);
+    }
+}
+
+/* lowest and highest omega1 of the last step up to t_end: at the ends, or where the
+ * interpolant's slope changes sign between samples (located) */
+static void step_extremes(const double* S, double t_end, const CkTables* T, const double* P, double* work,
+                          double* tmp, double* g, double* extremes)
+{
+    ck_dense(S, S[CK_T_PREV], tmp);
+    double lowest = tmp[1], highest = tmp[1];
+    ck_dense(S, t_end, tmp);
+    lowest = fmin(lowest, tmp[1]);
+    highest = fmax(highest, tmp[1]);
+    double h = S[CK_T] - S[CK_T_PREV];
+    if (h > 0.0) {
+        double ta = S[CK_T_PREV];
+        double da = omega_slope(S, 0.0);
+        for (int i = 1; i <= CK_SLOPE_SAMPLES; i++) {
+            double tb = S[CK_T_PREV] + (t_end - S[CK_T_PREV]) * i / CK_SLOPE_SAMPLES;
+            double db = omega_slope(S, (tb - S[CK_T_PREV]) / h);
+            if ((da > 0.0 && 0.0 >= db) || (da < 0.0 && 0.0 <= db)) {
+                ck_dense(S, locate(S, -2, 0.0, ta, tb, da, db, T, P, work, tmp, g), tmp);
+                lowest = fmin(lowest, tmp[1]);
+                highest = fmax(highest, tmp[1]);
+            }
+            ta = tb;
+            da = db;
+        }
+    }
+    extremes[0] = lowest;
+    extremes[1] = highest;
+}
+
+/* one crank turn from (phi_start, omega_start) at t = 0: stats <- (omega1 at its end, min, max,
+ * period). 0, 2 when the crank stops or turns back first (or passes t_max), 3 on underflow. */
+static int one_turn(double* S, double phi_start, double omega_start, double t_max, const CkTables* T,
+                    const double* P, Scratch* w, double* stats, double* extremes)
+{
+    for (int j = 0; j < 5; j++) w->y[j] = 0.0;
+    w->y[0] = phi_start;
+    w->y[1] = omega_start;
+    for (int j = 0; j < CK_STATE_SIZE; j++) S[j] = 0.0;
+    double y0[CK_N_Y];
+    memcpy(y0, w->y, sizeof y0);
+    start(S, 0.0, y0, T, P, w);
+    double phi_end = phi_start + CK_TWO_PI;
+    double w_min = omega_start, w_max = omega_start;
+    for (;;) {
+        int slot = step(S, t_max, T, P, w);
+        if (slot == CK_UNDERFLOW) return 3;
+        int done = S[CK_Y] >= phi_end;
+        double t_end = S[CK_T];
+        if (done)
+            t_end = locate(S, -1, phi_end, S[CK_T_PREV], S[CK_T], S[CK_Y_PREV] - phi_end, S[CK_Y] - phi_end, T, P,
+                           w->work, w->tmp, w->g0);
+        step_extremes(S, t_end, T, P, w->work, w->tmp, w->g0, extremes);
+        w_min = fmin(w_min, extremes[0]);
+        w_max = fmax(w_max, extremes[1]);
+        if (done) {
+            ck_dense(S, t_end, w->tmp);
+            stats[0] = w->tmp[1];
+            stats[1] = w_min;
+            stats[2] = w_max;
+            stats[3] = t_end;
+            return 0;
+        }
+        if (S[CK_Y + 1] <= 0.0 || S[CK_T] >= t_max) return 2;
+    }
+}
+
+void ck_steady_batch(const double* params, int n_designs, double phi_start, const double* omega_guess,
+                     double rtol_shoot, int max_turns, const CkTables* T, double* out)
+{
+    double S[CK_STATE_SIZE] = {0.0}, stats[4] = {0.0}, extremes[2] = {0.0};
+    Scratch w;
+    for (int d = 0; d < n_designs; d++) {
+        const double* P = params + (size_t)d * CK_PARAM_SIZE;
+        double wv = omega_guess[d], w_prev = 0.0, r_prev = 0.0;
+        double status = CK_STEADY_NOT_CONVERGED;
+        int turns = 0;
+        for (int it = 0; it < max_turns; it++) {
+            double t_max = 1000.0 * CK_TWO_PI / fmax(fabs(wv), 1e-3);
+            int code = one_turn(S, phi_start, wv, t_max, T, P, &w, stats, extremes);
+            turns++;
+            if (code == 2) {
+                status = CK_STEADY_STALLS;
+                break;
+            }
+            if (code == 3) {
+                status = CK_STEADY_UNDERFLOW;
+                break;
+            }
+            double r = stats[0] - wv;
+            if (fabs(r) <= rtol_shoot * fabs(wv)) {
+                status = CK_STEADY_OK;
+                break;
+            }
+            double w_next;
+            if (it == 0 || r == r_prev)
+                w_next = stats[0];
+            else
+                w_next = wv - r * (wv - w_prev) / (r - r_prev);
+            if (!(w_next > 0.0)) w_next = 0.5 * wv;
+            w_prev = wv;
+            r_prev = r;
+            wv = w_next;
+        }
+        double period = stats[3];
+        double mean = period > 0.0 ? CK_TWO_PI / period : NAN;
+        double* o = out + (size_t)d * CK_STEADY_SIZE;
+        o[0] = mean;
+        o[1] = stats[1];
+        o[2] = stats[2];
+        o[3] = (stats[2] - stats[1]) / mean;
+        o[4] = period;
+        o[5] = turns;
+        o[6] = status;
+    }
+}

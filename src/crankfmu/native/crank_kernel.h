@@ -1,0 +1,81 @@
+/* crankfmu's kernel: Dormand-Prince 5(4) on the tabulated reduced model, every switch located,
+ * with the hybrid rules of crank_modes.h. The one stepper of the fast path: simulate(), the
+ * sweeps, the batch of steady cycles, the pythonfmu FMUs (through ctypes) and the native FMU run
+ * this code. C99, the C library only (libm).
+ *
+ * Everything is flat double arrays, so an FMU saves and restores the whole integrator state by
+ * copying CK_STATE_SIZE doubles, and a rolled-back step is recomputed bit for bit.
+ */
+#ifndef CRANK_KERNEL_H
+#define CRANK_KERNEL_H
+
+#include "crank_modes.h"
+#include "crank_tableau.h"
+
+#if defined(_WIN32)
+#define CK_API __declspec(dllexport)
+#else
+#define CK_API __attribute__((visibility("default")))
+#endif
+
+/* ---- the state array */
+enum {
+    CK_T = 0, CK_Y = 1, CK_F = 6, CK_H = 11,                        /* t s, y[5], f[5], proposed step s */
+    CK_MOTOR = 12, CK_DIRECTION = 13, CK_INTERVAL = 14, CK_PHI_LO = 15, CK_PHI_HI = 16,   /* the mode */
+    CK_T_PREV = 17, CK_Y_PREV = 18, CK_K = 23,                      /* last step: start, state, 7x5 stages */
+    CK_N_RHS = 58, CK_STEP_MOTOR = 59, CK_STEP_DIRECTION = 60, CK_STEP_INTERVAL = 61, CK_N_STEPS = 62,
+    CK_STATE_SIZE = 63,
+    CK_N_Y = 5                                                      /* phi1, omega1, W_motor, W_load, W_ext */
+};
+
+/* ---- the parameter array */
+enum { CK_A_ = 0, CK_B_, CK_A_LOW, CK_B_LOW, CK_OMEGA_SWITCH, CK_TAU_EXT, CK_J_FLYWHEEL, CK_RTOL, CK_ATOL, CK_H_MAX,
+       CK_PARAM_SIZE };
+
+/* ---- the output row: phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red */
+enum { CK_OUT_SIZE = 9 };
+
+/* ---- steady cycles: omega1_mean, omega1_min, omega1_max, delta, period, turns, status */
+enum { CK_SLOPE_SAMPLES = 8, CK_STEADY_SIZE = 7 };
+#define CK_STEADY_OK 0.0
+#define CK_STEADY_NOT_CONVERGED 1.0
+#define CK_STEADY_STALLS 2.0
+#define CK_STEADY_UNDERFLOW 3.0
+
+/* what the stepping functions return besides an event slot */
+enum { CK_NO_EVENT = -1, CK_UNDERFLOW = -2 };
+
+/* the largest number of tabulated functions (J, 0.5 J', Q, dQ/domega and one per slider force) */
+enum { CK_MAX_FUNCTIONS = 64 };
+
+/* The tables of one design (dynamics/tabulated.py): n_functions periodic cubics on n intervals of
+ * one turn, coefficients[f][i][4] (c0 + u (c1 + u (c2 + u c3)), u from the interval's left end);
+ * the m switch angles (rad, in [0, 2 pi), ascending); the slider forces' factors
+ * forces[k][direction 0 forward, 1 backward][n_sliders] of each switch interval. */
+typedef struct {
+    const double* coefficients;
+    int n_functions, n;
+    const double* switch_angles;
+    int m;
+    const double* forces;
+    int n_sliders;
+} CkTables;
+
+/* the layout as numbers, for callers that check theirs: fills out[0..n) and returns the count */
+CK_API int ck_layout(int* out, int n);
+
+CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
+CK_API int ck_step(double* S, double t_limit, const CkTables* tables, const double* P);
+CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,
+                      double* row);
+CK_API void ck_output_row(const double* S, double t, const CkTables* tables, const double* P, double* row);
+CK_API void ck_dense(const double* S, double t, double* out);
+CK_API int ck_run_chunk(double* S, double t_end, const double* times, int n_times, int* i_out, double* rows,
+                        double* step_store, int store_capacity, int* n_store, double* events, int event_capacity,
+                        int* n_events, double* modes, int mode_capacity, int* n_modes, const CkTables* tables,
+                        const double* P);
+CK_API void ck_dense_many(const double* store, int n_store, const double* times, int n_times, double* out);
+CK_API void ck_steady_batch(const double* params, int n_designs, double phi_start, const double* omega_guess,
+                            double rtol_shoot, int max_turns, const CkTables* tables, double* out);
+
+#endif
