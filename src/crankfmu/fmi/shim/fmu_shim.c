@@ -30,6 +30,7 @@
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
+#include <link.h>
 #include <math.h>
 #include <unistd.h>
 #include <stdarg.h>
@@ -60,6 +61,63 @@ typedef struct {
 static void* inner_lib = NULL;
 static void (*inner_finalize)(void) = NULL;
 
+/* Other copies of pythonfmu's binary loaded before ours (another FMU's, e.g. a stock pythonfmu
+ * FMU): they have the same use-after-free at exit, and the first copy loaded in a process owns
+ * libstdc++'s STB_GNU_UNIQUE symbols, so it is never unloaded (dlclose is a no-op for it) and
+ * its library destructor always runs at exit, after its static destructor. Once that freed
+ * 128-byte block sits in a malloc bin, the destructor's decrement corrupts the bin's list and a
+ * later free (libgfortran's destructor, from scipy) aborts with `corrupted double-linked list`.
+ * Their statics were registered before our handler, so our handler runs before them and can
+ * empty their pointer too. Copies loaded after our handler are left alone: their statics are
+ * already destroyed when it runs. */
+#define MAX_OTHERS 32
+static void (*other_finalize[MAX_OTHERS])(void);
+static size_t n_others = 0;
+
+typedef struct {
+    size_t n, capacity;
+    char** name;
+} LoadedNames;
+
+static int collect_name(struct dl_phdr_info* info, size_t size, void* data)
+{
+    (void)size;
+    LoadedNames* loaded = (LoadedNames*)data;
+    if (!info->dlpi_name || !info->dlpi_name[0]) return 0;
+    if (loaded->n == loaded->capacity) {
+        size_t capacity = loaded->capacity ? 2 * loaded->capacity : 256;
+        char** grown = (char**)realloc(loaded->name, capacity * sizeof *grown);
+        if (!grown) return 1;
+        loaded->name = grown;
+        loaded->capacity = capacity;
+    }
+    if ((loaded->name[loaded->n] = strdup(info->dlpi_name))) loaded->n++;
+    return 0;
+}
+
+/* the pythonfmu binaries loaded now, ours excepted: keep them loaded, remember their finaliser */
+static void find_other_pythonfmu(void)
+{
+    LoadedNames loaded = {0, 0, NULL};
+    dl_iterate_phdr(collect_name, &loaded);     /* names first: no dlopen inside its callback */
+    for (size_t i = 0; i < loaded.n; i++) {
+        void* h = n_others < MAX_OTHERS ? dlopen(loaded.name[i], RTLD_NOW | RTLD_NOLOAD) : NULL;
+        void (*f)(void) = h ? (void (*)(void))dlsym(h, "finalizePythonInterpreter") : NULL;
+        Dl_info where;
+        /* a library that defines it itself (dlsym also searches its dependencies), not ours */
+        if (f && f != inner_finalize && dladdr((void*)f, &where) && where.dli_fname &&
+            strcmp(where.dli_fname, loaded.name[i]) == 0) {
+            /* the handle is never closed: the library stays loaded, the pointer valid until exit */
+            dlopen(loaded.name[i], RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+            other_finalize[n_others++] = f;
+        } else if (h) {
+            dlclose(h);
+        }
+        free(loaded.name[i]);
+    }
+    free(loaded.name);
+}
+
 /* pythonfmu keeps its interpreter state in a namespace-scope std::shared_ptr and also resets it
  * from a library destructor (finalizePythonInterpreter). At exit the C++ static destructor runs
  * first, then the library destructor assigns to the destroyed shared_ptr: a use-after-free
@@ -68,6 +126,7 @@ static void (*inner_finalize)(void) = NULL;
 static void release_python_at_exit(void)
 {
     if (inner_finalize) inner_finalize();
+    for (size_t i = 0; i < n_others; i++) other_finalize[i]();
 }
 
 /* the host's category filter for messages below fmi2Warning */
@@ -344,6 +403,7 @@ static int load(const char* resources, const fmi2CallbackFunctions* cb, fmi2Stri
     if (inner_finalize) {
         /* stay loaded, so the handler below is not run (and then dangling) at a host's dlclose */
         dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+        find_other_pythonfmu();     /* before atexit: exactly the copies whose statics precede it */
         atexit(release_python_at_exit);
     }
     return 1;
