@@ -12,8 +12,12 @@ OUT    ?= build/demo
 
 .PHONY: demo test venv fmu validate bench soak hosts clean
 
-$(STAMP): pyproject.toml
+# the C kernel (src/crankfmu/native) is compiled by the installation: a change of its sources reinstalls
+$(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfmu/native/*.h)
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version' 
+	@# a C compiler builds the kernel and the FMUs' binaries
+	@command -v cc >/dev/null || command -v gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc; } \
+	  || { echo "make: no C compiler and apt-get could not install gcc (as root)"; exit 1; }
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'

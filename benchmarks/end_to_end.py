@@ -7,7 +7,7 @@
 * The C RK4 limit (``c_rk4.c``): the same hand-written four-bar in C, RK4 at a fixed step with the
   kink located, at the coarsest step reaching the same error.
 * The imports alone, in a fresh process.
-* The first run on a fresh machine: a new HOME (so no crankfmu kernel cache and no numba cache),
+* The first run on a fresh machine: a new HOME (so no crankfmu cache),
   a fresh copy of the package (nothing of it compiled yet, not even its bytecode): the CLI's
   ``crankfmu simulate seed000 --method fast`` and fmpy's first ``simulate_fmu`` of FourBar.fmu.
 * FourBar.fmu through fmpy, instantiate to free, beside a do-nothing FMU's whole run, and the
@@ -187,7 +187,7 @@ def import_time() -> float:
 
 # ------------------------------------------------------------------ a fresh machine
 def fresh_environment(tmp: Path) -> dict:
-    """The environment of a first run: a new HOME and cache (no kernel cache, no numba cache), and
+    """The environment of a first run: a new HOME and cache (nothing of crankfmu cached), and
     a fresh copy of the package first on the path (its bytecode not yet compiled, as after an
     installation; the dependencies keep the bytecode their installation compiled)."""
     import shutil

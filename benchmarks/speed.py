@@ -7,8 +7,7 @@ DOP853, rtol = atol = 1e-13, the motor kink located). Times are medians over rep
 integration alone, the model built beforehand (its build and tabulation are reported apart).
 
 Rows:
-  crankfmu fast          the compiled kernel on the tabulated model (method "fast"), rtol sweep
-  crankfmu fast, Python  the same kernel as plain Python (CRANKFMU_JIT=0, in a subprocess)
+  crankfmu fast          the C kernel on the tabulated model (method "fast"), rtol sweep
   crankfmu reference     DOP853 on the contour engine, rtol 1e-12
   solve_ivp RK45 / DOP853 / LSODA   scipy on the same tabulated model with a plain-Python
                          right-hand side (a few us a call) and the kink located as an event,
@@ -33,7 +32,6 @@ import json
 import math
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -84,28 +82,6 @@ def python_rhs_equation(model, table):
     return PythonTabulated(model.reduced, model.motor)
 
 
-def pure_python_run(rtol: float, repeats: int) -> dict:
-    """The kernel as plain Python, in a subprocess with CRANKFMU_JIT=0."""
-    code = f"""
-import json, statistics, time
-from crankfmu.scenario import load_scenario
-from crankfmu.integrators.fast import FastIntegrator
-from crankfmu.integrators.kernel import COMPILED
-import numpy as np
-m = load_scenario("seed000").build()
-times = np.linspace(0.0, 2.0, 2001)
-I = FastIntegrator({rtol!r})
-ts = []
-for _ in range({repeats}):
-    t = time.perf_counter(); tr = I.run(m.equation, 0.0, m.y0, 2.0, output_times=times); ts.append(time.perf_counter() - t)
-print(json.dumps({{"compiled": COMPILED, "time": statistics.median(ts), "omega": tr.outputs["state"][1].tolist(),
-                   "n_rhs": tr.n_rhs}}))
-"""
-    env = {**os.environ, "CRANKFMU_JIT": "0"}
-    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    return json.loads(done.stdout.strip().splitlines()[-1])
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="fewer settings and repeats (a smoke run)")
@@ -121,7 +97,6 @@ def main(argv=None) -> int:
     from crankfmu.integrators import SolveIvpIntegrator, make_integrator
     from crankfmu.dynamics.tabulated import table_of
     from crankfmu.integrators.fast import FastIntegrator
-    from crankfmu.integrators.kernel import COMPILED
     from crankfmu.progress import ProgressBar
     from crankfmu.scenario import load_scenario
 
@@ -142,7 +117,7 @@ def main(argv=None) -> int:
     jobs = []
     fast_rtols = (1e-8, 1e-11) if args.quick else FAST_RTOLS
     for rtol in fast_rtols:
-        jobs.append(("crankfmu fast (numba)" if COMPILED else "crankfmu fast (no numba)", rtol))
+        jobs.append(("crankfmu fast (C kernel)", rtol))
     peer_rtols = (1e-8, 1e-11) if args.quick else PEER_RTOLS
     for method in PEERS:
         for rtol in peer_rtols:
@@ -167,9 +142,6 @@ def main(argv=None) -> int:
             (tr, omega), seconds = timed(peer, max(2, repeats // 2))
             add(family, f"rtol {rtol:g}", omega, seconds, tr.n_rhs)
     bar(len(jobs))
-    pure = pure_python_run(1e-11, 1 if args.quick else 3)
-    add("crankfmu fast, plain Python" + ("" if not pure["compiled"] else " (numba still on?)"), "rtol 1e-11",
-        pure["omega"], pure["time"], pure["n_rhs"])
     bar(len(jobs) + 1)
     ref, seconds = timed(lambda: make_integrator("reference").run(model.equation, 0.0, model.y0, 2.0), 1)
     add("crankfmu reference (engine)", "rtol 1e-12", ref.dense(grid)[1], seconds, ref.n_rhs)
@@ -230,7 +202,7 @@ def main(argv=None) -> int:
         ok = [r for r in rows if r["family"].startswith(prefix) and r["omega1_error"] <= TARGET_ERROR]
         return min(ok, key=lambda r: r["time_s"]) if ok else None
 
-    fast_best, dop_best = best("crankfmu fast (numba)"), best("solve_ivp DOP853")
+    fast_best, dop_best = best("crankfmu fast (C kernel)"), best("solve_ivp DOP853")
     ratio = fast_best["time_s"] / dop_best["time_s"] if fast_best and dop_best else math.nan
     lines = ["# Speed at a given error (seed 000, 0-2 s, max |omega1 error| on the 1 ms grid)", "",
              f"Measured in one run; times are medians of the integration alone. Tabulating seed 000: "

@@ -25,7 +25,7 @@ def test_speed_benchmark_prints_the_table_and_every_target_with_its_measure(fmu_
     assert speed.main(["--quick", "--designs", "400", "--fmu", fmu_path, "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     for family in ("crankfmu fast", "solve_ivp RK45", "solve_ivp DOP853", "solve_ivp LSODA", "paper eq. 17",
-                   "crankfmu fast, plain Python", "crankfmu reference", "FourBar.fmu via fmpy"):
+                   "crankfmu reference", "FourBar.fmu via fmpy"):
         assert f"| {family}" in out
     assert out.count("| yes |") + out.count("| NO |") == 4           # the four targets, each judged
     # issue 17: where simulate()'s time goes, and its five targets (the first runs on a fresh machine
@@ -41,6 +41,6 @@ def test_speed_benchmark_prints_the_table_and_every_target_with_its_measure(fmu_
 
     data = json.loads((tmp_path / "speed.json").read_text())
     fast = [r for r in data["rows"] if r["family"].startswith("crankfmu fast") and r["setting"] == "rtol 1e-11"]
-    # the compiled and the plain-Python kernel: one answer, within the 1e-8 rad/s target
-    assert len(fast) == 2 and abs(fast[0]["omega1_error"] - fast[1]["omega1_error"]) < 1e-12
+    # the C kernel at its default tolerance: within the 1e-8 rad/s target
+    assert len(fast) == 1
     assert fast[0]["omega1_error"] <= 1e-8

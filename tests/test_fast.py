@@ -1,9 +1,7 @@
-"""The fast path (issue 6): the tabulated model against the engine, the compiled kernel against the
-reference and against itself as plain Python, its located switches, batch steady cycles, the sweep."""
+"""The fast path (issue 6): the tabulated model against the engine, the C kernel against the
+reference, its located switches, batch steady cycles, the sweep."""
 
-import json
 import math
-import os
 import subprocess
 import sys
 
@@ -16,7 +14,7 @@ from crankfmu.dynamics.tabulated import tabulate
 from crankfmu.errors import ParameterError
 from crankfmu.dynamics.tabulated import table_of
 from crankfmu.integrators.fast import FastIntegrator
-from crankfmu.integrators.kernel import layout
+from crankfmu import native as layout
 
 SCENARIOS = ["seed000", "seed001", "seed002", "seed003", "seed004"]
 
@@ -121,24 +119,18 @@ def test_start_from_rest_and_reversal_with_slider_forces_agree_with_the_referenc
     assert np.max(np.abs(fast.omega1 - ref.omega1)) < 1e-9 * np.max(np.abs(ref.omega1))
 
 
-def test_compiled_and_plain_python_kernels_give_the_same_numbers():
-    code = """
-import json, crankfmu
-from crankfmu.integrators.kernel import COMPILED
-r = crankfmu.simulate("seed003", method="fast", t_end=0.4)
-print(json.dumps({"compiled": COMPILED, "omega": r.omega1.tolist(), "phi": r.phi1.tolist()}))
-"""
-    runs = {}
-    for jit in ("1", "0"):
-        env = {**os.environ, "CRANKFMU_JIT": jit}
-        done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-        runs[jit] = json.loads(done.stdout.strip().splitlines()[-1])
-    assert runs["0"]["compiled"] is False
-    if not runs["1"]["compiled"]:
-        pytest.skip("numba is not installed: only the plain-Python kernel exists here")
-    # identical arithmetic in the same order; LLVM may contract a multiply-add, hence not bitwise
-    assert np.max(np.abs(np.subtract(runs["1"]["omega"], runs["0"]["omega"]))) <= 1e-12
-    assert np.max(np.abs(np.subtract(runs["1"]["phi"], runs["0"]["phi"]))) <= 1e-12
+def test_the_kernel_library_is_the_one_compiled_from_these_sources(tmp_path, monkeypatch):
+    """The loaded library says which sources it was compiled from; where the installed one does not
+    match (a source checkout whose C files changed), the fallback compiles the same sources into
+    the cache, and that library says the same hash and has the same layout."""
+    from crankfmu import native
+
+    native.LIBRARY.ck_source_digest.restype = native.ctypes.c_char_p
+    assert native.LIBRARY.ck_source_digest().decode() == native.DIGEST
+    monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path))
+    compiled = native._open(native._compile_into_cache())
+    assert compiled is not None and compiled.ck_source_digest().decode() == native.DIGEST
+    assert str(tmp_path) in compiled._name
 
 
 def test_fast_rejects_a_bad_rtol():

@@ -1,11 +1,12 @@
-"""crankfmu's per-user cache: where compiled kernels and FMU packages are kept between processes.
+"""crankfmu's per-user cache: where the C kernel compiled here and FMU packages are kept between processes.
 
 The standard library only: an FMU's slave script loads this file by its path, before it has
 imported anything of the package it carries.
 
 ``$CRANKFMU_CACHE``, default ``~/.cache/crankfmu``, holds
 
-  kernel_<digest>/   a kernel module and numba's machine code for it (integrators/kernel)
+  native_<digest>/   the C kernel compiled from sources of that hash, where the installed
+                     library does not match them (crankfmu.native)
   fmu_<digest>/      the package an FMU carries, unpacked from the archive in its resources
                      (fmi/slave_script.py.in)
 

@@ -409,9 +409,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--drive", action="store_true", help="SCENARIO is a drive file (Drive.fmu: drives/dc_pi.toml)")
     p.set_defaults(func=cmd_fmu)
 
-    p = sub.add_parser("precompile", help="compile the fast path's kernel ahead of time into the package (about "
-                                           "30 s; crankfmu fmu runs it when the kernel has changed)")
-    p.set_defaults(func=cmd_precompile)
 
     # validate and hosts parse their own options (crankfmu validate --help): building this parser
     # then imports neither harness, whose cases and references take 0.4 s to import
@@ -430,13 +427,6 @@ def build_parser() -> argparse.ArgumentParser:
                                                      "PASS/FAIL lines")
     p.set_defaults(delegate="crankfmu.validation.hosts")
     return parser
-
-
-def cmd_precompile(args) -> int:
-    from .precompile import precompile
-
-    precompile()
-    return 0
 
 
 def cmd_ssp(args) -> int:

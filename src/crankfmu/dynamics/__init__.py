@@ -1,5 +1,5 @@
 """Dynamics: the reduced model (inertia J, 0.5 J', loads reduced to the crank), the motor line, the
-hybrid rules of the movement equation (``modes``, shared with the compiled kernel), the movement
+hybrid rules of the movement equation (``modes``, stated again in the C kernel and compared with it), the movement
 equation on the contour engine (``equation``), its tabulation for the fast path (``tabulated``),
 inverse dynamics and joint reactions, and the DC drive."""
 

@@ -10,7 +10,7 @@ integrators hold fixed during a step. They locate the crossing of each switching
 event and restart there in the mode ``transition`` gives, instead of stepping across a jump. The
 rules (the motor branch and Filippov sliding on a jump of the motor line, the slider forces'
 direction at rest and switch intervals, the surfaces and what follows each) are
-:mod:`crankfmu.dynamics.modes`'s, the same functions the compiled fast kernel calls; this class
+:mod:`crankfmu.dynamics.modes`'s, the rules the C kernel states again (a test compares them); this class
 evaluates them on the contour engine's kinematics for the engine-based integrators (``reference``,
 ``radau``, ``dopri5``).
 """
@@ -27,7 +27,7 @@ from .modes import HIGH, SLIDE, SLIDING, STUCK
 from .motor import MotorLine
 from .reduced import ReducedModel
 
-rules = modes.python
+rules = modes
 
 # state layout: the work integrals ride along so the energy balance is exact to the tolerance
 PHI, OMEGA, W_MOTOR, W_LOAD, W_EXT = range(5)

@@ -12,24 +12,17 @@ switching surface, an *event slot*:
   INTERVAL_START  phi1 reaches its start (crank turning backward)
   REST            omega1 = 0 with slider forces (they change direction)
 
-The compiled fast kernel (``integrators.kernel``) calls these functions compiled on flat arrays;
-the engine's ``MovementEquation`` calls the same functions as plain Python (``python_function``)
-on its objects. Neither restates a rule. Motor branches and directions are floats (what the
-kernel's state array holds).
-
-Every rule is inlined into the kernel (``jit_inline``): a compiled callee that is not inlined is
-pickled into the kernel's on-disk cache by its module's name, here ``crankfmu.dynamics.modes``, which
-an FMU (whose package has a private name) cannot import when it loads that cache.
+These are the rules the scipy engine (``MovementEquation``, the independent reference) runs. The
+C kernel (``native/crank_modes.h``) states each again in C, for the fast path and the FMUs:
+tests/test_modes.py compares the two rule by rule on every mode and edge. Motor branches and
+directions are floats (what the kernel's state array holds).
 """
 
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
-
 import numpy as np
 
-from ..compiled import jit_inline, python_function
 
 TWO_PI = 2.0 * math.pi
 
@@ -62,44 +55,37 @@ def event_name(slot: int, motor: float) -> str:
 
 
 # ------------------------------------------------------------------ the movement equation
-@jit_inline
 def line_torque(A, B, omega):
     """Torque (N.m) of one motor line at omega1 (rad/s): A - B omega1, extended past its range."""
     return A - B * omega
 
 
-@jit_inline
 def acceleration(J, half_dJ, Q, M, tau, omega):
     """domega1/dt (rad/s2) from J domega1/dt + 0.5 J' omega1^2 = M_motor + Q + tau_ext."""
     return (M + Q + tau - half_dJ * omega * omega) / J
 
 
-@jit_inline
 def equivalent_torque(half_dJ, Q, tau, omega):
     """The motor torque (N.m) that holds domega1/dt = 0: what the motor delivers while sliding."""
     return half_dJ * omega * omega - Q - tau
 
 
-@jit_inline
 def kinetic_energy(J, omega):
     """E_kin (J) of the whole mechanism from the reduced inertia: 0.5 J omega1^2."""
     return 0.5 * J * (omega * omega)
 
 
 # ------------------------------------------------------------------ which mode
-@jit_inline
 def motor_of_speed(omega, omega_switch):
     """The motor branch off the switch: high above omega_switch, low at or below it."""
     return HIGH if omega > omega_switch else LOW
 
 
-@jit_inline
 def direction_of_speed(omega):
     """The slider forces' side for a moving crank (forward at rest until ``direction_at_rest``)."""
     return -1.0 if omega < 0.0 else 1.0
 
 
-@jit_inline
 def motor_on_switch(m_low, m_high, rest):
     """Branch to continue in from omega1 = omega_switch, by Filippov's rule.
 
@@ -120,7 +106,6 @@ def motor_on_switch(m_low, m_high, rest):
     return HIGH               # both push away (a jump up): leave upwards, the motor's side
 
 
-@jit_inline
 def direction_at_rest(eps_forward, eps_backward):
     """Side of the slider forces from rest: the way the crank accelerates with the forces of that
     side (eps_forward: with the forward side's forces, eps_backward: the backward side's), or 0:
@@ -132,7 +117,6 @@ def direction_at_rest(eps_forward, eps_backward):
     return 0.0
 
 
-@jit_inline
 def motor_at_rest(motor, omega_switch):
     """Motor branch once the crank comes to rest (REST): the low line, unless sliding (a switch
     at or below zero speed keeps its branch)."""
@@ -141,13 +125,11 @@ def motor_at_rest(motor, omega_switch):
     return motor
 
 
-@jit_inline
 def motor_after_sliding(slot):
     """Branch after sliding ends: the low line gave up (MOTOR_SWITCH) or the high one suffices."""
     return LOW if slot == MOTOR_SWITCH else HIGH
 
 
-@jit_inline
 def turns_forces(slot, omega_switch, has_sliders):
     """Whether the event in ``slot`` puts the crank at rest where the slider forces change side:
     REST, or the motor's switch when it lies at zero speed (one event that does both)."""
@@ -157,7 +139,6 @@ def turns_forces(slot, omega_switch, has_sliders):
 
 
 # ------------------------------------------------------------------ switch intervals
-@jit_inline
 def interval_width(switch, k):
     """Angle (rad) from switch angle k to the next one round the turn."""
     m = switch.shape[0]
@@ -165,7 +146,6 @@ def interval_width(switch, k):
     return end - switch[k]
 
 
-@jit_inline
 def interval_of(switch, phi, direction):
     """(k, phi_lo, phi_hi): the switch interval holding crank angle phi (rad, unwrapped) and its
     unwrapped bounds around it (rad). On a switch angle the interval the motion enters wins
@@ -187,7 +167,6 @@ def interval_of(switch, phi, direction):
     return k, phi - offset, phi - offset + interval_width(switch, k)
 
 
-@jit_inline
 def next_interval(switch, k, phi_lo, phi_hi, forward):
     """(k, phi_lo, phi_hi) of the neighbouring interval, by counting: the wrapped angle's rounding
     could put the crank back into the interval just left."""
@@ -200,7 +179,6 @@ def next_interval(switch, k, phi_lo, phi_hi, forward):
 
 
 # ------------------------------------------------------------------ event surfaces
-@jit_inline
 def event_active(slot, motor, direction, phi_hi, has_sliders, omega_switch):
     """Whether surface ``slot`` can end a mode (stuck: nothing changes until a restart)."""
     if direction == 0.0:
@@ -215,7 +193,6 @@ def event_active(slot, motor, direction, phi_hi, has_sliders, omega_switch):
     return math.isfinite(phi_hi)
 
 
-@jit_inline
 def event_value(slot, phi, omega, motor, phi_lo, phi_hi, omega_switch, m_low, m_high, equivalent):
     """g of surface ``slot`` at (phi1, omega1); m_low, m_high and equivalent (the torques at
     omega_switch, N.m) are read only while sliding."""
@@ -232,7 +209,6 @@ def event_value(slot, phi, omega, motor, phi_lo, phi_hi, omega_switch, m_low, m_
     return omega
 
 
-@jit_inline
 def event_rising(slot, motor, direction):
     """Whether surface ``slot`` ends the mode when g rises through 0 (else when it falls)."""
     if slot == MOTOR_SWITCH:
@@ -244,7 +220,6 @@ def event_rising(slot, motor, direction):
     return False
 
 
-@jit_inline
 def crosses(g0, g1, rising):
     """Whether g went from g0 to g1 through 0 the way that ends the mode."""
     if not (math.isfinite(g0) and math.isfinite(g1)):
@@ -252,10 +227,3 @@ def crosses(g0, g1, rising):
     if rising:
         return g0 < 0.0 <= g1
     return g0 > 0.0 >= g1
-
-
-#: the same rules as plain Python functions (``compiled.python_function``): what Python callers
-#: use (the engine's movement equation, outputs on arrays) without compiling or numba's dispatch
-python = SimpleNamespace(**{name: python_function(value) for name, value in list(globals().items())
-                            if getattr(python_function(value), "__module__", None) == __name__
-                            and callable(value) and not isinstance(value, type)})

@@ -67,7 +67,7 @@ class ReducedTable:
     construction: str = ""       # how the cubics were made (a Fourier series, or a spline of samples)
 
     def arrays(self) -> tuple:
-        """(coefficients, switch_angles, forces): the table as the compiled kernel takes it."""
+        """(coefficients, switch_angles, forces): the table as the C kernel takes it (native.Tables)."""
         return self.coefficients, self.switch_angles, self.forces
 
     @property

@@ -48,11 +48,11 @@ PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's r
 #: what runs inside an FMU, relative to the package: the core on numpy alone and the FMI shell's
 #: slave. Studies, plots, sweeps, the CLI, the harness, the build step and the scipy-based
 #: integrators stay out (tests/test_fmu_dropin.py runs the FMUs where scipy cannot be imported).
-RUNTIME = ("__init__.py", "cache.py", "compiled.py", "contract.py", "errors.py", "expressions.py", "numerics.py", "scenario.py",
+RUNTIME = ("__init__.py", "cache.py", "contract.py", "errors.py", "expressions.py", "numerics.py", "scenario.py",
            "units.py",
            "mechanisms", "dynamics", "scenarios",
-           "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "integrators/kernel",
-           "integrators/tableau.py", "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/drive.py",
+           "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "native",
+           "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/drive.py",
            "parameters.py", "datafiles.py", "drives")
 
 
@@ -69,13 +69,13 @@ def copy_runtime(dest: Path, files: dict | None = None, data=()):
     import json
     import tomllib
 
-    from ..precompile import ensure
+    from .. import native
 
-    # the kernel compiled ahead of time travels with the FMU when it is this package's kernel
-    shipped = ensure()
+    # the C kernel travels compiled for linux64 (and its sources): the library this process loaded
+    library = Path(native.LIBRARY._name)
 
     def ignore(folder, names):
-        skip = {n for n in names if n == "__pycache__" or (n == "precompiled" and not shipped)}
+        skip = {n for n in names if n == "__pycache__" or n.endswith((".so", ".dll", ".o"))}
         inside = Path(folder).relative_to(PACKAGE).as_posix()
         if inside in DATA_FOLDERS:
             skip |= {n for n in names if f"{inside}/{n}" not in data}
@@ -88,6 +88,7 @@ def copy_runtime(dest: Path, files: dict | None = None, data=()):
         else:
             (dest / entry).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(source, dest / entry)
+    shutil.copy2(library, dest / "native" / native.library_name(sys.platform))
     for path, text in (files or {}).items():
         (dest / path).parent.mkdir(parents=True, exist_ok=True)
         (dest / path).write_text(text)

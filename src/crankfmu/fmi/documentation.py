@@ -128,7 +128,7 @@ contours (closed vector chains, <code>u(a) = (cos a, sin a)</code>), solved exac
 <pre>{html.escape(contours)}</pre>
 <p>The reduced model (one coordinate, the crank angle):</p>
 <pre>{html.escape(_docstring_block(reduced))}</pre>
-<p>The FMU integrates the movement equation (compiled Dormand-Prince 5(4) with located mode switches):</p>
+<p>The FMU integrates the movement equation (Dormand-Prince 5(4) in C with located mode switches):</p>
 <pre>{html.escape(_docstring_block(equation))}</pre>
 <p>The motor:</p>
 <pre>{html.escape(_docstring_block(motor) + chr(10) + (motor.MotorLine.__doc__ or "").strip())}</pre>

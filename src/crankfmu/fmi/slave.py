@@ -8,7 +8,7 @@ extra outputs, computed from the analytic transfer functions only when the host 
 
 Inside ``fmi2DoStep`` the movement equation is integrated by the fast path: the reduced model is
 tabulated once at initialisation (dynamics.tabulated, its error bound checked against the contour
-engine) and the compiled Dormand-Prince kernel steps it with rtol honoured and every switch
+engine) and the C Dormand-Prince kernel (crankfmu.native) steps it with rtol honoured and every switch
 located (the motor line's kink, the slider forces' switch angles and reversals). A whole
 ``fmi2DoStep`` is one call into the kernel; the outputs are one array the getters read, and the
 link-level kinematics are computed only when a host reads a mechanism-specific output.
@@ -23,7 +23,6 @@ The life cycle, the refusals and the guards that keep Python exceptions away fro
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -33,13 +32,13 @@ from ..dynamics import MotorLine
 from ..dynamics import modes
 from ..dynamics.tabulated import table_of
 from ..integrators.fast import TABLE_TOLERANCE, FastStepper
-from ..integrators.kernel import COMPILED, layout
+from ..native import ROW_FIELDS
 from ..parameters import Parameter
 from ..scenario import load_scenario
 from .core import Declared, SlaveCore
 
 #: where each output sits in the kernel's output row (E_kin is computed from J_red and omega1)
-ROW = {name: i for i, name in enumerate(layout.ROW_FIELDS)}
+ROW = {name: i for i, name in enumerate(ROW_FIELDS)}
 (TAU_EXT,) = INPUTS
 
 #: built designs of this process, most recent last: an instance that is reset, or freed and
@@ -77,7 +76,7 @@ def declared(scenario) -> Declared:
     inputs = [Parameter(TAU_EXT.name, 0.0, TAU_EXT.unit, TAU_EXT.description)]
     parameters = [*scenario.parameters.values(), Parameter(
         "rtol", scenario.experiment.tolerance, "1", min=0.0, min_inclusive=False,
-        description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4), compiled)")]
+        description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4), the C kernel)")]
     return Declared(outputs, inputs, parameters)
 
 
@@ -98,19 +97,13 @@ class FmuCore(SlaveCore):
         getters = {out.name: self._getter(out.name) for out in OUTPUTS}
         getters.update({q.name: (lambda n=q.name: self._quantity(n)) for q in self.quantities})
         self.declare(declared(self.scenario), getters)
-        if not COMPILED:     # the kernel runs as numpy code: its overflow warnings stay quiet
-            self.quiet_entry_points = (*self.quiet_entry_points, "do_step")
         self.attach()
-        if not COMPILED:
-            self.log(f"numba is not in use in the Python at {sys.prefix} (not importable, or CRANKFMU_JIT=0): "
-                     "the FMU steps its compiled kernel as plain Python, correct but about 10x slower per "
-                     "step; to enable it: python -m pip install numba (in that Python)", "warning")
 
     def _getter(self, name: str):
         row = self.row
         if name == "E_kin":
             J, omega = ROW["J_red"], ROW["omega1"]
-            kinetic_energy = modes.python.kinetic_energy
+            kinetic_energy = modes.kinetic_energy
             return lambda: kinetic_energy(float(row[J]), float(row[omega]))
         i = ROW[name]
         return lambda: float(row[i])

@@ -1,13 +1,13 @@
 """Integrators of the movement equation, all behind ``Integrator.run``.
 
-  fast         Dormand-Prince 5(4) compiled on the tabulated model (``kernel``), every switch
+  fast         Dormand-Prince 5(4) on the tabulated model (the C kernel, ``crankfmu.native``), every switch
                located: the FMUs' integrator and ``simulate``'s default
   time_domain  scipy's solve_ivp, a segment per mode (the engine-based ``reference`` DOP853,
                ``radau``, ``dopri5``: scipy's RK45): the independent checks
   crank_angle  the papers' own schemes in the crank angle (seed 000 eq. 17, seed 003 eq. 3)
 
-The submodules are imported on first use: the FMUs ship the fast path only (``base``, ``fast``,
-``kernel``, ``tableau``: numpy alone), the others need scipy.
+The submodules are imported on first use: the FMUs ship the fast path only (``base``, ``fast``:
+numpy and the C kernel), the others need scipy.
 """
 
 from __future__ import annotations

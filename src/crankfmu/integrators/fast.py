@@ -1,8 +1,8 @@
-"""The fast path: the compiled kernel on the tabulated reduced model, behind ``Integrator.run``.
+"""The fast path: the C kernel on the tabulated reduced model, behind ``Integrator.run``.
 
 ``FastIntegrator`` is ``simulate(scenario, method="fast", rtol=...)``. It tabulates the model's
-reduced coefficients once (``tabulated.table_of``, once per model), then runs the kernel of
-:mod:`crankfmu.integrators.kernel` in chunks: each chunk fills the output rows that fall in it and
+reduced coefficients once (``tabulated.table_of``, once per model), then runs the C kernel of
+:mod:`crankfmu.native` in chunks: each chunk fills the output rows that fall in it and
 stores its steps for dense output anywhere in the run. Link-level kinematics are never computed
 during the run; the contract outputs come from the tables.
 
@@ -19,7 +19,7 @@ from ..dynamics import modes as hybrid
 from ..dynamics.tabulated import table_of
 from ..errors import ParameterError, SchemeError
 from .base import Integrator, Trajectory
-from .kernel import COMPILED, drivers, layout, method
+from .. import native as kernel
 
 
 #: default rtol of the fast path (atol equal): on seed 000 it gives 6.6e-9 rad/s (max omega1 error over 2 s)
@@ -36,13 +36,13 @@ def _check_rtol(rtol):
 def dense_from_store(store: np.ndarray, times) -> np.ndarray:
     """States (5 x len(times)) from stored kernel states (one row per step, the start first)."""
     times = np.atleast_1d(np.asarray(times, dtype=float))
-    out = np.zeros((times.size, layout.N_Y))
-    drivers.dense_many(store, times, out)
+    out = np.zeros((times.size, kernel.N_Y))
+    kernel.dense_many(store, times, out)
     return out.T
 
 
 class FastIntegrator(Integrator):
-    """Dormand-Prince 5(4) compiled on the tabulated model, every discontinuity located."""
+    """Dormand-Prince 5(4) in C on the tabulated model, every discontinuity located."""
 
     name = "fast"
 
@@ -52,7 +52,7 @@ class FastIntegrator(Integrator):
         self.rtol = float(rtol)
         self.atol = float(rtol if atol is None else atol)
         self.chunk = chunk
-        self.method = "Dormand-Prince 5(4) on the tabulated model" + (" (numba)" if COMPILED else " (pure Python)")
+        self.method = "Dormand-Prince 5(4) on the tabulated model (C kernel)"
 
     def run(self, equation, t0, y0, t_end, progress=None, output_times=None):
         table = table_of(equation.reduced, TABLE_TOLERANCE)
@@ -61,39 +61,38 @@ class FastIntegrator(Integrator):
         stepper.start(t0, y0)
         S = stepper.state
         times = np.zeros(0) if output_times is None else np.asarray(output_times, dtype=float)
-        rows = np.zeros((times.size, layout.OUT_SIZE))
+        rows = np.zeros((times.size, kernel.OUT_SIZE))
         i_out = 0
         stores, events, modes = [S[None, :].copy()], [], [(float(t0), _mode_name(S))]
         while True:
-            store = np.zeros((self.chunk, layout.STATE_SIZE))
+            store = np.zeros((self.chunk, kernel.STATE_SIZE))
             ev = np.zeros((self.chunk, 3))
             md = np.zeros((self.chunk, 4))
-            status, i_out, n_store, n_ev, n_md = drivers.run_chunk(
-                S, float(t_end), times, i_out, rows, store, 0, ev, 0, md, 0,
-                stepper.tables, stepper.P, stepper.scratch)
+            status, i_out, n_store, n_ev, n_md = kernel.run_chunk(
+                S, float(t_end), times, i_out, rows, store, 0, ev, 0, md, 0, stepper.tables, stepper.P)
             stores.append(store[:n_store])
             events += [(float(t), hybrid.event_name(int(slot), motor)) for t, slot, motor in ev[:n_ev]]
             modes += [(float(r[0]), _mode_name(r[1:], row=True)) for r in md[:n_md]]
             if progress is not None:
-                progress(float(S[layout.T]))
-            if status == layout.UNDERFLOW:
-                raise SchemeError(f"fast: step size underflow at t = {S[layout.T]:.9g} s")
+                progress(float(S[kernel.T]))
+            if status in (kernel.UNDERFLOW, kernel.BAD_STATE):
+                raise SchemeError(f"fast: step size underflow at t = {S[kernel.T]:.9g} s")
             if status == 0:
                 break
         store = np.concatenate(stores)
-        trajectory = Trajectory(t=store[:, layout.T].copy(), y=store[:, layout.Y:layout.Y + 5].T.copy(),
+        trajectory = Trajectory(t=store[:, kernel.T].copy(), y=store[:, kernel.Y:kernel.Y + 5].T.copy(),
                                 dense=lambda tt: dense_from_store(store, tt), events=events, modes=modes,
-                                n_rhs=int(S[layout.N_RHS]), n_steps=int(S[layout.N_STEPS]))
+                                n_rhs=int(S[kernel.N_RHS]), n_steps=int(S[kernel.N_STEPS]))
         if output_times is not None:
-            outputs = dict(zip(layout.ROW_FIELDS[5:], rows[:, 5:].T))
+            outputs = dict(zip(kernel.ROW_FIELDS[5:], rows[:, 5:].T))
             trajectory.outputs = {"state": rows[:, :5].T, **outputs,
-                                  "E_kin": hybrid.python.kinetic_energy(outputs["J_red"], rows[:, 1])}
+                                  "E_kin": hybrid.kinetic_energy(outputs["J_red"], rows[:, 1])}
         trajectory.table = table
         return trajectory
 
 
 def _mode_name(values, row: bool = False) -> str:
-    motor, direction = (values[0], values[1]) if row else (values[layout.MOTOR], values[layout.DIRECTION])
+    motor, direction = (values[0], values[1]) if row else (values[kernel.MOTOR], values[kernel.DIRECTION])
     return hybrid.mode_name(motor, direction)
 
 
@@ -108,42 +107,43 @@ class FastStepper:
                  atol: float | None = None):
         _check_rtol(rtol)
         self.table = table
-        self.P = layout.parameters(motor, J_flywheel, tau_ext, rtol, rtol if atol is None else atol)
-        self.ws = layout.Workspace(table.coefficients.shape[0])
+        self.P = kernel.parameters(motor, J_flywheel, tau_ext, rtol, rtol if atol is None else atol)
         # what every kernel call takes, built once
-        self.tables, self.scratch = table.arrays(), self.ws.arrays()
-        self.state = np.zeros(layout.STATE_SIZE)
+        self.tables = kernel.Tables(*table.arrays())
+        self.state = np.zeros(kernel.STATE_SIZE)
         # the output row, filled in place by every step (an FMU's getters read it directly)
-        self.row = np.zeros(layout.OUT_SIZE) if row is None else row
+        self.row = np.zeros(kernel.OUT_SIZE) if row is None else row
 
     def set_motor(self, motor):
-        layout.set_motor(self.P, motor)
+        kernel.set_motor(self.P, motor)
 
     def set_tau_ext(self, tau: float):
-        self.P[layout.TAU_EXT] = tau
+        self.P[kernel.TAU_EXT] = tau
 
     def start(self, t: float, y) -> np.ndarray:
         """Initialise at (t, y) and return the output row there."""
         self.state[:] = 0.0
-        drivers.begin(self.state, float(t), np.asarray(y, dtype=float), self.tables, self.P, self.scratch, self.row)
+        kernel.begin(self.state, float(t), np.asarray(y, dtype=float), self.tables, self.P, self.row)
         return self.row
 
     def restart(self, t: float):
         """Restart at t within the last step (a parameter or the input changed), keeping the
         proposed step size."""
-        y = np.zeros(layout.N_Y)
-        method.dense(self.state, float(t), y)
-        h = self.state[layout.H]
-        n_rhs, n_steps = self.state[layout.N_RHS], self.state[layout.N_STEPS]
+        y = np.zeros(kernel.N_Y)
+        kernel.dense(self.state, float(t), y)
+        h = self.state[kernel.H]
+        n_rhs, n_steps = self.state[kernel.N_RHS], self.state[kernel.N_STEPS]
         self.start(t, y)
-        self.state[layout.H] = h
-        self.state[layout.N_RHS] += n_rhs
-        self.state[layout.N_STEPS] = n_steps
+        self.state[kernel.H] = h
+        self.state[kernel.N_RHS] += n_rhs
+        self.state[kernel.N_STEPS] = n_steps
 
     def advance(self, t_target: float, t_limit: float) -> np.ndarray:
         """Step to t_target (steps may end up to t_limit); the output row at t_target
         (phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red)."""
-        status = drivers.advance(self.state, t_target, t_limit, self.tables, self.P, self.scratch, self.row)
-        if status == layout.UNDERFLOW:
-            raise SchemeError(f"fast: step size underflow at t = {self.state[layout.T]:.9g} s")
+        status = kernel.advance(self.state, t_target, t_limit, self.tables, self.P, self.row)
+        if status == kernel.UNDERFLOW:
+            raise SchemeError(f"fast: step size underflow at t = {self.state[kernel.T]:.9g} s")
+        if status == kernel.BAD_STATE:
+            raise SchemeError("fast: the kernel's state holds no mode it can have written (a corrupted FMU state)")
         return self.row

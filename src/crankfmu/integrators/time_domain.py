@@ -116,7 +116,7 @@ def radau(rtol: float | None = None) -> SolveIvpIntegrator:
 
 def dopri5(rtol: float | None = None) -> SolveIvpIntegrator:
     """scipy's RK45 (Dormand-Prince 5(4), explicit): the fast kernel's method family, stepped by
-    scipy's own implementation (an independent check of the compiled kernel's stepping). Default
+    scipy's own implementation (an independent check of the C kernel's stepping). Default
     rtol 1e-11: at 1e-10 the work integrals of seed 001 close the energy balance to 1.2e-9 only,
     past the 1e-9 every engine-based run is held to."""
     return SolveIvpIntegrator("RK45", rtol=1e-11 if rtol is None else rtol, name="dopri5")

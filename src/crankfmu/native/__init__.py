@@ -1,11 +1,15 @@
 """The C kernel (crank_kernel.c, crank_kernel.h, crank_modes.h, crank_tableau.h) and its binding.
 
 The C files are the kernel's one home: the fast path (``integrators.fast``), the batch of steady
-cycles, the pythonfmu FMUs (through this ctypes binding) and the native FMU (compiled in with
-its FMI shell) run the same code. ``pip install`` compiles the library
-(``_crank_kernel<suffix>``, setup.py); where it is missing or older than its sources (a source
-checkout run without installing), it is compiled once with the machine's C compiler into the
-per-user cache under its sources' hash.
+cycles, the pythonfmu FMUs (through this ctypes binding) and the native FMU (compiled in with its
+FMI shell) run the same code. ``pip install`` compiles the library (``crank_kernel.so``, .dll on
+Windows: setup.py); where it is missing or was compiled from other sources (a source checkout
+whose C files changed since), it is compiled once with the machine's C compiler into the per-user
+cache under its sources' hash. The library says which sources it was compiled from
+(``ck_source_digest``), so a library is never paired with sources of other content.
+
+The arrays' layout (what each float of the state, parameter and output arrays holds) is the C
+header's, read from the library: ``T``, ``Y``, ``STATE_SIZE``, ...
 
 numpy and ctypes only: the FMUs ship this package.
 """
@@ -13,8 +17,7 @@ numpy and ctypes only: the FMUs ship this package.
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import importlib.machinery
+import math
 import os
 import shutil
 import subprocess
@@ -24,36 +27,26 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CrankfmuError
+from .sources import CFLAGS, HERE, digest, library_name
 
-HERE = Path(__file__).resolve().parent
-SOURCES = ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h")
-#: how the library is compiled, here and by setup.py (no FMA contraction: the numbers do not
-#: depend on the CPU the library was compiled for)
-CFLAGS = ["-std=c99", "-O2", "-ffp-contract=off", "-fPIC"]
+DIGEST = digest()
 
 
-def digest() -> str:
-    h = hashlib.sha256()
-    for name in SOURCES:
-        h.update((HERE / name).read_bytes())
-    return h.hexdigest()[:16]
-
-
-def _installed() -> Path | None:
-    """The library setup.py built beside the sources, if it is there and not older than them."""
-    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
-        path = HERE / f"_crank_kernel{suffix}"
-        if path.is_file() and path.stat().st_mtime >= max((HERE / s).stat().st_mtime for s in SOURCES):
-            return path
-    return None
+def _open(path: Path):
+    """The library at ``path`` if it was compiled from these sources, else None."""
+    try:
+        lib = ctypes.CDLL(str(path))
+    except OSError:
+        return None
+    lib.ck_source_digest.restype = ctypes.c_char_p
+    return lib if lib.ck_source_digest().decode() == DIGEST else None
 
 
 def _compile_into_cache() -> Path:
     from ..cache import cache_root, install
 
-    suffix = ".dll" if sys.platform == "win32" else ".so"
-    folder = cache_root() / f"native_{digest()}"
-    library = folder / f"crank_kernel{suffix}"
+    folder = cache_root() / f"native_{DIGEST}"
+    library = folder / library_name(sys.platform)
     if library.is_file():
         return library
     compiler = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
@@ -63,8 +56,9 @@ def _compile_into_cache() -> Path:
 
     def build(partial: Path):
         partial.mkdir(parents=True, exist_ok=True)
-        done = subprocess.run([compiler, *CFLAGS, "-shared", "-o", str(partial / library.name),
-                               str(HERE / "crank_kernel.c"), "-lm"], capture_output=True, text=True)
+        done = subprocess.run([compiler, *CFLAGS, f'-DCK_SOURCE_DIGEST="{DIGEST}"', "-shared", "-o",
+                               str(partial / library.name), str(HERE / "crank_kernel.c"), "-lm"],
+                              capture_output=True, text=True)
         if done.returncode != 0:
             raise CrankfmuError(f"compiling crankfmu's C kernel failed: {done.stderr.strip()}")
 
@@ -73,8 +67,11 @@ def _compile_into_cache() -> Path:
 
 
 def _load() -> ctypes.CDLL:
-    path = _installed() or _compile_into_cache()
-    lib = ctypes.CDLL(str(path))
+    lib = _open(HERE / library_name(sys.platform))
+    if lib is None:
+        lib = _open(_compile_into_cache())
+    if lib is None:
+        raise CrankfmuError(f"crankfmu's C kernel in the cache does not match its sources ({DIGEST})")
     D, I = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_int)
     T = ctypes.c_void_p
     signatures = {
@@ -88,6 +85,10 @@ def _load() -> ctypes.CDLL:
                                         ctypes.c_int, I, D, ctypes.c_int, I, T, D]),
         "ck_dense_many": (None, [D, ctypes.c_int, D, ctypes.c_int, D]),
         "ck_steady_batch": (None, [D, ctypes.c_int, ctypes.c_double, D, ctypes.c_double, ctypes.c_int, T, D]),
+        "ck_tableau": (ctypes.c_int, [D, ctypes.c_int]),
+        "ck_rule": (ctypes.c_double, [ctypes.c_int, D]),
+        "ck_interval_of_rule": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_double, ctypes.c_double, D]),
+        "ck_next_interval_rule": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int]),
     }
     for name, (restype, argtypes) in signatures.items():
         function = getattr(lib, name)
@@ -114,6 +115,55 @@ def layout() -> dict[str, int]:
     return dict(zip(_LAYOUT_NAMES, out[:count]))
 
 
+_LAYOUT = layout()
+# ---- the state array: t, y[5] (phi1, omega1, W_motor, W_load, W_ext), f[5], the proposed step, the
+# mode (motor branch, direction, switch interval and its bounds), the last step (start, start
+# state, 7x5 stages) for dense output, counters
+T, Y, F_, H = _LAYOUT["T"], _LAYOUT["Y"], _LAYOUT["F_"], _LAYOUT["H"]
+MOTOR, DIRECTION, INTERVAL = _LAYOUT["MOTOR"], _LAYOUT["DIRECTION"], _LAYOUT["INTERVAL"]
+T_PREV, Y_PREV, K = _LAYOUT["T_PREV"], _LAYOUT["Y_PREV"], _LAYOUT["K"]
+N_RHS, N_STEPS, STATE_SIZE, N_Y = _LAYOUT["N_RHS"], _LAYOUT["N_STEPS"], _LAYOUT["STATE_SIZE"], _LAYOUT["N_Y"]
+STEP_MOTOR, STEP_DIRECTION = _LAYOUT["STEP_MOTOR"], _LAYOUT["STEP_DIRECTION"]
+PARAM_SIZE, OUT_SIZE, STEADY_SIZE = _LAYOUT["PARAM_SIZE"], _LAYOUT["OUT_SIZE"], _LAYOUT["STEADY_SIZE"]
+# ---- the parameter array (crank_kernel.h's order)
+A_, B_, A_LOW, B_LOW, OMEGA_SWITCH, TAU_EXT, J_FLYWHEEL, RTOL, ATOL, H_MAX = range(10)
+assert PARAM_SIZE == 10
+# ---- the output row: the state, then the contract outputs the tables give
+ROW_FIELDS = ("phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor", "M_load", "J_red")
+assert OUT_SIZE == len(ROW_FIELDS)
+#: what the stepping functions return besides an event slot
+NO_EVENT, UNDERFLOW, BAD_STATE = -1, -2, -3
+
+
+def parameters(motor, J_flywheel: float, tau_ext: float, rtol: float, atol: float,
+               h_max: float = math.inf) -> np.ndarray:
+    """The parameter array of one design."""
+    P = np.zeros(PARAM_SIZE)
+    set_motor(P, motor)
+    P[TAU_EXT], P[J_FLYWHEEL] = tau_ext, J_flywheel
+    P[RTOL], P[ATOL], P[H_MAX] = rtol, atol, h_max
+    return P
+
+
+def set_motor(P: np.ndarray, motor):
+    """Write a MotorLine into a parameter array."""
+    P[A_], P[B_], P[A_LOW], P[B_LOW], P[OMEGA_SWITCH] = (
+        motor.A, motor.B, motor.A_low, motor.B_low, motor.omega_switch)
+
+
+def tableau() -> dict[str, np.ndarray]:
+    """The Dormand-Prince tableau the kernel steps with (crank_tableau.h): A, B, E, P, C."""
+    out = np.zeros(128)
+    LIBRARY.ck_tableau(_d(out), out.size)
+    sizes = {"A": (6, 5), "B": (6,), "E": (7,), "P": (7, 4), "C": (6,)}
+    result, at = {}, 0
+    for name, shape in sizes.items():
+        n = int(np.prod(shape))
+        result[name] = out[at:at + n].reshape(shape)
+        at += n
+    return result
+
+
 def _d(array: np.ndarray):
     return array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
 
@@ -126,9 +176,9 @@ class Tables:
                        np.ascontiguousarray(switch_angles, dtype=float),
                        np.ascontiguousarray(forces, dtype=float))
         C, sw, fo = self.arrays
-        if C.shape[0] > layout()["MAX_FUNCTIONS"]:
-            raise CrankfmuError(f"the C kernel takes at most {layout()['MAX_FUNCTIONS']} tabulated functions, "
-                                f"got {C.shape[0]}")
+        if C.shape[0] > _LAYOUT["MAX_FUNCTIONS"]:
+            raise CrankfmuError(f"the C kernel takes at most {_LAYOUT['MAX_FUNCTIONS']} tabulated functions "
+                                f"(4 and one per slider force), got {C.shape[0]}")
         self.struct = _Tables(_d(C), C.shape[0], C.shape[1], _d(sw), sw.shape[0], _d(fo),
                               fo.shape[2] if fo.ndim == 3 else 0)
         self.pointer = ctypes.cast(ctypes.pointer(self.struct), ctypes.c_void_p)

@@ -17,6 +17,58 @@ typedef struct {
     double ynew[CK_N_Y], tmp[CK_N_Y], f[CK_N_Y], g0[CK_N_SLOTS], g1[CK_N_SLOTS], y[CK_N_Y], f0[CK_N_Y];
 } Scratch;
 
+#ifndef CK_SOURCE_DIGEST
+#define CK_SOURCE_DIGEST "unknown"
+#endif
+
+const char* ck_source_digest(void) { return CK_SOURCE_DIGEST; }
+
+int ck_tableau(double* out, int n)
+{
+    static const double C[CK_N_STAGES] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0};
+    int k = 0;
+    for (int i = 0; i < CK_N_STAGES; i++)
+        for (int j = 0; j < 5; j++, k++) if (k < n) out[k] = CK_A[i][j];
+    for (int i = 0; i < CK_N_STAGES; i++, k++) if (k < n) out[k] = CK_B[i];
+    for (int i = 0; i < CK_N_STAGES + 1; i++, k++) if (k < n) out[k] = CK_E[i];
+    for (int i = 0; i < CK_N_STAGES + 1; i++)
+        for (int j = 0; j < 4; j++, k++) if (k < n) out[k] = CK_P[i][j];
+    for (int i = 0; i < CK_N_STAGES; i++, k++) if (k < n) out[k] = C[i];
+    return k;
+}
+
+double ck_rule(int rule, const double* a)
+{
+    switch (rule) {
+    case 0: return ck_line_torque(a[0], a[1], a[2]);
+    case 1: return ck_acceleration(a[0], a[1], a[2], a[3], a[4], a[5]);
+    case 2: return ck_equivalent_torque(a[0], a[1], a[2], a[3]);
+    case 3: return ck_kinetic_energy(a[0], a[1]);
+    case 4: return ck_motor_of_speed(a[0], a[1]);
+    case 5: return ck_direction_of_speed(a[0]);
+    case 6: return ck_motor_on_switch(a[0], a[1], a[2]);
+    case 7: return ck_direction_at_rest(a[0], a[1]);
+    case 8: return ck_motor_at_rest(a[0], a[1]);
+    case 9: return ck_motor_after_sliding((int)a[0]);
+    case 10: return ck_turns_forces((int)a[0], a[1], (int)a[2]);
+    case 11: return ck_event_active((int)a[0], a[1], a[2], a[3], (int)a[4], a[5]);
+    case 12: return ck_event_value((int)a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9]);
+    case 13: return ck_event_rising((int)a[0], a[1], a[2]);
+    case 14: return ck_crosses(a[0], a[1], (int)a[2]);
+    default: return NAN;
+    }
+}
+
+int ck_interval_of_rule(const double* sw, int m, double phi, double direction, double* bounds)
+{
+    return ck_interval_of(sw, m, phi, direction, &bounds[0], &bounds[1]);
+}
+
+int ck_next_interval_rule(const double* sw, int m, int k, double* bounds, int forward)
+{
+    return ck_next_interval(sw, m, k, &bounds[0], &bounds[1], forward);
+}
+
 int ck_layout(int* out, int n)
 {
     const int values[] = {CK_T, CK_Y, CK_F, CK_H, CK_MOTOR, CK_DIRECTION, CK_INTERVAL, CK_PHI_LO, CK_PHI_HI,
@@ -34,8 +86,14 @@ static void table_values(const CkTables* T, double phi, double* work)
     int n = T->n;
     double h = CK_TWO_PI / n;
     double wrapped = phi - CK_TWO_PI * floor(phi / CK_TWO_PI);
-    int i = (int)(wrapped / h);
-    if (i >= n) i = n - 1;
+    if (!isfinite(wrapped)) {          /* a state gone non-finite: NaN coefficients, the step is refused */
+        for (int f = 0; f < T->n_functions; f++) work[f] = NAN;
+        return;
+    }
+    /* the interval index, clamped before the conversion: the rounding of a huge |phi| can put
+     * wrapped outside [0, 2 pi), and an out-of-range conversion to int is undefined */
+    double x = wrapped / h;
+    int i = x <= 0.0 ? 0 : (x >= n ? n - 1 : (int)x);
     double u = wrapped - i * h;
     for (int f = 0; f < T->n_functions; f++) {
         const double* c = T->coefficients + ((size_t)f * n + i) * 4;
@@ -301,9 +359,21 @@ static double locate(const double* S, int slot, double level, double lo, double 
     return hi;
 }
 
+/* whether S's discrete state is one the kernel can have written: a motor branch, a direction, a
+ * switch interval of these tables (a state a host corrupted is refused, never indexed with) */
+static int mode_ok(const double* S, const CkTables* T)
+{
+    double motor = S[CK_MOTOR], direction = S[CK_DIRECTION], k = S[CK_INTERVAL];
+    if (!(motor == CK_LOW || motor == CK_HIGH || motor == CK_SLIDE)) return 0;
+    if (!(direction == 1.0 || direction == -1.0 || direction == 0.0)) return 0;
+    if (T->m == 0) return k == 0.0;
+    return k >= 0.0 && k < T->m && k == floor(k);
+}
+
 /* one accepted step, not beyond t_limit, ending on the first event crossed */
 static int step(double* S, double t_limit, const CkTables* T, const double* P, Scratch* w)
 {
+    if (!mode_ok(S, T)) return CK_BAD_STATE;
     double t = S[CK_T];
     for (int j = 0; j < 5; j++) {
         w->y[j] = S[CK_Y + j];
@@ -403,6 +473,10 @@ static void output_row(const double* S, double t, const CkTables* T, const doubl
 void ck_output_row(const double* S, double t, const CkTables* T, const double* P, double* row)
 {
     Scratch w;
+    if (!mode_ok(S, T)) {
+        for (int j = 0; j < CK_OUT_SIZE; j++) row[j] = NAN;
+        return;
+    }
     output_row(S, t, T, P, w.work, w.f, row);
 }
 
@@ -422,9 +496,11 @@ int ck_step(double* S, double t_limit, const CkTables* T, const double* P)
 int ck_advance(double* S, double t_target, double t_limit, const CkTables* T, const double* P, double* row)
 {
     Scratch w;
-    while (S[CK_T] < t_target)
-        if (step(S, t_limit, T, P, &w) == CK_UNDERFLOW) return CK_UNDERFLOW;
-    output_row(S, t_target, T, P, w.work, w.f, row);
+    while (S[CK_T] < t_target) {
+        int slot = step(S, t_limit, T, P, &w);
+        if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return slot;
+    }
+    ck_output_row(S, t_target, T, P, row);
     return 0;
 }
 
@@ -440,7 +516,7 @@ int ck_run_chunk(double* S, double t_end, const double* times, int n_times, int*
     while (S[CK_T] < t_end) {
         if (*n_store >= store_capacity || *n_events >= event_capacity || *n_modes >= mode_capacity) return 1;
         int slot = step(S, t_end, T, P, &w);
-        if (slot == CK_UNDERFLOW) return CK_UNDERFLOW;
+        if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return slot;
         while (*i_out < n_times && times[*i_out] <= S[CK_T]) {
             output_row(S, times[*i_out], T, P, w.work, w.f, rows + (size_t)(*i_out) * CK_OUT_SIZE);
             (*i_out)++;
@@ -528,7 +604,7 @@ static int one_turn(double* S, double phi_start, double omega_start, double t_ma
     double w_min = omega_start, w_max = omega_start;
     for (;;) {
         int slot = step(S, t_max, T, P, w);
-        if (slot == CK_UNDERFLOW) return 3;
+        if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return 3;
         int done = S[CK_Y] >= phi_end;
         double t_end = S[CK_T];
         if (done)

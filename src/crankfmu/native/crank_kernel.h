@@ -43,7 +43,7 @@ enum { CK_SLOPE_SAMPLES = 8, CK_STEADY_SIZE = 7 };
 #define CK_STEADY_UNDERFLOW 3.0
 
 /* what the stepping functions return besides an event slot */
-enum { CK_NO_EVENT = -1, CK_UNDERFLOW = -2 };
+enum { CK_NO_EVENT = -1, CK_UNDERFLOW = -2, CK_BAD_STATE = -3 };
 
 /* the largest number of tabulated functions (J, 0.5 J', Q, dQ/domega and one per slider force) */
 enum { CK_MAX_FUNCTIONS = 64 };
@@ -60,6 +60,19 @@ typedef struct {
     const double* forces;
     int n_sliders;
 } CkTables;
+
+/* the hash of the sources this library was compiled from (sources.py computes the same) */
+CK_API const char* ck_source_digest(void);
+
+/* the tableau as numbers: A (6x5), B (6), E (7), P (7x4), C (6) into out; returns the count */
+CK_API int ck_tableau(double* out, int n);
+
+/* one hybrid rule of crank_modes.h by number, on up to 10 arguments (the engine's Python rules,
+ * dynamics/modes.py, are compared with these rule by rule) */
+CK_API double ck_rule(int rule, const double* a);
+/* the switch-interval rules: k, and bounds[0:2] = (phi_lo, phi_hi) (in and out for the next) */
+CK_API int ck_interval_of_rule(const double* sw, int m, double phi, double direction, double* bounds);
+CK_API int ck_next_interval_rule(const double* sw, int m, int k, double* bounds, int forward);
 
 /* the layout as numbers, for callers that check theirs: fills out[0..n) and returns the count */
 CK_API int ck_layout(int* out, int n);

@@ -6,7 +6,7 @@ figures):
   equilibrium   the equilibrium moment and joint reactions at constant speed (seed 001)
   flywheel      the steady cycle, flywheel sizing and the eq. 3 step study (seed 003)
   schemes       the papers' crank-angle schemes against the reference (seed 000)
-  batch         steady cycles of many designs in one call of the compiled kernel
+  batch         steady cycles of many designs in one call of the C kernel
   sweep         a grid of designs, in parallel chunks, resumable
   paper_models  the papers' own approximate formulas, for comparison
 

@@ -3,7 +3,7 @@
 ``steady_cycles(scenario, designs)`` takes a list of parameter dicts (``SteadyBatch`` does the same
 and keeps its tables for the next call). Designs that differ only in
 the motor line or the flywheel (``CHEAP``) share one tabulated reduced model and are integrated
-together in one call of the compiled kernel (``kernel.steady_batch``); any other parameter
+together in one call of the C kernel (``native.steady_batch``); any other parameter
 (geometry, masses, load amplitudes, g) gives its own table. Each design's steady cycle is found by
 secant shooting on omega1 after one crank turn (a turn is integrated in time by the fast
 Dormand-Prince kernel, the motor kink and the slider forces' switches located), then that turn
@@ -26,7 +26,7 @@ from ..dynamics import MotorLine
 from ..errors import CrankfmuError
 from ..dynamics.tabulated import table_of
 from ..integrators.fast import TABLE_TOLERANCE
-from ..integrators.kernel import drivers, layout
+from .. import native as kernel
 from ..scenario import load_scenario
 
 #: parameters the kernel takes per design: designs differing only in these share a table
@@ -100,16 +100,16 @@ class SteadyBatch:
                 result.failed += [{**designs[i], "reason": str(built)} for i in members]
                 continue
             model, table = built
-            params = np.zeros((len(members), layout.PARAM_SIZE))
+            params = np.zeros((len(members), kernel.PARAM_SIZE))
             guesses = np.zeros(len(members))
             for row, i in enumerate(members):
                 v = checked[i]
                 motor = MotorLine(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
-                params[row] = layout.parameters(motor, v["J_flywheel"], 0.0, self.rtol, self.rtol)
+                params[row] = kernel.parameters(motor, v["J_flywheel"], 0.0, self.rtol, self.rtol)
                 guesses[row] = _omega_guess(table, v["J_flywheel"], motor, self._phi_grid)
-            out = np.zeros((len(members), layout.STEADY_SIZE))
-            drivers.steady_batch(params, float(model.y0[0]), guesses, self.shoot_tol, self.max_turns,
-                                 table.arrays(), out, layout.Workspace(table.coefficients.shape[0]).arrays())
+            out = np.zeros((len(members), kernel.STEADY_SIZE))
+            kernel.steady_batch(params, float(model.y0[0]), guesses, self.shoot_tol, self.max_turns,
+                                kernel.Tables(*table.arrays()), out)
             for row, i in enumerate(members):
                 status = int(out[row, 6])
                 if status != 0:

@@ -6,7 +6,7 @@ The grid is every combination of the swept values. Two studies:
   over one turn at constant crank speed, their peaks in ``peaks.csv``;
 - ``steady`` (any scenario with a motor): each design's steady cycle (omega1 mean, min, max and
   the coefficient of speed fluctuation delta) in ``steady.csv``, computed many designs per call
-  by ``crankfmu.studies.batch.steady_cycles`` on the compiled kernel.
+  by ``crankfmu.studies.batch.steady_cycles`` on the C kernel.
 
 The designs are cut into chunks and run on Dask: a local cluster of worker processes (one per
 core) by default, or an existing cluster with ``scheduler="tcp://host:8786"`` (its workers need

@@ -1,0 +1,36 @@
+"""Builds crankfmu's C kernel (src/crankfmu/native) with the package: a plain shared library that
+Python loads through ctypes and the native FMU compiles in. Everything else is in pyproject.toml."""
+
+import runpy
+import sys
+from pathlib import Path
+
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+
+native = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "native" / "sources.py"))
+
+
+class PlainLibrary(build_ext):
+    """crank_kernel.so (.dll): loaded by ctypes, not imported, so no Python ABI tag in its name and
+    no module init function to export."""
+
+    def get_ext_filename(self, fullname):
+        *package, _ = fullname.split(".")
+        return str(Path(*package) / native["library_name"](sys.platform))
+
+    def get_export_symbols(self, ext):
+        return []
+
+
+setup(
+    cmdclass={"build_ext": PlainLibrary},
+    ext_modules=[Extension(
+        "crankfmu.native.crank_kernel",
+        sources=["src/crankfmu/native/crank_kernel.c"],
+        depends=[f"src/crankfmu/native/{name}" for name in native["SOURCES"]],
+        extra_compile_args=[f for f in native["CFLAGS"] if f != "-fPIC"],
+        define_macros=[("CK_SOURCE_DIGEST", f'"{native["digest"]()}"')],
+        libraries=[] if sys.platform == "win32" else ["m"],
+    )],
+)

@@ -1,0 +1,25 @@
+"""The C kernel's sources and their content hash: what the library is compiled from and the name
+of what it was compiled from. The standard library only: setup.py runs this file by its path
+before anything is installed."""
+
+import hashlib
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+SOURCES = ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h")
+#: how the library is compiled, by setup.py and by the fallback: C99, no FMA contraction (the
+#: numbers do not depend on the CPU the library was compiled for)
+CFLAGS = ["-std=c99", "-O2", "-ffp-contract=off", "-fPIC"]
+
+
+def digest(folder: Path = HERE) -> str:
+    """The hash of the sources in ``folder``; the library returns the one it was compiled from
+    (ck_source_digest), so a library and sources of different content are never paired."""
+    h = hashlib.sha256()
+    for name in SOURCES:
+        h.update(name.encode() + b"\0" + (folder / name).read_bytes())
+    return h.hexdigest()[:16]
+
+
+def library_name(platform: str) -> str:
+    return "crank_kernel.dll" if platform == "win32" else "crank_kernel.so"
