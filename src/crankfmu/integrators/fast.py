@@ -65,9 +65,9 @@ class FastIntegrator(Integrator):
         i_out = 0
         stores, events, modes = [S[None, :].copy()], [], [(float(t0), _mode_name(S))]
         while True:
-            store = np.zeros((self.chunk, kernel.STATE_SIZE))
-            ev = np.zeros((self.chunk, 3))
-            md = np.zeros((self.chunk, 4))
+            store = np.empty((self.chunk, kernel.STATE_SIZE))     # the kernel fills each row it counts
+            ev = np.empty((self.chunk, 3))
+            md = np.empty((self.chunk, 4))
             status, i_out, n_store, n_ev, n_md = kernel.run_chunk(
                 S, float(t_end), times, i_out, rows, store, 0, ev, 0, md, 0, stepper.tables, stepper.P)
             stores.append(store[:n_store])
@@ -113,6 +113,7 @@ class FastStepper:
         self.state = np.zeros(kernel.STATE_SIZE)
         # the output row, filled in place by every step (an FMU's getters read it directly)
         self.row = np.zeros(kernel.OUT_SIZE) if row is None else row
+        self.bound = kernel.Bound(self.state, self.tables, self.P, self.row)
 
     def set_motor(self, motor):
         kernel.set_motor(self.P, motor)
@@ -141,7 +142,7 @@ class FastStepper:
     def advance(self, t_target: float, t_limit: float) -> np.ndarray:
         """Step to t_target (steps may end up to t_limit); the output row at t_target
         (phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red)."""
-        status = kernel.advance(self.state, t_target, t_limit, self.tables, self.P, self.row)
+        status = self.bound.advance(t_target, t_limit)
         if status == kernel.UNDERFLOW:
             raise SchemeError(f"fast: step size underflow at t = {self.state[kernel.T]:.9g} s")
         if status == kernel.BAD_STATE:

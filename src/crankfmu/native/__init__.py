@@ -72,7 +72,9 @@ def _load() -> ctypes.CDLL:
         lib = _open(_compile_into_cache())
     if lib is None:
         raise CrankfmuError(f"crankfmu's C kernel in the cache does not match its sources ({DIGEST})")
-    D, I = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_int)
+    # arrays go in as their addresses (c_void_p from a Python int): numpy's data_as() costs some
+    # microseconds a call, which an FMU step would pay three times
+    D, I = ctypes.c_void_p, ctypes.POINTER(ctypes.c_int)
     T = ctypes.c_void_p
     signatures = {
         "ck_layout": (ctypes.c_int, [I, ctypes.c_int]),
@@ -97,9 +99,9 @@ def _load() -> ctypes.CDLL:
 
 
 class _Tables(ctypes.Structure):
-    _fields_ = [("coefficients", ctypes.POINTER(ctypes.c_double)), ("n_functions", ctypes.c_int),
-                ("n", ctypes.c_int), ("switch_angles", ctypes.POINTER(ctypes.c_double)), ("m", ctypes.c_int),
-                ("forces", ctypes.POINTER(ctypes.c_double)), ("n_sliders", ctypes.c_int)]
+    _fields_ = [("coefficients", ctypes.c_void_p), ("n_functions", ctypes.c_int),
+                ("n", ctypes.c_int), ("switch_angles", ctypes.c_void_p), ("m", ctypes.c_int),
+                ("forces", ctypes.c_void_p), ("n_sliders", ctypes.c_int)]
 
 
 LIBRARY = _load()
@@ -164,8 +166,10 @@ def tableau() -> dict[str, np.ndarray]:
     return result
 
 
-def _d(array: np.ndarray):
-    return array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+def _d(array: np.ndarray) -> int:
+    """The address of a C-contiguous float64 array (the kernel reads and writes it in place)."""
+    assert array.dtype == np.float64 and array.flags.c_contiguous
+    return array.ctypes.data
 
 
 class Tables:
@@ -181,7 +185,7 @@ class Tables:
                                 f"(4 and one per slider force), got {C.shape[0]}")
         self.struct = _Tables(_d(C), C.shape[0], C.shape[1], _d(sw), sw.shape[0], _d(fo),
                               fo.shape[2] if fo.ndim == 3 else 0)
-        self.pointer = ctypes.cast(ctypes.pointer(self.struct), ctypes.c_void_p)
+        self.pointer = ctypes.addressof(self.struct)
 
 
 def begin(S, t, y, tables: Tables, P, row):
@@ -190,6 +194,19 @@ def begin(S, t, y, tables: Tables, P, row):
 
 def advance(S, t_target, t_limit, tables: Tables, P, row) -> int:
     return LIBRARY.ck_advance(_d(S), t_target, t_limit, tables.pointer, _d(P), _d(row))
+
+
+class Bound:
+    """The arrays of one stepper (state, parameters, output row) and its tables, their addresses
+    taken once: an FMU's step is one call with no conversion of its arrays."""
+
+    def __init__(self, S, tables: "Tables", P, row):
+        self.arrays = (S, P, row, tables)          # kept alive while bound
+        self.S, self.P, self.row, self.tables = _d(S), _d(P), _d(row), tables.pointer
+        self._advance = LIBRARY.ck_advance
+
+    def advance(self, t_target: float, t_limit: float) -> int:
+        return self._advance(self.S, t_target, t_limit, self.tables, self.P, self.row)
 
 
 def dense(S, t, out):
