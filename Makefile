@@ -21,6 +21,9 @@ $(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfm
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	@# the native FMUs' win64 binaries: Debian's MinGW-w64 cross compiler
+	@command -v x86_64-w64-mingw32-gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc-mingw-w64-x86-64; } \
+	  || echo "make: could not install gcc-mingw-w64-x86-64 (apt-get, as root): native FMUs get no win64 binary"
 	@# the ecos C++ master (ecospy wheel) links Debian's libtbb12
 	@ldconfig -p | grep -q 'libtbb.so.12' || { apt-get update -qq && apt-get install -y -qq libtbb12; } \
 	  || echo "make: could not install libtbb12 (apt-get, as root): the ecos master's checks will fail"
@@ -31,6 +34,8 @@ venv: $(STAMP)
 fmu: $(STAMP)
 	for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
 	$(BIN)/crankfmu fmu dc_pi --drive --out build/fmus
+	@# native FMUs (C, linux64 and win64, no Python on the host): scenarios without [[outputs]] so far
+	$(BIN)/crankfmu fmu seed000 --native --out build/fmus/native
 
 demo: fmu
 	$(BIN)/crankfmu simulate seed000 --out $(OUT)

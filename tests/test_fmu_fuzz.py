@@ -1,4 +1,4 @@
-"""Every FMU (the five mechanisms and Drive) fails loudly and safely whatever the host's logging
+"""Every FMU (the five mechanisms, Drive, the pumping unit and the native FourBar) fails loudly and safely whatever the host's logging
 setting (tests/fuzz_host.py).
 
 Each case is a child process (fmpy's FMU2Slave driving the FMU through raw FMI calls) with a time
@@ -29,7 +29,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-FMUS = ("FourBar", "ThreeLoop", "SliderCrank", "Shaper", "QuickReturn", "Drive", "PumpJack")
+FMUS = ("FourBar", "ThreeLoop", "SliderCrank", "Shaper", "QuickReturn", "Drive", "PumpJack", "native/FourBar")
 GROUPS = ("parameters", "designs", "calls", "cycles", "instances")
 TIME_LIMIT = 600     # s per child: a hang fails the case
 CASES = [(fmu, group, logging) for fmu in FMUS for group in GROUPS for logging in (False, True)]
@@ -70,6 +70,9 @@ def test_fmu_fails_loudly_and_safely(reports, fmu, group, logging):
     # the case exercised what it claims (a case that checks nothing cannot pass)
     if group == "parameters":
         assert counts["refused at fmi2SetReal"] > 0 and counts.get("accepted", 0) > 0
+    elif group == "designs" and fmu.startswith("native/"):
+        # a native FMU's geometry is fixed at build time: every design that changes it is refused
+        assert counts.get("designs refused at fmi2SetReal", 0) > 0
     elif group == "designs":
         assert counts.get("designs stepped for 2 s", 0) >= 5
         if fmu != "Drive":                      # a mechanism: its energy balance on every run

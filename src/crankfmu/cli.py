@@ -294,6 +294,14 @@ def cmd_check(args) -> int:
 
 
 def cmd_fmu(args) -> int:
+    if args.native:
+        if args.drive:
+            raise CrankfmuError("--native builds a scenario's FMU; Drive.fmu is a Python FMU")
+        from .fmi.native_build import build_native
+
+        path = build_native(args.source, Path(args.out), args.name)
+        print(f"built {path}")
+        return 0
     from .fmi.build import build
 
     path = build("drive" if args.drive else "scenario", args.source, Path(args.out), args.name)
@@ -407,6 +415,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for NAME.fmu and its cross-check files NAME_ref.csv/.opt")
     p.add_argument("--name", default=None, help="the FMU's model identifier (default: the file's fmu key)")
     p.add_argument("--drive", action="store_true", help="SCENARIO is a drive file (Drive.fmu: drives/dc_pi.toml)")
+    p.add_argument("--native", action="store_true",
+                   help="a native FMU (C, linux64 and win64 binaries, no Python needed on the host); its geometry, "
+                        "masses and loads are fixed at build time")
     p.set_defaults(func=cmd_fmu)
 
 

@@ -12,10 +12,14 @@
 #include "crank_modes.h"
 #include "crank_tableau.h"
 
+/* exported from the Python binding's library; the native FMU compiles the kernel in with
+ * -DCK_API= so that its binary exports the FMI functions only */
+#ifndef CK_API
 #if defined(_WIN32)
 #define CK_API __declspec(dllexport)
 #else
 #define CK_API __attribute__((visibility("default")))
+#endif
 #endif
 
 /* ---- the state array */

@@ -1,0 +1,272 @@
+"""``crankfmu fmu SCENARIO --native``: a native FMI 2.0 Co-Simulation FMU that needs nothing on the
+host machine, no Python and no numpy.
+
+The FMU is the C kernel (``native/crank_kernel.c``) behind one FMI shell (``native/fmu/crank_fmi2.c``)
+and the scenario as data, generated here: ``model_config.h`` (identifier, GUID, counts, the rebuild
+command) and ``model_data.c`` (the tables, tabulated now with their error bound checked, written
+as hexadecimal floats so the binary holds exactly the numbers the in-process fast path uses, and
+the table of variables). It is compiled for linux64 with gcc and, where Debian's
+``x86_64-w64-mingw32-gcc`` is installed, for win64; both link libgcc statically and nothing
+beyond the C library. The FMU carries its C sources (``sources/``, with the modelDescription's
+SourceFiles and a ``buildDescription.xml``) so that ``fmpy compile`` or a tool on another
+platform builds it.
+
+The geometry, masses, loads and gravity the tables were built from are declared as fixed
+parameters with their values: a host that sets another value gets fmi2Error and a message with
+the rebuild command. A, B, A_low, B_low, omega_switch, J_flywheel and rtol are tunable, tau_ext
+is the input, phi1_start and omega1_start set the initial state.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import subprocess
+import tempfile
+import zipfile
+from contextlib import ExitStack
+from pathlib import Path
+from xml.dom.minidom import parseString
+from xml.etree import ElementTree as ET
+
+from .. import units as si
+from ..atomic import replacing
+from ..contract import INPUTS, OUTPUTS
+from ..errors import CrankfmuError
+from ..native.sources import CFLAGS, HERE as NATIVE, SOURCES as KERNEL_SOURCES
+from .build import LS_REF, LS_REF_MANIFEST, cross_check_options, preflight, reference_result, stage
+
+SHELL = NATIVE / "fmu"
+SHELL_SOURCES = ("crank_fmi2.c", "crank_fmi2_model.h")
+#: the parameters the tables do not depend on, in the shell's value-reference order
+TUNABLE = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel", "phi1_start", "omega1_start", "rtol")
+#: set before initialisation only: they are the initial state
+INITIAL = ("phi1_start", "omega1_start")
+WIN64_CC = "x86_64-w64-mingw32-gcc"
+
+
+def _c_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _c_doubles(values) -> str:
+    """Hexadecimal float literals: the exact binary values, whatever the compiler's parsing."""
+    items = [float(v).hex() if v == v and abs(v) != float("inf") else ("NAN" if v != v else
+             ("INFINITY" if v > 0 else "-INFINITY")) for v in values] or ["0.0"]
+    lines = [", ".join(items[i:i + 4]) for i in range(0, len(items), 4)]
+    return "{\n    " + ",\n    ".join(lines) + "\n}"
+
+
+class NativeModel:
+    """What a native FMU is generated from: the scenario, its tables and its variables."""
+
+    def __init__(self, source, scenario_name):
+        from ..dynamics.tabulated import table_of
+        from ..integrators.fast import TABLE_TOLERANCE
+        from ..parameters import Parameter
+        from ..scenario import load_scenario
+
+        self.source = source
+        self.scenario = load_scenario(scenario_name)
+        if self.scenario.quantities:
+            raise CrankfmuError(f"{self.scenario.name}: the native FMU does not carry a scenario's [[outputs]] yet "
+                                f"({', '.join(q.name for q in self.scenario.quantities)}); build the Python FMU "
+                                "(crankfmu fmu without --native)")
+        model = self.scenario.build()
+        self.table = table_of(model.reduced, TABLE_TOLERANCE)
+        params = dict(self.scenario.parameters)
+        params["rtol"] = Parameter("rtol", self.scenario.experiment.tolerance, "1",
+                                   "relative tolerance of the FMU's integrator (Dormand-Prince 5(4), the C kernel)",
+                                   min=0.0, min_inclusive=False, tunable=True)
+        missing = [n for n in TUNABLE if n not in params]
+        if missing:
+            raise CrankfmuError(f"{self.scenario.name}: missing parameter(s) {', '.join(missing)}")
+        self.outputs = list(OUTPUTS)
+        self.input = INPUTS[0]
+        self.tunable = [params[n] for n in TUNABLE]
+        self.fixed = [p for n, p in params.items() if n not in TUNABLE]
+        self.rebuild = f"crankfmu fmu {scenario_name} --native --out DIR (after changing the value in the scenario file)"
+        text = repr((self.source.fmu, [float(x) for x in self.table.coefficients.ravel()[:64]],
+                     [(p.name, p.value) for p in (*self.tunable, *self.fixed)]))
+        digest = hashlib.sha256(text.encode()).hexdigest()
+        self.guid = "{" + f"{digest[:8]}-{digest[8:12]}-{digest[12:16]}-{digest[16:20]}-{digest[20:32]}" + "}"
+
+    # ------------------------------------------------------------------ generated C
+    def config_h(self) -> str:
+        exp = self.scenario.experiment
+        C = self.table.coefficients
+        return (f"/* generated by crankfmu fmu --native for scenario {self.scenario.name}: do not edit */\n"
+                "#ifndef MODEL_CONFIG_H\n#define MODEL_CONFIG_H\n"
+                f"#define MODEL_IDENTIFIER {_c_string(self.source.fmu)}\n"
+                f"#define MODEL_GUID {_c_string(self.guid)}\n"
+                f"#define MODEL_GUID_PREFIX16 {_c_string(self.guid[1:17])}\n"
+                f"#define N_VARIABLES {len(self.outputs) + 1 + len(self.tunable) + len(self.fixed)}\n"
+                f"#define DEFAULT_START_TIME {float(exp.start_time).hex()}\n"
+                f"#define REBUILD_COMMAND {_c_string(self.rebuild)}\n"
+                f"#define TABLE_FUNCTIONS {C.shape[0]}\n#define TABLE_INTERVALS {C.shape[1]}\n"
+                f"#define TABLE_SWITCHES {self.table.switch_angles.shape[0]}\n"
+                f"#define TABLE_SLIDERS {self.table.forces.shape[2] if self.table.forces.ndim == 3 else 0}\n"
+                "#endif\n")
+
+    def data_c(self) -> str:
+        def variable(name, kind, start=0.0, p=None, unit=""):
+            if p is None:
+                return f"    {{{_c_string(name)}, {kind}, {float(start).hex()}, 0, 1, 0, 0.0, 0.0, \"\", {_c_string(unit)}}},"
+            return (f"    {{{_c_string(name)}, {kind}, {float(p.value).hex()}, {int(p.min is not None)}, "
+                    f"{int(p.min_inclusive)}, {int(p.max is not None)}, {float(p.min or 0.0).hex()}, "
+                    f"{float(p.max or 0.0).hex()}, {_c_string(p.range_text())}, {_c_string(p.unit)}}},")
+
+        rows = [variable(v.name, "KIND_OUTPUT", unit=v.unit) for v in self.outputs]
+        rows.append(variable(self.input.name, "KIND_INPUT", 0.0, unit=self.input.unit))
+        rows += [variable(p.name, "KIND_TUNABLE", p=p) for p in self.tunable]
+        rows += [variable(p.name, "KIND_FIXED", p=p) for p in self.fixed]
+        t = self.table
+        return (f"/* generated by crankfmu fmu --native for scenario {self.scenario.name}: do not edit.\n"
+                f" * Tables: {t.construction}; {t.coefficients.shape[1]} intervals, checked error bound "
+                f"{t.error_bound:.3g} (relative tolerance {t.tolerance:g}). */\n"
+                '#include "crank_fmi2_model.h"\n\n'
+                f"const Variable VARIABLES[N_VARIABLES] = {{\n" + "\n".join(rows) + "\n};\n\n"
+                f"const double TABLE_COEFFICIENTS[] = {_c_doubles(t.coefficients.ravel())};\n"
+                f"const double TABLE_SWITCH_ANGLES[] = {_c_doubles(t.switch_angles.ravel())};\n"
+                f"const double TABLE_FORCES[] = {_c_doubles(t.forces.ravel())};\n")
+
+    def value_references(self) -> dict[str, int]:
+        names = [v.name for v in self.outputs] + [self.input.name] + [p.name for p in (*self.tunable, *self.fixed)]
+        return {n: i for i, n in enumerate(names)}
+
+    # ------------------------------------------------------------------ modelDescription
+    def model_description(self, sources: list[str]) -> bytes:
+        exp = self.scenario.experiment
+        root = ET.Element("fmiModelDescription", fmiVersion="2.0", modelName=self.source.fmu, guid=self.guid,
+                          description=self.scenario.title, generationTool="crankfmu (native)",
+                          variableNamingConvention="flat", numberOfEventIndicators="0")
+        cs = ET.SubElement(root, "CoSimulation", modelIdentifier=self.source.fmu, canHandleVariableCommunicationStepSize="true",
+                           canGetAndSetFMUstate="true", canSerializeFMUstate="true", canNotUseMemoryManagementFunctions="false")
+        files = ET.SubElement(cs, "SourceFiles")
+        for name in sources:
+            if name.endswith(".c"):
+                ET.SubElement(files, "File", name=name)
+        used = sorted({si.fmi_name(u) for u in [v.unit for v in self.outputs] + [self.input.unit] +
+                       [p.unit for p in (*self.tunable, *self.fixed)] if u != "1"})
+        unit_defs = ET.SubElement(root, "UnitDefinitions")
+        for unit in used:
+            ET.SubElement(ET.SubElement(unit_defs, "Unit", name=unit), "BaseUnit",
+                          {k: str(v) for k, v in si.base_units(unit).items()})
+        ET.SubElement(root, "DefaultExperiment", startTime=repr(exp.start_time), stopTime=repr(exp.stop_time),
+                      tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
+        variables = ET.SubElement(root, "ModelVariables")
+
+        def real(sv, unit, **attributes):
+            r = ET.SubElement(sv, "Real", **{k: v for k, v in attributes.items() if v is not None})
+            if unit != "1":
+                r.set("unit", si.fmi_name(unit))
+
+        for vr, v in enumerate(self.outputs):
+            sv = ET.SubElement(variables, "ScalarVariable", name=v.name, valueReference=str(vr), causality="output",
+                               variability="continuous", initial="calculated", description=v.description)
+            real(sv, v.unit)
+        vr = len(self.outputs)
+        sv = ET.SubElement(variables, "ScalarVariable", name=self.input.name, valueReference=str(vr),
+                           causality="input", variability="continuous", description=self.input.description)
+        real(sv, self.input.unit, start="0.0")
+        for p in (*self.tunable, *self.fixed):
+            vr += 1
+            fixed = p in self.fixed
+            variability = "fixed" if fixed or p.name in INITIAL else "tunable"
+            note = (f" (the tables were built for {p.value!r} {p.unit}; {self.rebuild})" if fixed
+                    else f" (valid range {p.range_text()})")
+            sv = ET.SubElement(variables, "ScalarVariable", name=p.name, valueReference=str(vr), causality="parameter",
+                               variability=variability, description=(p.description + note).strip())
+            lo = repr(float(p.value)) if fixed else (None if p.min is None else repr(float(p.min)))
+            hi = repr(float(p.value)) if fixed else (None if p.max is None else repr(float(p.max)))
+            real(sv, p.unit, start=repr(float(p.value)), min=lo, max=hi)
+        structure = ET.SubElement(root, "ModelStructure")
+        outputs = ET.SubElement(structure, "Outputs")
+        for i in range(len(self.outputs)):
+            ET.SubElement(outputs, "Unknown", index=str(i + 1))
+        initial = ET.SubElement(structure, "InitialUnknowns")
+        everything = " ".join(str(i + 1) for i in range(len(self.outputs), vr + 1))
+        for i in range(len(self.outputs)):
+            ET.SubElement(initial, "Unknown", index=str(i + 1), dependencies=everything)
+        return parseString(ET.tostring(root, encoding="UTF-8")).toprettyxml(encoding="UTF-8", indent="  ")
+
+    def parameters(self) -> dict:
+        return {p.name: p for p in (*self.tunable, *self.fixed)}
+
+
+def build_description(identifier: str, sources: list[str]) -> str:
+    files = "\n".join(f'      <SourceFile name="{name}"/>' for name in sources if name.endswith(".c"))
+    return (f'<?xml version="1.0" encoding="UTF-8"?>\n<fmiBuildDescription fmiVersion="3.0">\n'
+            f'  <BuildConfiguration modelIdentifier="{identifier}">\n'
+            f'    <SourceFileSet language="C99">\n{files}\n'
+            f'      <PreprocessorDefinition name="CK_API" value=""/>\n'
+            f'    </SourceFileSet>\n  </BuildConfiguration>\n</fmiBuildDescription>\n')
+
+
+def compile_binary(compiler: str, folder: Path, out: Path, windows: bool):
+    """The FMU's binary from the sources in ``folder``: C99, libgcc linked statically, nothing beyond
+    the C library (and libm on Linux); the FMI headers come with fmpy."""
+    import fmpy
+
+    headers = Path(fmpy.__file__).parent / "c-code"
+    flags = [f for f in CFLAGS if not (windows and f == "-fPIC")]
+    cmd = [compiler, *flags, "-shared", "-DCK_API=", f"-I{folder}", f"-I{headers}", "-static-libgcc",
+           "-o", str(out), *[str(folder / n) for n in sorted(p.name for p in folder.glob("*.c"))]]
+    cmd += [] if windows else ["-fvisibility=hidden", "-lm"]
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True)
+    except FileNotFoundError:
+        raise CrankfmuError(f"{compiler} not found; it compiles the native FMU's binary") from None
+    if done.returncode != 0:
+        raise CrankfmuError(f"compiling the native FMU with {compiler} failed: {done.stderr.strip()}")
+
+
+def build_native(data_name: str, dest: Path, name: str | None = None, win64: bool | None = None) -> Path:
+    """The native FMU of a scenario (a packaged name or a user's file) in ``dest``. ``win64``: also
+    the Windows binary (default: where x86_64-w64-mingw32-gcc is installed)."""
+    from . import documentation
+
+    source = preflight("scenario", data_name, name)
+    fmu = source.fmu
+    with stage(fmu, "tabulating the model"):
+        model = NativeModel(source, data_name)
+    if win64 is None:
+        win64 = shutil.which(WIN64_CC) is not None
+    dest.mkdir(parents=True, exist_ok=True)
+    out = dest / f"{fmu}.fmu"
+    with tempfile.TemporaryDirectory() as tmp, ExitStack() as written:
+        src = Path(tmp) / "sources"
+        src.mkdir()
+        for folder, names in ((NATIVE, KERNEL_SOURCES), (SHELL, SHELL_SOURCES)):
+            for n in names:
+                shutil.copy2(folder / n, src / n)
+        (src / "model_config.h").write_text(model.config_h())
+        (src / "model_data.c").write_text(model.data_c())
+        sources = sorted(p.name for p in src.iterdir())
+        with stage(fmu, "compiling the linux64 binary"):
+            compile_binary("gcc", src, Path(tmp) / f"{fmu}.so", windows=False)
+        if win64:
+            with stage(fmu, "compiling the win64 binary"):
+                compile_binary(WIN64_CC, src, Path(tmp) / f"{fmu}.dll", windows=True)
+        with stage(fmu, "the reference run of the default experiment"):
+            reference = reference_result(model.scenario)
+        with stage(fmu, "the modelDescription"):
+            md = model.model_description(sources)
+        with stage(fmu, "the documentation"):
+            docs = documentation.scenario_documentation(fmu, model.scenario, md, model.parameters(), reference)
+        partial = written.enter_context(replacing(out))
+        with stage(fmu, "writing the FMU"), zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("modelDescription.xml", md)
+            z.write(Path(tmp) / f"{fmu}.so", f"binaries/linux64/{fmu}.so")
+            if win64:
+                z.write(Path(tmp) / f"{fmu}.dll", f"binaries/win64/{fmu}.dll")
+            for n in sources:
+                z.write(src / n, f"sources/{n}")
+            z.writestr("sources/buildDescription.xml", build_description(fmu, sources))
+            for path, content in docs.items():
+                z.writestr(path, content)
+            z.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=fmu))
+            z.writestr(f"{LS_REF}/{fmu}_out.csv", reference)
+        Path(written.enter_context(replacing(dest / f"{fmu}_ref.csv"))).write_text(reference)
+        Path(written.enter_context(replacing(dest / f"{fmu}_ref.opt"))).write_text(cross_check_options(source))
+    return out

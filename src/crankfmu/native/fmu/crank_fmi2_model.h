@@ -1,0 +1,38 @@
+/* What the FMI shell (crank_fmi2.c) knows of the model it wraps: the contract's variables at fixed
+ * value references, and the data `crankfmu fmu --native` generates for one scenario
+ * (model_config.h: its identifier, GUID, counts and rebuild command; model_data.c: its tables and
+ * the table of every variable). */
+#ifndef CRANK_FMI2_MODEL_H
+#define CRANK_FMI2_MODEL_H
+
+#include "model_config.h"
+
+enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED };
+
+typedef struct {
+    const char* name;
+    int kind;
+    double start;          /* a fixed parameter: the value the tables were built for */
+    int has_min, min_inclusive, has_max;
+    double min, max;
+    const char* range;     /* the valid range as the refusal message states it */
+    const char* unit;
+} Variable;
+
+/* the contract's outputs (their row index in the kernel's output row), the input, the tunables */
+enum {
+    VR_PHI1, VR_OMEGA1, VR_EPSILON1, VR_M_MOTOR, VR_M_LOAD, VR_J_RED, VR_E_KIN, VR_W_MOTOR, VR_W_LOAD, VR_W_EXT,
+    N_OUTPUTS,
+    VR_TAU_EXT = N_OUTPUTS,
+    VR_A, VR_B, VR_A_LOW, VR_B_LOW, VR_OMEGA_SWITCH, VR_J_FLYWHEEL, VR_PHI1_START, VR_OMEGA1_START, VR_RTOL,
+    VR_FIRST_FIXED
+};
+enum { ROW_OMEGA1 = 1, ROW_J_RED = 8 };
+static const int OUTPUT_ROW[N_OUTPUTS] = {0, 1, 5, 6, 7, 8, -1, 2, 3, 4};
+
+extern const Variable VARIABLES[N_VARIABLES];
+extern const double TABLE_COEFFICIENTS[];
+extern const double TABLE_SWITCH_ANGLES[];
+extern const double TABLE_FORCES[];
+
+#endif
