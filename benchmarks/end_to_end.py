@@ -194,7 +194,7 @@ def fresh_environment(tmp: Path) -> dict:
 
     import crankfmu
 
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("CRANKFMU_", "NUMBA_"))}
+    env = {k: v for k, v in os.environ.items() if not k.startswith("CRANKFMU_")}
     (tmp / "home").mkdir(exist_ok=True)
     shutil.copytree(Path(crankfmu.__file__).parent, tmp / "site" / "crankfmu", ignore=shutil.ignore_patterns("__pycache__"))
     env.update(HOME=str(tmp / "home"), XDG_CACHE_HOME=str(tmp / "home" / ".cache"), PYTHONPATH=str(tmp / "site"))

@@ -219,7 +219,9 @@ def output_row(S, t, tables: Tables, P, row):
 
 def run_chunk(S, t_end, times, i_out, rows, step_store, n_store, events, n_events, modes, n_modes,
               tables: Tables, P):
-    """As the numba driver: returns (status, i_out, n_store, n_events, n_modes)."""
+    """Step towards t_end, filling output rows at ``times`` and storing each step's state for dense
+    output (a full buffer returns status 1: call again to continue). Returns (status, i_out,
+    n_store, n_events, n_modes); status 0: t_end reached, UNDERFLOW or BAD_STATE: refused."""
     counters = [ctypes.c_int(v) for v in (i_out, n_store, n_events, n_modes)]
     times = np.ascontiguousarray(times, dtype=float)
     status = LIBRARY.ck_run_chunk(_d(S), t_end, _d(times), times.shape[0], ctypes.byref(counters[0]), _d(rows),
