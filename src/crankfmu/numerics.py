@@ -169,8 +169,9 @@ def extremes(f, breaks, cells: int = 1440, xtol: float = 1e-8, margin: float = 0
     first = np.r_[True, piece[1:] != piece[:-1]]
     last = np.r_[piece[1:] != piece[:-1], True]
     inner = ~(first | last)
-    y = np.empty((np.atleast_2d(f(x[:1])).shape[0], x.size))
-    y[:, inner] = np.atleast_2d(f(x[inner]))
+    scanned = np.atleast_2d(f(x[inner]))
+    y = np.empty((scanned.shape[0], x.size))
+    y[:, inner] = scanned
     ends = ~inner
     y[:, ends] = one_sided_limits(f, x[ends], np.where(first[ends], 1.0, -1.0))
     out = {}

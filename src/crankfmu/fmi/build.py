@@ -72,7 +72,7 @@ def copy_runtime(dest: Path, files: dict | None = None, data=()):
     from .. import native
 
     # the C kernel travels compiled for linux64 (and its sources): the library this process loaded
-    library = Path(native.LIBRARY._name)
+    library = native.LIBRARY_PATH
 
     def ignore(folder, names):
         skip = {n for n in names if n == "__pycache__" or n.endswith((".so", ".dll", ".o"))}

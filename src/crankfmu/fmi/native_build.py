@@ -33,6 +33,7 @@ from .. import units as si
 from ..atomic import replacing
 from ..contract import INPUTS, OUTPUTS
 from ..errors import CrankfmuError
+from ..native import ROW_FIELDS
 from ..native.sources import CFLAGS, HERE as NATIVE, SOURCES as KERNEL_SOURCES
 from .build import LS_REF, LS_REF_MANIFEST, cross_check_options, preflight, reference_result, stage
 
@@ -101,6 +102,9 @@ class NativeModel:
                 f"#define MODEL_GUID {_c_string(self.guid)}\n"
                 f"#define MODEL_GUID_PREFIX16 {_c_string(self.guid[1:17])}\n"
                 f"#define N_VARIABLES {len(self.outputs) + 1 + len(self.tunable) + len(self.fixed)}\n"
+                f"#define N_OUTPUTS {len(self.outputs)}\n"
+                f"#define VR_E_KIN {[v.name for v in self.outputs].index('E_kin')}\n"
+                f"#define ROW_OMEGA1 {ROW_FIELDS.index('omega1')}\n#define ROW_J_RED {ROW_FIELDS.index('J_red')}\n"
                 f"#define DEFAULT_START_TIME {float(exp.start_time).hex()}\n"
                 f"#define REBUILD_COMMAND {_c_string(self.rebuild)}\n"
                 f"#define TABLE_FUNCTIONS {C.shape[0]}\n#define TABLE_INTERVALS {C.shape[1]}\n"
@@ -126,13 +130,14 @@ class NativeModel:
                 f"{t.error_bound:.3g} (relative tolerance {t.tolerance:g}). */\n"
                 '#include "crank_fmi2_model.h"\n\n'
                 f"const Variable VARIABLES[N_VARIABLES] = {{\n" + "\n".join(rows) + "\n};\n\n"
+                f"const int OUTPUT_ROW[N_OUTPUTS] = {{{', '.join(str(i) for i in self.output_rows())}}};\n\n"
                 f"const double TABLE_COEFFICIENTS[] = {_c_doubles(t.coefficients.ravel())};\n"
                 f"const double TABLE_SWITCH_ANGLES[] = {_c_doubles(t.switch_angles.ravel())};\n"
                 f"const double TABLE_FORCES[] = {_c_doubles(t.forces.ravel())};\n")
 
-    def value_references(self) -> dict[str, int]:
-        names = [v.name for v in self.outputs] + [self.input.name] + [p.name for p in (*self.tunable, *self.fixed)]
-        return {n: i for i, n in enumerate(names)}
+    def output_rows(self) -> list[int]:
+        """Each contract output's place in the kernel's output row; -1 for E_kin (from J_red, omega1)."""
+        return [ROW_FIELDS.index(v.name) if v.name in ROW_FIELDS else -1 for v in self.outputs]
 
     # ------------------------------------------------------------------ modelDescription
     def model_description(self, sources: list[str]) -> bytes:

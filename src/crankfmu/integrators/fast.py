@@ -75,10 +75,10 @@ class FastIntegrator(Integrator):
             modes += [(float(r[0]), _mode_name(r[1:], row=True)) for r in md[:n_md]]
             if progress is not None:
                 progress(float(S[kernel.T]))
-            if status in (kernel.UNDERFLOW, kernel.BAD_STATE):
-                raise SchemeError(f"fast: step size underflow at t = {S[kernel.T]:.9g} s")
             if status == 0:
                 break
+            if status != 1:                     # 1: a buffer is full, the next chunk continues
+                refused(status, S)
         store = np.concatenate(stores)
         trajectory = Trajectory(t=store[:, kernel.T].copy(), y=store[:, kernel.Y:kernel.Y + 5].T.copy(),
                                 dense=lambda tt: dense_from_store(store, tt), events=events, modes=modes,
@@ -89,6 +89,13 @@ class FastIntegrator(Integrator):
                                   "E_kin": hybrid.kinetic_energy(outputs["J_red"], rows[:, 1])}
         trajectory.table = table
         return trajectory
+
+
+def refused(status: int, state) -> None:
+    """The kernel's refusal as an error: a step size underflow, or a state it cannot have written."""
+    if status == kernel.UNDERFLOW:
+        raise SchemeError(f"fast: step size underflow at t = {state[kernel.T]:.9g} s")
+    raise SchemeError("fast: the kernel's state holds no mode it can have written (a corrupted FMU state)")
 
 
 def _mode_name(values, row: bool = False) -> str:
@@ -143,8 +150,6 @@ class FastStepper:
         """Step to t_target (steps may end up to t_limit); the output row at t_target
         (phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red)."""
         status = self.bound.advance(t_target, t_limit)
-        if status == kernel.UNDERFLOW:
-            raise SchemeError(f"fast: step size underflow at t = {self.state[kernel.T]:.9g} s")
-        if status == kernel.BAD_STATE:
-            raise SchemeError("fast: the kernel's state holds no mode it can have written (a corrupted FMU state)")
+        if status != 0:
+            refused(status, self.state)
         return self.row

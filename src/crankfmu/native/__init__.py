@@ -79,9 +79,7 @@ def _load() -> ctypes.CDLL:
     signatures = {
         "ck_layout": (ctypes.c_int, [I, ctypes.c_int]),
         "ck_begin": (None, [D, ctypes.c_double, D, T, D, D]),
-        "ck_step": (ctypes.c_int, [D, ctypes.c_double, T, D]),
         "ck_advance": (ctypes.c_int, [D, ctypes.c_double, ctypes.c_double, T, D, D]),
-        "ck_output_row": (None, [D, ctypes.c_double, T, D, D]),
         "ck_dense": (None, [D, ctypes.c_double, D]),
         "ck_run_chunk": (ctypes.c_int, [D, ctypes.c_double, D, ctypes.c_int, I, D, D, ctypes.c_int, I, D,
                                         ctypes.c_int, I, D, ctypes.c_int, I, T, D]),
@@ -105,6 +103,8 @@ class _Tables(ctypes.Structure):
 
 
 LIBRARY = _load()
+#: the library file in use (the FMU build ships it)
+LIBRARY_PATH = Path(LIBRARY._name)
 _LAYOUT_NAMES = ("T", "Y", "F_", "H", "MOTOR", "DIRECTION", "INTERVAL", "PHI_LO", "PHI_HI", "T_PREV", "Y_PREV", "K",
                  "N_RHS", "STEP_MOTOR", "STEP_DIRECTION", "STEP_INTERVAL", "N_STEPS", "STATE_SIZE", "N_Y",
                  "PARAM_SIZE", "OUT_SIZE", "STEADY_SIZE", "N_STAGES", "N_SLOTS", "MAX_FUNCTIONS")
@@ -192,10 +192,6 @@ def begin(S, t, y, tables: Tables, P, row):
     LIBRARY.ck_begin(_d(S), t, _d(np.ascontiguousarray(y, dtype=float)), tables.pointer, _d(P), _d(row))
 
 
-def advance(S, t_target, t_limit, tables: Tables, P, row) -> int:
-    return LIBRARY.ck_advance(_d(S), t_target, t_limit, tables.pointer, _d(P), _d(row))
-
-
 class Bound:
     """The arrays of one stepper (state, parameters, output row) and its tables, their addresses
     taken once: an FMU's step is one call with no conversion of its arrays."""
@@ -211,10 +207,6 @@ class Bound:
 
 def dense(S, t, out):
     LIBRARY.ck_dense(_d(S), t, _d(out))
-
-
-def output_row(S, t, tables: Tables, P, row):
-    LIBRARY.ck_output_row(_d(S), t, tables.pointer, _d(P), _d(row))
 
 
 def run_chunk(S, t_end, times, i_out, rows, step_store, n_store, events, n_events, modes, n_modes,

@@ -488,12 +488,6 @@ void ck_begin(double* S, double t, const double* y, const CkTables* T, const dou
     output_row(S, t, T, P, w.work, w.f, row);
 }
 
-int ck_step(double* S, double t_limit, const CkTables* T, const double* P)
-{
-    Scratch w;
-    return step(S, t_limit, T, P, &w);
-}
-
 int ck_advance(double* S, double t_target, double t_limit, const CkTables* T, const double* P, double* row)
 {
     Scratch w;

@@ -82,7 +82,6 @@ CK_API int ck_next_interval_rule(const double* sw, int m, int k, double* bounds,
 CK_API int ck_layout(int* out, int n);
 
 CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
-CK_API int ck_step(double* S, double t_limit, const CkTables* tables, const double* P);
 CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,
                       double* row);
 CK_API void ck_output_row(const double* S, double t, const CkTables* tables, const double* P, double* row);

@@ -19,16 +19,16 @@ typedef struct {
     const char* unit;
 } Variable;
 
-/* the contract's outputs (their row index in the kernel's output row), the input, the tunables */
+/* the outputs first (N_OUTPUTS, from the contract: model_config.h), then the input, the tunables
+ * (native_build.TUNABLE's order), then the fixed parameters */
 enum {
-    VR_PHI1, VR_OMEGA1, VR_EPSILON1, VR_M_MOTOR, VR_M_LOAD, VR_J_RED, VR_E_KIN, VR_W_MOTOR, VR_W_LOAD, VR_W_EXT,
-    N_OUTPUTS,
     VR_TAU_EXT = N_OUTPUTS,
     VR_A, VR_B, VR_A_LOW, VR_B_LOW, VR_OMEGA_SWITCH, VR_J_FLYWHEEL, VR_PHI1_START, VR_OMEGA1_START, VR_RTOL,
     VR_FIRST_FIXED
 };
-enum { ROW_OMEGA1 = 1, ROW_J_RED = 8 };
-static const int OUTPUT_ROW[N_OUTPUTS] = {0, 1, 5, 6, 7, 8, -1, 2, 3, 4};
+
+/* each output's place in the kernel's output row (-1: E_kin, computed from J_red and omega1) */
+extern const int OUTPUT_ROW[N_OUTPUTS];
 
 extern const Variable VARIABLES[N_VARIABLES];
 extern const double TABLE_COEFFICIENTS[];
