@@ -12,6 +12,9 @@ OUT    ?= build/demo
 
 .PHONY: demo test venv fmu validate bench soak hosts clean
 
+# fmpy starts its remoting server as `wine64`, which Debian installs as /usr/lib/wine/wine64
+export PATH := /usr/lib/wine:$(PATH)
+
 # the C kernel (src/crankfmu/native) is compiled by the installation: a change of its sources reinstalls
 $(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfmu/native/*.h)
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version' 
@@ -24,6 +27,9 @@ $(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfm
 	@# the native FMUs' win64 binaries: Debian's MinGW-w64 cross compiler
 	@command -v x86_64-w64-mingw32-gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc-mingw-w64-x86-64; } \
 	  || echo "make: could not install gcc-mingw-w64-x86-64 (apt-get, as root): native FMUs get no win64 binary"
+	@# Windows under wine: the native FMUs' win64 DLLs through fmpy's remoting (Debian's wine64)
+	@test -x /usr/lib/wine/wine64 || command -v wine64 >/dev/null || { apt-get update -qq && apt-get install -y -qq wine64; } \
+	  || echo "make: could not install wine64 (apt-get, as root): the win64 DLL checks will fail"
 	@# the ecos C++ master (ecospy wheel) links Debian's libtbb12
 	@ldconfig -p | grep -q 'libtbb.so.12' || { apt-get update -qq && apt-get install -y -qq libtbb12; } \
 	  || echo "make: could not install libtbb12 (apt-get, as root): the ecos master's checks will fail"
@@ -34,8 +40,8 @@ venv: $(STAMP)
 fmu: $(STAMP)
 	for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
 	$(BIN)/crankfmu fmu dc_pi --drive --out build/fmus
-	@# native FMUs (C, linux64 and win64, no Python on the host): scenarios without [[outputs]] so far
-	$(BIN)/crankfmu fmu seed000 --native --out build/fmus/native
+	@# native FMUs (C, linux64 and win64, no Python on the host)
+	for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
 
 demo: fmu
 	$(BIN)/crankfmu simulate seed000 --out $(OUT)

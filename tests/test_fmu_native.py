@@ -6,9 +6,11 @@ on PATH, refusals that are loud with logging off, and an FMU state restored bit 
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
@@ -18,31 +20,97 @@ import pytest
 from crankfmu.cli import main
 
 HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
 FIELDS = ("phi1", "omega1", "epsilon1", "M_motor", "M_load", "J_red", "E_kin", "W_motor", "W_load")
+PRESS = HERE / "data" / "user" / "togglepress_scenario.toml"
+#: the six packaged scenarios and the guide's press (a user's file), by FMU name
+SCENARIOS = {"FourBar": "seed000", "ThreeLoop": "seed001", "SliderCrank": "seed002", "Shaper": "seed003",
+             "QuickReturn": "seed004", "PumpJack": "pumpjack", "TogglePress": str(PRESS)}
+
+
+def _built(name: str, native: bool, scratch: Path) -> Path:
+    """build/fmus[/native]/NAME.fmu as `make fmu` leaves it; built here when pytest runs alone
+    (and always for the press, which `make fmu` does not build)."""
+    folder = ROOT / "build" / "fmus" / ("native" if native else "")
+    if name == "TogglePress" or not (folder / f"{name}.fmu").exists():
+        folder = scratch / ("native" if native else "python")
+        assert main(["fmu", SCENARIOS[name], *(["--native"] if native else []), "--out", str(folder)]) == 0
+    return folder / f"{name}.fmu"
 
 
 @pytest.fixture(scope="module")
-def native(tmp_path_factory):
-    out = tmp_path_factory.mktemp("native")
-    assert main(["fmu", "seed000", "--native", "--out", str(out)]) == 0
-    return out / "FourBar.fmu"
+def scratch(tmp_path_factory):
+    return tmp_path_factory.mktemp("fmus")
 
 
-def test_fmpy_finds_no_problem(native):
+@pytest.fixture(scope="module")
+def native(scratch):
+    return _built("FourBar", True, scratch)
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_fmpy_finds_no_problem(name, scratch):
     from fmpy.validation import validate_fmu
 
-    assert validate_fmu(str(native)) == []
+    assert validate_fmu(str(_built(name, True, scratch))) == []
 
 
-def test_the_native_fmu_gives_the_pythonfmu_fmus_numbers(native, fmu_path):
-    """Co-Simulation, default experiment, 1 ms: the same kernel on the same tables, so the same
-    numbers to rounding; the issue's bar is 1e-9 relative."""
+def _columns(result, names) -> dict:
+    return {n: np.asarray(result[n], dtype=float) for n in names}
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_the_native_fmu_gives_the_pythonfmu_fmus_numbers(name, scratch):
+    """Co-Simulation, default experiment, 1 ms, every output the two declare (the contract's and
+    the scenario's [[outputs]]): the same kernel on the same tables, and the [[outputs]] from
+    their tabulated transfer functions (checked to 1e-11 of each function's largest value) against
+    the analytic kinematics; the issue's bar is 1e-9 relative to each output's largest value."""
     import fmpy
 
-    a, b = fmpy.simulate_fmu(str(native)), fmpy.simulate_fmu(str(fmu_path))
-    assert a["time"][-1] == pytest.approx(2.0)
-    for name in FIELDS:
-        assert np.max(np.abs(a[name] - b[name])) <= 1e-9 * np.max(np.abs(b[name])), name
+    native_fmu, python_fmu = _built(name, True, scratch), _built(name, False, scratch)
+    a = fmpy.simulate_fmu(str(native_fmu), output_interval=1e-3)
+    b = fmpy.simulate_fmu(str(python_fmu), output_interval=1e-3)
+    names = [n for n in b.dtype.names if n != "time"]
+    assert set(names) <= set(a.dtype.names)
+    assert len(names) >= len(FIELDS) + (0 if name == "FourBar" else 1)
+    assert a["time"][-1] == pytest.approx(b["time"][-1])
+    for n in names:
+        scale = np.max(np.abs(b[n]))
+        assert np.max(np.abs(a[n] - b[n])) <= 1e-9 * scale, (n, np.max(np.abs(a[n] - b[n])) / max(scale, 1e-300))
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_model_exchange_through_cvode_matches_the_reference(name, scratch):
+    """Model Exchange: fmpy's CVode (rtol 1e-10) integrates the native FMU's states and finds its
+    events through the event indicators; the outputs on the default experiment's grid match the
+    in-process reference (DOP853 on the contour engine, not the tables) to 1e-6 relative, the
+    issue's bar. The [[outputs]] are checked against the analytic kinematics at the reference's
+    state."""
+    import fmpy
+
+    import crankfmu
+    from crankfmu.mechanisms.quantities import evaluate_all
+
+    fmu = _built(name, True, scratch)
+    scenario = crankfmu.load_scenario(SCENARIOS[name])
+    exp = scenario.experiment
+    grid = exp.start_time + exp.output_interval * np.arange(int(round((exp.stop_time - exp.start_time)
+                                                                        / exp.output_interval)) + 1)
+    me = fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-10,
+                           output_interval=exp.output_interval)
+    reference = crankfmu.simulate(scenario, method="reference", output_times=grid)
+    # the rows at the grid's times (an event adds rows: keep the one after it)
+    after = np.append(np.diff(me["time"]) > 0, True)
+    rows = np.searchsorted(me["time"][after], grid)
+    assert np.allclose(me["time"][after][rows], grid, rtol=0, atol=1e-9)
+    kin = scenario.build().mechanism.kinematics(reference.phi1)
+    expected = {n: getattr(reference, n) for n in FIELDS}
+    expected.update(evaluate_all(scenario.quantities, kin, reference.omega1, reference.epsilon1))
+    for n, values in expected.items():
+        got = me[n][after][rows]
+        scale = np.max(np.abs(values))
+        error = np.abs(got - values)
+        assert np.max(error) <= 1e-6 * scale, (n, float(np.max(error) / scale))
 
 
 def test_the_binaries_link_nothing_beyond_the_c_library(native, tmp_path):
@@ -82,7 +150,7 @@ def test_refusals_are_loud_with_logging_off(native, tmp_path):
     for name, value, expected in (("l1", 0.3, r"built for l1 = 0\.2.*crankfmu fmu seed000 --native"),
                                   ("J_flywheel", -1.0, r"J_flywheel = -1 is out of range: valid range \[0, inf\) kg\.m2"),
                                   ("A", float("nan"), r"parameter A = nan is out of range"),
-                                  ("omega1", 1.0, r"omega1 is an output")):
+                                  ("omega1", 1.0, r"omega1 is computed by the FMU: it cannot be set")):
         with pytest.raises(FMICallException):
             fmu.setReal([vr[name]], [value])
         assert re.search(expected, messages[-1]), messages[-1]
@@ -128,3 +196,123 @@ def test_a_c_host_runs_it_with_an_empty_environment_and_no_python(native, tmp_pa
     reference = fmpy.simulate_fmu(str(fmu_path))
     assert t == pytest.approx(2.0)
     assert abs(omega - reference["omega1"][-1]) <= 1e-9 * abs(reference["omega1"][-1])
+
+
+#: run by the wine test in a fresh process: the FMU's win64 DLL in fmpy's win64 server under wine
+REMOTE_RUN = """
+import sys, numpy as np, fmpy
+result = fmpy.simulate_fmu(sys.argv[1], remote_platform="win64", output_interval=1e-3)
+np.save(sys.argv[2], np.stack([result[n] for n in ("time",) + tuple(sys.argv[3:])]))
+"""
+
+
+def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(native, tmp_path):
+    """fmpy remotes an FMU that has no binary for the host's platform: a copy without
+    binaries/linux64 runs its win64 DLL in fmpy's server_tcp.exe under Debian's wine64 (which
+    `make` puts on PATH), in a fresh process with a fresh HOME and wine prefix. It matches the
+    linux64 binary to 1e-12 of each output's largest value (the two C libraries' pow and the like
+    differ in the last bits, so not bit for bit)."""
+    import fmpy
+
+    wine = shutil.which("wine64") or shutil.which("wine64", path="/usr/lib/wine")
+    if wine is None:
+        if os.environ.get("CI"):
+            pytest.fail("wine64 is missing: `make` installs Debian's wine64")
+        pytest.skip("wine64 is not installed (make installs it)")
+    windows_only = tmp_path / "FourBar.fmu"
+    with zipfile.ZipFile(native) as source, zipfile.ZipFile(windows_only, "w") as copy:
+        for item in source.infolist():
+            if not item.filename.startswith("binaries/linux64/"):
+                copy.writestr(item, source.read(item))
+    for folder in ("home", "tmp"):
+        (tmp_path / folder).mkdir()
+    env = {**os.environ, "HOME": str(tmp_path / "home"), "WINEPREFIX": str(tmp_path / "home" / ".wine"),
+           "WINEDEBUG": "-all", "TMPDIR": str(tmp_path / "tmp"),
+           "PATH": f"{Path(wine).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    command = [sys.executable, "-c", REMOTE_RUN, str(windows_only), str(tmp_path / "remote.npy"), *FIELDS]
+    if os.geteuid() == 0:
+        # fmpy 0.3.32's client makes its lock file with mode 000 and holds an fcntl lock on it,
+        # which wine cannot see; the server's watchdog opens the file for writing every 0.5 s and
+        # exits when that succeeds, leaving the client waiting forever. Root's override of file
+        # permissions makes it succeed at once: run as root without that capability (as any user)
+        command = ["setpriv", "--bounding-set=-dac_override,-dac_read_search", "--", *command]
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    remote = np.load(tmp_path / "remote.npy")
+    local = fmpy.simulate_fmu(str(native), output_interval=1e-3)
+    assert remote.shape[1] == local.size and remote[0][-1] == pytest.approx(2.0)
+    for i, name in enumerate(FIELDS, start=1):
+        scale = np.max(np.abs(local[name]))
+        assert np.max(np.abs(remote[i] - local[name])) <= 1e-12 * scale, name
+
+
+def test_no_event_indicator_is_zero_after_event_mode(scratch, tmp_path):
+    """A plain Model Exchange master (explicit Euler, 0.1 ms, an event wherever an indicator changes
+    sign) on ThreeLoop (slider forces that switch at their reversals) and FourBar (the motor's
+    kink): after every event update no indicator is 0 (the hysteresis) and the update settled in
+    one call; the states the FMU put on a switching surface are taken up."""
+    from ctypes import POINTER, c_double
+
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Model
+
+    def read(function, size):
+        out = np.zeros(size)
+        function(out.ctypes.data_as(POINTER(c_double)), size)
+        return out
+
+    for name in ("ThreeLoop", "FourBar"):
+        fmu_file = _built(name, True, scratch)
+        md = read_model_description(str(fmu_file))
+        fmu = FMU2Model(guid=md.guid, unzipDirectory=extract(str(fmu_file), str(tmp_path / name)),
+                        modelIdentifier=md.modelExchange.modelIdentifier, instanceName=name)
+        fmu.instantiate(loggingOn=False)
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        n, m = md.numberOfContinuousStates, md.numberOfEventIndicators
+        assert (n, m) == (5, 5)
+        fmu.newDiscreteStates()
+        fmu.enterContinuousTimeMode()
+        x, z = read(fmu.getContinuousStates, n), read(fmu.getEventIndicators, m)
+        assert np.all(z != 0.0)
+        t, h, events = 0.0, 1e-4, 0
+        while t < float(md.defaultExperiment.stopTime) - 0.5 * h:
+            x = x + h * read(fmu.getDerivatives, n)
+            t += h
+            fmu.setTime(t)
+            fmu.setContinuousStates(x.ctypes.data_as(POINTER(c_double)), n)
+            z_new = read(fmu.getEventIndicators, m)
+            if np.any(np.sign(z_new) != np.sign(z)):
+                events += 1
+                fmu.enterEventMode()
+                needed, terminate, _, states_changed, _, _ = fmu.newDiscreteStates()
+                assert not needed and not terminate
+                if states_changed:
+                    x = read(fmu.getContinuousStates, n)
+                fmu.enterContinuousTimeMode()
+                z_new = read(fmu.getEventIndicators, m)
+                assert np.all(z_new != 0.0), (name, t, z_new)
+            z = z_new
+        # FourBar crosses the kink once on its run-up; ThreeLoop's slider forces switch every turn
+        assert events >= {"FourBar": 1, "ThreeLoop": 4}[name], (name, events)
+        fmu.terminate()
+        fmu.freeInstance()
+
+
+@pytest.mark.parametrize("master", ["ecos", "ecospy", "libcosim"])
+def test_third_party_masters_run_it(master, native, reference):
+    """The ecos C++ command, ecospy (the same engine in process) and libcosim (OSP, FMI Library) run
+    the native FMU's default experiment at 1 ms and match the in-process reference (DOP853 on the
+    contour engine) to 1e-6 relative: the ecos command writes its CSV with 6 decimals."""
+    pytest.importorskip("ecospy")
+    pytest.importorskip("libcosimpy")
+    from crankfmu.validation import masters
+
+    run = masters.run(master, native, 2.0, 1e-3, ["omega1", "phi1"])
+    assert not run.error, run.output[-3000:]
+    assert run.time[-1] == pytest.approx(2.0, abs=1e-6)
+    for name in ("omega1", "phi1"):
+        got = run.values[name]
+        expected = np.interp(run.time, reference.time, getattr(reference, name))
+        assert np.max(np.abs(got - expected)) <= 1e-6 * np.max(np.abs(expected)), name

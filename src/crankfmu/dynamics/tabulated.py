@@ -246,6 +246,58 @@ def _from_samples(engine, tolerance: float, n_start: int, n_max: int, loosest: f
     return coefficients, error, f"cubic spline of {n} samples"
 
 
+@dataclass
+class QuantityTable:
+    """A scenario's [[outputs]] (mechanism-specific quantities) tabulated for the native FMU.
+
+    coefficients  (3 n_coordinates, n, 4): for each distinct coordinate (``Quantity.of``) the
+                  periodic cubics of q - winding phi1, q' and q'' (derivatives in phi1), in that order
+    coordinates   the coordinates, in the table's order
+    winding       (n_coordinates,) whole turns a coordinate makes per crank turn (a link that turns
+                  fully: its angle gains 2 pi winding per turn; 0 for every other coordinate)
+    error_bound   the checked largest relative difference from the analytic kinematics
+    """
+
+    coefficients: np.ndarray
+    coordinates: tuple[str, ...]
+    winding: np.ndarray
+    error_bound: float
+    construction: str
+
+
+def tabulate_quantities(mechanism, quantities, definition, tolerance: float = 1e-11, n_max: int = 1 << 16,
+                        loosest: float = 1e-8) -> QuantityTable:
+    """The transfer functions of ``quantities`` (mechanisms.quantities) as periodic cubics, to
+    ``tolerance`` relative to each function's largest magnitude, by the same constructions as
+    the reduced model's table."""
+    coordinates = tuple(dict.fromkeys(q.of for q in quantities))
+    first = {c: next(q for q in quantities if q.of == c) for c in coordinates}
+    # whole turns per crank turn, from the angle's increments over one turn (each taken in
+    # (-pi, pi], so a coordinate written modulo 2 pi is counted right)
+    grid = np.linspace(0.0, TWO_PI, 513)
+    kin = mechanism.kinematics(grid)
+    winding = []
+    for c in coordinates:
+        if not first[c].is_angle(definition):
+            winding.append(0.0)
+            continue
+        steps = np.diff(first[c].transfer(kin)[0])
+        winding.append(float(round(np.sum(steps - TWO_PI * np.round(steps / TWO_PI)) / TWO_PI)))
+    winding = np.array(winding)
+
+    def engine(phi1):
+        kin = mechanism.kinematics(np.asarray(phi1, dtype=float))
+        rows = []
+        for c, w in zip(coordinates, winding):
+            q, dq, ddq = first[c].transfer(kin)
+            rows += [q - w * phi1, dq, ddq]
+        return np.array(rows, dtype=float)
+
+    coefficients, error, construction = (_from_series(engine, tolerance)
+                                         or _from_samples(engine, tolerance, 256, n_max, loosest))
+    return QuantityTable(coefficients, coordinates, winding, error, construction)
+
+
 #: tables built in this process, per model and tolerance: they live as long as their model
 _TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 

@@ -30,18 +30,25 @@ class Quantity:
     description: str = ""
 
     def unit(self, definition) -> str:
-        base = "rad" if definition.unknowns.get(self.of) == "angle" else "m"
+        base = "rad" if self.is_angle(definition) else "m"
         return _SUFFIX[base][self.order]
+
+    def is_angle(self, definition) -> bool:
+        return definition.unknowns.get(self.of) == "angle"
+
+    def transfer(self, kin):
+        """(q, q', q''): the coordinate and its first two derivatives with respect to phi1 at the
+        kinematics' crank angles (what the native FMU tabulates)."""
+        if "." in self.of:
+            point, axis = self.of.split(".")
+            x, y, dx, dy, ddx, ddy = kin.point(point)
+            return (x, dx, ddx) if axis == "x" else (y, dy, ddy)
+        return kin.q[self.of], kin.dq[self.of], kin.ddq[self.of]
 
     def evaluate(self, kin, omega1, epsilon1=0.0):
         """The quantity at the kinematics' crank angles with crank speed omega1 (rad/s) and
         acceleration epsilon1 (rad/s2), scalars or arrays of the same length."""
-        if "." in self.of:
-            point, axis = self.of.split(".")
-            x, y, dx, dy, ddx, ddy = kin.point(point)
-            q, dq, ddq = (x, dx, ddx) if axis == "x" else (y, dy, ddy)
-        else:
-            q, dq, ddq = kin.q[self.of], kin.dq[self.of], kin.ddq[self.of]
+        q, dq, ddq = self.transfer(kin)
         if self.order == 0:
             return q
         if self.order == 1:

@@ -81,14 +81,13 @@ int ck_layout(int* out, int n)
     return count;
 }
 
-/* every tabulated function at phi into work[0:n_functions] */
-static void table_values(const CkTables* T, double phi, double* work)
+/* (static: the hot path inlines it; ck_periodic_cubics is its exported face) */
+static void periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out)
 {
-    int n = T->n;
     double h = CK_TWO_PI / n;
     double wrapped = phi - CK_TWO_PI * floor(phi / CK_TWO_PI);
-    if (!isfinite(wrapped)) {          /* a state gone non-finite: NaN coefficients, the step is refused */
-        for (int f = 0; f < T->n_functions; f++) work[f] = NAN;
+    if (!isfinite(wrapped)) {          /* a state gone non-finite: NaN values, the step is refused */
+        for (int f = 0; f < n_functions; f++) out[f] = NAN;
         return;
     }
     /* the interval index, clamped before the conversion: the rounding of a huge |phi| can put
@@ -96,10 +95,21 @@ static void table_values(const CkTables* T, double phi, double* work)
     double x = wrapped / h;
     int i = x <= 0.0 ? 0 : (x >= n ? n - 1 : (int)x);
     double u = wrapped - i * h;
-    for (int f = 0; f < T->n_functions; f++) {
-        const double* c = T->coefficients + ((size_t)f * n + i) * 4;
-        work[f] = c[0] + u * (c[1] + u * (c[2] + u * c[3]));
+    for (int f = 0; f < n_functions; f++) {
+        const double* c = coefficients + ((size_t)f * n + i) * 4;
+        out[f] = c[0] + u * (c[1] + u * (c[2] + u * c[3]));
     }
+}
+
+void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out)
+{
+    periodic_cubics(coefficients, n_functions, n, phi, out);
+}
+
+/* every tabulated function at phi into work[0:n_functions] */
+static void table_values(const CkTables* T, double phi, double* work)
+{
+    periodic_cubics(T->coefficients, T->n_functions, T->n, phi, work);
 }
 
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction */
@@ -197,14 +207,9 @@ static void set_interval(double* S, const CkTables* T, double phi, double direct
     S[CK_PHI_HI] = hi;
 }
 
-static void start(double* S, double t, const double* y, const CkTables* T, const double* P, Scratch* w)
+/* the discrete state (motor branch, direction, switch interval) of a start or a restart at y */
+static void set_mode(double* S, const double* y, const CkTables* T, const double* P, Scratch* w)
 {
-    S[CK_T] = t;
-    for (int j = 0; j < 5; j++) {
-        S[CK_Y + j] = y[j];
-        S[CK_Y_PREV + j] = y[j];
-    }
-    S[CK_T_PREV] = t;
     double omega = y[1], ws = P[CK_OMEGA_SWITCH];
     double motor = ck_motor_of_speed(omega, ws);
     double direction = ck_direction_of_speed(omega);
@@ -216,7 +221,19 @@ static void start(double* S, double t, const double* y, const CkTables* T, const
     }
     S[CK_MOTOR] = motor;
     S[CK_DIRECTION] = direction;
-    rhs(y[0], omega, motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
+}
+
+static void start(double* S, double t, const double* y, const CkTables* T, const double* P, Scratch* w)
+{
+    S[CK_T] = t;
+    for (int j = 0; j < 5; j++) {
+        S[CK_Y + j] = y[j];
+        S[CK_Y_PREV + j] = y[j];
+    }
+    S[CK_T_PREV] = t;
+    set_mode(S, y, T, P, w);
+    double motor = S[CK_MOTOR], direction = S[CK_DIRECTION];
+    rhs(y[0], y[1], motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
     for (int j = 0; j < 5; j++) {
         S[CK_F + j] = w->f[j];
         for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = s == CK_N_STAGES ? w->f[j] : 0.0;
@@ -668,4 +685,112 @@ void ck_steady_batch(const double* params, int n_designs, double phi_start, cons
         o[5] = turns;
         o[6] = status;
     }
+}
+
+/* ------------------------------------------------------------------ Model Exchange
+ *
+ * The same model for a host's integrator: S holds the discrete state (the mode) only, the host
+ * holds y. A mode ends where the Co-Simulation step would locate an event; the host finds the
+ * crossing of an event indicator, and ck_me_update applies the kernel's own transitions there.
+ *
+ * Hysteresis: a transition puts the state on the switching surface (transition() projects it,
+ * as the Co-Simulation step does), where the surface that would undo it has g = 0 exactly. Each
+ * indicator is therefore g moved by a small band towards the side where its mode lives, so no
+ * indicator is zero after event mode, and a mode ends once g is across by the band (ck_me_update
+ * accepts half of it, so a crossing the host located a little early still counts). The band is
+ * CK_HYSTERESIS relative to the surface's own scale: far below any tolerance a host can ask of
+ * its integrator, so it does not show in the results. */
+
+#define CK_HYSTERESIS 1e-10
+
+static double band(int slot, const double* S, const double* P)
+{
+    if (slot == CK_INTERVAL_END || slot == CK_INTERVAL_START)
+        return CK_HYSTERESIS * (1.0 + fmax(fabs(S[CK_PHI_LO]), fabs(S[CK_PHI_HI])));
+    if (slot == CK_REST) return CK_HYSTERESIS * (1.0 + fabs(P[CK_OMEGA_SWITCH]));
+    if (S[CK_MOTOR] == CK_SLIDE || slot == CK_SLIDE_HIGH)           /* torques, N.m */
+        return CK_HYSTERESIS * (1.0 + fabs(P[CK_A_]) + fabs(P[CK_A_LOW]));
+    return CK_HYSTERESIS * (1.0 + fabs(P[CK_OMEGA_SWITCH]));
+}
+
+void ck_me_mode(double* S, const double* y, const CkTables* T, const double* P)
+{
+    Scratch w;
+    set_mode(S, y, T, P, &w);
+}
+
+int ck_me_derivatives(const double* S, const double* y, const CkTables* T, const double* P, double* dydt,
+                      double* row)
+{
+    Scratch w;
+    if (!mode_ok(S, T)) return CK_BAD_STATE;
+    double M, Q, J;
+    double eps = rhs(y[0], y[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w.work, w.f, &M, &Q, &J);
+    if (dydt)
+        for (int j = 0; j < CK_N_Y; j++) dydt[j] = w.f[j];
+    if (row) {
+        for (int j = 0; j < CK_N_Y; j++) row[j] = y[j];
+        row[5] = eps;
+        row[6] = M;
+        row[7] = Q;
+        row[8] = J;
+    }
+    return 0;
+}
+
+/* stuck at rest: max(eps forward, -eps backward) > 0 once the crank would move (an input or a
+ * parameter changed); a surface the Co-Simulation step needs not, as it restarts on any change */
+static double unstick_value(const double* S, const double* y, const CkTables* T, const double* P, Scratch* w)
+{
+    double eps_forward = rhs(y[0], 0.0, S[CK_MOTOR], 1.0, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
+    double eps_backward = rhs(y[0], 0.0, S[CK_MOTOR], -1.0, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
+    return fmax(eps_forward, -eps_backward);
+}
+
+int ck_me_indicators(const double* S, const double* y, const CkTables* T, const double* P, double* z)
+{
+    Scratch w;
+    if (!mode_ok(S, T)) return CK_BAD_STATE;
+    events(S, y, T, P, w.work, w.g0);
+    for (int slot = 0; slot < CK_N_SLOTS; slot++) {
+        double g = w.g0[slot];
+        if (!isfinite(g)) {
+            z[slot] = 1.0;             /* inactive in this mode: a constant, never crossed */
+            continue;
+        }
+        double b = band(slot, S, P);
+        z[slot] = ck_event_rising(slot, S[CK_MOTOR], S[CK_DIRECTION]) ? g - b : g + b;
+    }
+    if (S[CK_DIRECTION] == 0.0 && T->n_sliders > 0)
+        z[CK_REST] = unstick_value(S, y, T, P, &w) - CK_HYSTERESIS;
+    return 0;
+}
+
+int ck_me_update(double* S, double* y, const CkTables* T, const double* P)
+{
+    Scratch w;
+    if (!mode_ok(S, T)) return CK_BAD_STATE;
+    int transitions = 0;
+    for (int round = 0; round < 4 * CK_N_SLOTS; round++) {
+        if (S[CK_DIRECTION] == 0.0) {
+            if (T->n_sliders == 0) return transitions;
+            double direction = direction_at_rest(y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, w.work, w.f);
+            if (direction == 0.0) return transitions;
+            S[CK_DIRECTION] = direction;
+            set_interval(S, T, y[0], direction);
+            transitions++;
+            continue;
+        }
+        events(S, y, T, P, w.work, w.g0);
+        int ended = -1;
+        for (int slot = 0; slot < CK_N_SLOTS && ended < 0; slot++) {
+            double g = w.g0[slot], half = 0.5 * band(slot, S, P);
+            if (!isfinite(g)) continue;
+            if (ck_event_rising(slot, S[CK_MOTOR], S[CK_DIRECTION]) ? g >= half : g <= -half) ended = slot;
+        }
+        if (ended < 0) return transitions;
+        transition(S, ended, y, T, P, w.work, w.f);
+        transitions++;
+    }
+    return CK_NO_FIXED_POINT;
 }

@@ -47,7 +47,7 @@ enum { CK_SLOPE_SAMPLES = 8, CK_STEADY_SIZE = 7 };
 #define CK_STEADY_UNDERFLOW 3.0
 
 /* what the stepping functions return besides an event slot */
-enum { CK_NO_EVENT = -1, CK_UNDERFLOW = -2, CK_BAD_STATE = -3 };
+enum { CK_NO_EVENT = -1, CK_UNDERFLOW = -2, CK_BAD_STATE = -3, CK_NO_FIXED_POINT = -4 };
 
 /* the largest number of tabulated functions (J, 0.5 J', Q, dQ/domega and one per slider force) */
 enum { CK_MAX_FUNCTIONS = 64 };
@@ -81,6 +81,10 @@ CK_API int ck_next_interval_rule(const double* sw, int m, int k, double* bounds,
 /* the layout as numbers, for callers that check theirs: fills out[0..n) and returns the count */
 CK_API int ck_layout(int* out, int n);
 
+/* n_functions periodic cubics on n intervals of one turn (the layout of CkTables.coefficients) at
+ * phi into out[0:n_functions] */
+CK_API void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out);
+
 CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
 CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,
                       double* row);
@@ -93,5 +97,18 @@ CK_API int ck_run_chunk(double* S, double t_end, const double* times, int n_time
 CK_API void ck_dense_many(const double* store, int n_store, const double* times, int n_times, double* out);
 CK_API void ck_steady_batch(const double* params, int n_designs, double phi_start, const double* omega_guess,
                             double rtol_shoot, int max_turns, const CkTables* tables, double* out);
+
+/* ---- Model Exchange (the native FMU): the host integrates y = (phi1, omega1, W_motor, W_load,
+ * W_ext); S holds the mode (CK_MOTOR .. CK_PHI_HI) */
+/* the mode of a start or restart at y */
+CK_API void ck_me_mode(double* S, const double* y, const CkTables* tables, const double* P);
+/* dy/dt in S's mode into dydt, and the output row into row (either may be NULL); 0 or CK_BAD_STATE */
+CK_API int ck_me_derivatives(const double* S, const double* y, const CkTables* tables, const double* P,
+                             double* dydt, double* row);
+/* the CK_N_SLOTS event indicators, with hysteresis (never 0 right after ck_me_update); 0 or CK_BAD_STATE */
+CK_API int ck_me_indicators(const double* S, const double* y, const CkTables* tables, const double* P, double* z);
+/* event mode: every transition whose surface y is across, y put on the surface; returns how many
+ * (0: nothing changed), CK_BAD_STATE, or CK_NO_FIXED_POINT when the transitions do not settle */
+CK_API int ck_me_update(double* S, double* y, const CkTables* tables, const double* P);
 
 #endif

@@ -5,9 +5,10 @@
 #ifndef CRANK_FMI2_MODEL_H
 #define CRANK_FMI2_MODEL_H
 
+#include "crank_kernel.h"
 #include "model_config.h"
 
-enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED };
+enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED, KIND_QUANTITY, KIND_DERIVATIVE };
 
 typedef struct {
     const char* name;
@@ -19,13 +20,19 @@ typedef struct {
     const char* unit;
 } Variable;
 
-/* the outputs first (N_OUTPUTS, from the contract: model_config.h), then the input, the tunables
- * (native_build.TUNABLE's order), then the fixed parameters */
+/* value references, in native_build.NativeModel.variables()'s order: the contract's outputs first
+ * (N_OUTPUTS, model_config.h), then the input, the tunables (native_build.TUNABLE's order), the
+ * fixed parameters (N_FIXED), the scenario's [[outputs]] (N_QUANTITIES), and the derivatives of
+ * the Model Exchange states (phi1, omega1, W_motor, W_load, W_ext: the kernel's y) */
 enum {
     VR_TAU_EXT = N_OUTPUTS,
     VR_A, VR_B, VR_A_LOW, VR_B_LOW, VR_OMEGA_SWITCH, VR_J_FLYWHEEL, VR_PHI1_START, VR_OMEGA1_START, VR_RTOL,
     VR_FIRST_FIXED
 };
+#define VR_FIRST_QUANTITY (VR_FIRST_FIXED + N_FIXED)
+#define VR_FIRST_DERIVATIVE (VR_FIRST_QUANTITY + N_QUANTITIES)
+#define N_STATES CK_N_Y
+#define N_VARIABLES (VR_FIRST_DERIVATIVE + N_STATES)
 
 /* each output's place in the kernel's output row (-1: E_kin, computed from J_red and omega1) */
 extern const int OUTPUT_ROW[N_OUTPUTS];
@@ -34,5 +41,14 @@ extern const Variable VARIABLES[N_VARIABLES];
 extern const double TABLE_COEFFICIENTS[];
 extern const double TABLE_SWITCH_ANGLES[];
 extern const double TABLE_FORCES[];
+
+/* the [[outputs]]: quantity k is order QUANTITY_ORDER[k] (0 position, 1 velocity, 2 acceleration)
+ * of coordinate QUANTITY_COORDINATE[k]; coordinate c's functions 3c, 3c + 1, 3c + 2 in
+ * QUANTITY_COEFFICIENTS are q - QUANTITY_WINDING[c] phi1, q' and q'' (dynamics/tabulated.py,
+ * QuantityTable) */
+extern const int QUANTITY_COORDINATE[];
+extern const int QUANTITY_ORDER[];
+extern const double QUANTITY_WINDING[];
+extern const double QUANTITY_COEFFICIENTS[];
 
 #endif
