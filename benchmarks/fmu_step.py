@@ -71,30 +71,34 @@ def step_loop(fmu_path: Path, step: float, stop: float):
     return elapsed / n, omega
 
 
-def measure(fourbar: Path, step: float, stop: float, repeats: int) -> dict:
-    """Per-step and whole-run wall times of FourBar.fmu and the do-nothing FMU (lists of seconds,
-    interleaved runs), and FourBar's max |omega1 error| against the in-process reference."""
+def measure(fourbar: Path, step: float, stop: float, repeats: int, extra: dict | None = None) -> dict:
+    """Per-step and whole-run wall times of FourBar.fmu, the do-nothing FMU and the ``extra`` FMUs
+    ({label: path}, seed 000's too: the native FMU) (lists of seconds, interleaved runs), and the
+    max |omega1 error| of each seed-000 FMU against the in-process reference ("error": FourBar's,
+    "errors": by label)."""
     import fmpy
 
     import crankfmu
 
     with tempfile.TemporaryDirectory() as tmp:
         noop = build_noop(Path(tmp))
-        per_step = {"FourBar.fmu": [], "do-nothing FMU": []}
-        whole = {"FourBar.fmu": [], "do-nothing FMU": []}
-        omega = None
-        for _ in range(repeats):       # interleaved, so both see the same machine load
-            for label, path in (("FourBar.fmu", fourbar), ("do-nothing FMU", noop)):
+        fmus = {"FourBar.fmu": fourbar, "do-nothing FMU": noop, **(extra or {})}
+        per_step = {label: [] for label in fmus}
+        whole = {label: [] for label in fmus}
+        omega = {}
+        for _ in range(repeats):       # interleaved, so all see the same machine load
+            for label, path in fmus.items():
                 seconds, w = step_loop(path, step, stop)
                 per_step[label].append(seconds)
-                if label == "FourBar.fmu":
-                    omega = w
+                if path != noop:
+                    omega[label] = w
                 started = time.perf_counter()
                 fmpy.simulate_fmu(str(path), stop_time=stop, output_interval=step, output=["omega1"])
                 whole[label].append(time.perf_counter() - started)
-    times = step * np.arange(1, omega.size + 1)
+    times = step * np.arange(1, omega["FourBar.fmu"].size + 1)
     reference = crankfmu.simulate("seed000", t_end=stop, output_times=times, rtol=1e-13).omega1
-    return {"per_step": per_step, "whole": whole, "error": float(np.max(np.abs(omega - reference)))}
+    errors = {label: float(np.max(np.abs(w - reference))) for label, w in omega.items()}
+    return {"per_step": per_step, "whole": whole, "error": errors["FourBar.fmu"], "errors": errors}
 
 
 def main(argv=None) -> int:

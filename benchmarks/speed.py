@@ -87,6 +87,8 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="fewer settings and repeats (a smoke run)")
     parser.add_argument("--out", default=str(ROOT / "build" / "bench"))
     parser.add_argument("--fmu", default=str(ROOT / "build" / "fmus" / "FourBar.fmu"))
+    parser.add_argument("--native", default=str(ROOT / "build" / "fmus" / "native" / "FourBar.fmu"),
+                        help="the native FMU of seed 000 (crankfmu fmu seed000 --native)")
     parser.add_argument("--designs", type=int, default=10000, help="designs of the steady-cycle sweep")
     args = parser.parse_args(argv)
     out = Path(args.out)
@@ -158,13 +160,25 @@ def main(argv=None) -> int:
     if Path(args.fmu).exists():
         import fmu_step
 
-        m = fmu_step.measure(Path(args.fmu), 1e-3, 2.0, 2 if args.quick else 5)
+        native = {"native FourBar.fmu": Path(args.native)} if Path(args.native).exists() else {}
+        m = fmu_step.measure(Path(args.fmu), 1e-3, 2.0, 2 if args.quick else 5, extra=native)
         fb = statistics.median(m["per_step"]["FourBar.fmu"])
         nop = statistics.median(m["per_step"]["do-nothing FMU"])
-        fmu = {"us_per_step": 1e6 * fb, "noop_us_per_step": 1e6 * nop, "ratio": fb / nop, "omega1_error": m["error"],
+        if native:
+            import native_step
+
+            nat = statistics.median(m["per_step"]["native FourBar.fmu"])
+            in_c = native_step.c_driver_per_step(Path(args.native), 1e-3, 2.0, 3 if args.quick else 11)
+            fmu["native"] = {"fmpy_us_per_step": 1e6 * nat, "fmpy_omega1_error": m["errors"]["native FourBar.fmu"],
+                             "c_driver_us_per_step": in_c["us_per_step"],
+                             "c_driver_omega1_error": abs(in_c["omega1"] - float(truth[-1]))}
+            rows.append({"family": "native FourBar.fmu via fmpy, 1 ms steps", "setting": "rtol 1e-11 (default)",
+                         "omega1_error": m["errors"]["native FourBar.fmu"], "time_s": nat * 2000, "n_rhs": None,
+                         "note": f"{1e6 * nat:.2f} us/step; in the C driver {in_c['us_per_step']:.3f} us/step"})
+        fmu.update({"us_per_step": 1e6 * fb, "noop_us_per_step": 1e6 * nop, "ratio": fb / nop, "omega1_error": m["error"],
                "whole_s": statistics.median(m["whole"]["FourBar.fmu"]),
                "noop_whole_s": statistics.median(m["whole"]["do-nothing FMU"]),
-               "reset_init_s": end_to_end.fmu_reset_and_initialise(Path(args.fmu), 3 if args.quick else 7)}
+               "reset_init_s": end_to_end.fmu_reset_and_initialise(Path(args.fmu), 3 if args.quick else 7)})
         rows.append({"family": "FourBar.fmu via fmpy, 1 ms steps", "setting": "rtol 1e-11 (default)",
                      "omega1_error": m["error"], "time_s": fb * 2000, "n_rhs": None,
                      "note": f"{1e6 * fb:.1f} us/step; do-nothing FMU {1e6 * nop:.1f} us/step"})
@@ -264,6 +278,20 @@ def main(argv=None) -> int:
         else:
             lines_note = "not measured with --quick" if args.quick else "no FMU to run"
             targets17.append((what, lines_note, None))
+    if fmu.get("native") and c_limit:
+        nat = fmu["native"]
+        c_limit_us = 1e6 * c_limit[2] / 2000
+        targets17.append(("native FourBar.fmu per 1 ms step in the C driver <= 3x the hand-written C RK4 limit "
+                          "(issue 27)",
+                          f"{nat['c_driver_us_per_step']:.3f} us/step (omega1 at 2 s off by "
+                          f"{nat['c_driver_omega1_error']:.1e} rad/s) vs C RK4 {c_limit_us:.3f} us per 1 ms at "
+                          f"{c_limit[1]:.1e} rad/s; ratio {nat['c_driver_us_per_step'] / c_limit_us:.2f}",
+                          nat["c_driver_us_per_step"] <= 3 * c_limit_us))
+        targets17.append(("native FourBar.fmu per 1 ms step through fmpy, against the do-nothing pythonfmu FMU "
+                          "(issue 27: reported)",
+                          f"{nat['fmpy_us_per_step']:.2f} vs {fmu['noop_us_per_step']:.2f} us/step, ratio "
+                          f"{nat['fmpy_us_per_step'] / fmu['noop_us_per_step']:.2f}; omega1 error "
+                          f"{nat['fmpy_omega1_error']:.1e} rad/s", nat["fmpy_omega1_error"] <= TARGET_ERROR))
     lines += ["", "## Targets (issue 17)", "", "| target | measured | met |", "|---|---|---|"]
     lines += [f"| {t} | {m} | {'MET' if ok else ('NOT MET' if ok is not None else 'not measured')} |"
               for t, m, ok in targets17]

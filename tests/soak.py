@@ -29,10 +29,12 @@ TIME_LIMIT = 120
 
 FMPY_HOST = r"""
 import sys
-from fmpy import read_model_description
+from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi1 import FMICallException
 where, case, refusable = sys.argv[1], sys.argv[2], sys.argv[3]
+for other in sys.argv[4:]:       # another vendor's FMU first, in the same process
+    simulate_fmu(other, stop_time=0.03, output_interval=0.01)
 md = read_model_description(where)
 vr = {v.name: v.valueReference for v in md.modelVariables}
 fmu = FMU2Slave(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
@@ -70,13 +72,16 @@ def build_driver(where: Path) -> Path:
     return out
 
 
-def command(host: str, case: str, unzipped: str, md, driver: Path) -> tuple[list[str], set[int]]:
-    """The command of one process and the exit statuses that are normal for it."""
+def command(host: str, case: str, unzipped: str, md, driver: Path, stock: Path | None = None
+            ) -> tuple[list[str], set[int]]:
+    """The command of one process and the exit statuses that are normal for it (host "fmpy+stock":
+    fmpy that runs the stock pythonfmu FMU ``stock`` first)."""
     # a parameter whose declared minimum makes -1 a refusal (J_flywheel in the mechanisms)
     refusable = next(v.name for v in md.modelVariables
                      if v.causality == "parameter" and v.min is not None and float(v.min) >= 0)
-    if host == "fmpy":
-        return [sys.executable, "-c", FMPY_HOST, unzipped, case, refusable], {0}
+    if host.startswith("fmpy"):
+        others = [str(stock)] if host == "fmpy+stock" else []
+        return [sys.executable, "-c", FMPY_HOST, unzipped, case, refusable, *others], {0}
     vr = {v.name: v.valueReference for v in md.modelVariables}
     env = ["env", "-i", f"FMU_DRIVER_LOGGING={'0' if case == 'quiet' else '1'}",
            f"FMU_DRIVER_NO_FREE={'1' if case == 'no-free' else '0'}"]
@@ -104,8 +109,10 @@ def run_one(cmd: list[str], normal: set[int]) -> str | None:
     return None
 
 
-def soak(fmus: list[Path], per_fmu: int, jobs: int = 2, progress=None) -> dict:
-    """{(fmu, host): {"processes": n, "abnormal": [reasons], "cases": {case names}}}."""
+def soak(fmus: list[Path], per_fmu: int, jobs: int = 2, progress=None, stock: Path | None = None) -> dict:
+    """{(fmu, host): {"processes": n, "abnormal": [reasons], "cases": {case names}}}. With ``stock``
+    (a stock pythonfmu FMU) every third process is an fmpy host that runs it first."""
+    hosts = ("fmpy", "c-driver", "fmpy+stock") if stock else ("fmpy", "c-driver")
     from fmpy import extract, read_model_description
 
     results: dict = {}
@@ -116,9 +123,9 @@ def soak(fmus: list[Path], per_fmu: int, jobs: int = 2, progress=None) -> dict:
             md = read_model_description(str(fmu))
             unzipped = extract(str(fmu), unzipdir=str(Path(tmp) / fmu.stem))
             for i in range(per_fmu):
-                host = ("fmpy", "c-driver")[i % 2]
-                case = CASES[(i // 2 + k) % len(CASES)]     # offset per FMU: a short soak sees every case
-                plan.append(((fmu.stem, host), case, *command(host, case, unzipped, md, driver)))
+                host = hosts[i % len(hosts)]
+                case = CASES[(i // len(hosts) + k) % len(CASES)]   # offset per FMU: a short soak sees every case
+                plan.append(((fmu.stem, host), case, *command(host, case, unzipped, md, driver, stock)))
         done = 0
         with ThreadPoolExecutor(max_workers=jobs) as pool:
             futures = [(key, case, pool.submit(run_one, cmd, normal)) for key, case, cmd, normal in plan]

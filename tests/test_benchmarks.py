@@ -22,18 +22,29 @@ def test_fmu_step_benchmark_reports_both_fmus_their_ratio_and_the_error(fmu_path
 def test_speed_benchmark_prints_the_table_and_every_target_with_its_measure(fmu_path, tmp_path, capsys):
     import speed
 
-    assert speed.main(["--quick", "--designs", "400", "--fmu", fmu_path, "--out", str(tmp_path)]) == 0
+    from pathlib import Path
+
+    from crankfmu.cli import main
+
+    native = Path(fmu_path).parent / "native" / "FourBar.fmu"
+    if not native.exists():
+        assert main(["fmu", "seed000", "--native", "--out", str(tmp_path / "native")]) == 0
+        native = tmp_path / "native" / "FourBar.fmu"
+    assert speed.main(["--quick", "--designs", "400", "--fmu", fmu_path, "--native", str(native),
+                       "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     for family in ("crankfmu fast", "solve_ivp RK45", "solve_ivp DOP853", "solve_ivp LSODA", "paper eq. 17",
-                   "crankfmu reference", "FourBar.fmu via fmpy"):
+                   "crankfmu reference", "FourBar.fmu via fmpy", "native FourBar.fmu via fmpy"):
         assert f"| {family}" in out
     assert out.count("| yes |") + out.count("| NO |") == 4           # the four targets, each judged
     # issue 17: where simulate()'s time goes, and its five targets (the first runs on a fresh machine
-    # are not measured with --quick, and say so)
+    # are not measured with --quick, and say so); issue 27: the native FMU in the C driver against
+    # the C RK4 limit, and through fmpy against the do-nothing FMU
     for name in ("seed000", "seed001", "seed003"):
         assert re.search(rf"\| {name} \| [\d.]+ \| [\d.]+ \| [\d.]+ \| [\d.]+ \| [\d.]+ \| [\d.]+ \|", out)
     judged = out.count("| MET |") + out.count("| NOT MET |")
-    assert judged == 3 and out.count("| not measured |") == 2
+    assert judged == 5 and out.count("| not measured |") == 2
+    assert re.search(r"native FourBar.fmu per 1 ms step in the C driver .* ratio [\d.]+ \|", out)
     assert "hand-written right-hand side" in out
     limit = re.search(r"the C RK4 limit: ([\d.]+) ms at (\S+) rad/s", out)      # measured, at the target error
     assert limit and float(limit.group(2)) <= 1e-8

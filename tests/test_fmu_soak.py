@@ -22,3 +22,28 @@ def test_no_host_process_exits_abnormally(fmu_path, tmp_path):
     assert {outcome for r in results.values() for outcome in r["cases"]} >= {"no-free", "refused", "quiet"}
     abnormal = {key: r["abnormal"] for key, r in results.items() if r["abnormal"]}
     assert not abnormal, abnormal
+
+
+def test_no_host_of_the_native_fmu_exits_abnormally(tmp_path):
+    """300 host processes of the native FourBar.fmu (issue 27): fmpy, the C driver under env -i, and
+    fmpy hosts that run a stock pythonfmu FMU (a do-nothing slave, `pythonfmu build`) first, each
+    with logging on and off, a refused parameter and an exit with the instance alive."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    native = root / "build" / "fmus" / "native" / "FourBar.fmu"
+    if not native.exists():
+        from crankfmu.cli import main
+
+        assert main(["fmu", "seed000", "--native", "--out", str(tmp_path / "native")]) == 0
+        native = tmp_path / "native" / "FourBar.fmu"
+    shutil.copy(root / "benchmarks" / "fmus" / "NoOp.py", tmp_path / "NoOp.py")
+    subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", "NoOp.py", "--dest", "."], cwd=tmp_path,
+                   check=True, capture_output=True)
+    results = soak([native], per_fmu=300, stock=tmp_path / "NoOp.fmu")
+    assert {host for _, host in results} == {"fmpy", "c-driver", "fmpy+stock"}
+    assert sum(r["processes"] for r in results.values()) == 300
+    abnormal = {key: (len(r["abnormal"]), r["abnormal"][:3]) for key, r in results.items() if r["abnormal"]}
+    assert not abnormal, abnormal
