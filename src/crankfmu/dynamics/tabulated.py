@@ -144,11 +144,16 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
                                   "(velocity-dependent loads it knows: linear in omega1, or switched by a "
                                   "velocity's direction)")
     engine = lambda phi1: _engine_values(reduced, sliders, viscous, phi1)  # noqa: E731
-    coefficients, error, construction = (_from_series(engine, tolerance)
-                                         or _from_samples(engine, tolerance, n_start, n_max, loosest))
+    coefficients, error, construction = _cubics(engine, tolerance, n_start, n_max, loosest)
     switch, forces = reduced.slider_schedule()
     return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(name for load in sliders for name in load.column_names), construction)
+
+
+def _cubics(engine, tolerance: float, n_start: int, n_max: int, loosest: float):
+    """(coefficients, checked error, construction) of the periodic functions ``engine`` gives: a
+    Fourier series where it converges, else a spline of samples."""
+    return _from_series(engine, tolerance) or _from_samples(engine, tolerance, n_start, n_max, loosest)
 
 
 def _scale(values: np.ndarray) -> np.ndarray:
@@ -293,8 +298,7 @@ def tabulate_quantities(mechanism, quantities, definition, tolerance: float = 1e
             rows += [q - w * phi1, dq, ddq]
         return np.array(rows, dtype=float)
 
-    coefficients, error, construction = (_from_series(engine, tolerance)
-                                         or _from_samples(engine, tolerance, 256, n_max, loosest))
+    coefficients, error, construction = _cubics(engine, tolerance, 256, n_max, loosest)
     return QuantityTable(coefficients, coordinates, winding, error, construction)
 
 

@@ -116,6 +116,7 @@ class NativeModel:
                 f"#define QUANTITY_INTERVALS {Q.coefficients.shape[1] if Q else 1}\n"
                 f"#define VR_E_KIN {[v.name for v in self.outputs].index('E_kin')}\n"
                 + "".join(f"#define ROW_{name.upper()} {i}\n" for i, name in enumerate(ROW_FIELDS)) +
+                f"#define STATE_NAMES {{{', '.join(_c_string(n) for n in ROW_FIELDS[:N_STATES])}}}\n"
                 f"#define DEFAULT_START_TIME {float(exp.start_time).hex()}\n"
                 f"#define REBUILD_COMMAND {_c_string(self.rebuild)}\n"
                 f"#define TABLE_FUNCTIONS {C.shape[0]}\n#define TABLE_INTERVALS {C.shape[1]}\n"

@@ -190,12 +190,20 @@ static double mode_on_switch(double phi, double direction, double interval, cons
     return ck_motor_on_switch(motor_torque(ws, 0, P), motor_torque(ws, 1, P), rest);
 }
 
+/* the crank's acceleration from rest with the slider forces forward (eps[0]) and backward (eps[1]) */
+static void rest_accelerations(double phi, double motor, double interval, const CkTables* T, const double* P,
+                               double* work, double* f, double* eps)
+{
+    eps[0] = rhs(phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL, NULL, NULL);
+    eps[1] = rhs(phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL, NULL, NULL);
+}
+
 static double direction_at_rest(double phi, double motor, double interval, const CkTables* T, const double* P,
                                 double* work, double* f)
 {
-    double eps_forward = rhs(phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL, NULL, NULL);
-    double eps_backward = rhs(phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL, NULL, NULL);
-    return ck_direction_at_rest(eps_forward, eps_backward);
+    double eps[2];
+    rest_accelerations(phi, motor, interval, T, P, work, f, eps);
+    return ck_direction_at_rest(eps[0], eps[1]);
 }
 
 static void set_interval(double* S, const CkTables* T, double phi, double direction)
@@ -464,6 +472,19 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
     return first_slot;
 }
 
+/* the rest of an output row whose state row[0:5] is set, in the given mode: epsilon1, M_motor,
+ * M_load, J_red; f <- dy/dt there */
+static void complete_row(double motor, double direction, double interval, const CkTables* T, const double* P,
+                         double* work, double* f, double* row)
+{
+    double M, Q, J;
+    double eps = rhs(row[0], row[1], motor, direction, interval, T, P, work, f, &M, &Q, &J);
+    row[5] = eps;
+    row[6] = M;
+    row[7] = Q;
+    row[8] = J;
+}
+
 static void output_row(const double* S, double t, const CkTables* T, const double* P, double* work, double* f,
                        double* row)
 {
@@ -478,12 +499,7 @@ static void output_row(const double* S, double t, const CkTables* T, const doubl
         direction = S[CK_STEP_DIRECTION];
         interval = S[CK_STEP_INTERVAL];
     }
-    double M, Q, J;
-    double eps = rhs(row[0], row[1], motor, direction, interval, T, P, work, f, &M, &Q, &J);
-    row[5] = eps;
-    row[6] = M;
-    row[7] = Q;
-    row[8] = J;
+    complete_row(motor, direction, interval, T, P, work, f, row);
 }
 
 /* ------------------------------------------------------------------------------ the drivers */
@@ -723,18 +739,13 @@ int ck_me_derivatives(const double* S, const double* y, const CkTables* T, const
                       double* row)
 {
     Scratch w;
+    double own[CK_OUT_SIZE];
     if (!mode_ok(S, T)) return CK_BAD_STATE;
-    double M, Q, J;
-    double eps = rhs(y[0], y[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w.work, w.f, &M, &Q, &J);
+    if (!row) row = own;
+    for (int j = 0; j < CK_N_Y; j++) row[j] = y[j];
+    complete_row(S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w.work, w.f, row);
     if (dydt)
         for (int j = 0; j < CK_N_Y; j++) dydt[j] = w.f[j];
-    if (row) {
-        for (int j = 0; j < CK_N_Y; j++) row[j] = y[j];
-        row[5] = eps;
-        row[6] = M;
-        row[7] = Q;
-        row[8] = J;
-    }
     return 0;
 }
 
@@ -742,9 +753,9 @@ int ck_me_derivatives(const double* S, const double* y, const CkTables* T, const
  * parameter changed); a surface the Co-Simulation step needs not, as it restarts on any change */
 static double unstick_value(const double* S, const double* y, const CkTables* T, const double* P, Scratch* w)
 {
-    double eps_forward = rhs(y[0], 0.0, S[CK_MOTOR], 1.0, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
-    double eps_backward = rhs(y[0], 0.0, S[CK_MOTOR], -1.0, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
-    return fmax(eps_forward, -eps_backward);
+    double eps[2];
+    rest_accelerations(y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, w->work, w->f, eps);
+    return fmax(eps[0], -eps[1]);
 }
 
 int ck_me_indicators(const double* S, const double* y, const CkTables* T, const double* P, double* z)

@@ -1,5 +1,5 @@
 /* The movement equation's hybrid rules, as small scalar functions (the C side of
- * dynamics/modes.py, which the scipy engine runs: tests/test_native_kernel.py compares the two
+ * dynamics/modes.py, which the scipy engine runs: tests/test_modes.py compares the two
  * rule by rule).
  *
  * The right-hand side is smooth within a mode, the discrete state an integrator holds fixed during

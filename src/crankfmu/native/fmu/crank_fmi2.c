@@ -395,6 +395,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     Instance* in = (Instance*)c;
     if (!in) return fmi2Error;
     if (nvr > 0 && (!vr || !value)) return fail(in, "%s", "fmi2SetReal: null arrays");
+    int changed = 0;
     for (size_t i = 0; i < nvr; i++) {
         char detail[1024];
         if (vr[i] >= N_VARIABLES) {
@@ -428,15 +429,14 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         }
         in->now.values[vr[i]] = x;
         if (in->now.phase < STEPPING) continue;
-        if (!in->model_exchange) {
-            in->now.pending = 1;                   /* takes effect from the next step */
-        } else {
-            /* Model Exchange: the value holds from now on; a tunable also re-derives the mode at
-             * the next event update, as a Co-Simulation restart does */
-            load_parameters(in);
-            if (v->kind == KIND_TUNABLE) in->now.pending = 1;
-            me_evaluate(in);
-        }
+        changed = 1;
+        /* Co-Simulation: takes effect from the next step. Model Exchange: a tunable also
+         * re-derives the mode at the next event update, as a Co-Simulation restart does */
+        if (!in->model_exchange || v->kind == KIND_TUNABLE) in->now.pending = 1;
+    }
+    if (changed && in->model_exchange) {           /* Model Exchange: the values hold from now on */
+        load_parameters(in);
+        me_evaluate(in);
     }
     return fmi2OK;
 }
@@ -628,8 +628,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo* info)
     double* S = in->now.S;
     double before[CK_N_Y];
     memcpy(before, S + CK_Y, sizeof before);
-    if (in->now.pending) {           /* a tunable changed: the mode as a restart finds it */
-        load_parameters(in);
+    if (in->now.pending) {           /* a tunable changed (fmi2SetReal loaded it): the mode as a restart finds it */
         ck_me_mode(S, S + CK_Y, &in->tables, in->now.P);
         in->now.pending = 0;
     }
@@ -697,7 +696,7 @@ fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n
     for (size_t j = 0; j < nx; j++)
         if (!isfinite(x[j])) {
             char detail[160];
-            static const char* const names[N_STATES] = {"phi1", "omega1", "W_motor", "W_load", "W_ext"};
+            static const char* const names[N_STATES] = STATE_NAMES;
             snprintf(detail, sizeof detail, "fmi2SetContinuousStates: state %u (%s) is not finite", (unsigned)j,
                      names[j]);
             return fail(in, "%s", detail);
