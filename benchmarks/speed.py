@@ -69,7 +69,7 @@ def python_rhs_equation(model, table):
         raise SystemExit("the peer right-hand side here covers seed 000's loads only")
 
     class PythonTabulated(MovementEquation):
-        def coefficients(self, phi1, omega1, mode):
+        def coefficients(self, phi1, omega1, mode, t=0.0):
             w = phi1 % two_pi
             i = min(int(w / h), n - 1)
             u = w - i * h
@@ -77,7 +77,7 @@ def python_rhs_equation(model, table):
             J = a[0] + u * (a[1] + u * (a[2] + u * a[3])) + J_flywheel
             half_dJ = b[0] + u * (b[1] + u * (b[2] + u * b[3]))
             Q = c[0] + u * (c[1] + u * (c[2] + u * c[3])) + (v[0] + u * (v[1] + u * (v[2] + u * v[3]))) * omega1
-            return J, half_dJ, Q
+            return J, half_dJ, Q, self.tau_ext          # seed 000 has no ports
 
     return PythonTabulated(model.reduced, model.motor)
 

@@ -39,7 +39,7 @@ def coupled_reference(times, scenario: str = "seed000", drive: str = "dc_pi", rt
 
     def rhs(t, y):
         phi1, omega1, i, x = y
-        J, half_dJ, Q = equation.coefficients(phi1, omega1, mode)
+        J, half_dJ, Q, _ = equation.coefficients(phi1, omega1, mode, t)
         eps = (Q + dc.torque(i) - half_dJ * omega1 * omega1) / J     # the motor line is off
         di, dx = dc.rhs(i, x, omega1, omega_set)
         return [omega1, eps, di, dx]

@@ -239,6 +239,9 @@ def check_scenario(source) -> Report:
     report.add("OK", f"J_red from {np.min(J):.6g} to {np.max(J):.6g} kg.m2 over the turn (> 0)")
     report.add("OK", f"{len(model.reduced.loads)} loads, {len(quantities)} mechanism-specific outputs"
                + (f" ({', '.join(q.name for q in quantities)})" if quantities else ""))
+    for port in model.reduced.ports:
+        report.add("OK", f"{port.input_description}; input {port.input_name}, outputs "
+                   + ", ".join(q.name for q in port.quantities))
     fmu_declarations(report, source, scenario, path)
     return report
 

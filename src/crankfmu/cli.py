@@ -299,12 +299,17 @@ def cmd_fmu(args) -> int:
             raise CrankfmuError("--native builds a scenario's FMU; Drive.fmu is a Python FMU")
         from .fmi.native_build import build_native
 
+        if args.causality == "speed":
+            raise CrankfmuError("--native --causality speed: the native FMU takes a torque at its crank for now; "
+                                "build the Python FMU in speed causality (without --native)")
         path = build_native(args.source, Path(args.out), args.name)
         print(f"built {path}")
         return 0
     from .fmi.build import build
 
-    path = build("drive" if args.drive else "scenario", args.source, Path(args.out), args.name)
+    if args.drive and args.causality:
+        raise CrankfmuError("--causality is a mechanism FMU's choice; Drive.fmu's is its drive file's")
+    path = build("drive" if args.drive else "scenario", args.source, Path(args.out), args.name, args.causality)
     print(f"built {path}")
     return 0
 
@@ -418,6 +423,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--native", action="store_true",
                    help="a native FMU (C, linux64 and win64 binaries, no Python needed on the host); its geometry, "
                         "masses and loads are fixed at build time")
+    p.add_argument("--causality", choices=("torque", "speed"), default=None,
+                   help="what the crank takes: a torque (tau_ext, the default) or the speed omega1 (the FMU then "
+                        "outputs tau_drive, the torque the drive must apply); default: the file's [crank] causality")
     p.set_defaults(func=cmd_fmu)
 
 

@@ -9,7 +9,7 @@ in the scenario and mechanism files.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 
 @dataclass(frozen=True)
@@ -45,11 +45,37 @@ OUTPUTS = (
     # E_kin(t) - E_kin(0) = W_motor + W_load + W_ext without quadrature error
     Variable("W_motor", "J", "work done by the motor on the crank since the start", initial=()),
     Variable("W_load", "J", "work done by the loads (weights, technological loads) since the start", initial=()),
-    Variable("W_ext", "J", "work done by tau_ext since the start", initial=()),
+    Variable("W_ext", "J", "work done by tau_ext and the ports since the start", initial=()),
 )
 
 INPUTS = (
     Variable("tau_ext", "N.m", "extra torque on the crank from outside (the coupling port)", "input", ()),
+)
+
+#: a mechanism FMU in speed causality (``[crank] causality = "speed"``): the drive imposes omega1
+#: and the FMU answers with the torque that takes (inverse dynamics)
+SPEED_INPUTS = (
+    Variable("omega1", "rad/s", "crank speed imposed by the drive (the coupling input)", "input", ()),
+)
+_TORQUE_CAUSAL = {v.name: v for v in OUTPUTS}
+
+
+def _speed_causal(name: str) -> Variable:
+    """A torque-causal output as the speed-causal FMU has it: omega1 (an input there) in place of
+    omega1_start among what it depends on at the start."""
+    v = _TORQUE_CAUSAL[name]
+    return replace(v, initial=tuple("omega1" if d == "omega1_start" else d for d in v.initial))
+
+
+SPEED_OUTPUTS = (
+    replace(_TORQUE_CAUSAL["phi1"], description="crank angle, unwrapped: the integral of omega1"),
+    replace(_TORQUE_CAUSAL["epsilon1"], description="crank angular acceleration: omega1's derivative (the host's "
+            "input derivative, else omega1's change over the last communication step)"),
+    Variable("tau_drive", "N.m", "torque the drive must apply to the crank: J epsilon1 + 0.5 J' omega1^2 - Q - "
+             "the ports' torque", initial=("phi1_start", "omega1", "J_flywheel", "*geometry", "*loads")),
+    *(_speed_causal(n) for n in ("M_load", "J_red", "E_kin")),
+    Variable("W_drive", "J", "work done by the drive on the crank since the start", initial=()),
+    *(_TORQUE_CAUSAL[n] for n in ("W_load", "W_ext")),
 )
 
 #: Drive.fmu's outputs (its inputs and parameters are the drive file's)

@@ -31,6 +31,10 @@ from .parameters import Experiment, Parameter, parse_parameters  # noqa: F401 (P
 
 _SCENARIOS = resources.files(__package__) / "scenarios"
 
+#: what a mechanism FMU takes at its crank: a torque (it integrates the movement equation) or the
+#: speed (it answers with the drive torque, fmi.speed)
+CAUSALITIES = ("torque", "speed")
+
 #: the load kinds a user writes as expressions (dynamics.user_loads)
 USER_LOADS = ("force", "couple", "spring_damper")
 
@@ -108,6 +112,23 @@ class Scenario:
         return parse_quantities(self.data.get("outputs", []), self.mechanism_definition(), self.where)
 
     @property
+    def ports(self):
+        """The ``[[ports]]`` entries (dynamics.ports): force and couple inputs a master sets."""
+        from .dynamics.ports import parse_ports
+        return parse_ports(self.data.get("ports", []), self.mechanism_definition(), self.where)
+
+    @property
+    def causality(self) -> str:
+        """``[crank] causality``: "torque" (the default: the FMU takes a torque on the crank and
+        integrates the movement equation) or "speed" (it takes omega1 and outputs the drive torque)."""
+        crank = self.data.get("crank", {})
+        value = crank.get("causality", "torque") if isinstance(crank, dict) else None
+        if value not in CAUSALITIES:
+            raise DefinitionError(f"{self.where}: [crank] causality must be one of {', '.join(CAUSALITIES)}, "
+                                  f"got {value!r}")
+        return value
+
+    @property
     def kinematics_study(self) -> dict:
         """The ``[kinematics]`` section: the paper's constant-speed kinematic study."""
         return dict(self.data.get("kinematics", {}))
@@ -146,7 +167,9 @@ class Scenario:
                                          f"{self.where}: load {i + 1}")
             else:
                 loads.append(self._make_load(spec, mechanism, links, values))
-        reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads)
+        from .dynamics.ports import parse_ports
+        ports = parse_ports(self.data.get("ports", []), definition, self.where)
+        reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads, ports)
         # J = J_flywheel + the links' kinetic energy per omega1^2 / 2, a sum of terms >= 0 (masses
         # and inertias were checked >= 0): a flywheel makes it positive at every angle; without
         # one, it is checked on a grid

@@ -28,7 +28,10 @@ class Result:
     M_load    N.m      weights and technological loads reduced to the crank (Q)
     J_red     kg.m2    reduced inertia, flywheel included
     E_kin     J        kinetic energy of the mechanism, 0.5*J_red*omega1^2
-    W_motor, W_load, W_ext   J   work done since the start by the motor, the loads, tau_ext
+    W_motor, W_load, W_ext   J   work done since the start by the motor, the loads, and the
+                       external inputs (tau_ext and the ports)
+    ports     dict     each port's input and outputs by FMU variable name (ram_F, ram_s, ram_v,
+                       ram_a; arm_M, arm_angle, ...), in SI units
     """
 
     scenario: Scenario
@@ -48,6 +51,7 @@ class Result:
     W_ext: np.ndarray
     wall_time: float = 0.0            # s spent integrating
     settings: dict = field(default_factory=dict)
+    ports: dict = field(default_factory=dict)
 
     # ------------------------------------------------------------------ state anywhere
     def state(self, times) -> np.ndarray:
@@ -174,7 +178,7 @@ class Result:
 
 
 def simulate(scenario, t_end: float | None = None, method: str = "reference", rtol: float | None = None,
-             output_times=None, angle_step: float | None = None, progress=None) -> Result:
+             output_times=None, angle_step: float | None = None, progress=None, inputs=None) -> Result:
     """Run ``scenario`` (a Scenario, a packaged name or a path) and return a :class:`Result`.
 
     t_end         s      end time (default: the scenario's stop_time)
@@ -186,6 +190,9 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
                          time-domain methods, the scheme's own nodes for the crank-angle schemes)
     angle_step    rad    crank-angle step of the schemes (default 0.1 deg)
     progress             callable(t) called now and then with the time reached
+    inputs               the FMU's inputs by name: tau_ext (N.m) and each port's (ram_F N,
+                         arm_M N.m), each a number or a function of time t (s); default 0. The fast
+                         method takes a function of time linear between output times.
     """
     scenario = load_scenario(scenario)
     exp = scenario.experiment
@@ -203,6 +210,8 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
         raise ParameterError(f"rtol must be > 0, got {rtol!r}", "rtol")
     integrator = make_integrator(method, rtol, angle_step)
     model = scenario.build()
+    if inputs:
+        _set_inputs(model.equation, inputs)
     times = None
     if output_times is not None:
         times = np.atleast_1d(np.asarray(output_times, dtype=float))
@@ -228,7 +237,7 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
         y = out.pop("state")
     else:
         y = trajectory.sample(times)
-        out = model.equation.outputs(y[PHI], y[OMEGA], trajectory.mode_at(times))
+        out = model.equation.outputs(y[PHI], y[OMEGA], trajectory.mode_at(times), times)
     if trajectory.epsilon is not None:
         # the scheme's own acceleration (eq. 10), not the time-domain formula
         out["epsilon1"] = np.interp(times, trajectory.t, trajectory.epsilon)
@@ -244,4 +253,43 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
         time=times, phi1=y[PHI], omega1=y[OMEGA], epsilon1=out["epsilon1"], M_motor=out["M_motor"],
         M_load=out["M_load"], J_red=out["J_red"], E_kin=out["E_kin"], W_motor=y[W_MOTOR],
         W_load=y[W_LOAD], W_ext=y[W_EXT], wall_time=wall, settings=settings,
+        ports=_port_outputs(model, times, y[PHI], y[OMEGA], out["epsilon1"]),
     )
+
+
+def _set_inputs(equation, inputs) -> None:
+    """tau_ext and the ports' inputs from a mapping by FMU variable name."""
+    by_name = {port.input_name: i for i, port in enumerate(equation.ports)}
+    known = ["tau_ext", *by_name]
+    for name, value in dict(inputs).items():
+        if name not in known:
+            raise ParameterError(f"unknown input {name!r}: this scenario's inputs are {', '.join(known)}", name)
+        if not callable(value):
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                value = math.nan
+            if not math.isfinite(value):
+                raise ParameterError(f"input {name} = {inputs[name]!r} must be a finite number or a function of "
+                                     "time t (s)", name)
+        if name == "tau_ext":
+            if callable(value):
+                raise ParameterError("input tau_ext: a constant in process (N.m); a function of time is for the "
+                                     "ports' inputs", name)
+            equation.tau_ext = value
+        else:
+            equation.port_inputs[by_name[name]] = value
+
+
+def _port_outputs(model, times, phi1, omega1, epsilon1) -> dict:
+    """Each port's input and its coordinate's position, velocity and acceleration at the output times."""
+    ports = model.equation.ports
+    if not ports:
+        return {}
+    kin = model.mechanism.kinematics(np.asarray(phi1, dtype=float))
+    out = {}
+    for port, value in zip(ports, model.equation.port_values(np.asarray(times, dtype=float))):
+        out[port.input_name] = np.broadcast_to(np.asarray(value, dtype=float), np.shape(times)).copy()
+        for quantity in port.quantities:
+            out[quantity.name] = quantity.evaluate(kin, omega1, epsilon1)
+    return out

@@ -1,6 +1,9 @@
 """The movement equation in the time domain, state (phi1, omega1):
 
-    J(phi1) domega1/dt + 0.5 J'(phi1) omega1^2 = M_motor(omega1) + Q(phi1, omega1) + tau_ext
+    J(phi1) domega1/dt + 0.5 J'(phi1) omega1^2 = M_motor(omega1) + Q(phi1, omega1) + tau_e(t, phi1)
+
+tau_e is the external torque: the input tau_ext on the crank plus each port's input times its
+transfer function (dynamics.ports); its work is W_ext.
 
 Unlike the crank-angle form (seed 000 eq. 17, which divides by omega1) it holds at omega1 = 0
 and below: start from rest, stall and reversal.
@@ -61,22 +64,47 @@ class Surface(NamedTuple):
 class MovementEquation:
     """Right-hand side of the movement equation, its modes and their switching events.
 
-    ``tau_ext`` is a constant external torque on the crank (N.m), the FMU's coupling input.
+    ``tau_ext`` is a constant external torque on the crank (N.m), the FMU's coupling input; the
+    reduced model's ports (dynamics.ports) take ``port_inputs``, one per port: a constant (N or
+    N.m) or a function of time t (s).
     """
 
-    def __init__(self, reduced: ReducedModel, motor: MotorLine, tau_ext: float = 0.0):
+    def __init__(self, reduced: ReducedModel, motor: MotorLine, tau_ext: float = 0.0, port_inputs=None):
         self.reduced = reduced
         self.motor = motor
         self.tau_ext = float(tau_ext)
+        self.ports = list(reduced.ports)
+        self.port_inputs = list(port_inputs) if port_inputs is not None else [0.0] * len(self.ports)
         self.n_rhs = 0
         self.sliders = reduced.sliders
         self._smooth_velocity_loads = [load for load in reduced.loads
                                        if not load.position_only and load not in self.sliders]
 
+    def port_values(self, t):
+        """The ports' inputs at time t (s): each a float, or an array where t is one."""
+        values = []
+        for u in self.port_inputs:
+            if not callable(u):
+                values.append(u)
+            elif np.ndim(t):
+                values.append(np.array([float(u(float(x))) for x in np.ravel(t)]))
+            else:
+                values.append(float(u(float(t))))
+        return values
+
+    def external_torque(self, t, kin):
+        """tau_e (N.m): tau_ext and the ports' inputs at time t times their transfer functions."""
+        tau = self.tau_ext
+        for port, value in zip(self.ports, self.port_values(t)):
+            tau = tau + port.torque(kin, value)
+        return tau
+
     # -------------------------------------------------------------- scalar hot path
-    def coefficients(self, phi1, omega1, mode: Mode):
-        """(J kg.m^2, 0.5 J' kg.m^2/rad, Q N.m) at one state, the slider forces those of ``mode``."""
+    def coefficients(self, phi1, omega1, mode: Mode, t: float = 0.0):
+        """(J kg.m^2, 0.5 J' kg.m^2/rad, Q N.m, tau_e N.m) at one state, the slider forces those of
+        ``mode``, the external torque at time t."""
         J, half_dJ, Q, kin = self.reduced.coefficients(phi1)
+        tau = float(np.asarray(self.external_torque(t, kin)).ravel()[0]) if self.ports else self.tau_ext
         q = Q[0]
         for load in self._smooth_velocity_loads:
             q += float(load.torque(kin, omega1)[0])
@@ -93,7 +121,7 @@ class MovementEquation:
                 for factor, column in zip(factors, load.columns(kin, factors != 0.0)):
                     if factor != 0.0:
                         q += factor * column[0]
-        return J[0], half_dJ[0], q
+        return J[0], half_dJ[0], q, tau
 
     def rhs(self, t, y, mode: Mode):
         """d/dt of (phi1 rad, omega1 rad/s, W_motor J, W_load J, W_ext J) in ``mode``."""
@@ -101,31 +129,31 @@ class MovementEquation:
         omega1 = y[OMEGA]
         if mode.direction == 0:            # stuck: at rest (no power) until a restart changes the balance
             return np.zeros(STATE_SIZE)
-        J, half_dJ, Q = self.coefficients(y[PHI], omega1, mode)
+        J, half_dJ, Q, tau = self.coefficients(y[PHI], omega1, mode, t)
         if mode.motor == SLIDE:
-            M = rules.equivalent_torque(half_dJ, Q, self.tau_ext, omega1)     # holds domega1/dt = 0
+            M = rules.equivalent_torque(half_dJ, Q, tau, omega1)     # holds domega1/dt = 0
             eps = 0.0
         else:
             M = self.motor.torque(omega1, mode.motor == HIGH)
-            eps = rules.acceleration(J, half_dJ, Q, M, self.tau_ext, omega1)
-        return np.array([omega1, eps, M * omega1, Q * omega1, self.tau_ext * omega1])
+            eps = rules.acceleration(J, half_dJ, Q, M, tau, omega1)
+        return np.array([omega1, eps, M * omega1, Q * omega1, tau * omega1])
 
     def _switch_torques(self):
         """The low and the high line's torques at omega_switch (N.m)."""
         ws = self.motor.omega_switch
         return self.motor.torque(ws, False), self.motor.torque(ws, True)
 
-    def _motor_on_switch(self, phi1, mode: Mode) -> float:
+    def _motor_on_switch(self, phi1, mode: Mode, t: float = 0.0) -> float:
         """The motor branch to continue in from omega1 = omega_switch (modes.motor_on_switch)."""
         ws = self.motor.omega_switch
-        J, half_dJ, Q = self.coefficients(phi1, ws, mode)
-        return rules.motor_on_switch(*self._switch_torques(), Q + self.tau_ext - half_dJ * ws * ws)
+        J, half_dJ, Q, tau = self.coefficients(phi1, ws, mode, t)
+        return rules.motor_on_switch(*self._switch_torques(), Q + tau - half_dJ * ws * ws)
 
-    def _direction_at_rest(self, phi1, mode: Mode) -> float:
+    def _direction_at_rest(self, phi1, mode: Mode, t: float = 0.0) -> float:
         """Side of the slider forces from rest (modes.direction_at_rest)."""
         y = np.array([phi1, 0.0, 0.0, 0.0, 0.0])
-        return rules.direction_at_rest(self.rhs(0.0, y, mode._replace(direction=1.0))[OMEGA],
-                                       self.rhs(0.0, y, mode._replace(direction=-1.0))[OMEGA])
+        return rules.direction_at_rest(self.rhs(t, y, mode._replace(direction=1.0))[OMEGA],
+                                       self.rhs(t, y, mode._replace(direction=-1.0))[OMEGA])
 
     def _in_interval(self, mode: Mode, phi1, direction: float) -> Mode:
         if not self.sliders:
@@ -146,9 +174,9 @@ class MovementEquation:
         w, ws, phi1 = y[OMEGA], self.motor.omega_switch, y[PHI]
         mode = self.mode_of_state(y)
         if w == ws:
-            mode = mode._replace(motor=self._motor_on_switch(phi1, mode))
+            mode = mode._replace(motor=self._motor_on_switch(phi1, mode, t))
         if w == 0.0 and self.sliders:
-            mode = self._in_interval(mode, phi1, self._direction_at_rest(phi1, mode))
+            mode = self._in_interval(mode, phi1, self._direction_at_rest(phi1, mode, t))
         return mode
 
     def events(self, mode: Mode) -> list[Surface]:
@@ -160,8 +188,8 @@ class MovementEquation:
             def g(t, y):
                 equivalent = 0.0
                 if mode.motor == SLIDE:
-                    J, half_dJ, Q = self.coefficients(y[PHI], ws, mode)
-                    equivalent = rules.equivalent_torque(half_dJ, Q, self.tau_ext, ws)
+                    J, half_dJ, Q, tau = self.coefficients(y[PHI], ws, mode, t)
+                    equivalent = rules.equivalent_torque(half_dJ, Q, tau, ws)
                 return rules.event_value(slot, y[PHI], y[OMEGA], mode.motor, mode.phi_lo, mode.phi_hi, ws,
                                          m_low, m_high, equivalent)
             return Surface(g, 1.0 if rules.event_rising(slot, mode.motor, mode.direction) else -1.0, slot,
@@ -182,30 +210,32 @@ class MovementEquation:
         if slot == modes.REST:
             mode = mode._replace(motor=rules.motor_at_rest(mode.motor, ws))
         if rules.turns_forces(slot, ws, bool(self.sliders)):
-            mode = mode._replace(direction=self._direction_at_rest(y[PHI], mode))
+            mode = mode._replace(direction=self._direction_at_rest(y[PHI], mode, t))
         if slot == modes.REST:
             return mode
         if mode.motor == SLIDE:
             return mode._replace(motor=rules.motor_after_sliding(slot))
-        return mode._replace(motor=self._motor_on_switch(y[PHI], mode))
+        return mode._replace(motor=self._motor_on_switch(y[PHI], mode, t))
 
     # -------------------------------------------------------------- vectorised outputs
-    def outputs(self, phi1, omega1, modes=None):
+    def outputs(self, phi1, omega1, modes=None, t=None):
         """Every contract output at arrays of states.
 
         The motor branch and the slider forces' side follow omega1. ``modes`` (mode names at the
         same states, ``Trajectory.mode_at``) marks where the motor holds omega1 on its switch
         (``"slide"``: the equivalent torque) and where the crank is stuck at rest (no acceleration).
+        ``t`` (s, the states' times) is needed where a port's input is a function of time.
         """
         phi1 = np.asarray(phi1, dtype=float)
         omega1 = np.asarray(omega1, dtype=float)
         J, half_dJ, Q, kin = self.reduced.coefficients(phi1)
         if self.reduced.velocity_dependent:
             Q = Q + self.reduced.velocity_load(kin, omega1)
+        tau = self.external_torque(np.zeros_like(phi1) if t is None else np.asarray(t, dtype=float), kin)
         M = self.motor.torque_at(omega1)
         if modes is not None:
-            M = np.where(modes == SLIDING, rules.equivalent_torque(half_dJ, Q, self.tau_ext, omega1), M)
-        eps = rules.acceleration(J, half_dJ, Q, M, self.tau_ext, omega1)
+            M = np.where(modes == SLIDING, rules.equivalent_torque(half_dJ, Q, tau, omega1), M)
+        eps = rules.acceleration(J, half_dJ, Q, M, tau, omega1)
         if modes is not None:
             eps = np.where(modes == STUCK, 0.0, eps)
         return {

@@ -70,6 +70,13 @@ def equivalent_torque(half_dJ, Q, tau, omega):
     return half_dJ * omega * omega - Q - tau
 
 
+def drive_torque(J, half_dJ, Q, tau, omega, epsilon):
+    """The torque (N.m) a drive must apply to the crank to impose omega1 and epsilon1 (speed
+    causality, inverse dynamics): J epsilon1 + 0.5 J' omega1^2 - Q - tau_ext. At epsilon1 = 0 it
+    is the equivalent torque, and at constant omega1 the equilibrium moment M_e (seed 001 eq. 1)."""
+    return J * epsilon + half_dJ * omega * omega - Q - tau
+
+
 def kinetic_energy(J, omega):
     """E_kin (J) of the whole mechanism from the reduced inertia: 0.5 J omega1^2."""
     return 0.5 * J * (omega * omega)

@@ -31,11 +31,12 @@ class LinkInertia:
 class ReducedModel:
     """J, 0.5*J' and the reduced load Q of a mechanism at any crank angle."""
 
-    def __init__(self, mechanism: Mechanism, links: list[LinkInertia], J_flywheel: float, loads: list):
+    def __init__(self, mechanism: Mechanism, links: list[LinkInertia], J_flywheel: float, loads: list, ports=()):
         self.mechanism = mechanism
         self.links = links
         self.J_flywheel = float(J_flywheel)        # kg.m^2
         self.loads = loads
+        self.ports = tuple(ports)                  # dynamics.ports: their inputs come from outside
         self.velocity_dependent = any(not load.position_only for load in loads)
         # switched loads: constant or tabulated between switch angles, by direction (slider forces,
         # direction-dependent user loads)

@@ -50,7 +50,8 @@ class ReducedTable:
     coefficients  (n_functions, n, 4): local cubic c0 + u (c1 + u (c2 + u c3)), u = phi1 - phi1_i
                   functions: J of the links (kg.m2, the flywheel is a parameter), 0.5 J' (kg.m2/rad),
                   Q of the position-only loads (N.m), viscous coefficient (N.m.s/rad), then each
-                  switched load's columns (a slider force's dx/dphi1 in m/rad, a user load's torques)
+                  switched load's columns (a slider force's dx/dphi1 in m/rad, a user load's torques),
+                  then each port's transfer function ds/dphi1 (m/rad or rad/rad): the last n_ports
     switch_angles (m,) rad in [0, 2 pi): where a slider force changes; empty without slider forces
     forces        (max(m, 1), 2, n_sliders) N: each slider force's signed value on interval k
                   (from switch_angles[k] to the next) with omega1 > 0 (index 0) and < 0 (index 1)
@@ -65,10 +66,12 @@ class ReducedTable:
     build_time: float            # s
     slider_names: tuple[str, ...] = ()
     construction: str = ""       # how the cubics were made (a Fourier series, or a spline of samples)
+    n_ports: int = 0
 
     def arrays(self) -> tuple:
-        """(coefficients, switch_angles, forces): the table as the C kernel takes it (native.Tables)."""
-        return self.coefficients, self.switch_angles, self.forces
+        """(coefficients, switch_angles, forces, n_ports): the table as the C kernel takes it
+        (native.Tables)."""
+        return self.coefficients, self.switch_angles, self.forces, self.n_ports
 
     @property
     def n_intervals(self) -> int:
@@ -121,6 +124,8 @@ def _engine_values(reduced: ReducedModel, sliders, viscous, phi1) -> np.ndarray:
         rows[Q_VISCOUS] = rows[Q_VISCOUS] + load.torque(kin, 1.0)
     for load in sliders:
         rows += load.columns(kin)
+    for port in reduced.ports:
+        rows.append(port.transfer(kin)[1])
     return np.array(rows)
 
 
@@ -147,7 +152,8 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
     coefficients, error, construction = _cubics(engine, tolerance, n_start, n_max, loosest)
     switch, forces = reduced.slider_schedule()
     return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
-                        tuple(name for load in sliders for name in load.column_names), construction)
+                        tuple(name for load in sliders for name in load.column_names), construction,
+                        len(reduced.ports))
 
 
 def _cubics(engine, tolerance: float, n_start: int, n_max: int, loosest: float):

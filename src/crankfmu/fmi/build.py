@@ -34,13 +34,13 @@ from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
-from ..contract import OUTPUTS
+from ..contract import OUTPUTS, SPEED_OUTPUTS
 from ..errors import CrankfmuError
 from .. import units as si
 from ..atomic import replacing
 from . import documentation
 from . import drive as drive_core
-from . import slave
+from . import slave, speed
 
 HERE = Path(__file__).resolve().parent
 PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's resources
@@ -52,7 +52,7 @@ RUNTIME = ("__init__.py", "cache.py", "contract.py", "errors.py", "expressions.p
            "units.py",
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "native",
-           "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/drive.py",
+           "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/speed.py", "fmi/drive.py",
            "parameters.py", "datafiles.py", "drives")
 
 
@@ -152,21 +152,37 @@ class Source:
     data: tuple = ()                # the packaged data files it reads: paths in the package
 
 
-def source_of(kind: str, name: str, fmu_name: str | None = None) -> Source:
+def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str | None = None) -> Source:
     """What to build: a packaged data file by name, or a user's scenario file by path (its
-    mechanism file, when given by path, travels with it)."""
+    mechanism file, when given by path, travels with it). ``causality`` ("torque" or "speed")
+    overrides the scenario's [crank] causality; a speed-causal FMU of a torque-causal file is
+    named with "Speed" appended unless ``fmu_name`` is given."""
     if kind == "scenario":
-        from ..scenario import load_scenario
+        from ..scenario import CAUSALITIES, load_scenario
 
         scenario = load_scenario(name)
+        if causality is not None and causality not in CAUSALITIES:
+            raise CrankfmuError(f"--causality must be one of {', '.join(CAUSALITIES)}, got {causality!r}")
+        own = scenario.causality
+        causality = causality or own
         definition = scenario.mechanism_definition()
         groups = {"*geometry": sorted(set(definition.geometry_parameters) | set(definition.mass_parameters)),
                   "*loads": sorted(scenario.load_parameters())}
         fmu = _fmu_name(fmu_name or scenario.data.get("fmu"), scenario.where)
-        source = Source(kind, scenario.name, fmu, scenario.title, scenario.experiment, "fmi.slave:FmuCore",
-                        {v.name: v.initial for v in OUTPUTS}, groups, lambda: reference_result(scenario),
-                        lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params, ref),
-                        lambda: slave.declared(scenario), load=scenario.name)
+        if causality == "speed":
+            fmu = fmu if fmu_name or own == "speed" else fmu + "Speed"
+            source = Source(kind, scenario.name, fmu, scenario.title + " (speed causality)", scenario.experiment,
+                            "fmi.speed:SpeedCore", {v.name: v.initial for v in SPEED_OUTPUTS}, groups,
+                            lambda: speed_reference(scenario),
+                            lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params,
+                                                                                             ref),
+                            lambda: speed.declared(scenario), load=scenario.name)
+        else:
+            source = Source(kind, scenario.name, fmu, scenario.title, scenario.experiment, "fmi.slave:FmuCore",
+                            {v.name: v.initial for v in OUTPUTS}, groups, lambda: reference_result(scenario),
+                            lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params,
+                                                                                             ref),
+                            lambda: slave.declared(scenario), load=scenario.name)
         if _is_path(name):
             source.load, source.files = _user_files(scenario, name)
         else:
@@ -355,6 +371,32 @@ def reference_result(scenario) -> str:
     return "\n".join(lines) + "\n"
 
 
+def speed_reference(scenario) -> str:
+    """The speed-causal FMU's default experiment (omega1 held at omega1_start) by another method:
+    phi1 = phi1_start + omega1 t, and the drive torque as the equilibrium moment M_e of the power
+    balance (dynamics.inverse, seed 001 eq. 1) on the contour engine, not the tables."""
+    import numpy as np
+
+    from ..dynamics.inverse import equilibrium_moment
+
+    exp = scenario.experiment
+    n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
+    times = exp.start_time + exp.output_interval * np.arange(n + 1)
+    values = scenario.values
+    omega = values["omega1_start"]
+    if omega == 0.0:
+        return ""
+    model = scenario.build()
+    phi = values["phi1_start"] + omega * (times - exp.start_time)
+    m = equilibrium_moment(model.reduced, phi, omega)
+    J = model.reduced.coefficients(phi)[0]
+    columns = {"time": times, "phi1": phi, "epsilon1": np.zeros_like(phi), "tau_drive": m.total,
+               "M_load": -(m.weights + m.technological), "J_red": J, "E_kin": 0.5 * J * omega * omega}
+    lines = [",".join(f'"{c}"' for c in columns)]
+    lines += [",".join(f"{columns[c][i]:.17g}" for c in columns) for i in range(times.size)]
+    return "\n".join(lines) + "\n"
+
+
 def cross_check_options(source: Source) -> str:
     exp = source.experiment
     return (f"StartTime, {exp.start_time!r}\nStopTime, {exp.stop_time!r}\n"
@@ -371,12 +413,12 @@ def slave_script(name: str, source: Source, digest: str) -> str:
                                DESCRIPTION=repr(source.title), DIGEST=digest)
 
 
-def preflight(kind: str, data_name: str, name: str | None = None) -> Source:
+def preflight(kind: str, data_name: str, name: str | None = None, causality: str | None = None) -> Source:
     """Everything the build would refuse in the files, before anything is built: the model
     identifier, each variable's name (a C identifier, declared once), its unit (``units``), its
     start inside its own range, and the DefaultExperiment. ``crankfmu check`` runs the same.
     Returns the Source; raises CrankfmuError listing every problem found."""
-    source = source_of(kind, data_name, name)
+    source = source_of(kind, data_name, name, causality)
     declared = source.variables()
     problems = []
     seen: dict[str, str] = {}
@@ -417,7 +459,7 @@ def stage(fmu: str, what: str):
         raise CrankfmuError(f"{fmu}.fmu: {what} failed: {type(exc).__name__}: {exc}") from exc
 
 
-def build(kind: str, data_name: str, dest: Path, name: str | None = None) -> Path:
+def build(kind: str, data_name: str, dest: Path, name: str | None = None, causality: str | None = None) -> Path:
     """Build the FMU of a data file (a packaged name, or a user's scenario file by path) into
     ``dest``; ``name`` overrides the file's ``fmu`` key. Returns the FMU's path.
 
@@ -425,7 +467,7 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None) -> Pat
     failure at any stage leaves ``dest`` as it was (``atomic.replacing``)."""
     from pythonfmu import FmuBuilder
 
-    source = preflight(kind, data_name, name)
+    source = preflight(kind, data_name, name, causality)
     name = source.fmu
     dest.mkdir(parents=True, exist_ok=True)
     out = dest / f"{name}.fmu"

@@ -51,7 +51,8 @@ def variables_table(model_description: bytes, parameters: dict) -> str:
 
 
 def experiment_plot(reference_csv: str, title: str) -> bytes:
-    """PNG of the reference result: omega1 and the motor torque over the default experiment."""
+    """PNG of the reference result over the default experiment: omega1 and the motor torque (phi1
+    and the drive torque in speed causality)."""
     import numpy as np
 
     from ..plots import pyplot
@@ -62,15 +63,18 @@ def experiment_plot(reference_csv: str, title: str) -> bytes:
     col = {h: data[:, i] for i, h in enumerate(header)}
     plt = pyplot()
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
-    a1.plot(col["time"], col["omega1"], lw=1.3)
-    a1.set_ylabel("omega1 [rad/s]")
+    # torque causality: omega1 and the motor torque; speed causality: phi1 and the drive torque
+    first, unit = ("omega1", "rad/s") if "omega1" in col else ("phi1", "rad")
+    torque = "M_motor" if "M_motor" in col else "tau_drive"
+    a1.plot(col["time"], col[first], lw=1.3)
+    a1.set_ylabel(f"{first} [{unit}]")
     a1.set_title(title, fontsize=10)
-    a2.plot(col["time"], col["M_motor"], lw=1.3, color="C1", label="M_motor")
+    a2.plot(col["time"], col[torque], lw=1.3, color="C1", label=torque)
     if "J_red" in col:
         a2b = a2.twinx()
         a2b.plot(col["time"], col["J_red"], lw=1.0, color="C2", label="J_red")
         a2b.set_ylabel("J_red [kg.m2]", color="C2")
-    a2.set_ylabel("M_motor [N.m]", color="C1")
+    a2.set_ylabel(f"{torque} [N.m]", color="C1")
     a2.set_xlabel("time [s]")
     for ax in (a1, a2):
         ax.grid(True, alpha=0.3)

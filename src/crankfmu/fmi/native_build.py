@@ -77,7 +77,9 @@ class NativeModel:
         model = self.scenario.build()
         self.table = table_of(model.reduced, TABLE_TOLERANCE)
         definition = self.scenario.mechanism_definition()
-        self.quantities = list(self.scenario.quantities)
+        from .slave import output_quantities
+        self.quantities = output_quantities(self.scenario)       # [[outputs]], then the ports' s, v, a
+        self.ports = self.scenario.ports
         self.quantity_units = [q.unit(definition) for q in self.quantities]
         self.quantity_table = (tabulate_quantities(model.mechanism, self.quantities, definition, TABLE_TOLERANCE)
                                if self.quantities else None)
@@ -111,6 +113,7 @@ class NativeModel:
                 f"#define N_OUTPUTS {len(self.outputs)}\n"
                 f"#define N_FIXED {len(self.fixed)}\n"
                 f"#define N_QUANTITIES {len(self.quantities)}\n"
+                f"#define N_PORTS {len(self.ports)}\n"
                 f"#define N_QUANTITY_COORDINATES {len(Q.coordinates) if Q else 0}\n"
                 f"#define QUANTITY_FUNCTIONS {Q.coefficients.shape[0] if Q else 0}\n"
                 f"#define QUANTITY_INTERVALS {Q.coefficients.shape[1] if Q else 1}\n"
@@ -138,6 +141,7 @@ class NativeModel:
         rows += [variable(p.name, "KIND_FIXED", p=p) for p in self.fixed]
         rows += [variable(q.name, "KIND_QUANTITY", unit=u) for q, u in zip(self.quantities, self.quantity_units)]
         rows += [variable(f"der({name})", "KIND_DERIVATIVE", unit=unit) for name, unit in self.derivatives()]
+        rows += [variable(p.input_name, "KIND_INPUT", 0.0, unit=p.input_unit) for p in self.ports]
         t, Q = self.table, self.quantity_table
         coordinates = Q.coordinates if Q else ()
         quantity_note = (f"\n * [[outputs]]: {Q.construction}, checked error bound {Q.error_bound:.3g}" if Q else "")
@@ -174,13 +178,15 @@ class NativeModel:
         common = dict(modelIdentifier=self.source.fmu, canGetAndSetFMUstate="true", canSerializeFMUstate="true",
                       canNotUseMemoryManagementFunctions="false")
         for kind, extra in (("ModelExchange", {"completedIntegratorStepNotNeeded": "true"}),
-                            ("CoSimulation", {"canHandleVariableCommunicationStepSize": "true"})):
+                            ("CoSimulation", {"canHandleVariableCommunicationStepSize": "true",
+                                              "canInterpolateInputs": "true"})):
             files = ET.SubElement(ET.SubElement(root, kind, **common, **extra), "SourceFiles")
             for name in sources:
                 if name.endswith(".c"):
                     ET.SubElement(files, "File", name=name)
         derivatives = self.derivatives()
         used = sorted({si.fmi_name(u) for u in [v.unit for v in self.outputs] + [self.input.unit] +
+                       [p.input_unit for p in self.ports] +
                        [p.unit for p in (*self.tunable, *self.fixed)] + self.quantity_units +
                        [unit for _, unit in derivatives] if u != "1"})
         unit_defs = ET.SubElement(root, "UnitDefinitions")
@@ -222,6 +228,8 @@ class NativeModel:
         derivative_indices = [scalar(f"der({name})", unit, f"time derivative of {name} (Model Exchange)",
                                      causality="local", variability="continuous", initial="calculated",
                                      derivative=str(index_of[name])) for name, unit in derivatives]
+        inputs += [scalar(p.input_name, p.input_unit, p.input_description, causality="input",
+                          variability="continuous", start="0.0") for p in self.ports]
         structure = ET.SubElement(root, "ModelStructure")
         for tag, indices in (("Outputs", outputs), ("Derivatives", derivative_indices)):
             element = ET.SubElement(structure, tag)

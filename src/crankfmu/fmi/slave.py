@@ -4,7 +4,8 @@
 mass and load parameters) on a pythonfmu ``Fmi2Slave`` and implements its life cycle. The slave
 scripts (generated from ``slave_script.py.in`` beside this file) are thin: ``class FourBar(Fmi2Slave)``
 delegating to ``FmuCore``. A scenario's ``[[outputs]]`` (slider position, arm speed, ...) become
-extra outputs, computed from the analytic transfer functions only when the host reads them.
+extra outputs, computed from the analytic transfer functions only when the host reads them; so do
+each port's s, v, a (dynamics.ports), whose input (ram_F, arm_M) is held over a step.
 
 Inside ``fmi2DoStep`` the movement equation is integrated by the fast path: the reduced model is
 tabulated once at initialisation (dynamics.tabulated, its error bound checked against the contour
@@ -68,30 +69,54 @@ def build_design(scenario, values: dict):
     return design
 
 
+def output_quantities(scenario) -> list:
+    """The mechanism quantities an FMU of ``scenario`` outputs: its [[outputs]], then each port's
+    position, velocity and acceleration (dynamics.ports)."""
+    return [*scenario.quantities, *(q for port in scenario.ports for q in port.quantities)]
+
+
 def declared(scenario) -> Declared:
-    """The variables of the FMU of ``scenario``: the contract's outputs and the scenario's
-    [[outputs]], the input tau_ext, the scenario's parameters and the integrator's rtol."""
+    """The variables of the FMU of ``scenario``: the contract's outputs, the scenario's [[outputs]]
+    and its ports' outputs, the inputs tau_ext and one per port, the scenario's parameters and the
+    integrator's rtol."""
     definition = scenario.mechanism_definition()
-    outputs = [*OUTPUTS, *(Variable(q.name, q.unit(definition), q.description) for q in scenario.quantities)]
-    inputs = [Parameter(TAU_EXT.name, 0.0, TAU_EXT.unit, TAU_EXT.description)]
+    outputs = [*OUTPUTS, *(Variable(q.name, q.unit(definition), q.description) for q in output_quantities(scenario))]
+    inputs = [Parameter(TAU_EXT.name, 0.0, TAU_EXT.unit, TAU_EXT.description),
+              *(Parameter(p.input_name, 0.0, p.input_unit, p.input_description) for p in scenario.ports)]
     parameters = [*scenario.parameters.values(), Parameter(
         "rtol", scenario.experiment.tolerance, "1", min=0.0, min_inclusive=False,
         description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4), the C kernel)")]
     return Declared(outputs, inputs, parameters)
 
 
+def quantity_values(model, quantities, phi1: float, omega1: float, epsilon1: float) -> dict[str, float]:
+    """Every mechanism quantity (an [[outputs]] entry, a port's s, v, a) at one state, from one
+    call of the analytic kinematics."""
+    from ..mechanisms.quantities import evaluate_all
+
+    kin = model.mechanism.kinematics(np.array([float(phi1)]))
+    return {k: float(v[0]) for k, v in evaluate_all(quantities, kin, float(omega1), float(epsilon1)).items()}
+
+
+def fmu_scenario(scenario_name: str):
+    """The scenario an FMU's core runs: a packaged name, or a user's file the build put in the
+    FMU's package (``user/<file>.toml``)."""
+    if scenario_name.endswith(".toml"):
+        scenario_name = str(Path(__file__).resolve().parents[1] / scenario_name)
+    return load_scenario(scenario_name)
+
+
 class FmuCore(SlaveCore):
     """Variables and model of a crankfmu FMU for one scenario."""
 
     def __init__(self, slave, scenario_name: str):
-        if scenario_name.endswith(".toml"):      # a user's scenario the build put in the package
-            scenario_name = str(Path(__file__).resolve().parents[1] / scenario_name)
-        self.scenario = load_scenario(scenario_name)
+        self.scenario = fmu_scenario(scenario_name)
         super().__init__(slave, self.scenario.experiment.start_time)
         self.row = np.zeros(len(ROW))       # the kernel's output row at the current time
         self.model = None
         self.stepper: FastStepper | None = None
-        self.quantities = self.scenario.quantities
+        self.quantities = output_quantities(self.scenario)
+        self.port_inputs = [p.input_name for p in self.scenario.ports]
         self._quantity_values: dict[str, float] | None = None    # filled on first read after a step
 
         getters = {out.name: self._getter(out.name) for out in OUTPUTS}
@@ -122,6 +147,7 @@ class FmuCore(SlaveCore):
         y0[0], y0[1] = v["phi1_start"], v["omega1_start"]
         self.stepper = FastStepper(table, self._motor(), self.model.reduced.J_flywheel, v["rtol"], v[TAU_EXT.name],
                                    row=self.row)
+        self.stepper.set_port_inputs([v[n] for n in self.port_inputs])
         self.stepper.start(self.time, y0)
         self._quantity_values = None
 
@@ -130,6 +156,7 @@ class FmuCore(SlaveCore):
             # a tunable parameter or the input changed: it takes effect from this step on
             self.stepper.set_motor(self._motor())
             self.stepper.set_tau_ext(self.values[TAU_EXT.name])
+            self.stepper.set_port_inputs([self.values[n] for n in self.port_inputs])
             self.stepper.restart(self.time)
         self._quantity_values = None
         self.stepper.advance(target, max(self.t_limit, target))      # fills self.row
@@ -146,13 +173,9 @@ class FmuCore(SlaveCore):
         if self.model is None:
             return 0.0
         if self._quantity_values is None:
-            from ..mechanisms.quantities import evaluate_all
-
             row = self.row
-            kin = self.model.mechanism.kinematics(np.array([row[ROW["phi1"]]]))
-            omega, eps = float(row[ROW["omega1"]]), float(row[ROW["epsilon1"]])
-            self._quantity_values = {k: float(v[0]) for k, v in
-                                     evaluate_all(self.quantities, kin, omega, eps).items()}
+            self._quantity_values = quantity_values(self.model, self.quantities, row[ROW["phi1"]], row[ROW["omega1"]],
+                                                    row[ROW["epsilon1"]])
         return self._quantity_values[name]
 
     # ------------------------------------------------------------------ FMU state

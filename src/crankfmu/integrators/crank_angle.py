@@ -53,6 +53,9 @@ class CrankAngleScheme(Integrator):
 
     def run(self, equation, t0, y0, t_end, progress=None, output_times=None):
         reduced, motor, tau = equation.reduced, equation.motor, equation.tau_ext
+        if any(callable(u) or u != 0.0 for u in equation.port_inputs):
+            raise SchemeError(f"{self.name}: the crank-angle schemes take no port inputs (the paper's eq. 17 "
+                              "has none); use method 'fast' or 'reference'")
         h = self.angle_step
         phi0, omega = float(y0[0]), float(y0[1])
         t = float(t0)

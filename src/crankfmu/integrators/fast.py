@@ -58,25 +58,42 @@ class FastIntegrator(Integrator):
         table = table_of(equation.reduced, TABLE_TOLERANCE)
         stepper = FastStepper(table, equation.motor, equation.reduced.J_flywheel, self.rtol, equation.tau_ext,
                               atol=self.atol)
+        timed = [i for i, u in enumerate(equation.port_inputs) if callable(u)]
+        stepper.set_port_inputs(equation.port_values(t0))
         stepper.start(t0, y0)
         S = stepper.state
         times = np.zeros(0) if output_times is None else np.asarray(output_times, dtype=float)
+        if timed:
+            # an input given as a function of time enters the kernel linear in time between output
+            # times (or every 1 ms without them): its value at each, the slope to the next. The
+            # torque stays continuous, so the stepper goes on without a restart at those times.
+            grid = times if times.size else np.arange(t0, t_end, 1e-3)
+            ramp = np.unique(np.concatenate([[t0], grid[(grid > t0) & (grid < t_end)], [t_end]]))
+            values = np.array([equation.port_values(t) for t in ramp], dtype=float)
+        else:
+            ramp = np.array([t0, t_end])
         rows = np.zeros((times.size, kernel.OUT_SIZE))
         i_out = 0
         stores, events, modes = [S[None, :].copy()], [], [(float(t0), _mode_name(S))]
+        k = 0
         while True:
+            if timed:
+                stepper.set_port_ramp(ramp[k], values[k], (values[k + 1] - values[k]) / (ramp[k + 1] - ramp[k]))
             store = np.empty((self.chunk, kernel.STATE_SIZE))     # the kernel fills each row it counts
             ev = np.empty((self.chunk, 3))
             md = np.empty((self.chunk, 4))
             status, i_out, n_store, n_ev, n_md = kernel.run_chunk(
-                S, float(t_end), times, i_out, rows, store, 0, ev, 0, md, 0, stepper.tables, stepper.P)
+                S, float(ramp[k + 1]), times, i_out, rows, store, 0, ev, 0, md, 0, stepper.tables, stepper.P)
             stores.append(store[:n_store])
             events += [(float(t), hybrid.event_name(int(slot), motor)) for t, slot, motor in ev[:n_ev]]
             modes += [(float(r[0]), _mode_name(r[1:], row=True)) for r in md[:n_md]]
             if progress is not None:
                 progress(float(S[kernel.T]))
             if status == 0:
-                break
+                k += 1
+                if k + 1 >= ramp.size:
+                    break
+                continue
             if status != 1:                     # 1: a buffer is full, the next chunk continues
                 refused(status, S)
         store = np.concatenate(stores)
@@ -127,6 +144,17 @@ class FastStepper:
 
     def set_tau_ext(self, tau: float):
         self.P[kernel.TAU_EXT] = tau
+
+    def set_port_inputs(self, values, rates=None, t_input: float = 0.0):
+        """The ports' inputs (N or N.m, in the ports' order), held from now, or linear in time from
+        t_input with ``rates`` (per s)."""
+        n = len(values)
+        self.P[kernel.PORT_INPUT:kernel.PORT_INPUT + n] = values
+        self.P[kernel.PORT_RATE:kernel.PORT_RATE + n] = 0.0 if rates is None else rates
+        self.P[kernel.T_INPUT] = t_input
+
+    def set_port_ramp(self, t_input: float, values, rates):
+        self.set_port_inputs(values, rates, t_input)
 
     def start(self, t: float, y) -> np.ndarray:
         """Initialise at (t, y) and return the output row there."""

@@ -99,7 +99,7 @@ def _load() -> ctypes.CDLL:
 class _Tables(ctypes.Structure):
     _fields_ = [("coefficients", ctypes.c_void_p), ("n_functions", ctypes.c_int),
                 ("n", ctypes.c_int), ("switch_angles", ctypes.c_void_p), ("m", ctypes.c_int),
-                ("forces", ctypes.c_void_p), ("n_sliders", ctypes.c_int)]
+                ("forces", ctypes.c_void_p), ("n_sliders", ctypes.c_int), ("n_ports", ctypes.c_int)]
 
 
 LIBRARY = _load()
@@ -127,9 +127,12 @@ T_PREV, Y_PREV, K = _LAYOUT["T_PREV"], _LAYOUT["Y_PREV"], _LAYOUT["K"]
 N_RHS, N_STEPS, STATE_SIZE, N_Y = _LAYOUT["N_RHS"], _LAYOUT["N_STEPS"], _LAYOUT["STATE_SIZE"], _LAYOUT["N_Y"]
 STEP_MOTOR, STEP_DIRECTION = _LAYOUT["STEP_MOTOR"], _LAYOUT["STEP_DIRECTION"]
 PARAM_SIZE, OUT_SIZE, STEADY_SIZE = _LAYOUT["PARAM_SIZE"], _LAYOUT["OUT_SIZE"], _LAYOUT["STEADY_SIZE"]
-# ---- the parameter array (crank_kernel.h's order)
-A_, B_, A_LOW, B_LOW, OMEGA_SWITCH, TAU_EXT, J_FLYWHEEL, RTOL, ATOL, H_MAX = range(10)
-assert PARAM_SIZE == 10
+# ---- the parameter array (crank_kernel.h's order): the motor line, the inputs (value at T_INPUT
+# and rate: tau_ext, then one per port), the flywheel and the stepper's settings
+MAX_PORTS = 8
+A_, B_, A_LOW, B_LOW, OMEGA_SWITCH, TAU_EXT, J_FLYWHEEL, RTOL, ATOL, H_MAX, T_INPUT, TAU_EXT_RATE = range(12)
+PORT_INPUT, PORT_RATE = 12, 12 + MAX_PORTS
+assert PARAM_SIZE == 12 + 2 * MAX_PORTS
 # ---- the output row: the state, then the contract outputs the tables give
 ROW_FIELDS = ("phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor", "M_load", "J_red")
 assert OUT_SIZE == len(ROW_FIELDS)
@@ -175,16 +178,18 @@ def _d(array: np.ndarray) -> int:
 class Tables:
     """A design's tables as the C kernel takes them; keeps the arrays alive while in use."""
 
-    def __init__(self, coefficients, switch_angles, forces):
+    def __init__(self, coefficients, switch_angles, forces, n_ports: int = 0):
         self.arrays = (np.ascontiguousarray(coefficients, dtype=float),
                        np.ascontiguousarray(switch_angles, dtype=float),
                        np.ascontiguousarray(forces, dtype=float))
         C, sw, fo = self.arrays
         if C.shape[0] > _LAYOUT["MAX_FUNCTIONS"]:
             raise CrankfmuError(f"the C kernel takes at most {_LAYOUT['MAX_FUNCTIONS']} tabulated functions "
-                                f"(4 and one per slider force), got {C.shape[0]}")
+                                f"(4, one per slider force and one per port), got {C.shape[0]}")
+        if n_ports > MAX_PORTS:
+            raise CrankfmuError(f"the C kernel takes at most {MAX_PORTS} ports, got {n_ports}")
         self.struct = _Tables(_d(C), C.shape[0], C.shape[1], _d(sw), sw.shape[0], _d(fo),
-                              fo.shape[2] if fo.ndim == 3 else 0)
+                              fo.shape[2] if fo.ndim == 3 else 0, n_ports)
         self.pointer = ctypes.addressof(self.struct)
 
 

@@ -26,7 +26,6 @@ const char* ck_source_digest(void) { return CK_SOURCE_DIGEST; }
 
 int ck_tableau(double* out, int n)
 {
-    static const double C[CK_N_STAGES] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0};
     int k = 0;
     for (int i = 0; i < CK_N_STAGES; i++)
         for (int j = 0; j < 5; j++, k++) if (k < n) out[k] = CK_A[i][j];
@@ -34,7 +33,7 @@ int ck_tableau(double* out, int n)
     for (int i = 0; i < CK_N_STAGES + 1; i++, k++) if (k < n) out[k] = CK_E[i];
     for (int i = 0; i < CK_N_STAGES + 1; i++)
         for (int j = 0; j < 4; j++, k++) if (k < n) out[k] = CK_P[i][j];
-    for (int i = 0; i < CK_N_STAGES; i++, k++) if (k < n) out[k] = C[i];
+    for (int i = 0; i < CK_N_STAGES; i++, k++) if (k < n) out[k] = CK_C[i];
     return k;
 }
 
@@ -56,6 +55,7 @@ double ck_rule(int rule, const double* a)
     case 12: return ck_event_value((int)a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9]);
     case 13: return ck_event_rising((int)a[0], a[1], a[2]);
     case 14: return ck_crosses(a[0], a[1], (int)a[2]);
+    case 15: return ck_drive_torque(a[0], a[1], a[2], a[3], a[4], a[5]);
     default: return NAN;
     }
 }
@@ -112,9 +112,28 @@ static void table_values(const CkTables* T, double phi, double* work)
     periodic_cubics(T->coefficients, T->n_functions, T->n, phi, work);
 }
 
-/* (J, 0.5 J', Q) with the slider forces of the given interval and direction */
-static void coefficients(double phi, double omega, double direction, double interval, const CkTables* T,
-                         const double* P, double* work, double* J, double* half_dJ, double* Q)
+/* the external torque on the crank at time t (N.m): tau_ext and each port's input times its
+ * transfer function (work holds the tabulated functions at the crank angle) */
+static double external_torque(double t, const CkTables* T, const double* P, const double* work)
+{
+    double dt = t - P[CK_T_INPUT];
+    double tau = P[CK_TAU_EXT] + P[CK_TAU_EXT_RATE] * dt;
+    const double* transfer = work + (T->n_functions - T->n_ports);
+    for (int i = 0; i < T->n_ports; i++) tau += (P[CK_PORT_INPUT + i] + P[CK_PORT_RATE + i] * dt) * transfer[i];
+    return tau;
+}
+
+double ck_external_torque(double t, double phi, const CkTables* T, const double* P)
+{
+    double work[CK_MAX_FUNCTIONS];
+    table_values(T, phi, work);
+    return external_torque(t, T, P, work);
+}
+
+/* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
+ * torque at time t */
+static void coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,
+                         const double* P, double* work, double* J, double* half_dJ, double* Q, double* tau)
 {
     table_values(T, phi, work);
     *J = work[0] + P[CK_J_FLYWHEEL];
@@ -126,6 +145,7 @@ static void coefficients(double phi, double omega, double direction, double inte
     }
     *half_dJ = work[1];
     *Q = q;
+    *tau = external_torque(t, T, P, work);
 }
 
 static double motor_torque(double omega, int high, const double* P)
@@ -135,12 +155,12 @@ static double motor_torque(double omega, int high, const double* P)
 }
 
 /* d/dt (phi1, omega1, W_motor, W_load, W_ext) into out; returns epsilon1, M, Q, J via pointers */
-static double rhs(double phi, double omega, double motor, double direction, double interval, const CkTables* T,
-                  const double* P, double* work, double* out, double* M_out, double* Q_out, double* J_out)
+static double rhs(double t, double phi, double omega, double motor, double direction, double interval,
+                  const CkTables* T, const double* P, double* work, double* out, double* M_out, double* Q_out,
+                  double* J_out)
 {
-    double J, half_dJ, Q, M, eps;
-    coefficients(phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q);
-    double tau = P[CK_TAU_EXT];
+    double J, half_dJ, Q, M, eps, tau;
+    coefficients(t, phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
     if (direction == 0.0) {
         M = motor_torque(0.0, motor == CK_HIGH, P);
         eps = 0.0;
@@ -181,28 +201,28 @@ void ck_dense(const double* S, double t, double* out)
 }
 
 /* motor branch from a state on omega1 = omega_switch */
-static double mode_on_switch(double phi, double direction, double interval, const CkTables* T, const double* P,
-                             double* work)
+static double mode_on_switch(double t, double phi, double direction, double interval, const CkTables* T,
+                             const double* P, double* work)
 {
-    double ws = P[CK_OMEGA_SWITCH], J, half_dJ, Q;
-    coefficients(phi, ws, direction, interval, T, P, work, &J, &half_dJ, &Q);
-    double rest = Q + P[CK_TAU_EXT] - half_dJ * ws * ws;
+    double ws = P[CK_OMEGA_SWITCH], J, half_dJ, Q, tau;
+    coefficients(t, phi, ws, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
+    double rest = Q + tau - half_dJ * ws * ws;
     return ck_motor_on_switch(motor_torque(ws, 0, P), motor_torque(ws, 1, P), rest);
 }
 
 /* the crank's acceleration from rest with the slider forces forward (eps[0]) and backward (eps[1]) */
-static void rest_accelerations(double phi, double motor, double interval, const CkTables* T, const double* P,
-                               double* work, double* f, double* eps)
+static void rest_accelerations(double t, double phi, double motor, double interval, const CkTables* T,
+                               const double* P, double* work, double* f, double* eps)
 {
-    eps[0] = rhs(phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL, NULL, NULL);
-    eps[1] = rhs(phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL, NULL, NULL);
+    eps[0] = rhs(t, phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL, NULL, NULL);
+    eps[1] = rhs(t, phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL, NULL, NULL);
 }
 
-static double direction_at_rest(double phi, double motor, double interval, const CkTables* T, const double* P,
-                                double* work, double* f)
+static double direction_at_rest(double t, double phi, double motor, double interval, const CkTables* T,
+                                const double* P, double* work, double* f)
 {
     double eps[2];
-    rest_accelerations(phi, motor, interval, T, P, work, f, eps);
+    rest_accelerations(t, phi, motor, interval, T, P, work, f, eps);
     return ck_direction_at_rest(eps[0], eps[1]);
 }
 
@@ -215,16 +235,17 @@ static void set_interval(double* S, const CkTables* T, double phi, double direct
     S[CK_PHI_HI] = hi;
 }
 
-/* the discrete state (motor branch, direction, switch interval) of a start or a restart at y */
+/* the discrete state (motor branch, direction, switch interval) of a start or a restart at (S[CK_T], y) */
 static void set_mode(double* S, const double* y, const CkTables* T, const double* P, Scratch* w)
 {
+    double t = S[CK_T];
     double omega = y[1], ws = P[CK_OMEGA_SWITCH];
     double motor = ck_motor_of_speed(omega, ws);
     double direction = ck_direction_of_speed(omega);
     set_interval(S, T, y[0], direction);
-    if (omega == ws) motor = mode_on_switch(y[0], direction, S[CK_INTERVAL], T, P, w->work);
+    if (omega == ws) motor = mode_on_switch(t, y[0], direction, S[CK_INTERVAL], T, P, w->work);
     if (omega == 0.0 && T->n_sliders > 0) {
-        direction = direction_at_rest(y[0], motor, S[CK_INTERVAL], T, P, w->work, w->f);
+        direction = direction_at_rest(t, y[0], motor, S[CK_INTERVAL], T, P, w->work, w->f);
         set_interval(S, T, y[0], direction != 0.0 ? direction : 1.0);
     }
     S[CK_MOTOR] = motor;
@@ -241,7 +262,7 @@ static void start(double* S, double t, const double* y, const CkTables* T, const
     S[CK_T_PREV] = t;
     set_mode(S, y, T, P, w);
     double motor = S[CK_MOTOR], direction = S[CK_DIRECTION];
-    rhs(y[0], y[1], motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
+    rhs(t, y[0], y[1], motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
     for (int j = 0; j < 5; j++) {
         S[CK_F + j] = w->f[j];
         for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = s == CK_N_STAGES ? w->f[j] : 0.0;
@@ -263,8 +284,8 @@ static void start(double* S, double t, const double* y, const CkTables* T, const
 }
 
 /* one Dormand-Prince step from (t, y, f) in S's mode; stages into w->Kst */
-static void rk_step(const double* S, const double* y, const double* f, double h, const CkTables* T, const double* P,
-                    Scratch* w)
+static void rk_step(const double* S, double t, const double* y, const double* f, double h, const CkTables* T,
+                    const double* P, Scratch* w)
 {
     double motor = S[CK_MOTOR], direction = S[CK_DIRECTION], interval = S[CK_INTERVAL];
     for (int j = 0; j < 5; j++) w->Kst[0][j] = f[j];
@@ -274,14 +295,16 @@ static void rk_step(const double* S, const double* y, const double* f, double h,
             for (int r = 0; r < s; r++) acc += w->Kst[r][j] * CK_A[s][r];
             w->tmp[j] = y[j] + h * acc;
         }
-        rhs(w->tmp[0], w->tmp[1], motor, direction, interval, T, P, w->work, w->Kst[s], NULL, NULL, NULL);
+        rhs(t + CK_C[s] * h, w->tmp[0], w->tmp[1], motor, direction, interval, T, P, w->work, w->Kst[s], NULL, NULL,
+            NULL);
     }
     for (int j = 0; j < 5; j++) {
         double acc = 0.0;
         for (int r = 0; r < CK_N_STAGES; r++) acc += w->Kst[r][j] * CK_B[r];
         w->ynew[j] = y[j] + h * acc;
     }
-    rhs(w->ynew[0], w->ynew[1], motor, direction, interval, T, P, w->work, w->Kst[CK_N_STAGES], NULL, NULL, NULL);
+    rhs(t + h, w->ynew[0], w->ynew[1], motor, direction, interval, T, P, w->work, w->Kst[CK_N_STAGES], NULL, NULL,
+        NULL);
 }
 
 static double error_norm(const double* y, const double* ynew, const Scratch* w, double h, const double* P)
@@ -297,15 +320,16 @@ static double error_norm(const double* y, const double* ynew, const Scratch* w, 
     return sqrt(acc / 5.0);
 }
 
-/* event functions of S's mode at state y into g; inactive slots get NaN */
-static void events(const double* S, const double* y, const CkTables* T, const double* P, double* work, double* g)
+/* event functions of S's mode at (t, y) into g; inactive slots get NaN */
+static void events(const double* S, double t, const double* y, const CkTables* T, const double* P, double* work,
+                   double* g)
 {
     double motor = S[CK_MOTOR], direction = S[CK_DIRECTION], ws = P[CK_OMEGA_SWITCH];
     double m_low = 0.0, m_high = 0.0, equivalent = 0.0;
     if (motor == CK_SLIDE) {
-        double J, half_dJ, Q;
-        coefficients(y[0], ws, direction, S[CK_INTERVAL], T, P, work, &J, &half_dJ, &Q);
-        equivalent = ck_equivalent_torque(half_dJ, Q, P[CK_TAU_EXT], ws);
+        double J, half_dJ, Q, tau;
+        coefficients(t, y[0], ws, direction, S[CK_INTERVAL], T, P, work, &J, &half_dJ, &Q, &tau);
+        equivalent = ck_equivalent_torque(half_dJ, Q, tau, ws);
         m_low = motor_torque(ws, 0, P);
         m_high = motor_torque(ws, 1, P);
     }
@@ -319,8 +343,9 @@ static void events(const double* S, const double* y, const CkTables* T, const do
     }
 }
 
-/* discrete state after the event in slot at state y (adjusted onto the surface) */
-static void transition(double* S, int slot, double* y, const CkTables* T, const double* P, double* work, double* f)
+/* discrete state after the event in slot at (t, y) (y adjusted onto the surface) */
+static void transition(double* S, int slot, double t, double* y, const CkTables* T, const double* P, double* work,
+                       double* f)
 {
     double ws = P[CK_OMEGA_SWITCH];
     if (slot == CK_INTERVAL_END || slot == CK_INTERVAL_START) {
@@ -336,12 +361,12 @@ static void transition(double* S, int slot, double* y, const CkTables* T, const 
     y[1] = slot == CK_REST ? 0.0 : ws;
     if (slot == CK_REST) S[CK_MOTOR] = ck_motor_at_rest(S[CK_MOTOR], ws);
     if (ck_turns_forces(slot, ws, T->n_sliders > 0))
-        S[CK_DIRECTION] = direction_at_rest(y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, work, f);
+        S[CK_DIRECTION] = direction_at_rest(t, y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, work, f);
     if (slot == CK_REST) return;
     if (S[CK_MOTOR] == CK_SLIDE)
         S[CK_MOTOR] = ck_motor_after_sliding(slot);
     else
-        S[CK_MOTOR] = mode_on_switch(y[0], S[CK_DIRECTION], S[CK_INTERVAL], T, P, work);
+        S[CK_MOTOR] = mode_on_switch(t, y[0], S[CK_DIRECTION], S[CK_INTERVAL], T, P, work);
 }
 
 /* sign-true slope of omega1 (h domega1/dt) at x in [0, 1] of the last step's interpolant */
@@ -368,7 +393,7 @@ static double locate(const double* S, int slot, double level, double lo, double 
         else if (slot == -1)
             gm = tmp[0] - level;
         else {
-            events(S, tmp, T, P, work, g);
+            events(S, tm, tmp, T, P, work, g);
             gm = g[slot];
         }
         if ((gm < 0.0) == (glo < 0.0)) {
@@ -411,7 +436,7 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
     for (;;) {
         if (t + h >= t_limit) h = t_limit - t;
         if (h <= 1e-14 * fmax(1.0, fabs(t))) return CK_UNDERFLOW;
-        rk_step(S, w->y, w->f0, h, T, P, w);
+        rk_step(S, t, w->y, w->f0, h, T, P, w);
         n_rhs += CK_N_STAGES;
         err = error_norm(w->y, w->ynew, w, h, P);
         if (err <= 1.0) break;
@@ -421,8 +446,8 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
     double h_next = fmin(h * factor, P[CK_H_MAX]);
     double t_new = t + h == t_limit ? t_limit : t + h;
 
-    events(S, w->y, T, P, w->work, w->g0);
-    events(S, w->ynew, T, P, w->work, w->g1);
+    events(S, t, w->y, T, P, w->work, w->g0);
+    events(S, t_new, w->ynew, T, P, w->work, w->g1);
     S[CK_T_PREV] = t;
     S[CK_T] = t_new;
     for (int j = 0; j < 5; j++) {
@@ -455,13 +480,14 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
     }
     /* recompute the step so that it ends on the event, then change mode there */
     double h_event = first_t - t;
-    rk_step(S, w->y, w->f0, h_event, T, P, w);
+    rk_step(S, t, w->y, w->f0, h_event, T, P, w);
     n_rhs += CK_N_STAGES;
     S[CK_T] = first_t;
     for (int j = 0; j < 5; j++)
         for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = w->Kst[s][j];
-    transition(S, first_slot, w->ynew, T, P, w->work, w->f);
-    rhs(w->ynew[0], w->ynew[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
+    transition(S, first_slot, first_t, w->ynew, T, P, w->work, w->f);
+    rhs(first_t, w->ynew[0], w->ynew[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL,
+        NULL);
     for (int j = 0; j < 5; j++) {
         S[CK_Y + j] = w->ynew[j];
         S[CK_F + j] = w->f[j];
@@ -472,13 +498,13 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
     return first_slot;
 }
 
-/* the rest of an output row whose state row[0:5] is set, in the given mode: epsilon1, M_motor,
- * M_load, J_red; f <- dy/dt there */
-static void complete_row(double motor, double direction, double interval, const CkTables* T, const double* P,
-                         double* work, double* f, double* row)
+/* the rest of an output row whose state row[0:5] at time t is set, in the given mode: epsilon1,
+ * M_motor, M_load, J_red; f <- dy/dt there */
+static void complete_row(double t, double motor, double direction, double interval, const CkTables* T,
+                         const double* P, double* work, double* f, double* row)
 {
     double M, Q, J;
-    double eps = rhs(row[0], row[1], motor, direction, interval, T, P, work, f, &M, &Q, &J);
+    double eps = rhs(t, row[0], row[1], motor, direction, interval, T, P, work, f, &M, &Q, &J);
     row[5] = eps;
     row[6] = M;
     row[7] = Q;
@@ -499,7 +525,7 @@ static void output_row(const double* S, double t, const CkTables* T, const doubl
         direction = S[CK_STEP_DIRECTION];
         interval = S[CK_STEP_INTERVAL];
     }
-    complete_row(motor, direction, interval, T, P, work, f, row);
+    complete_row(t, motor, direction, interval, T, P, work, f, row);
 }
 
 /* ------------------------------------------------------------------------------ the drivers */
@@ -743,7 +769,7 @@ int ck_me_derivatives(const double* S, const double* y, const CkTables* T, const
     if (!mode_ok(S, T)) return CK_BAD_STATE;
     if (!row) row = own;
     for (int j = 0; j < CK_N_Y; j++) row[j] = y[j];
-    complete_row(S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w.work, w.f, row);
+    complete_row(S[CK_T], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w.work, w.f, row);
     if (dydt)
         for (int j = 0; j < CK_N_Y; j++) dydt[j] = w.f[j];
     return 0;
@@ -754,7 +780,7 @@ int ck_me_derivatives(const double* S, const double* y, const CkTables* T, const
 static double unstick_value(const double* S, const double* y, const CkTables* T, const double* P, Scratch* w)
 {
     double eps[2];
-    rest_accelerations(y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, w->work, w->f, eps);
+    rest_accelerations(S[CK_T], y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, w->work, w->f, eps);
     return fmax(eps[0], -eps[1]);
 }
 
@@ -762,7 +788,7 @@ int ck_me_indicators(const double* S, const double* y, const CkTables* T, const 
 {
     Scratch w;
     if (!mode_ok(S, T)) return CK_BAD_STATE;
-    events(S, y, T, P, w.work, w.g0);
+    events(S, S[CK_T], y, T, P, w.work, w.g0);
     for (int slot = 0; slot < CK_N_SLOTS; slot++) {
         double g = w.g0[slot];
         if (!isfinite(g)) {
@@ -785,14 +811,14 @@ int ck_me_update(double* S, double* y, const CkTables* T, const double* P)
     for (int round = 0; round < 4 * CK_N_SLOTS; round++) {
         if (S[CK_DIRECTION] == 0.0) {
             if (T->n_sliders == 0) return transitions;
-            double direction = direction_at_rest(y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, w.work, w.f);
+            double direction = direction_at_rest(S[CK_T], y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, w.work, w.f);
             if (direction == 0.0) return transitions;
             S[CK_DIRECTION] = direction;
             set_interval(S, T, y[0], direction);
             transitions++;
             continue;
         }
-        events(S, y, T, P, w.work, w.g0);
+        events(S, S[CK_T], y, T, P, w.work, w.g0);
         int ended = -1;
         for (int slot = 0; slot < CK_N_SLOTS && ended < 0; slot++) {
             double g = w.g0[slot], half = 0.5 * band(slot, S, P);
@@ -800,7 +826,7 @@ int ck_me_update(double* S, double* y, const CkTables* T, const double* P)
             if (ck_event_rising(slot, S[CK_MOTOR], S[CK_DIRECTION]) ? g >= half : g <= -half) ended = slot;
         }
         if (ended < 0) return transitions;
-        transition(S, ended, y, T, P, w.work, w.f);
+        transition(S, ended, S[CK_T], y, T, P, w.work, w.f);
         transitions++;
     }
     return CK_NO_FIXED_POINT;

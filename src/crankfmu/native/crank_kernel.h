@@ -32,9 +32,13 @@ enum {
     CK_N_Y = 5                                                      /* phi1, omega1, W_motor, W_load, W_ext */
 };
 
-/* ---- the parameter array */
+/* ---- the parameter array. The inputs (tau_ext on the crank, then one per port: a force's F or a
+ * couple's M) are linear in time from CK_T_INPUT: value + rate (t - t_input); a rate is 0 unless
+ * a host gave the input's derivative (fmi2SetRealInputDerivatives) */
+enum { CK_MAX_PORTS = 8 };
 enum { CK_A_ = 0, CK_B_, CK_A_LOW, CK_B_LOW, CK_OMEGA_SWITCH, CK_TAU_EXT, CK_J_FLYWHEEL, CK_RTOL, CK_ATOL, CK_H_MAX,
-       CK_PARAM_SIZE };
+       CK_T_INPUT, CK_TAU_EXT_RATE, CK_PORT_INPUT, CK_PORT_RATE = CK_PORT_INPUT + CK_MAX_PORTS,
+       CK_PARAM_SIZE = CK_PORT_RATE + CK_MAX_PORTS };
 
 /* ---- the output row: phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red */
 enum { CK_OUT_SIZE = 9 };
@@ -49,13 +53,17 @@ enum { CK_SLOPE_SAMPLES = 8, CK_STEADY_SIZE = 7 };
 /* what the stepping functions return besides an event slot */
 enum { CK_NO_EVENT = -1, CK_UNDERFLOW = -2, CK_BAD_STATE = -3, CK_NO_FIXED_POINT = -4 };
 
-/* the largest number of tabulated functions (J, 0.5 J', Q, dQ/domega and one per slider force) */
+/* the largest number of tabulated functions (J, 0.5 J', Q, dQ/domega, one per slider force and
+ * one per port) */
 enum { CK_MAX_FUNCTIONS = 64 };
 
 /* The tables of one design (dynamics/tabulated.py): n_functions periodic cubics on n intervals of
  * one turn, coefficients[f][i][4] (c0 + u (c1 + u (c2 + u c3)), u from the interval's left end);
  * the m switch angles (rad, in [0, 2 pi), ascending); the slider forces' factors
- * forces[k][direction 0 forward, 1 backward][n_sliders] of each switch interval. */
+ * forces[k][direction 0 forward, 1 backward][n_sliders] of each switch interval. The last n_ports
+ * functions are the ports' transfer functions (ds/dphi1 of a force's point along its axis, or
+ * dangle/dphi1 of a couple's link): a port's input times its transfer function is a torque on the
+ * crank, whose power is accounted in W_ext. */
 typedef struct {
     const double* coefficients;
     int n_functions, n;
@@ -63,6 +71,7 @@ typedef struct {
     int m;
     const double* forces;
     int n_sliders;
+    int n_ports;
 } CkTables;
 
 /* the hash of the sources this library was compiled from (sources.py computes the same) */
@@ -84,6 +93,10 @@ CK_API int ck_layout(int* out, int n);
 /* n_functions periodic cubics on n intervals of one turn (the layout of CkTables.coefficients) at
  * phi into out[0:n_functions] */
 CK_API void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out);
+
+/* the external torque on the crank (N.m) at time t and crank angle phi: tau_ext and each port's
+ * input times its transfer function (what W_ext integrates, times omega1) */
+CK_API double ck_external_torque(double t, double phi, const CkTables* tables, const double* P);
 
 CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
 CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,

@@ -39,6 +39,12 @@ static inline double ck_equivalent_torque(double half_dJ, double Q, double tau, 
     return half_dJ * omega * omega - Q - tau;
 }
 
+/* the torque a drive applies to impose omega1 and epsilon1 (speed causality, inverse dynamics) */
+static inline double ck_drive_torque(double J, double half_dJ, double Q, double tau, double omega, double epsilon)
+{
+    return J * epsilon + half_dJ * omega * omega - Q - tau;
+}
+
 static inline double ck_kinetic_energy(double J, double omega) { return 0.5 * J * (omega * omega); }
 
 /* the motor branch off the switch: high above omega_switch, low at or below it */

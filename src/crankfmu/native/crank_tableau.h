@@ -20,6 +20,8 @@ static const double CK_A[CK_N_STAGES][5] = {
     {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729, 0.0},
     {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656},
 };
+/* the stages' nodes c: stage s is evaluated at t + c[s] h */
+static const double CK_C[CK_N_STAGES] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0};
 static const double CK_B[CK_N_STAGES] = {35.0 / 384, 0.0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84};
 static const double CK_E[CK_N_STAGES + 1] = {-71.0 / 57600, 0.0, 71.0 / 16695, -71.0 / 1920, 17253.0 / 339200,
                                              -22.0 / 525, 1.0 / 40};

@@ -40,6 +40,8 @@ typedef struct {
     int pending;                   /* a tunable or the input changed: restart at the next step
                                       (Model Exchange: at the next event update) */
     double dydt[N_STATES];         /* Model Exchange: the derivatives at the current state */
+    double input_rate[N_INPUTS];   /* Co-Simulation: each input's first derivative (1/s), from
+                                      fmi2SetRealInputDerivatives; 0 (held) once the input is set */
 } Snapshot;
 
 typedef struct {
@@ -125,6 +127,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     in->tables.m = TABLE_SWITCHES;
     in->tables.forces = TABLE_FORCES;
     in->tables.n_sliders = TABLE_SLIDERS;
+    in->tables.n_ports = N_PORTS;
     start_values(in);
     return in;
 }
@@ -187,6 +190,14 @@ static void load_parameters(Instance* in)
     P[CK_B_LOW] = v[VR_B_LOW];
     P[CK_OMEGA_SWITCH] = v[VR_OMEGA_SWITCH];
     P[CK_TAU_EXT] = v[VR_TAU_EXT];
+    P[CK_TAU_EXT_RATE] = in->now.input_rate[0];
+    for (int i = 0; i < N_PORTS; i++) {
+        P[CK_PORT_INPUT + i] = v[VR_FIRST_PORT + i];
+        P[CK_PORT_RATE + i] = in->now.input_rate[1 + i];
+    }
+    /* the inputs are linear in time from the current communication point (Model Exchange: the
+     * host sets them at every time it evaluates, and the rates stay 0) */
+    P[CK_T_INPUT] = in->model_exchange ? in->now.S[CK_T] : in->now.time;
     P[CK_J_FLYWHEEL] = v[VR_J_FLYWHEEL];
     P[CK_RTOL] = v[VR_RTOL];
     P[CK_ATOL] = v[VR_RTOL];
@@ -332,7 +343,9 @@ static double output_value(const Instance* in, const double* row, int vr, double
         case 1: return row[ROW_EPSILON1];
         case 2: return row[ROW_M_MOTOR] * omega;
         case 3: return row[ROW_M_LOAD] * omega;
-        default: return in->now.P[CK_TAU_EXT] * omega;
+        default:
+            return ck_external_torque(in->model_exchange ? in->now.S[CK_T] : in->now.time, row[ROW_PHI1], &in->tables,
+                                      in->now.P) * omega;
         }
     }
     if (v->kind == KIND_QUANTITY) {
@@ -353,6 +366,9 @@ static double output_value(const Instance* in, const double* row, int vr, double
 }
 
 static int is_computed(int kind) { return kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_DERIVATIVE; }
+
+/* an input's place among the inputs: tau_ext 0, port i 1 + i */
+static int input_index(int vr) { return vr == VR_TAU_EXT ? 0 : 1 + (vr - VR_FIRST_PORT); }
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[])
 {
@@ -427,7 +443,11 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
                      v->range, v->unit);
             return fail(in, "%s", detail);
         }
+        /* the value it has (an input also held, no derivative given): nothing changes, no restart */
+        if (x == in->now.values[vr[i]] && (v->kind != KIND_INPUT || in->now.input_rate[input_index((int)vr[i])] == 0.0))
+            continue;
         in->now.values[vr[i]] = x;
+        if (v->kind == KIND_INPUT) in->now.input_rate[input_index((int)vr[i])] = 0.0;   /* held, unless a derivative follows */
         if (in->now.phase < STEPPING) continue;
         changed = 1;
         /* Co-Simulation: takes effect from the next step. Model Exchange: a tunable also
@@ -537,11 +557,40 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
     return fail((Instance*)c, "%s", "fmi2GetDirectionalDerivative: not provided (providesDirectionalDerivative is false)");
 }
 
+/* Co-Simulation (canInterpolateInputs): an input's first derivative at the current communication
+ * point; the input is then linear in time over the next step (until it is set again) */
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[])
 {
-    (void)vr, (void)nvr, (void)order, (void)value;
-    return fail((Instance*)c, "%s", "fmi2SetRealInputDerivatives: the input is held over a step (maxOutputDerivativeOrder 0)");
+    Instance* in = (Instance*)c;
+    if (!in) return fmi2Error;
+    if (in->model_exchange)
+        return fail(in, "%s", "fmi2SetRealInputDerivatives: Co-Simulation only (a Model Exchange host sets the inputs "
+                              "at every time it evaluates)");
+    if (nvr > 0 && (!vr || !order || !value)) return fail(in, "%s", "fmi2SetRealInputDerivatives: null arrays");
+    for (size_t i = 0; i < nvr; i++) {
+        char detail[256];
+        if (vr[i] >= N_VARIABLES || VARIABLES[vr[i]].kind != KIND_INPUT) {
+            snprintf(detail, sizeof detail, "value reference %u is not an input of this FMU", (unsigned)vr[i]);
+            return fail(in, "fmi2SetRealInputDerivatives: %s", detail);
+        }
+        if (order[i] != 1) {
+            snprintf(detail, sizeof detail, "%s: order %d; this FMU takes the first derivative only",
+                     VARIABLES[vr[i]].name, (int)order[i]);
+            return fail(in, "fmi2SetRealInputDerivatives: %s", detail);
+        }
+        if (!isfinite(value[i])) {
+            snprintf(detail, sizeof detail, "%s: the derivative %.17g must be finite", VARIABLES[vr[i]].name,
+                     value[i]);
+            return fail(in, "fmi2SetRealInputDerivatives: %s", detail);
+        }
+    }
+    for (size_t i = 0; i < nvr; i++) {
+        double* rate = &in->now.input_rate[input_index((int)vr[i])];
+        if (*rate != value[i] && in->now.phase >= STEPPING) in->now.pending = 1;
+        *rate = value[i];
+    }
+    return fmi2OK;
 }
 
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,

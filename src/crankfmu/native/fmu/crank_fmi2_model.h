@@ -21,9 +21,10 @@ typedef struct {
 } Variable;
 
 /* value references, in native_build.NativeModel.variables()'s order: the contract's outputs first
- * (N_OUTPUTS, model_config.h), then the input, the tunables (native_build.TUNABLE's order), the
- * fixed parameters (N_FIXED), the scenario's [[outputs]] (N_QUANTITIES), and the derivatives of
- * the Model Exchange states (phi1, omega1, W_motor, W_load, W_ext: the kernel's y) */
+ * (N_OUTPUTS, model_config.h), then the input tau_ext, the tunables (native_build.TUNABLE's order),
+ * the fixed parameters (N_FIXED), the scenario's [[outputs]] and its ports' outputs
+ * (N_QUANTITIES), the derivatives of the Model Exchange states (phi1, omega1, W_motor, W_load,
+ * W_ext: the kernel's y), and the ports' inputs (N_PORTS) */
 enum {
     VR_TAU_EXT = N_OUTPUTS,
     VR_A, VR_B, VR_A_LOW, VR_B_LOW, VR_OMEGA_SWITCH, VR_J_FLYWHEEL, VR_PHI1_START, VR_OMEGA1_START, VR_RTOL,
@@ -32,7 +33,10 @@ enum {
 #define VR_FIRST_QUANTITY (VR_FIRST_FIXED + N_FIXED)
 #define VR_FIRST_DERIVATIVE (VR_FIRST_QUANTITY + N_QUANTITIES)
 #define N_STATES CK_N_Y
-#define N_VARIABLES (VR_FIRST_DERIVATIVE + N_STATES)
+#define VR_FIRST_PORT (VR_FIRST_DERIVATIVE + N_STATES)
+#define N_VARIABLES (VR_FIRST_PORT + N_PORTS)
+/* the inputs: tau_ext (0) and the ports' (1 + i) */
+#define N_INPUTS (1 + N_PORTS)
 
 /* each output's place in the kernel's output row (-1: E_kin, computed from J_red and omega1) */
 extern const int OUTPUT_ROW[N_OUTPUTS];

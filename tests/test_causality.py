@@ -1,0 +1,140 @@
+"""The crank in speed causality (fmi.speed): the FMU takes omega1 and answers with tau_drive, the
+torque the drive must apply (inverse dynamics from the tables). Checked against the equilibrium
+moment of the power balance (dynamics.inverse on the contour engine: another method and another
+code path), against the torque-causal reference run backwards (its motor torque), and by the
+energy balance. A bad causality is refused by name."""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+
+import numpy as np
+import pytest
+
+import crankfmu
+from crankfmu.cli import main
+from crankfmu.errors import DefinitionError
+from crankfmu.scenario import Scenario, load_scenario
+
+
+@pytest.fixture(scope="module")
+def speed_fmu(tmp_path_factory):
+    out = tmp_path_factory.mktemp("speed")
+    assert main(["fmu", "seed001", "--causality", "speed", "--out", str(out)]) == 0
+    return out / "ThreeLoopSpeed.fmu"
+
+
+class Host:
+    """fmpy's low-level API on one instance of the speed-causal FMU, logging off."""
+
+    def __init__(self, path, tmp_path, start_values=None):
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+
+        md = read_model_description(str(path))
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path), str(tmp_path / "x")),
+                             modelIdentifier=md.coSimulation.modelIdentifier)
+        self.fmu.instantiate(loggingOn=False)
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        for name, value in (start_values or {}).items():
+            self.fmu.setReal([self.vr[name]], [value])
+        self.fmu.exitInitializationMode()
+        self.t = 0.0
+
+    def step_to(self, t, omega=None):
+        if omega is not None:
+            self.fmu.setReal([self.vr["omega1"]], [omega])
+        self.fmu.doStep(currentCommunicationPoint=self.t, communicationStepSize=t - self.t)
+        self.t = t
+
+    def get(self, *names):
+        return self.fmu.getReal([self.vr[n] for n in names])
+
+    def close(self):
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+
+
+def test_at_constant_speed_tau_drive_has_the_equilibrium_moments_extremes(speed_fmu, tmp_path):
+    """Seed 001 at 15 rad/s: `crankfmu equilibrium` locates M_e's extremes over a cycle (the power
+    balance on the contour engine); the FMU, stepped to the times the crank passes those angles,
+    gives tau_drive equal to them to 1e-8 (the tables' checked error is 1e-11)."""
+    from crankfmu.studies.equilibrium import cycle_breaks, located_extremes
+
+    scenario = load_scenario("seed001")
+    model = scenario.build()
+    omega = 15.0
+    extremes = located_extremes(model, omega, cycle_breaks(model))
+    phi0 = scenario["phi1_start"]
+    host = Host(speed_fmu, tmp_path, {"omega1": omega})
+    found = {}
+    for key in ("Me_min", "Me_max"):
+        angle = math.radians(extremes[f"{key}_at_deg"])
+        found[key] = ((angle - phi0) % (2 * math.pi)) / omega
+    for key, t in sorted(found.items(), key=lambda item: item[1]):
+        while host.t + 1e-3 < t:
+            host.step_to(host.t + 1e-3)
+        host.step_to(t)
+        (tau,) = host.get("tau_drive")
+        assert abs(tau - extremes[key]) <= 1e-8 * max(abs(extremes["Me_min"]), abs(extremes["Me_max"])), key
+    host.close()
+
+
+def test_the_torque_causal_run_backwards_gives_its_motor_torque(speed_fmu, tmp_path):
+    """The reference run of seed 001 (torque causality, its motor line) gives omega1(t); imposed on
+    the speed-causal FMU every 0.1 ms, tau_drive is the torque that produced it: the motor torque.
+    The FMU takes omega1's slope from its last step (a backward difference): at the step's end
+    epsilon1 is that of 1.5 steps earlier, off by 1.5 h |d epsilon1/dt|, and tau_drive by J times
+    that (0.3 N.m measured on seed 001's 95 N.m); the bar is 1e-2 of max |M_motor|."""
+    h = 1e-4
+    times = np.arange(0.0, 0.3 + h / 2, h)
+    reference = crankfmu.simulate("seed001", method="reference", output_times=times)
+    host = Host(speed_fmu, tmp_path, {"omega1": float(reference.omega1[0])})
+    tau = [host.get("tau_drive")[0]]
+    for k in range(1, times.size):
+        host.step_to(times[k], float(reference.omega1[k - 1]) if k > 1 else None)
+        tau.append(host.get("tau_drive")[0])
+    host.close()
+    tau = np.array(tau)
+    # from the third point on, the backward difference has a step behind it
+    error = np.abs(tau[3:] - reference.M_motor[3:])
+    assert np.max(error) <= 1e-2 * np.max(np.abs(reference.M_motor)), np.max(error)
+
+
+def test_the_energy_balance_closes_in_speed_causality(speed_fmu, tmp_path):
+    """omega1 varying (10 to 20 rad/s): W_drive + W_load + W_ext = E_kin(t) - E_kin(0), the works
+    by Gauss-Legendre over each step (5 points per degree), to 1e-8 of the work done."""
+    host = Host(speed_fmu, tmp_path, {"omega1": 15.0})
+    (E0,) = host.get("E_kin")
+    for k in range(1, 2001):
+        t = k * 1e-3
+        host.step_to(t, 15.0 + 5.0 * math.sin(3.0 * t))
+    W_drive, W_load, W_ext, E1 = host.get("W_drive", "W_load", "W_ext", "E_kin")
+    host.close()
+    assert abs(W_drive + W_load + W_ext - (E1 - E0)) <= 1e-8 * (abs(W_drive) + abs(W_load))
+
+
+def test_fmpy_finds_no_problem_and_the_variables_are_the_speed_causal_ones(speed_fmu):
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(speed_fmu)) == []
+    variables = {v.name: v for v in read_model_description(str(speed_fmu)).modelVariables}
+    assert (variables["omega1"].causality, variables["omega1"].unit) == ("input", "rad/s")
+    assert (variables["tau_drive"].causality, variables["tau_drive"].unit) == ("output", "N.m")
+    assert not {"A", "B", "M_motor", "tau_ext", "omega1_start"} & set(variables)
+
+
+def test_a_bad_causality_is_refused(tmp_path, capsys):
+    base = load_scenario("seed000")
+    data = copy.deepcopy(dict(base.data))
+    data["crank"] = {"causality": "position"}
+    with pytest.raises(DefinitionError, match=r"causality must be one of torque, speed, got 'position'"):
+        Scenario(data, base.where, base.path).causality
+    assert main(["fmu", "seed000", "--native", "--causality", "speed", "--out", str(tmp_path / "n")]) != 0
+    assert re.search(r"--native --causality speed", capsys.readouterr().err)
+    assert not (tmp_path / "n").exists()
