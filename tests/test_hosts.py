@@ -1,8 +1,9 @@
 """The drop-in check's fast subset (``crankfmu hosts --quick``; ``make hosts`` runs it all):
 FourBar.fmu's default experiment at 1 ms in fmpy, the ecos C++ command, ecospy and libcosim
 matches the in-process reference to 1e-6; each master shows a refused parameter's message; the
-ecos command and libcosim run FourBarDrive.ssp (FourBar + Drive) and agree with each other and,
-within the coupling's O(H) error, with the coupled model simulated in process."""
+ecos command and libcosim run FourBarDrive.ssp (FourBar + Drive) and FourBarDriveSpeed.ssp (the
+same system with the crank in speed causality: FourBarSpeed + DriveSpeed) and agree with each
+other and, within the coupling's O(H) error, with the coupled model simulated in process."""
 
 import re
 import subprocess
@@ -27,7 +28,11 @@ def test_every_master_runs_the_fmu_and_the_ssp(fmu_path, tmp_path):
     for master in ("fmpy", "ecos", "ecospy", "libcosim"):
         assert f"PASS {master}.FourBar.default_experiment.max_relative_error" in done.stdout
         assert f"PASS {master}.FourBar.refused_parameter.message_shown" in done.stdout
-    assert "PASS ecos_vs_libcosim.FourBarDrive.ssp.step_0.001" in done.stdout
+    for system in ("FourBarDrive", "FourBarDriveSpeed"):
+        assert f"PASS ecos_vs_libcosim.{system}.ssp.step_0.001" in done.stdout
+        for master in ("ecos", "libcosim"):
+            assert f"PASS {master}.{system}.ssp.step_0.001.omega1_relative_error" in done.stdout
     assert not any(line.startswith("FAIL") for line in lines)
     assert re.search(r"^\d+ passed, 0 failed$", done.stdout, re.M)
     assert (tmp_path / "FourBarDrive.ssp").is_file() and (tmp_path / "hosts.md").is_file()
+    assert (tmp_path / "FourBarDriveSpeed.ssp").is_file()

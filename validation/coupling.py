@@ -55,15 +55,16 @@ def coupled_reference(times, scenario: str = "seed000", drive: str = "dc_pi", rt
             "wall": time.perf_counter() - started}
 
 
-def cosim_errors(runs: dict, reference: dict) -> list[dict]:
+def cosim_errors(runs: dict, reference: dict, column: str = "FourBar.omega1") -> list[dict]:
     """One row per (master, step): max |omega1 - reference| (rad/s) over the communication points,
-    and the same relative to max |omega1|; ``runs`` maps (master, step) to a MasterRun of the SSP."""
+    and the same relative to max |omega1|; ``runs`` maps (master, step) to a MasterRun of the SSP,
+    ``column`` is the crank speed's variable in it (Drive.omega in speed causality)."""
     rows = []
     for (master, step), run in sorted(runs.items()):
         if run.error:
             rows.append({"master": master, "step": step, "error": run.error})
             continue
-        omega = run["FourBar.omega1"]
+        omega = run[column]
         ref = np.interp(run.time, reference["time"], reference["omega1"])
         abs_err = float(np.max(np.abs(omega - ref)))
         rows.append({"master": master, "step": step, "omega1_error": abs_err,
@@ -72,7 +73,8 @@ def cosim_errors(runs: dict, reference: dict) -> list[dict]:
     return rows
 
 
-def plot(rows: list[dict], reference: dict, runs: dict, out) -> None:
+def plot(rows: list[dict], reference: dict, runs: dict, out, column: str = "FourBar.omega1",
+         system: str = "FourBarDrive") -> None:
     from crankfmu.plots import pyplot
 
     plt = pyplot()
@@ -80,10 +82,10 @@ def plot(rows: list[dict], reference: dict, runs: dict, out) -> None:
     ax1.plot(reference["time"], reference["omega1"], "k-", lw=1.2, label="one model in process (DOP853, rtol 1e-12)")
     for (master, step), run in sorted(runs.items()):
         if not run.error and step == max(s for m, s in runs if m == master):
-            ax1.plot(run.time, run["FourBar.omega1"], "--", lw=1, label=f"{master}, H = {step:g} s")
+            ax1.plot(run.time, run[column], "--", lw=1, label=f"{master}, H = {step:g} s")
     ax1.set_xlabel("time t (s)")
     ax1.set_ylabel("crank speed omega1 (rad/s)")
-    ax1.set_title("FourBarDrive: crank speed")
+    ax1.set_title(f"{system}: crank speed")
     ax1.legend(fontsize=8)
     styles = iter([dict(marker="s", ms=9, ls="-", mfc="none"), dict(marker="o", ms=4, ls="--")])
     for master in sorted({r["master"] for r in rows}):

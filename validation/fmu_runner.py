@@ -40,12 +40,16 @@ class FmuRun:
 
 
 def scenario_of(path) -> str | None:
-    """The scenario a crankfmu FMU names in its modelDescription, or None (Drive.fmu names a drive
-    file instead: it is checked by ``crankfmu hosts``)."""
+    """The scenario a torque-causal crankfmu FMU names in its modelDescription, or None: Drive.fmu
+    and DieCushion.fmu name their own files (``crankfmu hosts`` and the tests check them), and a
+    speed-causal mechanism FMU (tests/test_causality.py, the SSP in ``crankfmu hosts``) has no
+    motor line for the harness's cases."""
     with zipfile.ZipFile(path) as z:
         root = ET.fromstring(z.read("modelDescription.xml"))
     node = root.find("VendorAnnotations/Tool[@name='crankfmu']/Scenario")
-    return node.get("name") if node is not None and node.get("name") else None
+    if node is None or not node.get("name") or node.get("causality") == "speed":
+        return None
+    return node.get("name")
 
 
 class FmuUnderTest:

@@ -307,9 +307,10 @@ def cmd_fmu(args) -> int:
         return 0
     from .fmi.build import build
 
-    if args.drive and args.causality:
-        raise CrankfmuError("--causality is a mechanism FMU's choice; Drive.fmu's is its drive file's")
-    path = build("drive" if args.drive else "scenario", args.source, Path(args.out), args.name, args.causality)
+    if args.drive and args.cushion:
+        raise CrankfmuError("--drive and --cushion: give one (what kind of file SCENARIO is)")
+    kind = "drive" if args.drive else "cushion" if args.cushion else "scenario"
+    path = build(kind, args.source, Path(args.out), args.name, args.causality)
     print(f"built {path}")
     return 0
 
@@ -420,6 +421,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for NAME.fmu and its cross-check files NAME_ref.csv/.opt")
     p.add_argument("--name", default=None, help="the FMU's model identifier (default: the file's fmu key)")
     p.add_argument("--drive", action="store_true", help="SCENARIO is a drive file (Drive.fmu: drives/dc_pi.toml)")
+    p.add_argument("--cushion", action="store_true",
+                   help="SCENARIO is a cushion file (DieCushion.fmu: elements/die_cushion.toml)")
     p.add_argument("--native", action="store_true",
                    help="a native FMU (C, linux64 and win64 binaries, no Python needed on the host); its geometry, "
                         "masses and loads are fixed at build time")
@@ -435,10 +438,13 @@ def build_parser() -> argparse.ArgumentParser:
                                                         "papers: PASS/FAIL lines and DIR/report.md")
     p.set_defaults(delegate="crankfmu.validation.harness")
 
-    p = sub.add_parser("ssp", help="FourBarDrive.ssp: FourBar.fmu driven by Drive.fmu (DC motor, PI speed "
-                                    "control), for third-party masters")
-    p.add_argument("--fmus", default="build/fmus", help="folder with FourBar.fmu and Drive.fmu (make fmu)")
+    p = sub.add_parser("ssp", help="FourBarDrive.ssp (FourBar.fmu driven by Drive.fmu: DC motor, PI speed control) "
+                                    "and FourBarDriveSpeed.ssp (the same in speed causality), for third-party masters")
+    p.add_argument("--fmus", default="build/fmus", help="folder with the FMUs (make fmu)")
     p.add_argument("--out", required=True)
+    p.add_argument("--system", action="append", choices=("FourBarDrive", "FourBarDriveSpeed", "PressCushion"),
+                   help="which SSP (default: FourBarDrive and FourBarDriveSpeed; PressCushion needs TogglePress.fmu, "
+                        "built from tests/data/user/togglepress_scenario.toml, and DieCushion.fmu)")
     p.set_defaults(func=cmd_ssp)
 
     p = sub.add_parser("hosts", add_help=False, help="the drop-in check: third-party masters (fmpy, ecos, "
@@ -451,8 +457,9 @@ def build_parser() -> argparse.ArgumentParser:
 def cmd_ssp(args) -> int:
     from .fmi.ssp import write_ssp
 
-    path = write_ssp(Path(args.fmus), Path(args.out))
-    print(f"wrote {path}")
+    for system in args.system or ("FourBarDrive", "FourBarDriveSpeed"):
+        path = write_ssp(Path(args.fmus), Path(args.out), system=system)
+        print(f"wrote {path}")
     return 0
 
 

@@ -85,6 +85,16 @@ DRIVE_OUTPUTS = (
     Variable("u", "V", "armature voltage from the PI controller"),
     Variable("P_el", "W", "electrical power into the armature (u i)"),
 )
+#: DieCushion.fmu's output (its inputs and parameters are its file's)
+CUSHION_OUTPUTS = (
+    Variable("F", "N", "force of the cushion on the ram along the ram's axis (to the press's ram_F)"),
+)
+
+#: DriveSpeed.fmu's outputs: the crank speed it imposes, then Drive.fmu's
+DRIVE_SPEED_OUTPUTS = (
+    Variable("omega", "rad/s", "crank speed the drive imposes (its rotor and flywheel, at the crank)"),
+    *DRIVE_OUTPUTS,
+)
 
 #: columns of timeseries.csv and fields of Result, in order, with their units
 COLUMNS = {v.name: v.unit for v in (TIME, *OUTPUTS)}

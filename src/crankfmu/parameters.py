@@ -102,3 +102,17 @@ def parse_parameters(raw: Mapping, where: str) -> dict[str, Parameter]:
             raise DefinitionError(f"{where}: parameter {pname}: its value is out of its own range: {exc}") from None
         params[pname] = p
     return params
+
+
+@dataclass
+class ComponentFile:
+    """A data file of a small model that is not a mechanism (a drive, a cushion): its parameters
+    and inputs (each a Parameter), its default experiment, and the FMU's model identifier."""
+
+    name: str
+    title: str
+    parameters: dict
+    inputs: dict
+    experiment: Experiment
+    where: str
+    fmu: str = ""               # the model identifier of the FMU built from the file

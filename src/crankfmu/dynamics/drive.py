@@ -14,6 +14,15 @@ J_flywheel), so the drive never needs the crank's acceleration.
 Between two communication points a co-simulation holds the inputs constant; the state then
 follows a linear system with constant input, whose solution ``step`` evaluates exactly (x grows
 linearly, i relaxes with the time constant L/R towards an affine function of time).
+
+The speed-causal variant (DriveSpeed.fmu, the drive file's ``[speed_causality]``) carries the
+rotor and the flywheel itself, J_drive at the crank (n_gear**2 J_rotor + J_flywheel), takes the
+torque the mechanism needs (a speed-causal mechanism FMU's tau_drive) and outputs the speed:
+
+    J_drive domega/dt = n_gear k_t i - tau_load
+
+a third state of the same linear system, stepped exactly too (``step_with_rotor``: the matrix
+exponential of the system with its held inputs).
 """
 
 from __future__ import annotations
@@ -22,9 +31,12 @@ import math
 from dataclasses import dataclass
 from importlib import resources
 
+import numpy as np
+
 from ..datafiles import read_toml
 from ..errors import DefinitionError
-from ..parameters import Experiment, parse_parameters
+from ..numerics import expm
+from ..parameters import ComponentFile, Experiment, parse_parameters
 
 _FILES = resources.files(__package__.rsplit(".", 1)[0]) / "drives"
 
@@ -69,16 +81,29 @@ class DcDrive:
         i_new = i * (1.0 - one_minus) + p * one_minus / a + q * (h / a - one_minus / (a * a))
         return i_new, x + e * h
 
+    def rhs_with_rotor(self, i, x, omega, omega_set, tau_load, J_drive):
+        """(di/dt, dx/dt, domega/dt) of the speed-causal drive."""
+        di, dx = self.rhs(i, x, omega, omega_set)
+        return di, dx, (self.torque(i) - tau_load) / J_drive
+
+    def step_with_rotor(self, i, x, omega, omega_set, tau_load, J_drive, h):
+        """(i, x, omega) after h s with omega_set and tau_load held: the exact solution of the
+        linear system d(i, x, omega)/dt = A (i, x, omega) + b, as the matrix exponential of
+        [[A h, b h], [0, 0]] applied to (i, x, omega, 1)."""
+        nk = self.n_gear * self.k_t
+        A = np.array([[-self.R / self.L, self.Ki / self.L, -(self.Kp + nk) / self.L, self.Kp * omega_set / self.L],
+                      [0.0, 0.0, -1.0, omega_set],
+                      [nk / J_drive, 0.0, 0.0, -tau_load / J_drive],
+                      [0.0, 0.0, 0.0, 0.0]])
+        z = expm(A * h) @ np.array([i, x, omega, 1.0])
+        return float(z[0]), float(z[1]), float(z[2])
+
 
 @dataclass
-class DriveFile:
-    name: str
-    title: str
-    parameters: dict
-    inputs: dict
-    experiment: Experiment
-    where: str
-    fmu: str = ""               # the model identifier of the FMU built from the file
+class DriveFile(ComponentFile):
+    speed_parameters: dict | None = None    # [speed_causality]: J_drive, omega_start
+    speed_inputs: dict | None = None        # [speed_causality.inputs]: tau_load
+    speed_fmu: str = ""
 
     def drive(self, values: dict) -> DcDrive:
         return DcDrive(*(float(values[k]) for k in DRIVE_CONSTANTS))
@@ -95,5 +120,17 @@ def load_drive(name_or_path) -> DriveFile:
     missing = {*DRIVE_CONSTANTS, "i_start", "x_start"} - params.keys()
     if missing:
         raise DefinitionError(f"{where}: missing drive parameter(s) {', '.join(sorted(missing))}")
+    speed = data.get("speed_causality")
+    speed_parameters = speed_inputs = None
+    if speed is not None:
+        speed_parameters = parse_parameters(speed.get("parameters", {}), f"{where} [speed_causality]")
+        speed_inputs = parse_parameters(speed.get("inputs", {}), f"{where} [speed_causality.inputs]")
+        missing = {"J_drive", "omega_start"} - speed_parameters.keys() | {"tau_load"} - speed_inputs.keys()
+        if missing:
+            raise DefinitionError(f"{where}: [speed_causality] needs {', '.join(sorted(missing))}")
+        if not speed_parameters["J_drive"].value > 0:
+            raise DefinitionError(f"{where}: [speed_causality] J_drive must be > 0 kg.m2 (the drive carries the "
+                                  "rotor and flywheel)")
     return DriveFile(data.get("name", str(name_or_path)), data.get("title", ""), params, inputs,
-                     Experiment.from_dict(data.get("experiment", {})), where, str(data.get("fmu", "")))
+                     Experiment.from_dict(data.get("experiment", {})), where, str(data.get("fmu", "")),
+                     speed_parameters, speed_inputs, str((speed or {}).get("fmu", "")))

@@ -135,6 +135,12 @@ class ExpressionLoad:
         return [a for a, _ in found]
 
 
+def spring_damper_tension(k, c, d, d0, rate):
+    """The tension (N) of a linear spring-damper of length d (m) changing at ``rate`` (m/s):
+    k (d - d0) + c dd/dt; positive pulls its ends together."""
+    return k * (d - d0) + c * rate
+
+
 @dataclass
 class Spring:
     """The spring part of a spring-damper: tension k (d - d0) between points a (on link_a) and b."""
@@ -161,7 +167,7 @@ class Spring:
 
     def tension(self, kin, omega1=None):
         d, _, _, _ = self.geometry(kin)
-        return self.k * (d - self.d0)
+        return spring_damper_tension(self.k, 0.0, d, self.d0, 0.0)
 
     def torque(self, kin: Kinematics, omega1=None):
         _, _, _, dd = self.geometry(kin)
@@ -182,8 +188,8 @@ class Damper(Spring):
     linear_in_omega1 = True
 
     def tension(self, kin, omega1=None):
-        _, _, _, dd = self.geometry(kin)
-        return self.k * dd * np.asarray(omega1, dtype=float)     # k holds c here
+        d, _, _, dd = self.geometry(kin)
+        return spring_damper_tension(0.0, self.k, d, d, dd * np.asarray(omega1, dtype=float))   # k holds c here
 
 
 def parse_user_load(spec, mechanism: Mechanism, links: set[str], values: dict, where: str) -> list:

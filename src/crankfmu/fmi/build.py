@@ -39,6 +39,7 @@ from ..errors import CrankfmuError
 from .. import units as si
 from ..atomic import replacing
 from . import documentation
+from . import cushion as cushion_core
 from . import drive as drive_core
 from . import slave, speed
 
@@ -52,12 +53,12 @@ RUNTIME = ("__init__.py", "cache.py", "contract.py", "errors.py", "expressions.p
            "units.py",
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "native",
-           "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/speed.py", "fmi/drive.py",
-           "parameters.py", "datafiles.py", "drives")
+           "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/speed.py", "fmi/drive.py", "fmi/cushion.py",
+           "parameters.py", "datafiles.py", "drives", "elements")
 
 
 #: the package's folders of data files: an FMU carries only the files it reads (Source.data)
-DATA_FOLDERS = ("scenarios", "drives", "mechanisms/files")
+DATA_FOLDERS = ("scenarios", "drives", "elements", "mechanisms/files")
 
 
 def copy_runtime(dest: Path, files: dict | None = None, data=()):
@@ -120,11 +121,13 @@ def pack(folder: Path) -> Path:
 #: names its FMU (``fmu = "FourBar"``); the FMU's model identifier lives in the file
 def packaged_sources() -> list[tuple[str, str]]:
     """(kind, name) of every packaged data file with an ``fmu`` key, in file order."""
+    from ..dynamics.cushion import available_cushions, load_cushion
     from ..dynamics.drive import available_drives, load_drive
     from ..scenario import available_scenarios, load_scenario
 
     return ([("scenario", n) for n in available_scenarios() if load_scenario(n).data.get("fmu")]
-            + [("drive", n) for n in available_drives() if load_drive(n).fmu])
+            + [("drive", n) for n in available_drives() if load_drive(n).fmu]
+            + [("cushion", n) for n in available_cushions() if load_cushion(n).fmu])
 
 
 #: a model identifier names the binary and the C symbols' prefix: a C identifier
@@ -194,10 +197,34 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
         from ..dynamics.drive import load_drive
 
         drive = load_drive(name)
+        docs = lambda f, md, params, ref: documentation.drive_documentation(f, drive, md, params)  # noqa: E731
+        if causality == "speed":
+            if drive.speed_parameters is None:
+                raise CrankfmuError(f"{drive.where}: --causality speed needs the drive file's [speed_causality] "
+                                    "(J_drive, omega_start and the input tau_load)")
+            return Source(kind, drive.name, _fmu_name(fmu_name or drive.speed_fmu or drive.fmu + "Speed", drive.where),
+                          drive.title + " (speed causality: it carries the rotor and flywheel)", drive.experiment,
+                          "fmi.drive:DriveSpeedCore", {}, {}, documentation=docs,
+                          variables=lambda: drive_core.declared_speed(drive), load=drive.name,
+                          data=(f"drives/{drive.name}.toml",))
+        if causality not in (None, "torque"):
+            raise CrankfmuError(f"--causality must be torque or speed, got {causality!r}")
         return Source(kind, drive.name, _fmu_name(fmu_name or drive.fmu, drive.where),
                       drive.title, drive.experiment, "fmi.drive:DriveCore", {}, {},
-                      documentation=lambda f, md, params, ref: documentation.drive_documentation(f, drive, md, params),
+                      documentation=docs,
                       variables=lambda: drive_core.declared(drive), load=drive.name, data=(f"drives/{drive.name}.toml",))
+    if kind == "cushion":
+        from ..dynamics.cushion import load_cushion
+
+        cushion = load_cushion(name)
+        if causality is not None:
+            raise CrankfmuError("--causality is for a mechanism's or a drive's FMU; a cushion takes the ram's motion")
+        return Source(kind, cushion.name, _fmu_name(fmu_name or cushion.fmu, cushion.where), cushion.title,
+                      cushion.experiment, "fmi.cushion:CushionCore", {}, {},
+                      documentation=lambda f, md, params, ref: documentation.cushion_documentation(f, cushion, md,
+                                                                                                   params),
+                      variables=lambda: cushion_core.declared(cushion), load=cushion.name,
+                      data=(f"elements/{cushion.name}.toml",))
     raise CrankfmuError(f"build: unknown kind {kind!r}")
 
 
@@ -277,7 +304,9 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
         root.remove(old)
     vendor = ET.Element("VendorAnnotations")
     tool = ET.SubElement(vendor, "Tool", name="crankfmu")
-    annotation = ET.SubElement(tool, "Scenario" if source.kind == "scenario" else "Drive", name=source.name)
+    annotation = ET.SubElement(tool, source.kind.capitalize(), name=source.name)
+    if source.core == "fmi.speed:SpeedCore":
+        annotation.set("causality", "speed")
     if source.files:      # a user's scenario: where the FMU carries it (the harness reads that copy)
         annotation.set("file", source.load)
     root.insert(position + 1, vendor)

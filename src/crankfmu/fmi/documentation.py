@@ -175,6 +175,23 @@ all values in SI units. It drives a mechanism FMU through its <code>tau_ext</cod
     return {"documentation/index.html": _page(f"{name}.fmu", body)}
 
 
+def cushion_documentation(name: str, cushion_file, model_description: bytes, parameters: dict) -> dict[str, bytes]:
+    """documentation/index.html of the die cushion FMU."""
+    from ..dynamics import cushion
+
+    body = f"""<h1>{html.escape(name)}.fmu</h1>
+<p>{html.escape(cushion_file.title)}. Built by crankfmu from the file <code>{html.escape(cushion_file.name)}</code>;
+all values in SI units. It acts on a mechanism FMU's force port (PressCushion.ssp: <code>crankfmu ssp</code>).</p>
+<h2>Equations</h2>
+<pre>{html.escape(_docstring_block(cushion))}</pre>
+<h2>Variables</h2>
+{variables_table(model_description, parameters)}
+<h2>Default experiment</h2>
+<p>{html.escape(_experiment_text(cushion_file.experiment))}.</p>
+"""
+    return {"documentation/index.html": _page(f"{name}.fmu", body)}
+
+
 def _page(title: str, body: str) -> bytes:
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
             f"<style>{STYLE}</style></head>\n<body>\n{body}</body></html>\n").encode()

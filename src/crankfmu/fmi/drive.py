@@ -1,17 +1,22 @@
-"""Drive.fmu: the DC motor drive of ``dynamics.drive`` as a co-simulation FMU.
+"""Drive.fmu: the DC motor drive of ``dynamics.drive`` as a co-simulation FMU, and its
+speed-causal variant DriveSpeed.fmu (``DriveSpeedCore``).
 
 Inputs: the crank speed ``omega`` and the set-point ``omega_set``; outputs: the torque on the crank
 ``tau``, the armature current ``i``, the armature voltage ``u`` and the motor's electrical power
 ``P_el`` = u i. Each fmi2DoStep advances the drive's state by the exact solution with the inputs
 held at their values (the co-simulation's zero-order hold), so the drive adds no error of its own:
 a coupled run's error is the coupling's alone.
+
+DriveSpeed.fmu carries the rotor and flywheel (J_drive) and outputs the crank speed ``omega``
+from the torque the mechanism takes, ``tau_load`` (a speed-causal mechanism FMU's tau_drive), with
+the same outputs besides; its step is exact too (dynamics.drive.DcDrive.step_with_rotor).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..contract import DRIVE_OUTPUTS as OUTPUTS
+from ..contract import DRIVE_OUTPUTS as OUTPUTS, DRIVE_SPEED_OUTPUTS
 from ..dynamics.drive import load_drive
 from .core import Declared, SlaveCore
 
@@ -22,29 +27,48 @@ def declared(drive_file) -> Declared:
 
 
 class DriveCore(SlaveCore):
+    """Drive.fmu: the speed is an input; the state is (i, x)."""
+
+    output_variables = OUTPUTS
+    state_size = 2                           # i A, x rad
+
     def __init__(self, slave, drive_name: str):
         self.file = load_drive(drive_name)
         super().__init__(slave, self.file.experiment.start_time)
-        self.state = np.zeros(2)             # i A, x rad
-        self.out = np.zeros(len(OUTPUTS))    # the outputs at the current time, filled once per step
+        self.state = np.zeros(self.state_size)
+        self.out = np.zeros(len(self.output_variables))   # the outputs at the current time, filled once per step
         self.drive = None
-        self.declare(declared(self.file), {v.name: (lambda k=k: float(self.out[k])) for k, v in enumerate(OUTPUTS)})
+        self.declare(self.declared(), {v.name: (lambda k=k: float(self.out[k])) for k, v in enumerate(self.output_variables)})
         self.attach()
 
+    def declared(self) -> Declared:
+        return declared(self.file)
+
+    def start_state(self):
+        return self.values["i_start"], self.values["x_start"]
+
+    def speed(self) -> float:
+        return self.values["omega"]
+
+    def step(self, h: float):
+        return self.drive.step(*self.state, self.values["omega"], self.values["omega_set"], h)
+
     def _update_outputs(self):
-        i, x = self.state
-        u = self.drive.voltage(x, self.values["omega"], self.values["omega_set"])
-        self.out[:] = self.drive.torque(i), i, u, u * i
+        i, x = self.state[:2]
+        omega = self.speed()
+        u = self.drive.voltage(x, omega, self.values["omega_set"])
+        own = (self.drive.torque(i), i, u, u * i)
+        self.out[:] = (omega, *own) if self.output_variables is DRIVE_SPEED_OUTPUTS else own
 
     def initialise(self):
         self.drive = self.file.drive(self.values)
-        self.state[:] = self.values["i_start"], self.values["x_start"]
+        self.state[:] = self.start_state()
         self._update_outputs()
 
     def advance(self, target: float):
         if self.pending & {"Kp", "Ki"}:
             self.drive = self.file.drive(self.values)
-        self.state[:] = self.drive.step(*self.state, self.values["omega"], self.values["omega_set"], target - self.time)
+        self.state[:] = self.step(target - self.time)
         self._update_outputs()
 
     def outputs_now(self) -> np.ndarray:
@@ -60,3 +84,32 @@ class DriveCore(SlaveCore):
         self.drive = self.file.drive(self.values)
         self.state[:] = state
         self._update_outputs()
+
+
+def declared_speed(drive_file) -> Declared:
+    """The variables of DriveSpeed.fmu: omega and the drive's outputs; the inputs omega_set and
+    tau_load; the drive's parameters and J_drive, omega_start."""
+    inputs = [p for n, p in drive_file.inputs.items() if n != "omega"] + list(drive_file.speed_inputs.values())
+    return Declared(list(DRIVE_SPEED_OUTPUTS), inputs,
+                    list(drive_file.parameters.values()) + list(drive_file.speed_parameters.values()))
+
+
+class DriveSpeedCore(DriveCore):
+    """DriveSpeed.fmu: the drive with its rotor and flywheel, in speed causality; the state is
+    (i, x, omega)."""
+
+    output_variables = DRIVE_SPEED_OUTPUTS
+    state_size = 3
+
+    def declared(self) -> Declared:
+        return declared_speed(self.file)
+
+    def start_state(self):
+        return self.values["i_start"], self.values["x_start"], self.values["omega_start"]
+
+    def speed(self) -> float:
+        return float(self.state[2])
+
+    def step(self, h: float):
+        return self.drive.step_with_rotor(*self.state, self.values["omega_set"], self.values["tau_load"],
+                                          self.values["J_drive"], h)

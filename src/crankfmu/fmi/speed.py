@@ -73,7 +73,7 @@ class SpeedCore(SlaveCore):
         # the state at the current time: phi1, omega1 there, its slope, the works, and the outputs
         self.state = {"phi1": 0.0, "omega1": 0.0, "slope": 0.0, "last_omega1": math.nan,
                       "W_drive": 0.0, "W_load": 0.0, "W_ext": 0.0}
-        self.out = dict.fromkeys(v.name for v in SPEED_OUTPUTS)
+        self.out = dict.fromkeys((v.name for v in SPEED_OUTPUTS), 0.0)   # before initialisation: 0
         self._quantity_values = None
         getters = {v.name: (lambda n=v.name: self.out[n]) for v in SPEED_OUTPUTS}
         getters.update({q.name: (lambda n=q.name: self._quantity(n)) for q in self.quantities})

@@ -1,13 +1,25 @@
-"""``crankfmu ssp``: FourBarDrive.ssp, the four-bar driven by Drive.fmu, as an SSP 1.0 archive a
-third-party master runs as it is (the ecos command, libcosim).
+"""``crankfmu ssp``: the four-bar driven by the DC drive, as SSP 1.0 archives a third-party master
+runs as they are (the ecos command, libcosim), in either causality at the crank.
 
-The system: FourBar.fmu with its own motor line switched off (A = B = A_low = B_low = 0) and
-Drive.fmu; Drive.tau -> FourBar.tau_ext, FourBar.omega1 -> Drive.omega. Parameter sets (SSV files,
-bound to each component):
+- ``FourBarDrive.ssp``: FourBar.fmu with its own motor line switched off (A = B = A_low = B_low =
+  0) and Drive.fmu; Drive.tau -> FourBar.tau_ext, FourBar.omega1 -> Drive.omega.
+- ``FourBarDriveSpeed.ssp``: FourBarSpeed.fmu (speed causality, its flywheel moved to the drive:
+  J_flywheel = 0) and DriveSpeed.fmu (it carries rotor and flywheel, J_drive = seed 000's
+  flywheel); Drive.omega -> FourBar.omega1, FourBar.tau_drive -> Drive.tau_load. The same system
+  as the first, so one in-process reference serves both.
 
-- ``coupled``: the motor line off, the drive's data file values and its set-point;
-- ``refused``: the same with FourBar's J_flywheel = -1, for checking that a master shows the
-  FMU's refusal.
+The components are named FourBar and Drive in both.
+
+- ``PressCushion.ssp``: TogglePress.fmu (the knuckle-joint press of the tests, its data-file
+  cushion switched off: k_cushion = c_cushion = 0) and DieCushion.fmu on its ram port:
+  Press.ram_s -> Cushion.s, Press.ram_v -> Cushion.v, Cushion.F -> Press.ram_F. The same press
+  with its cushion written as a data-file load is the reference.
+
+Parameter sets (SSV files, bound to each component):
+
+- ``coupled``: as above (the drive's data file values and its set-point);
+- ``refused``: the same with the mechanism's J_flywheel = -1, for checking that a master shows
+  the FMU's refusal.
 
 The default experiment (0 to 2 s) carries the Open Simulation Platform's fixed-step annotation
 (1 ms), which both masters read.
@@ -17,6 +29,7 @@ from __future__ import annotations
 
 import shutil
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -24,15 +37,50 @@ from ..atomic import replacing
 from ..errors import CrankfmuError
 
 MOTOR_OFF = {"A": 0.0, "B": 0.0, "A_low": 0.0, "B_low": 0.0}
-CONNECTIONS = (("Drive", "tau", "FourBar", "tau_ext"), ("FourBar", "omega1", "Drive", "omega"))
-CONNECTORS = {"FourBar": (("omega1", "output"), ("tau_ext", "input")),
-              "Drive": (("tau", "output"), ("omega", "input"), ("omega_set", "input"))}
 
 
-def parameter_sets(drive_values: dict) -> dict[str, dict[str, dict[str, float]]]:
+@dataclass(frozen=True)
+class System:
+    name: str
+    description: str
+    sources: dict          # component -> the FMU's file stem
+    connectors: dict       # component -> ((variable, "input" | "output"), ...)
+    connections: tuple     # (from component, variable, to component, variable)
+    fixed: dict            # component -> its parameters in the set "coupled" (a Drive adds its file's)
+    mechanism: str = "FourBar"     # the component the set "refused" gives J_flywheel = -1
+    stop_time: float = 2.0         # s, the DefaultExperiment's
+
+
+SYSTEMS = {s.name: s for s in (
+    System("FourBarDrive", "seed-000 four-bar driven by a DC motor with a PI speed controller",
+           {"FourBar": "FourBar", "Drive": "Drive"},
+           {"FourBar": (("omega1", "output"), ("tau_ext", "input")),
+            "Drive": (("tau", "output"), ("omega", "input"), ("omega_set", "input"))},
+           (("Drive", "tau", "FourBar", "tau_ext"), ("FourBar", "omega1", "Drive", "omega")), {"FourBar": MOTOR_OFF}),
+    System("FourBarDriveSpeed", "seed-000 four-bar in speed causality, driven by a DC motor that carries the "
+           "rotor and flywheel", {"FourBar": "FourBarSpeed", "Drive": "DriveSpeed"},
+           {"FourBar": (("tau_drive", "output"), ("omega1", "input")),
+            "Drive": (("omega", "output"), ("tau_load", "input"), ("omega_set", "input"))},
+           (("Drive", "omega", "FourBar", "omega1"), ("FourBar", "tau_drive", "Drive", "tau_load")),
+           {"FourBar": {"J_flywheel": 0.0}}),
+    System("PressCushion", "knuckle-joint press with a die cushion FMU on its ram port",
+           {"Press": "TogglePress", "Cushion": "DieCushion"},
+           {"Press": (("ram_s", "output"), ("ram_v", "output"), ("omega1", "output"), ("ram_F", "input")),
+            "Cushion": (("F", "output"), ("s", "input"), ("v", "input"))},
+           (("Press", "ram_s", "Cushion", "s"), ("Press", "ram_v", "Cushion", "v"), ("Cushion", "F", "Press", "ram_F")),
+           {"Press": {"k_cushion": 0.0, "c_cushion": 0.0}}, mechanism="Press", stop_time=3.0),
+)}
+# the torque-causal system's layout, as the harness names it
+CONNECTIONS, CONNECTORS = SYSTEMS["FourBarDrive"].connections, SYSTEMS["FourBarDrive"].connectors
+
+
+def parameter_sets(drive_values: dict, system: System = SYSTEMS["FourBarDrive"]) -> dict[str, dict[str, dict[str, float]]]:
     """set name -> component -> parameter values."""
-    coupled = {"FourBar": dict(MOTOR_OFF), "Drive": dict(drive_values)}
-    refused = {"FourBar": {**MOTOR_OFF, "J_flywheel": -1.0}, "Drive": dict(drive_values)}
+    coupled = {comp: dict(system.fixed.get(comp, {})) for comp in system.sources}
+    if "Drive" in coupled:
+        coupled["Drive"].update(drive_values)
+    refused = {comp: dict(values) for comp, values in coupled.items()}
+    refused[system.mechanism]["J_flywheel"] = -1.0
     return {"coupled": coupled, "refused": refused}
 
 
@@ -44,13 +92,13 @@ def _ssv(name: str, values: dict[str, float]) -> str:
             f'version="1.0" name="{name}">\n  <ssv:Parameters>\n{params}\n  </ssv:Parameters>\n</ssv:ParameterSet>\n')
 
 
-def _ssd(sets: dict, stop_time: float, step: float) -> str:
+def _ssd(system: System, sets: dict, stop_time: float, step: float) -> str:
     components = []
-    for comp, connectors in CONNECTORS.items():
+    for comp, connectors in system.connectors.items():
         conns = "\n".join(f'          <ssd:Connector name="{n}" kind="{k}"><ssc:Real/></ssd:Connector>'
                           for n, k in connectors)
         bindings = "\n".join(f'          <ssd:ParameterBinding source="ssv/{name}_{comp}.ssv"/>' for name in sets)
-        components.append(f'''      <ssd:Component name="{comp}" source="resources/{comp}.fmu">
+        components.append(f'''      <ssd:Component name="{comp}" source="resources/{system.sources[comp]}.fmu">
         <ssd:Connectors>
 {conns}
         </ssd:Connectors>
@@ -59,14 +107,14 @@ def _ssd(sets: dict, stop_time: float, step: float) -> str:
         </ssd:ParameterBindings>
       </ssd:Component>''')
     connections = "\n".join(f'      <ssd:Connection startElement="{a}" startConnector="{b}" endElement="{c}" endConnector="{d}"/>'
-                            for a, b, c, d in CONNECTIONS)
+                            for a, b, c, d in system.connections)
     return f'''<?xml version="1.0" encoding="UTF-8"?>
 <ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"
     xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"
     xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"
     xmlns:osp="http://opensimulationplatform.com/SSP/OSPAnnotations"
-    name="FourBarDrive" version="1.0">
-  <ssd:System name="FourBarDrive" description="seed-000 four-bar driven by a DC motor with a PI speed controller">
+    name="{system.name}" version="1.0">
+  <ssd:System name="{system.name}" description={quoteattr(system.description)}>
     <ssd:Elements>
 {chr(10).join(components)}
     </ssd:Elements>
@@ -85,27 +133,40 @@ def _ssd(sets: dict, stop_time: float, step: float) -> str:
 '''
 
 
-def write_ssp(fmus: Path, out: Path, stop_time: float = 2.0, step: float = 1e-3, drive_values: dict | None = None) -> Path:
-    """``out``/FourBarDrive.ssp from ``fmus``/FourBar.fmu and Drive.fmu (``make fmu`` builds them)."""
+def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float = 1e-3,
+              drive_values: dict | None = None, system: str = "FourBarDrive") -> Path:
+    """``out``/SYSTEM.ssp from the FMUs in ``fmus`` (``make fmu`` builds them)."""
     from ..dynamics.drive import load_drive
 
+    if system not in SYSTEMS:
+        raise CrankfmuError(f"unknown system {system!r}: one of {', '.join(SYSTEMS)}")
+    spec = SYSTEMS[system]
     fmus, out = Path(fmus), Path(out)
-    for name in CONNECTORS:
-        if not (fmus / f"{name}.fmu").is_file():
-            raise CrankfmuError(f"no {name}.fmu in {fmus}: run `make fmu` first")
-    if drive_values is None:
+    for stem in spec.sources.values():
+        if not (fmus / f"{stem}.fmu").is_file():
+            raise CrankfmuError(f"no {stem}.fmu in {fmus}: run `make fmu` first")
+    if stop_time is None:
+        stop_time = spec.stop_time
+    if drive_values is None and "Drive" in spec.sources:
         drive = load_drive("dc_pi")
         drive_values = {n: p.value for n, p in {**drive.parameters, **drive.inputs}.items() if n != "omega"}
-    sets = parameter_sets(drive_values)
+        if system == "FourBarDriveSpeed":
+            drive_values.update({n: p.value for n, p in drive.speed_parameters.items()})
+    sets = parameter_sets(drive_values or {}, spec)
+    if "Cushion" in spec.sources:            # the cushion file's values, written out
+        from ..dynamics.cushion import load_cushion
+
+        for values in sets.values():
+            values["Cushion"] = {n: p.value for n, p in load_cushion("die_cushion").parameters.items()}
     out.mkdir(parents=True, exist_ok=True)
-    path = out / "FourBarDrive.ssp"
+    path = out / f"{system}.ssp"
     with replacing(path) as partial, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd", _ssd(sets, stop_time, step))
+        z.writestr("SystemStructure.ssd", _ssd(spec, sets, stop_time, step))
         for name, per_component in sets.items():
             for comp, values in per_component.items():
                 z.writestr(f"ssv/{name}_{comp}.ssv", _ssv(name, values))
-        for comp in CONNECTORS:
-            z.write(fmus / f"{comp}.fmu", f"resources/{comp}.fmu")
+        for stem in spec.sources.values():
+            z.write(fmus / f"{stem}.fmu", f"resources/{stem}.fmu")
     return path
 
 

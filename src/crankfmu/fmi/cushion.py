@@ -1,0 +1,49 @@
+"""DieCushion.fmu: the die cushion of ``dynamics.cushion`` as a co-simulation FMU.
+
+Inputs: the ram's coordinate ``s`` and velocity ``v`` along its axis (a press's ram_s, ram_v);
+output: the force ``F`` on the ram along that axis (to the press's ram_F). No state: after each
+step (and at initialisation) F is the cushion's law at the inputs as the host has set them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..contract import CUSHION_OUTPUTS
+from ..dynamics.cushion import cushion_force, load_cushion
+from .core import Declared, SlaveCore
+
+
+def declared(cushion_file) -> Declared:
+    return Declared(list(CUSHION_OUTPUTS), list(cushion_file.inputs.values()), list(cushion_file.parameters.values()))
+
+
+class CushionCore(SlaveCore):
+    def __init__(self, slave, cushion_name: str):
+        self.file = load_cushion(cushion_name)
+        super().__init__(slave, self.file.experiment.start_time)
+        self.out = np.zeros(len(CUSHION_OUTPUTS))
+        self.declare(declared(self.file), {v.name: (lambda k=k: float(self.out[k]))
+                                           for k, v in enumerate(CUSHION_OUTPUTS)})
+        self.attach()
+
+    def _update_outputs(self):
+        self.out[0] = cushion_force(self.values, self.values["s"], self.values["v"])
+
+    def initialise(self):
+        self._update_outputs()
+
+    def advance(self, target: float):
+        self._update_outputs()
+
+    def outputs_now(self) -> np.ndarray:
+        return self.out
+
+    def model_state(self):
+        return []
+
+    def can_restore(self) -> bool:
+        return True
+
+    def restore_model_state(self, state):
+        self._update_outputs()
