@@ -54,17 +54,20 @@ class EquilibriumMoment:
         return self.weights + self.technological
 
 
-def prescribed_motion(phi1, omega1, epsilon1=0.0):
+def prescribed_motion(phi1, omega1, epsilon1=0.0, forward: bool = True):
     """Arrays (phi1 rad, omega1 rad/s, epsilon1 rad/s2) of a prescribed crank motion.
 
     ``omega1`` is a constant or an array over phi1 (any omega1(phi1)); for a law omega1(phi1)
-    the acceleration is eps1 = omega1 domega1/dphi1. omega1 must be > 0: eq. 1 divides the
-    powers by it, and the technological forces' direction follows the motion.
+    the acceleration is eps1 = omega1 domega1/dphi1. With ``forward`` omega1 must be > 0: eq. 1
+    divides the powers by it, and the technological forces' direction follows the motion
+    (Newton-Euler, which divides by nothing, takes any finite omega1: forward False).
     """
     phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
     omega1 = np.broadcast_to(np.asarray(omega1, dtype=float), phi1.shape).copy()
     epsilon1 = np.broadcast_to(np.asarray(epsilon1, dtype=float), phi1.shape).copy()
-    if not np.all(np.isfinite(omega1)) or np.any(omega1 <= 0.0):
+    if not np.all(np.isfinite(omega1)):
+        raise ParameterError("omega1 must be finite (rad/s)", "omega1")
+    if forward and np.any(omega1 <= 0.0):
         bad = omega1[~(omega1 > 0.0)]
         raise ParameterError(
             f"omega1 must be > 0 rad/s (the crank turning forward) for the equilibrium moment, "

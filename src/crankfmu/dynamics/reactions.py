@@ -29,6 +29,7 @@ class JointReactions:
 
     force[joint]   (Fx, Fy) in N, of the joint's first link on its second
     couple[joint]  N.m, the couple a slide transmits (zero array for pins)
+    normal[joint]  N, a slide's force across its axis (the force's one component; zero for pins)
     driving_moment N.m, the moment the drive applies to the crank (M_e)
     """
 
@@ -37,6 +38,7 @@ class JointReactions:
     couple: dict[str, np.ndarray]
     kind: dict[str, str]
     driving_moment: np.ndarray
+    normal: dict[str, np.ndarray] | None = None
 
     def magnitude(self, joint: str) -> np.ndarray:
         """|F| at the joint, N."""
@@ -54,10 +56,13 @@ class JointReactions:
         return out
 
 
-def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: bool = True) -> JointReactions:
+def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: bool = True,
+                    extra=None) -> JointReactions:
     """Solve every joint's reaction and the driving moment at a prescribed crank motion.
 
     ``inertia=False`` neglects the inertia forces and moments (the static equilibrium moment).
+    ``extra(kin)``: more applied loads (loads.AppliedLoad) at the kinematics, beside the model's
+    own: the ports' inputs (dynamics.ports).
     """
     mechanism = reduced.mechanism
     definition = mechanism.definition
@@ -65,7 +70,7 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
     if not joints:
         raise DefinitionError(f"mechanism {definition.name!r} declares no [[joints]]: the reactions "
                               "need them")
-    phi1, omega1, epsilon1 = prescribed_motion(phi1, omega1, epsilon1)
+    phi1, omega1, epsilon1 = prescribed_motion(phi1, omega1, epsilon1, forward=False)
     kin = mechanism.kinematics(phi1)
     n = phi1.size
     links = [link.name for link in reduced.links]
@@ -119,28 +124,60 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
             b[:, r + 2] += link.inertia * (epsilon1 * q + w2 * qq)
     if inertia:
         b[:, row[crank[0]] + 2] += reduced.J_flywheel * epsilon1
-    for load in reduced.loads:
-        for f in load.applied(kin, omega1):
-            if f.link == "ground":          # a spring anchored on the frame: the frame carries that end
-                continue
-            r = row[f.link]
-            cx, cy = centre[f.link]
-            b[:, r] -= f.fx
-            b[:, r + 1] -= f.fy
-            b[:, r + 2] -= f.moment
-            if f.point is not None:
-                px, py = kin.point(f.point)[:2]
-                b[:, r + 2] -= (px - cx) * f.fy - (py - cy) * f.fx
+    applied = [f for load in reduced.loads for f in load.applied(kin, omega1)]
+    for f in [*applied, *(extra(kin) if extra else ())]:
+        if f.link == "ground":          # a spring anchored on the frame: the frame carries that end
+            continue
+        r = row[f.link]
+        cx, cy = centre[f.link]
+        b[:, r] -= f.fx
+        b[:, r + 1] -= f.fy
+        b[:, r + 2] -= f.moment
+        if f.point is not None:
+            px, py = kin.point(f.point)[:2]
+            b[:, r + 2] -= (px - cx) * f.fy - (py - cy) * f.fx
     x = np.linalg.solve(A, b[..., None])[..., 0]
-    force, couple, kind = {}, {}, {}
+    force, couple, kind, normal = {}, {}, {}, {}
     for k, joint in enumerate(joints):
         kind[joint.name] = joint.kind
         if joint.kind == "revolute":
             force[joint.name] = (x[:, 2 * k], x[:, 2 * k + 1])
-            couple[joint.name] = np.zeros(n)
+            couple[joint.name] = normal[joint.name] = np.zeros(n)
         else:
-            normal = x[:, 2 * k]
-            force[joint.name] = (-np.sin(axis[joint.name]) * normal, np.cos(axis[joint.name]) * normal)
+            normal[joint.name] = x[:, 2 * k]
+            force[joint.name] = (-np.sin(axis[joint.name]) * normal[joint.name],
+                                 np.cos(axis[joint.name]) * normal[joint.name])
             couple[joint.name] = x[:, 2 * k + 1]
-    return JointReactions(phi1=phi1, force=force, couple=couple, kind=kind, driving_moment=x[:, driver])
+    return JointReactions(phi1=phi1, force=force, couple=couple, kind=kind, driving_moment=x[:, driver],
+                          normal=normal)
+
+
+def reaction_outputs(definition) -> list[tuple[str, str, str]]:
+    """(name, unit, description) of the FMU outputs the joint reactions give: for a pin
+    ``<joint>_Fx``, ``<joint>_Fy`` (N); for a slide ``<joint>_N`` (N, across its axis) and
+    ``<joint>_M`` (N.m). Each is the force of the joint's first link on its second."""
+    out = []
+    for joint in definition.joints:
+        first, second = joint.links
+        on = f"joint {joint.name}: reaction of {first} on {second}"
+        if joint.kind == "revolute":
+            out += [(f"{joint.name}_Fx", "N", f"{on}, x component (Newton-Euler at the current state)"),
+                    (f"{joint.name}_Fy", "N", f"{on}, y component (Newton-Euler at the current state)")]
+        else:
+            out += [(f"{joint.name}_N", "N", f"{on}, force across the slide's axis (Newton-Euler)"),
+                    (f"{joint.name}_M", "N.m", f"{on}, couple the slide transmits (Newton-Euler)")]
+    return out
+
+
+def reaction_values(reactions: JointReactions, index: int = 0) -> dict[str, float]:
+    """The outputs of ``reaction_outputs`` at one of the solved states."""
+    out = {}
+    for name, kind in reactions.kind.items():
+        if kind == "revolute":
+            fx, fy = reactions.force[name]
+            out[f"{name}_Fx"], out[f"{name}_Fy"] = float(fx[index]), float(fy[index])
+        else:
+            out[f"{name}_N"] = float(reactions.normal[name][index])
+            out[f"{name}_M"] = float(reactions.couple[name][index])
+    return out
 

@@ -75,12 +75,22 @@ def output_quantities(scenario) -> list:
     return [*scenario.quantities, *(q for port in scenario.ports for q in port.quantities)]
 
 
+def reaction_variables(scenario) -> list:
+    """The joint reactions' outputs (dynamics.reactions.reaction_outputs) of a mechanism file that
+    declares its [[joints]]; none otherwise."""
+    from ..dynamics.reactions import reaction_outputs
+
+    definition = scenario.mechanism_definition()
+    return [Variable(*v) for v in reaction_outputs(definition)] if definition.joints else []
+
+
 def declared(scenario) -> Declared:
     """The variables of the FMU of ``scenario``: the contract's outputs, the scenario's [[outputs]]
     and its ports' outputs, the inputs tau_ext and one per port, the scenario's parameters and the
     integrator's rtol."""
     definition = scenario.mechanism_definition()
-    outputs = [*OUTPUTS, *(Variable(q.name, q.unit(definition), q.description) for q in output_quantities(scenario))]
+    outputs = [*OUTPUTS, *(Variable(q.name, q.unit(definition), q.description) for q in output_quantities(scenario)),
+               *reaction_variables(scenario)]
     inputs = [Parameter(TAU_EXT.name, 0.0, TAU_EXT.unit, TAU_EXT.description),
               *(Parameter(p.input_name, 0.0, p.input_unit, p.input_description) for p in scenario.ports)]
     parameters = [*scenario.parameters.values(), Parameter(
@@ -106,6 +116,36 @@ def fmu_scenario(scenario_name: str):
     return load_scenario(scenario_name)
 
 
+def reactions_at(model, port_values, phi1: float, omega1: float, epsilon1: float) -> dict[str, float]:
+    """Every joint reaction output at one state, by Newton-Euler (dynamics.reactions), the ports'
+    inputs among the applied loads."""
+    from ..dynamics.reactions import joint_reactions, reaction_values
+
+    ports = model.reduced.ports
+    extra = (lambda kin: [f for port, u in zip(ports, port_values) for f in port.applied(kin, u)]) if ports else None
+    return reaction_values(joint_reactions(model.reduced, np.array([float(phi1)]), float(omega1), float(epsilon1),
+                                           extra=extra))
+
+
+class Lazy:
+    """Outputs computed on a host's first read after a step, all at once, then served from the
+    cache until the next step: a host that never reads them never pays for them."""
+
+    def __init__(self, compute):
+        self.compute = compute
+        self.values = None
+
+    def clear(self):
+        self.values = None
+
+    def get(self, name: str, model) -> float:
+        if model is None:
+            return 0.0
+        if self.values is None:
+            self.values = self.compute()
+        return self.values[name]
+
+
 class FmuCore(SlaveCore):
     """Variables and model of a crankfmu FMU for one scenario."""
 
@@ -117,10 +157,13 @@ class FmuCore(SlaveCore):
         self.stepper: FastStepper | None = None
         self.quantities = output_quantities(self.scenario)
         self.port_inputs = [p.input_name for p in self.scenario.ports]
-        self._quantity_values: dict[str, float] | None = None    # filled on first read after a step
-
+        # [[outputs]], the ports' s, v, a and the joint reactions: on a host's first read after a step
+        self.lazy = [Lazy(lambda: quantity_values(self.model, self.quantities, *self._motion())),
+                     Lazy(lambda: reactions_at(self.model, [self.values[n] for n in self.port_inputs], *self._motion()))]
         getters = {out.name: self._getter(out.name) for out in OUTPUTS}
-        getters.update({q.name: (lambda n=q.name: self._quantity(n)) for q in self.quantities})
+        getters.update({q.name: (lambda n=q.name: self.lazy[0].get(n, self.model)) for q in self.quantities})
+        getters.update({v.name: (lambda n=v.name: self.lazy[1].get(n, self.model))
+                        for v in reaction_variables(self.scenario)})
         self.declare(declared(self.scenario), getters)
         self.attach()
 
@@ -149,7 +192,7 @@ class FmuCore(SlaveCore):
                                    row=self.row)
         self.stepper.set_port_inputs([v[n] for n in self.port_inputs])
         self.stepper.start(self.time, y0)
-        self._quantity_values = None
+        self._clear()
 
     def advance(self, target: float):
         if self.pending:
@@ -158,7 +201,7 @@ class FmuCore(SlaveCore):
             self.stepper.set_tau_ext(self.values[TAU_EXT.name])
             self.stepper.set_port_inputs([self.values[n] for n in self.port_inputs])
             self.stepper.restart(self.time)
-        self._quantity_values = None
+        self._clear()
         self.stepper.advance(target, max(self.t_limit, target))      # fills self.row
 
     def outputs_now(self) -> np.ndarray:
@@ -167,16 +210,14 @@ class FmuCore(SlaveCore):
     def outputs_text(self) -> str:
         return ", ".join(f"{name} = {self.row[i]:g}" for name, i in ROW.items())
 
-    def _quantity(self, name: str) -> float:
-        """A mechanism-specific output, computed on first read after a step (one kinematics call
-        for all of them): a host that never reads them never pays for them."""
-        if self.model is None:
-            return 0.0
-        if self._quantity_values is None:
-            row = self.row
-            self._quantity_values = quantity_values(self.model, self.quantities, row[ROW["phi1"]], row[ROW["omega1"]],
-                                                    row[ROW["epsilon1"]])
-        return self._quantity_values[name]
+    def _motion(self):
+        """(phi1, omega1, epsilon1) now."""
+        row = self.row
+        return row[ROW["phi1"]], row[ROW["omega1"]], row[ROW["epsilon1"]]
+
+    def _clear(self):
+        for lazy in self.lazy:
+            lazy.clear()
 
     # ------------------------------------------------------------------ FMU state
     def model_state(self):
@@ -190,6 +231,6 @@ class FmuCore(SlaveCore):
 
     def restore_model_state(self, state):
         self.row[:] = state["row"]
-        self._quantity_values = None
+        self._clear()
         self.stepper.state[:] = state["stepper"]
         self.stepper.P[:] = state["stepper_parameters"]

@@ -27,7 +27,8 @@ from ..contract import MOTOR_PARAMETERS, SPEED_INPUTS, SPEED_OUTPUTS, Variable
 from ..dynamics import modes
 from ..parameters import Parameter
 from .core import Declared, SlaveCore
-from .slave import build_design, fmu_scenario, output_quantities, quantity_values
+from .slave import (Lazy, build_design, fmu_scenario, output_quantities, quantity_values, reaction_variables,
+                    reactions_at)
 
 (OMEGA1,) = SPEED_INPUTS
 #: parameters the speed-causal FMU does not have: the motor line (the drive is outside) and the
@@ -41,7 +42,8 @@ def declared(scenario) -> Declared:
     """The variables of the speed-causal FMU of ``scenario``."""
     definition = scenario.mechanism_definition()
     outputs = [*SPEED_OUTPUTS,
-               *(Variable(q.name, q.unit(definition), q.description) for q in output_quantities(scenario))]
+               *(Variable(q.name, q.unit(definition), q.description) for q in output_quantities(scenario)),
+               *reaction_variables(scenario)]
     inputs = [Parameter(OMEGA1.name, scenario.parameters["omega1_start"].value, OMEGA1.unit, OMEGA1.description),
               *(Parameter(p.input_name, 0.0, p.input_unit, p.input_description) for p in scenario.ports)]
     parameters = [p for n, p in scenario.parameters.items() if n not in NOT_DECLARED]
@@ -74,9 +76,14 @@ class SpeedCore(SlaveCore):
         self.state = {"phi1": 0.0, "omega1": 0.0, "slope": 0.0, "last_omega1": math.nan,
                       "W_drive": 0.0, "W_load": 0.0, "W_ext": 0.0}
         self.out = dict.fromkeys((v.name for v in SPEED_OUTPUTS), 0.0)   # before initialisation: 0
-        self._quantity_values = None
+        state = self.state
+        motion = lambda: (state["phi1"], state["omega1"], state["slope"])   # noqa: E731
+        self.lazy = [Lazy(lambda: quantity_values(self.model, self.quantities, *motion())),
+                     Lazy(lambda: reactions_at(self.model, self._ports(), *motion()))]
         getters = {v.name: (lambda n=v.name: self.out[n]) for v in SPEED_OUTPUTS}
-        getters.update({q.name: (lambda n=q.name: self._quantity(n)) for q in self.quantities})
+        getters.update({q.name: (lambda n=q.name: self.lazy[0].get(n, self.model)) for q in self.quantities})
+        getters.update({v.name: (lambda n=v.name: self.lazy[1].get(n, self.model))
+                        for v in reaction_variables(self.scenario)})
         self.declare(declared(self.scenario), getters)
         self.attach()
 
@@ -101,7 +108,8 @@ class SpeedCore(SlaveCore):
         self.out.update(phi1=st["phi1"], epsilon1=st["slope"], tau_drive=float(tau[0]), M_load=float(Q[0]),
                         J_red=float(J[0]), E_kin=modes.kinetic_energy(float(J[0]), st["omega1"]),
                         W_drive=st["W_drive"], W_load=st["W_load"], W_ext=st["W_ext"])
-        self._quantity_values = None
+        for lazy in self.lazy:
+            lazy.clear()
 
     def advance(self, target: float):
         st = self.state
@@ -133,14 +141,6 @@ class SpeedCore(SlaveCore):
 
     def outputs_now(self) -> np.ndarray:
         return np.array([self.out[v.name] for v in SPEED_OUTPUTS], dtype=float)
-
-    def _quantity(self, name: str) -> float:
-        if self.model is None:
-            return 0.0
-        if self._quantity_values is None:
-            st = self.state
-            self._quantity_values = quantity_values(self.model, self.quantities, st["phi1"], st["omega1"], st["slope"])
-        return self._quantity_values[name]
 
     # ------------------------------------------------------------------ FMU state
     def model_state(self):
