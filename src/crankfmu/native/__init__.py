@@ -133,8 +133,9 @@ MAX_PORTS = 8
 A_, B_, A_LOW, B_LOW, OMEGA_SWITCH, TAU_EXT, J_FLYWHEEL, RTOL, ATOL, H_MAX, T_INPUT, TAU_EXT_RATE = range(12)
 PORT_INPUT, PORT_RATE = 12, 12 + MAX_PORTS
 assert PARAM_SIZE == 12 + 2 * MAX_PORTS
-# ---- the output row: the state, then the contract outputs the tables give
-ROW_FIELDS = ("phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor", "M_load", "J_red")
+# ---- the output row: the state, then the contract outputs the tables give, then the external torque
+# on the crank (tau_ext and the ports', N.m: W_ext's rate over omega1)
+ROW_FIELDS = ("phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor", "M_load", "J_red", "tau_e")
 assert OUT_SIZE == len(ROW_FIELDS)
 #: what the stepping functions return besides an event slot
 NO_EVENT, UNDERFLOW, BAD_STATE = -1, -2, -3

@@ -123,13 +123,6 @@ static double external_torque(double t, const CkTables* T, const double* P, cons
     return tau;
 }
 
-double ck_external_torque(double t, double phi, const CkTables* T, const double* P)
-{
-    double work[CK_MAX_FUNCTIONS];
-    table_values(T, phi, work);
-    return external_torque(t, T, P, work);
-}
-
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
  * torque at time t */
 static void coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,
@@ -154,10 +147,10 @@ static double motor_torque(double omega, int high, const double* P)
     return ck_line_torque(P[CK_A_LOW], P[CK_B_LOW], omega);
 }
 
-/* d/dt (phi1, omega1, W_motor, W_load, W_ext) into out; returns epsilon1, M, Q, J via pointers */
+/* d/dt (phi1, omega1, W_motor, W_load, W_ext) into out; returns epsilon1, M, Q, J, tau_e via pointers */
 static double rhs(double t, double phi, double omega, double motor, double direction, double interval,
                   const CkTables* T, const double* P, double* work, double* out, double* M_out, double* Q_out,
-                  double* J_out)
+                  double* J_out, double* tau_out)
 {
     double J, half_dJ, Q, M, eps, tau;
     coefficients(t, phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
@@ -180,6 +173,7 @@ static double rhs(double t, double phi, double omega, double motor, double direc
     if (M_out) *M_out = M;
     if (Q_out) *Q_out = Q;
     if (J_out) *J_out = J;
+    if (tau_out) *tau_out = tau;
     return eps;
 }
 
@@ -214,8 +208,8 @@ static double mode_on_switch(double t, double phi, double direction, double inte
 static void rest_accelerations(double t, double phi, double motor, double interval, const CkTables* T,
                                const double* P, double* work, double* f, double* eps)
 {
-    eps[0] = rhs(t, phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL, NULL, NULL);
-    eps[1] = rhs(t, phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL, NULL, NULL);
+    eps[0] = rhs(t, phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL, NULL, NULL, NULL);
+    eps[1] = rhs(t, phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL, NULL, NULL, NULL);
 }
 
 static double direction_at_rest(double t, double phi, double motor, double interval, const CkTables* T,
@@ -262,7 +256,7 @@ static void start(double* S, double t, const double* y, const CkTables* T, const
     S[CK_T_PREV] = t;
     set_mode(S, y, T, P, w);
     double motor = S[CK_MOTOR], direction = S[CK_DIRECTION];
-    rhs(t, y[0], y[1], motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL);
+    rhs(t, y[0], y[1], motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL, NULL);
     for (int j = 0; j < 5; j++) {
         S[CK_F + j] = w->f[j];
         for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = s == CK_N_STAGES ? w->f[j] : 0.0;
@@ -296,7 +290,7 @@ static void rk_step(const double* S, double t, const double* y, const double* f,
             w->tmp[j] = y[j] + h * acc;
         }
         rhs(t + CK_C[s] * h, w->tmp[0], w->tmp[1], motor, direction, interval, T, P, w->work, w->Kst[s], NULL, NULL,
-            NULL);
+            NULL, NULL);
     }
     for (int j = 0; j < 5; j++) {
         double acc = 0.0;
@@ -304,7 +298,7 @@ static void rk_step(const double* S, double t, const double* y, const double* f,
         w->ynew[j] = y[j] + h * acc;
     }
     rhs(t + h, w->ynew[0], w->ynew[1], motor, direction, interval, T, P, w->work, w->Kst[CK_N_STAGES], NULL, NULL,
-        NULL);
+        NULL, NULL);
 }
 
 static double error_norm(const double* y, const double* ynew, const Scratch* w, double h, const double* P)
@@ -487,7 +481,7 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
         for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = w->Kst[s][j];
     transition(S, first_slot, first_t, w->ynew, T, P, w->work, w->f);
     rhs(first_t, w->ynew[0], w->ynew[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL,
-        NULL);
+        NULL, NULL);
     for (int j = 0; j < 5; j++) {
         S[CK_Y + j] = w->ynew[j];
         S[CK_F + j] = w->f[j];
@@ -499,16 +493,17 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
 }
 
 /* the rest of an output row whose state row[0:5] at time t is set, in the given mode: epsilon1,
- * M_motor, M_load, J_red; f <- dy/dt there */
+ * M_motor, M_load, J_red, tau_e; f <- dy/dt there */
 static void complete_row(double t, double motor, double direction, double interval, const CkTables* T,
                          const double* P, double* work, double* f, double* row)
 {
-    double M, Q, J;
-    double eps = rhs(t, row[0], row[1], motor, direction, interval, T, P, work, f, &M, &Q, &J);
+    double M, Q, J, tau;
+    double eps = rhs(t, row[0], row[1], motor, direction, interval, T, P, work, f, &M, &Q, &J, &tau);
     row[5] = eps;
     row[6] = M;
     row[7] = Q;
     row[8] = J;
+    row[9] = tau;
 }
 
 static void output_row(const double* S, double t, const CkTables* T, const double* P, double* work, double* f,
@@ -530,7 +525,8 @@ static void output_row(const double* S, double t, const CkTables* T, const doubl
 
 /* ------------------------------------------------------------------------------ the drivers */
 
-void ck_output_row(const double* S, double t, const CkTables* T, const double* P, double* row)
+/* the output row at t in the last step, NaN for a state the kernel cannot have written */
+static void checked_output_row(const double* S, double t, const CkTables* T, const double* P, double* row)
 {
     Scratch w;
     if (!mode_ok(S, T)) {
@@ -554,7 +550,7 @@ int ck_advance(double* S, double t_target, double t_limit, const CkTables* T, co
         int slot = step(S, t_limit, T, P, &w);
         if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return slot;
     }
-    ck_output_row(S, t_target, T, P, row);
+    checked_output_row(S, t_target, T, P, row);
     return 0;
 }
 

@@ -40,8 +40,9 @@ enum { CK_A_ = 0, CK_B_, CK_A_LOW, CK_B_LOW, CK_OMEGA_SWITCH, CK_TAU_EXT, CK_J_F
        CK_T_INPUT, CK_TAU_EXT_RATE, CK_PORT_INPUT, CK_PORT_RATE = CK_PORT_INPUT + CK_MAX_PORTS,
        CK_PARAM_SIZE = CK_PORT_RATE + CK_MAX_PORTS };
 
-/* ---- the output row: phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red */
-enum { CK_OUT_SIZE = 9 };
+/* ---- the output row: phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red,
+ * tau_e (the external torque on the crank: tau_ext and the ports', what W_ext integrates times omega1) */
+enum { CK_OUT_SIZE = 10 };
 
 /* ---- steady cycles: omega1_mean, omega1_min, omega1_max, delta, period, turns, status */
 enum { CK_SLOPE_SAMPLES = 8, CK_STEADY_SIZE = 7 };
@@ -94,14 +95,9 @@ CK_API int ck_layout(int* out, int n);
  * phi into out[0:n_functions] */
 CK_API void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out);
 
-/* the external torque on the crank (N.m) at time t and crank angle phi: tau_ext and each port's
- * input times its transfer function (what W_ext integrates, times omega1) */
-CK_API double ck_external_torque(double t, double phi, const CkTables* tables, const double* P);
-
 CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
 CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,
                       double* row);
-CK_API void ck_output_row(const double* S, double t, const CkTables* tables, const double* P, double* row);
 CK_API void ck_dense(const double* S, double t, double* out);
 CK_API int ck_run_chunk(double* S, double t_end, const double* times, int n_times, int* i_out, double* rows,
                         double* step_store, int store_capacity, int* n_store, double* events, int event_capacity,

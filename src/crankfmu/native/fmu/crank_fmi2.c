@@ -343,9 +343,7 @@ static double output_value(const Instance* in, const double* row, int vr, double
         case 1: return row[ROW_EPSILON1];
         case 2: return row[ROW_M_MOTOR] * omega;
         case 3: return row[ROW_M_LOAD] * omega;
-        default:
-            return ck_external_torque(in->model_exchange ? in->now.S[CK_T] : in->now.time, row[ROW_PHI1], &in->tables,
-                                      in->now.P) * omega;
+        default: return row[ROW_TAU_E] * omega;
         }
     }
     if (v->kind == KIND_QUANTITY) {
@@ -722,26 +720,38 @@ fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
     Instance* in = me_instance(c, "fmi2SetTime", 1);
     if (!in) return fmi2Error;
     if (!isfinite(time)) return fail(in, "%s", "fmi2SetTime: the time must be finite");
-    in->now.time = time;               /* the model is autonomous: nothing else depends on it */
+    in->now.time = time;               /* the inputs' rates are 0 here: the right-hand side does not depend on t */
     in->now.S[CK_T] = time;
     return fmi2OK;
 }
 
-static int state_count_ok(Instance* in, size_t n, const char* function)
+/* the instance of a call that passes one value per continuous state (else logged, NULL); in
+ * initialisation (where allowed), its values brought to what the start values give */
+static Instance* me_states_call(fmi2Component c, const char* function, int initialization_too, const void* array,
+                                size_t n)
 {
-    if (n == N_STATES) return 1;
+    Instance* in = me_instance(c, function, initialization_too);
+    if (!in) return NULL;
     char detail[160];
-    snprintf(detail, sizeof detail, "%s: this FMU has %d continuous states, not %u", function, N_STATES, (unsigned)n);
-    fail(in, "%s", detail);
-    return 0;
+    if (n != N_STATES) {
+        snprintf(detail, sizeof detail, "%s: this FMU has %d continuous states, not %u", function, N_STATES,
+                 (unsigned)n);
+        fail(in, "%s", detail);
+        return NULL;
+    }
+    if (!array) {
+        snprintf(detail, sizeof detail, "%s: null array", function);
+        fail(in, "%s", detail);
+        return NULL;
+    }
+    me_current(in);
+    return in;
 }
 
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx)
 {
-    Instance* in = me_instance(c, "fmi2SetContinuousStates", 0);
+    Instance* in = me_states_call(c, "fmi2SetContinuousStates", 0, x, nx);
     if (!in) return fmi2Error;
-    if (!state_count_ok(in, nx, "fmi2SetContinuousStates")) return fmi2Error;
-    if (!x) return fail(in, "%s", "fmi2SetContinuousStates: null array");
     for (size_t j = 0; j < nx; j++)
         if (!isfinite(x[j])) {
             char detail[160];
@@ -762,22 +772,16 @@ fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n
 
 fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx)
 {
-    Instance* in = me_instance(c, "fmi2GetContinuousStates", 1);
+    Instance* in = me_states_call(c, "fmi2GetContinuousStates", 1, x, nx);
     if (!in) return fmi2Error;
-    if (!state_count_ok(in, nx, "fmi2GetContinuousStates")) return fmi2Error;
-    if (!x) return fail(in, "%s", "fmi2GetContinuousStates: null array");
-    me_current(in);
     memcpy(x, in->now.S + CK_Y, N_STATES * sizeof(double));
     return fmi2OK;
 }
 
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx)
 {
-    Instance* in = me_instance(c, "fmi2GetDerivatives", 1);
+    Instance* in = me_states_call(c, "fmi2GetDerivatives", 1, derivatives, nx);
     if (!in) return fmi2Error;
-    if (!state_count_ok(in, nx, "fmi2GetDerivatives")) return fmi2Error;
-    if (!derivatives) return fail(in, "%s", "fmi2GetDerivatives: null array");
-    me_current(in);
     memcpy(derivatives, in->now.dydt, N_STATES * sizeof(double));
     return fmi2OK;
 }
@@ -801,10 +805,8 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], s
 
 fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx)
 {
-    Instance* in = me_instance(c, "fmi2GetNominalsOfContinuousStates", 1);
+    Instance* in = me_states_call(c, "fmi2GetNominalsOfContinuousStates", 1, x_nominal, nx);
     if (!in) return fmi2Error;
-    if (!state_count_ok(in, nx, "fmi2GetNominalsOfContinuousStates")) return fmi2Error;
-    if (!x_nominal) return fail(in, "%s", "fmi2GetNominalsOfContinuousStates: null array");
     for (size_t j = 0; j < nx; j++) x_nominal[j] = 1.0;
     return fmi2OK;
 }

@@ -20,7 +20,7 @@ typedef struct {
     const char* unit;
 } Variable;
 
-/* value references, in native_build.NativeModel.variables()'s order: the contract's outputs first
+/* value references, in the order of native_build.NativeModel.data_c's table: the contract's outputs first
  * (N_OUTPUTS, model_config.h), then the input tau_ext, the tunables (native_build.TUNABLE's order),
  * the fixed parameters (N_FIXED), the scenario's [[outputs]] and its ports' outputs
  * (N_QUANTITIES), the derivatives of the Model Exchange states (phi1, omega1, W_motor, W_load,
