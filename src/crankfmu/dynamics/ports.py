@@ -21,21 +21,18 @@ import math
 import re
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..errors import DefinitionError
 from ..expressions import Expression
 from ..mechanisms.quantities import Quantity
 from .loads import AppliedLoad
 
-#: per kind: the input's suffix and unit, the outputs' suffixes, and the coordinate's unit
+#: per kind: the input's suffix and unit, and the outputs' suffixes
 KINDS = {
-    "force": ("F", "N", ("s", "v", "a"), "m"),
-    "couple": ("M", "N.m", ("angle", "omega", "epsilon"), "rad"),
+    "force": ("F", "N", ("s", "v", "a")),
+    "couple": ("M", "N.m", ("angle", "omega", "epsilon")),
 }
 _KEYS = {"name", "kind", "link", "point", "axis", "description"}
 _NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*$")
-_UNITS = {"m": ("m", "m/s", "m/s2"), "rad": ("rad", "rad/s", "rad/s2")}
 
 
 @dataclass(frozen=True)
@@ -98,15 +95,13 @@ class Port:
 
 @dataclass(frozen=True)
 class PortQuantity(Quantity):
-    """One output of a port: a mechanism quantity whose coordinate is the port's."""
+    """One output of a port: a mechanism quantity whose coordinate is the port's (its unit is
+    Quantity.unit's, from whether the coordinate is an angle)."""
 
     port: Port | None = None
 
     def is_angle(self, definition=None) -> bool:
         return self.port.kind == "couple"
-
-    def unit(self, definition=None) -> str:
-        return _UNITS[KINDS[self.port.kind][3]][self.order]
 
     def transfer(self, kin):
         return self.port.transfer(kin)
@@ -159,10 +154,3 @@ def parse_ports(items, definition, where: str) -> list[Port]:
         raise DefinitionError(f"{where}: [[ports]] names must be unique, got {names}")
     return ports
 
-
-def port_torque(ports, kin, values) -> np.ndarray:
-    """The ports' torque on the crank (N.m) with inputs ``values`` (one per port, scalars or arrays)."""
-    total = np.zeros_like(kin.phi1)
-    for port, value in zip(ports, values):
-        total = total + port.torque(kin, value)
-    return total

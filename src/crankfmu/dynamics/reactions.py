@@ -38,7 +38,7 @@ class JointReactions:
     couple: dict[str, np.ndarray]
     kind: dict[str, str]
     driving_moment: np.ndarray
-    normal: dict[str, np.ndarray] | None = None
+    normal: dict[str, np.ndarray]
 
     def magnitude(self, joint: str) -> np.ndarray:
         """|F| at the joint, N."""
@@ -57,12 +57,13 @@ class JointReactions:
 
 
 def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: bool = True,
-                    extra=None) -> JointReactions:
+                    extra=None, kin=None) -> JointReactions:
     """Solve every joint's reaction and the driving moment at a prescribed crank motion.
 
     ``inertia=False`` neglects the inertia forces and moments (the static equilibrium moment).
     ``extra(kin)``: more applied loads (loads.AppliedLoad) at the kinematics, beside the model's
-    own: the ports' inputs (dynamics.ports).
+    own: the ports' inputs (dynamics.ports). ``kin``: the kinematics at phi1, where the caller has
+    them already.
     """
     mechanism = reduced.mechanism
     definition = mechanism.definition
@@ -71,7 +72,8 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
         raise DefinitionError(f"mechanism {definition.name!r} declares no [[joints]]: the reactions "
                               "need them")
     phi1, omega1, epsilon1 = prescribed_motion(phi1, omega1, epsilon1, forward=False)
-    kin = mechanism.kinematics(phi1)
+    if kin is None:
+        kin = mechanism.kinematics(phi1)
     n = phi1.size
     links = [link.name for link in reduced.links]
     row = {name: 3 * i for i, name in enumerate(links)}
@@ -152,32 +154,29 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
                           normal=normal)
 
 
+#: the FMU outputs of a joint's reaction, by joint kind: (suffix, unit, what)
+REACTION_OUTPUTS = {
+    "revolute": (("Fx", "N", "x component"), ("Fy", "N", "y component")),
+    "prismatic": (("N", "N", "force across the slide's axis"), ("M", "N.m", "couple the slide transmits")),
+}
+
+
 def reaction_outputs(definition) -> list[tuple[str, str, str]]:
     """(name, unit, description) of the FMU outputs the joint reactions give: for a pin
     ``<joint>_Fx``, ``<joint>_Fy`` (N); for a slide ``<joint>_N`` (N, across its axis) and
     ``<joint>_M`` (N.m). Each is the force of the joint's first link on its second."""
-    out = []
-    for joint in definition.joints:
-        first, second = joint.links
-        on = f"joint {joint.name}: reaction of {first} on {second}"
-        if joint.kind == "revolute":
-            out += [(f"{joint.name}_Fx", "N", f"{on}, x component (Newton-Euler at the current state)"),
-                    (f"{joint.name}_Fy", "N", f"{on}, y component (Newton-Euler at the current state)")]
-        else:
-            out += [(f"{joint.name}_N", "N", f"{on}, force across the slide's axis (Newton-Euler)"),
-                    (f"{joint.name}_M", "N.m", f"{on}, couple the slide transmits (Newton-Euler)")]
-    return out
+    return [(f"{joint.name}_{suffix}", unit,
+             f"joint {joint.name}: reaction of {joint.links[0]} on {joint.links[1]}, {what} (Newton-Euler)")
+            for joint in definition.joints for suffix, unit, what in REACTION_OUTPUTS[joint.kind]]
 
 
 def reaction_values(reactions: JointReactions, index: int = 0) -> dict[str, float]:
     """The outputs of ``reaction_outputs`` at one of the solved states."""
     out = {}
     for name, kind in reactions.kind.items():
-        if kind == "revolute":
-            fx, fy = reactions.force[name]
-            out[f"{name}_Fx"], out[f"{name}_Fy"] = float(fx[index]), float(fy[index])
-        else:
-            out[f"{name}_N"] = float(reactions.normal[name][index])
-            out[f"{name}_M"] = float(reactions.couple[name][index])
+        fx, fy = reactions.force[name]
+        values = (fx, fy) if kind == "revolute" else (reactions.normal[name], reactions.couple[name])
+        for (suffix, _, _), value in zip(REACTION_OUTPUTS[kind], values):
+            out[f"{name}_{suffix}"] = float(value[index])
     return out
 

@@ -88,9 +88,10 @@ class ReducedTable:
         wrapped = np.asarray(phi1) % TWO_PI
         return (np.searchsorted(self.switch_angles, wrapped, side="right") - 1) % self.switch_angles.size
 
-    def coefficients_at(self, phi1, omega1, J_flywheel: float):
-        """(J, 0.5 J', Q) at arrays of states, the slider forces' direction from omega1's sign."""
-        values = self.evaluate(phi1)
+    def coefficients_at(self, phi1, omega1, J_flywheel: float, values=None):
+        """(J, 0.5 J', Q) at arrays of states, the slider forces' direction from omega1's sign;
+        ``values``: the functions at phi1 (``evaluate``), where the caller has them already."""
+        values = self.evaluate(phi1) if values is None else values
         omega1 = np.asarray(omega1, dtype=float)
         J = values[J_LINKS] + J_flywheel
         Q = values[Q_POSITION] + values[Q_VISCOUS] * omega1

@@ -172,20 +172,16 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
         groups = {"*geometry": sorted(set(definition.geometry_parameters) | set(definition.mass_parameters)),
                   "*loads": sorted(scenario.load_parameters())}
         fmu = _fmu_name(fmu_name or scenario.data.get("fmu"), scenario.where)
-        if causality == "speed":
-            fmu = fmu if fmu_name or own == "speed" else fmu + "Speed"
-            source = Source(kind, scenario.name, fmu, scenario.title + " (speed causality)", scenario.experiment,
-                            "fmi.speed:SpeedCore", {v.name: v.initial for v in SPEED_OUTPUTS}, groups,
-                            lambda: speed_reference(scenario),
-                            lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params,
-                                                                                             ref),
-                            lambda: speed.declared(scenario), load=scenario.name)
-        else:
-            source = Source(kind, scenario.name, fmu, scenario.title, scenario.experiment, "fmi.slave:FmuCore",
-                            {v.name: v.initial for v in OUTPUTS}, groups, lambda: reference_result(scenario),
-                            lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params,
-                                                                                             ref),
-                            lambda: slave.declared(scenario), load=scenario.name)
+        title, core, outputs, reference, core_module = (
+            (scenario.title + " (speed causality)", "fmi.speed:SpeedCore", SPEED_OUTPUTS, speed_reference, speed)
+            if causality == "speed" else
+            (scenario.title, "fmi.slave:FmuCore", OUTPUTS, reference_result, slave))
+        if causality == "speed" and not fmu_name and own != "speed":
+            fmu += "Speed"
+        source = Source(kind, scenario.name, fmu, title, scenario.experiment, core,
+                        {v.name: v.initial for v in outputs}, groups, lambda: reference(scenario),
+                        lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params, ref),
+                        lambda: core_module.declared(scenario), load=scenario.name)
         if _is_path(name):
             source.load, source.files = _user_files(scenario, name)
         else:
@@ -197,7 +193,8 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
         from ..dynamics.drive import load_drive
 
         drive = load_drive(name)
-        docs = lambda f, md, params, ref: documentation.drive_documentation(f, drive, md, params)  # noqa: E731
+        docs = lambda f, md, params, ref: documentation.drive_documentation(f, drive, md, params,  # noqa: E731
+                                                                            causality == "speed")
         if causality == "speed":
             if drive.speed_parameters is None:
                 raise CrankfmuError(f"{drive.where}: --causality speed needs the drive file's [speed_causality] "

@@ -157,39 +157,42 @@ with a message naming the parameter and its valid range, whatever the host's log
     return files
 
 
-def drive_documentation(name: str, drive_file, model_description: bytes, parameters: dict) -> dict[str, bytes]:
-    """documentation/index.html of the drive FMU."""
-    from ..dynamics import drive
-
+def component_documentation(name: str, data_file, module, role_html: str, model_description: bytes,
+                            parameters: dict) -> dict[str, bytes]:
+    """documentation/index.html of an FMU that is not a mechanism (a drive, a cushion): what it
+    does for a mechanism FMU (``role_html``), the equations of ``module``'s docstring, its variables
+    and default experiment."""
     body = f"""<h1>{html.escape(name)}.fmu</h1>
-<p>{html.escape(drive_file.title)}. Built by crankfmu from the drive file <code>{html.escape(drive_file.name)}</code>;
-all values in SI units. It drives a mechanism FMU through its <code>tau_ext</code> input
-(FourBarDrive.ssp: <code>crankfmu ssp</code>).</p>
+<p>{html.escape(data_file.title)}. Built by crankfmu from the file <code>{html.escape(data_file.name)}</code>;
+all values in SI units. {role_html}</p>
 <h2>Equations</h2>
-<pre>{html.escape(_docstring_block(drive))}</pre>
+<pre>{html.escape(_docstring_block(module))}</pre>
 <h2>Variables</h2>
 {variables_table(model_description, parameters)}
 <h2>Default experiment</h2>
-<p>{html.escape(_experiment_text(drive_file.experiment))}.</p>
+<p>{html.escape(_experiment_text(data_file.experiment))}.</p>
 """
     return {"documentation/index.html": _page(f"{name}.fmu", body)}
+
+
+def drive_documentation(name: str, drive_file, model_description: bytes, parameters: dict,
+                        speed_causal: bool = False) -> dict[str, bytes]:
+    """documentation/index.html of Drive.fmu, or of its speed-causal variant."""
+    from ..dynamics import drive
+
+    role = ("It drives a speed-causal mechanism FMU through its <code>omega1</code> input and takes its "
+            "<code>tau_drive</code> (FourBarDriveSpeed.ssp: <code>crankfmu ssp</code>)." if speed_causal else
+            "It drives a mechanism FMU through its <code>tau_ext</code> input (FourBarDrive.ssp: "
+            "<code>crankfmu ssp</code>).")
+    return component_documentation(name, drive_file, drive, role, model_description, parameters)
 
 
 def cushion_documentation(name: str, cushion_file, model_description: bytes, parameters: dict) -> dict[str, bytes]:
     """documentation/index.html of the die cushion FMU."""
     from ..dynamics import cushion
 
-    body = f"""<h1>{html.escape(name)}.fmu</h1>
-<p>{html.escape(cushion_file.title)}. Built by crankfmu from the file <code>{html.escape(cushion_file.name)}</code>;
-all values in SI units. It acts on a mechanism FMU's force port (PressCushion.ssp: <code>crankfmu ssp</code>).</p>
-<h2>Equations</h2>
-<pre>{html.escape(_docstring_block(cushion))}</pre>
-<h2>Variables</h2>
-{variables_table(model_description, parameters)}
-<h2>Default experiment</h2>
-<p>{html.escape(_experiment_text(cushion_file.experiment))}.</p>
-"""
-    return {"documentation/index.html": _page(f"{name}.fmu", body)}
+    return component_documentation(name, cushion_file, cushion, "It acts on a mechanism FMU's force port "
+                                   "(PressCushion.ssp: <code>crankfmu ssp</code>).", model_description, parameters)
 
 
 def _page(title: str, body: str) -> bytes:

@@ -53,12 +53,15 @@ class DriveCore(SlaveCore):
     def step(self, h: float):
         return self.drive.step(*self.state, self.values["omega"], self.values["omega_set"], h)
 
+    def output_row(self, omega, tau, i, u):
+        """The outputs in output_variables' order."""
+        return tau, i, u, u * i
+
     def _update_outputs(self):
         i, x = self.state[:2]
         omega = self.speed()
         u = self.drive.voltage(x, omega, self.values["omega_set"])
-        own = (self.drive.torque(i), i, u, u * i)
-        self.out[:] = (omega, *own) if self.output_variables is DRIVE_SPEED_OUTPUTS else own
+        self.out[:] = self.output_row(omega, self.drive.torque(i), i, u)
 
     def initialise(self):
         self.drive = self.file.drive(self.values)
@@ -109,6 +112,9 @@ class DriveSpeedCore(DriveCore):
 
     def speed(self) -> float:
         return float(self.state[2])
+
+    def output_row(self, omega, tau, i, u):
+        return (omega, *super().output_row(omega, tau, i, u))
 
     def step(self, h: float):
         return self.drive.step_with_rotor(*self.state, self.values["omega_set"], self.values["tau_load"],

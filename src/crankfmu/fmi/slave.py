@@ -99,15 +99,6 @@ def declared(scenario) -> Declared:
     return Declared(outputs, inputs, parameters)
 
 
-def quantity_values(model, quantities, phi1: float, omega1: float, epsilon1: float) -> dict[str, float]:
-    """Every mechanism quantity (an [[outputs]] entry, a port's s, v, a) at one state, from one
-    call of the analytic kinematics."""
-    from ..mechanisms.quantities import evaluate_all
-
-    kin = model.mechanism.kinematics(np.array([float(phi1)]))
-    return {k: float(v[0]) for k, v in evaluate_all(quantities, kin, float(omega1), float(epsilon1)).items()}
-
-
 def fmu_scenario(scenario_name: str):
     """The scenario an FMU's core runs: a packaged name, or a user's file the build put in the
     FMU's package (``user/<file>.toml``)."""
@@ -116,34 +107,54 @@ def fmu_scenario(scenario_name: str):
     return load_scenario(scenario_name)
 
 
-def reactions_at(model, port_values, phi1: float, omega1: float, epsilon1: float) -> dict[str, float]:
-    """Every joint reaction output at one state, by Newton-Euler (dynamics.reactions), the ports'
-    inputs among the applied loads."""
-    from ..dynamics.reactions import joint_reactions, reaction_values
-
-    ports = model.reduced.ports
-    extra = (lambda kin: [f for port, u in zip(ports, port_values) for f in port.applied(kin, u)]) if ports else None
-    return reaction_values(joint_reactions(model.reduced, np.array([float(phi1)]), float(omega1), float(epsilon1),
-                                           extra=extra))
-
-
 class Lazy:
-    """Outputs computed on a host's first read after a step, all at once, then served from the
-    cache until the next step: a host that never reads them never pays for them."""
+    """A value computed on its first use after a step, then served from the cache until the next
+    step (``clear``): a host that never reads an output never pays for it."""
 
     def __init__(self, compute):
         self.compute = compute
-        self.values = None
+        self.value = None
 
     def clear(self):
-        self.values = None
+        self.value = None
 
-    def get(self, name: str, model) -> float:
-        if model is None:
-            return 0.0
-        if self.values is None:
-            self.values = self.compute()
-        return self.values[name]
+    def __call__(self):
+        if self.value is None:
+            self.value = self.compute()
+        return self.value
+
+
+def lazy_outputs(core, motion):
+    """The outputs a mechanism core computes only when a host reads them: the quantities (its
+    [[outputs]] and the ports' s, v, a) and the joint reactions (Newton-Euler, the ports' inputs
+    among the loads), both from one call of the analytic kinematics at the state ``motion()``
+    gives, (phi1, omega1, epsilon1). ``core`` has ``model``, ``quantities``, ``port_inputs``,
+    ``values`` and ``scenario``. Returns (the caches to clear after each step, the getters)."""
+    from ..dynamics.reactions import joint_reactions, reaction_values
+    from ..mechanisms.quantities import evaluate_all
+
+    kinematics = Lazy(lambda: core.model.mechanism.kinematics(np.array([float(motion()[0])])))
+
+    def quantities():
+        _, omega1, epsilon1 = motion()
+        return {k: float(v[0]) for k, v in
+                evaluate_all(core.quantities, kinematics(), float(omega1), float(epsilon1)).items()}
+
+    def reactions():
+        phi1, omega1, epsilon1 = motion()
+        ports, inputs = core.model.reduced.ports, [core.values[n] for n in core.port_inputs]
+        extra = (lambda kin: [f for port, u in zip(ports, inputs) for f in port.applied(kin, u)]) if ports else None
+        return reaction_values(joint_reactions(core.model.reduced, np.array([float(phi1)]), float(omega1),
+                                               float(epsilon1), extra=extra, kin=kinematics()))
+
+    caches = (kinematics, Lazy(quantities), Lazy(reactions))
+
+    def getter(cache, name):
+        return lambda: cache()[name] if core.model is not None else 0.0
+
+    getters = {q.name: getter(caches[1], q.name) for q in core.quantities}
+    getters.update({v.name: getter(caches[2], v.name) for v in reaction_variables(core.scenario)})
+    return caches, getters
 
 
 class FmuCore(SlaveCore):
@@ -158,12 +169,8 @@ class FmuCore(SlaveCore):
         self.quantities = output_quantities(self.scenario)
         self.port_inputs = [p.input_name for p in self.scenario.ports]
         # [[outputs]], the ports' s, v, a and the joint reactions: on a host's first read after a step
-        self.lazy = [Lazy(lambda: quantity_values(self.model, self.quantities, *self._motion())),
-                     Lazy(lambda: reactions_at(self.model, [self.values[n] for n in self.port_inputs], *self._motion()))]
-        getters = {out.name: self._getter(out.name) for out in OUTPUTS}
-        getters.update({q.name: (lambda n=q.name: self.lazy[0].get(n, self.model)) for q in self.quantities})
-        getters.update({v.name: (lambda n=v.name: self.lazy[1].get(n, self.model))
-                        for v in reaction_variables(self.scenario)})
+        self.lazy, getters = lazy_outputs(self, self._motion)
+        getters.update({out.name: self._getter(out.name) for out in OUTPUTS})
         self.declare(declared(self.scenario), getters)
         self.attach()
 

@@ -27,8 +27,7 @@ from ..contract import MOTOR_PARAMETERS, SPEED_INPUTS, SPEED_OUTPUTS, Variable
 from ..dynamics import modes
 from ..parameters import Parameter
 from .core import Declared, SlaveCore
-from .slave import (Lazy, build_design, fmu_scenario, output_quantities, quantity_values, reaction_variables,
-                    reactions_at)
+from .slave import build_design, fmu_scenario, lazy_outputs, output_quantities, reaction_variables
 
 (OMEGA1,) = SPEED_INPUTS
 #: parameters the speed-causal FMU does not have: the motor line (the drive is outside) and the
@@ -53,12 +52,11 @@ def declared(scenario) -> Declared:
 def drive_torque_at(table, J_flywheel: float, phi1, omega1, epsilon1, port_inputs):
     """(tau_drive, Q, tau_ports, J, 0.5 J') (N.m, N.m, N.m, kg.m2, kg.m2/rad) at arrays of states,
     from the design's table: the slider forces' side from omega1's sign."""
-    J, half_dJ, Q = table.coefficients_at(phi1, omega1, J_flywheel)
+    values = table.evaluate(phi1)
+    J, half_dJ, Q = table.coefficients_at(phi1, omega1, J_flywheel, values)
     tau = np.zeros_like(J)
-    if table.n_ports:
-        transfer = table.evaluate(phi1)[-table.n_ports:]
-        for value, column in zip(port_inputs, transfer):
-            tau = tau + value * column
+    for value, column in zip(port_inputs, values[len(values) - table.n_ports:]):
+        tau = tau + value * column
     return modes.drive_torque(J, half_dJ, Q, tau, omega1, epsilon1), Q, tau, J, half_dJ
 
 
@@ -71,19 +69,14 @@ class SpeedCore(SlaveCore):
         self.quantities = output_quantities(self.scenario)
         self.port_inputs = [p.input_name for p in self.scenario.ports]
         self.model = self.table = None
-        self.last_step = None          # s: the last communication step (None before the first)
-        # the state at the current time: phi1, omega1 there, its slope, the works, and the outputs
-        self.state = {"phi1": 0.0, "omega1": 0.0, "slope": 0.0, "last_omega1": math.nan,
+        # the state at the current time: phi1, omega1 there and its slope over the last step
+        # (last_step s, None before the first), the works
+        self.state = {"phi1": 0.0, "omega1": 0.0, "slope": 0.0, "last_step": None,
                       "W_drive": 0.0, "W_load": 0.0, "W_ext": 0.0}
         self.out = dict.fromkeys((v.name for v in SPEED_OUTPUTS), 0.0)   # before initialisation: 0
         state = self.state
-        motion = lambda: (state["phi1"], state["omega1"], state["slope"])   # noqa: E731
-        self.lazy = [Lazy(lambda: quantity_values(self.model, self.quantities, *motion())),
-                     Lazy(lambda: reactions_at(self.model, self._ports(), *motion()))]
-        getters = {v.name: (lambda n=v.name: self.out[n]) for v in SPEED_OUTPUTS}
-        getters.update({q.name: (lambda n=q.name: self.lazy[0].get(n, self.model)) for q in self.quantities})
-        getters.update({v.name: (lambda n=v.name: self.lazy[1].get(n, self.model))
-                        for v in reaction_variables(self.scenario)})
+        self.lazy, getters = lazy_outputs(self, lambda: (state["phi1"], state["omega1"], state["slope"]))
+        getters.update({v.name: (lambda n=v.name: self.out[n]) for v in SPEED_OUTPUTS})
         self.declare(declared(self.scenario), getters)
         self.attach()
 
@@ -93,9 +86,8 @@ class SpeedCore(SlaveCore):
                                              if n in self.values}}
         self.model, self.table = build_design(self.scenario, values)
         omega = self.values[OMEGA1.name]
-        self.state.update(phi1=self.values["phi1_start"], omega1=omega, slope=0.0, last_omega1=omega,
+        self.state.update(phi1=self.values["phi1_start"], omega1=omega, slope=0.0, last_step=None,
                           W_drive=0.0, W_load=0.0, W_ext=0.0)
-        self.last_step = None
         self._update_outputs()
 
     def _ports(self):
@@ -115,13 +107,15 @@ class SpeedCore(SlaveCore):
         st = self.state
         h = target - self.time
         omega = self.values[OMEGA1.name]
-        # omega1's slope over this step: the input's change over the last step (0 on the first)
-        slope = 0.0 if self.last_step is None else (omega - st["last_omega1"]) / self.last_step
+        # omega1's slope over this step: the input's change over the last step (0 on the first),
+        # from the input at the last step's start, omega1 there less the line's rise
+        last = st["last_step"]
+        slope = 0.0 if last is None else (omega - (st["omega1"] - st["slope"] * last)) / last
         phi0 = st["phi1"]
         if omega != st["omega1"]:
             # the host's omega1 differs from the line of the last step at this point: the speed
-            # jumps, and the drive does the jump's work, 0.5 J (omega1'^2 - omega1^2)
-            J = self.table.coefficients_at(np.array([phi0]), np.array([omega]), self.model.reduced.J_flywheel)[0][0]
+            # jumps, and the drive does the jump's work, 0.5 J (omega1'^2 - omega1^2), J at phi0
+            J = self.out["J_red"]
             st["W_drive"] += modes.kinetic_energy(J, omega) - modes.kinetic_energy(J, st["omega1"])
         turned = abs(omega * h + 0.5 * slope * h * h)
         pieces = max(1, int(math.ceil(turned / math.radians(1.0))))
@@ -134,9 +128,7 @@ class SpeedCore(SlaveCore):
         st["W_drive"] += float(np.dot(weights, tau * w))
         st["W_load"] += float(np.dot(weights, Q * w))
         st["W_ext"] += float(np.dot(weights, tau_ports * w))
-        st.update(phi1=phi0 + omega * h + 0.5 * slope * h * h, omega1=omega + slope * h, slope=slope,
-                  last_omega1=omega)
-        self.last_step = h
+        st.update(phi1=phi0 + omega * h + 0.5 * slope * h * h, omega1=omega + slope * h, slope=slope, last_step=h)
         self._update_outputs()
 
     def outputs_now(self) -> np.ndarray:
@@ -144,14 +136,11 @@ class SpeedCore(SlaveCore):
 
     # ------------------------------------------------------------------ FMU state
     def model_state(self):
-        if self.model is None:
-            return None
-        return {**self.state, "last_step": self.last_step}
+        return None if self.model is None else dict(self.state)
 
     def can_restore(self) -> bool:
         return self.model is not None
 
     def restore_model_state(self, state):
-        self.last_step = state["last_step"]
-        self.state.update({k: v for k, v in state.items() if k != "last_step"})
+        self.state.update(state)
         self._update_outputs()

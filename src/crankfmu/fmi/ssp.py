@@ -39,6 +39,24 @@ from ..errors import CrankfmuError
 MOTOR_OFF = {"A": 0.0, "B": 0.0, "A_low": 0.0, "B_low": 0.0}
 
 
+def _drive_values(speed_causal: bool) -> dict[str, float]:
+    """The drive file's parameters and set-point (not its speed input), with its speed-causal
+    parameters for DriveSpeed.fmu."""
+    from ..dynamics.drive import load_drive
+
+    drive = load_drive("dc_pi")
+    values = {n: p.value for n, p in {**drive.parameters, **drive.inputs}.items() if n != "omega"}
+    if speed_causal:
+        values.update({n: p.value for n, p in drive.speed_parameters.items()})
+    return values
+
+
+def _cushion_values() -> dict[str, float]:
+    from ..dynamics.cushion import load_cushion
+
+    return {n: p.value for n, p in load_cushion("die_cushion").parameters.items()}
+
+
 @dataclass(frozen=True)
 class System:
     name: str
@@ -46,7 +64,8 @@ class System:
     sources: dict          # component -> the FMU's file stem
     connectors: dict       # component -> ((variable, "input" | "output"), ...)
     connections: tuple     # (from component, variable, to component, variable)
-    fixed: dict            # component -> its parameters in the set "coupled" (a Drive adds its file's)
+    fixed: dict            # component -> its parameters in the set "coupled"
+    files: dict            # component -> () -> its data file's parameter values, written out in every set
     mechanism: str = "FourBar"     # the component the set "refused" gives J_flywheel = -1
     stop_time: float = 2.0         # s, the DefaultExperiment's
 
@@ -56,29 +75,28 @@ SYSTEMS = {s.name: s for s in (
            {"FourBar": "FourBar", "Drive": "Drive"},
            {"FourBar": (("omega1", "output"), ("tau_ext", "input")),
             "Drive": (("tau", "output"), ("omega", "input"), ("omega_set", "input"))},
-           (("Drive", "tau", "FourBar", "tau_ext"), ("FourBar", "omega1", "Drive", "omega")), {"FourBar": MOTOR_OFF}),
+           (("Drive", "tau", "FourBar", "tau_ext"), ("FourBar", "omega1", "Drive", "omega")), {"FourBar": MOTOR_OFF},
+           {"Drive": lambda: _drive_values(False)}),
     System("FourBarDriveSpeed", "seed-000 four-bar in speed causality, driven by a DC motor that carries the "
            "rotor and flywheel", {"FourBar": "FourBarSpeed", "Drive": "DriveSpeed"},
            {"FourBar": (("tau_drive", "output"), ("omega1", "input")),
             "Drive": (("omega", "output"), ("tau_load", "input"), ("omega_set", "input"))},
            (("Drive", "omega", "FourBar", "omega1"), ("FourBar", "tau_drive", "Drive", "tau_load")),
-           {"FourBar": {"J_flywheel": 0.0}}),
+           {"FourBar": {"J_flywheel": 0.0}}, {"Drive": lambda: _drive_values(True)}),
     System("PressCushion", "knuckle-joint press with a die cushion FMU on its ram port",
            {"Press": "TogglePress", "Cushion": "DieCushion"},
            {"Press": (("ram_s", "output"), ("ram_v", "output"), ("omega1", "output"), ("ram_F", "input")),
             "Cushion": (("F", "output"), ("s", "input"), ("v", "input"))},
            (("Press", "ram_s", "Cushion", "s"), ("Press", "ram_v", "Cushion", "v"), ("Cushion", "F", "Press", "ram_F")),
-           {"Press": {"k_cushion": 0.0, "c_cushion": 0.0}}, mechanism="Press", stop_time=3.0),
+           {"Press": {"k_cushion": 0.0, "c_cushion": 0.0}}, {"Cushion": _cushion_values}, mechanism="Press",
+           stop_time=3.0),
 )}
-# the torque-causal system's layout, as the harness names it
-CONNECTIONS, CONNECTORS = SYSTEMS["FourBarDrive"].connections, SYSTEMS["FourBarDrive"].connectors
 
 
-def parameter_sets(drive_values: dict, system: System = SYSTEMS["FourBarDrive"]) -> dict[str, dict[str, dict[str, float]]]:
+def parameter_sets(system: System) -> dict[str, dict[str, dict[str, float]]]:
     """set name -> component -> parameter values."""
-    coupled = {comp: dict(system.fixed.get(comp, {})) for comp in system.sources}
-    if "Drive" in coupled:
-        coupled["Drive"].update(drive_values)
+    coupled = {comp: {**system.fixed.get(comp, {}), **(system.files[comp]() if comp in system.files else {})}
+               for comp in system.sources}
     refused = {comp: dict(values) for comp, values in coupled.items()}
     refused[system.mechanism]["J_flywheel"] = -1.0
     return {"coupled": coupled, "refused": refused}
@@ -134,10 +152,8 @@ def _ssd(system: System, sets: dict, stop_time: float, step: float) -> str:
 
 
 def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float = 1e-3,
-              drive_values: dict | None = None, system: str = "FourBarDrive") -> Path:
+              system: str = "FourBarDrive") -> Path:
     """``out``/SYSTEM.ssp from the FMUs in ``fmus`` (``make fmu`` builds them)."""
-    from ..dynamics.drive import load_drive
-
     if system not in SYSTEMS:
         raise CrankfmuError(f"unknown system {system!r}: one of {', '.join(SYSTEMS)}")
     spec = SYSTEMS[system]
@@ -147,17 +163,7 @@ def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float
             raise CrankfmuError(f"no {stem}.fmu in {fmus}: run `make fmu` first")
     if stop_time is None:
         stop_time = spec.stop_time
-    if drive_values is None and "Drive" in spec.sources:
-        drive = load_drive("dc_pi")
-        drive_values = {n: p.value for n, p in {**drive.parameters, **drive.inputs}.items() if n != "omega"}
-        if system == "FourBarDriveSpeed":
-            drive_values.update({n: p.value for n, p in drive.speed_parameters.items()})
-    sets = parameter_sets(drive_values or {}, spec)
-    if "Cushion" in spec.sources:            # the cushion file's values, written out
-        from ..dynamics.cushion import load_cushion
-
-        for values in sets.values():
-            values["Cushion"] = {n: p.value for n, p in load_cushion("die_cushion").parameters.items()}
+    sets = parameter_sets(spec)
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"{system}.ssp"
     with replacing(path) as partial, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:

@@ -58,7 +58,7 @@ class FastIntegrator(Integrator):
         table = table_of(equation.reduced, TABLE_TOLERANCE)
         stepper = FastStepper(table, equation.motor, equation.reduced.J_flywheel, self.rtol, equation.tau_ext,
                               atol=self.atol)
-        timed = [i for i, u in enumerate(equation.port_inputs) if callable(u)]
+        timed = any(callable(u) for u in equation.port_inputs)
         stepper.set_port_inputs(equation.port_values(t0))
         stepper.start(t0, y0)
         S = stepper.state
@@ -78,7 +78,7 @@ class FastIntegrator(Integrator):
         k = 0
         while True:
             if timed:
-                stepper.set_port_ramp(ramp[k], values[k], (values[k + 1] - values[k]) / (ramp[k + 1] - ramp[k]))
+                stepper.set_port_inputs(values[k], (values[k + 1] - values[k]) / (ramp[k + 1] - ramp[k]), ramp[k])
             store = np.empty((self.chunk, kernel.STATE_SIZE))     # the kernel fills each row it counts
             ev = np.empty((self.chunk, 3))
             md = np.empty((self.chunk, 4))
@@ -153,9 +153,6 @@ class FastStepper:
         self.P[kernel.PORT_RATE:kernel.PORT_RATE + n] = 0.0 if rates is None else rates
         self.P[kernel.T_INPUT] = t_input
 
-    def set_port_ramp(self, t_input: float, values, rates):
-        self.set_port_inputs(values, rates, t_input)
-
     def start(self, t: float, y) -> np.ndarray:
         """Initialise at (t, y) and return the output row there."""
         self.state[:] = 0.0
@@ -176,7 +173,7 @@ class FastStepper:
 
     def advance(self, t_target: float, t_limit: float) -> np.ndarray:
         """Step to t_target (steps may end up to t_limit); the output row at t_target
-        (phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red)."""
+        (phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red, tau_e)."""
         status = self.bound.advance(t_target, t_limit)
         if status != 0:
             refused(status, self.state)
