@@ -101,7 +101,7 @@ def test_the_ports_outputs_are_the_points_motion_along_its_axis():
 
 
 @pytest.mark.parametrize("entry, message", [
-    ({"name": "ram", "kind": "spring", "link": "ram"}, r"kind must be 'force' or 'couple'"),
+    ({"name": "ram", "kind": "spring", "link": "ram"}, r"kind must be 'force', 'couple' or 'rope'"),
     ({"name": "ram", "kind": "force", "link": "ram", "axis": "0"}, r"needs point = one of"),
     ({"name": "ram", "kind": "force", "link": "ram", "point": "E"}, r"needs axis"),
     ({"name": "ram", "kind": "force", "link": "ram", "point": "E", "axis": "l*2"}, r"axis = 'l\*2' must be a finite"),
@@ -109,6 +109,10 @@ def test_the_ports_outputs_are_the_points_motion_along_its_axis():
     ({"name": "2ram", "kind": "couple", "link": "ram"}, r"name must be an identifier"),
     ({"name": "arm", "kind": "couple", "link": "upper", "point": "E"}, r"no point or axis"),
     ({"name": "arm", "kind": "couple", "link": "upper", "gain": 2}, r"unknown key\(s\) gain"),
+    ({"name": "rod", "kind": "rope", "link": "ram", "point": "E", "axis": "0"}, r"a rope port needs lever"),
+    ({"name": "rod", "kind": "rope", "link": "ram", "point": "E", "axis": "0", "lever": "0"}, r"lever = '0' must be a non-zero"),
+    ({"name": "rod", "kind": "rope", "link": "ram", "point": "E", "axis": "0", "lever": "nope"}, r"lever = 'nope' must be"),
+    ({"name": "ram", "kind": "force", "link": "ram", "point": "E", "axis": "0", "lever": "1"}, r"only a rope port has a lever"),
 ])
 def test_a_bad_port_is_refused_by_name(entry, message):
     with pytest.raises(DefinitionError, match=message):

@@ -447,11 +447,64 @@ def build_parser() -> argparse.ArgumentParser:
                         "built from tests/data/user/togglepress_scenario.toml, and DieCushion.fmu)")
     p.set_defaults(func=cmd_ssp)
 
+    p = sub.add_parser("well", help="a beam pumping well (wells/*.toml: rod string, pump, surface unit) run to "
+                                     "steady state: cards.png, torque.png, summary.json, well.gif")
+    p.add_argument("well", help="a packaged well (rp11l_guo) or a .toml well file")
+    p.add_argument("--out", required=True)
+    p.add_argument("--max-strokes", type=int, default=40, help="give up on steady state after this many strokes")
+    p.add_argument("--frames", type=int, default=60, help="frames of the animation")
+    p.add_argument("--no-animation", action="store_true")
+    p.set_defaults(func=cmd_well)
+
     p = sub.add_parser("hosts", add_help=False, help="the drop-in check: third-party masters (fmpy, ecos, "
                                                      "ecospy, libcosim) on FourBar.fmu and FourBarDrive.ssp; "
                                                      "PASS/FAIL lines")
     p.set_defaults(delegate="crankfmu.validation.hosts")
     return parser
+
+
+def cmd_well(args) -> int:
+    import json
+
+    from .atomic import replacing
+    from .pictures.well import animation_gif, cards_png, torque_png
+    from .progress import ProgressBar
+    from .studies import well as study
+
+    well, cw, strokes = study.run(args.well, max_strokes=args.max_strokes)
+    stroke = strokes[-1]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    result = study.summary(well, cw, stroke)
+    result["strokes_run"] = len(strokes)
+    result["card_change_last_stroke"] = study.card_change(strokes[-2], stroke, cw) if len(strokes) > 1 else None
+    with replacing(out / "summary.json") as partial:
+        partial.write_text(json.dumps(result, indent=2) + "\n")
+    parts = study.torque_parts(cw, stroke)
+    title = f"{well.title}\n{60 / stroke.period:.2f} strokes/min, stroke {len(strokes)} (steady)"
+    cards_png(stroke, cw.string.design, out, title)
+    torque_png(stroke, parts, study.api_rod_torque(cw, stroke, parts), out, title)
+    if not args.no_animation:
+        bar = ProgressBar(args.frames, "animation")
+        animation_gif(cw, stroke, out, frames=args.frames, progress=bar)
+        bar.close()
+    f = result["field_units"]
+    print(f"{well.name}: steady after {len(strokes)} strokes at {result['strokes_per_minute']:.3f} strokes/min "
+          f"(the last two cards differ by {result['card_change_last_stroke']:.1e} of the peak load)")
+    print(f"  PPRL {result['PPRL']:.0f} N ({f['PPRL_lb']:.0f} lb)   MPRL {result['MPRL']:.0f} N ({f['MPRL_lb']:.0f} lb)   "
+          f"peak torque {result['peak_torque']:.0f} N.m ({f['peak_torque_in_lb']:.0f} in-lb)")
+    print(f"  PRHP {result['PRHP']:.0f} W = hydraulic {result['hydraulic_power']:.0f} + damping "
+          f"{result['damping_power']:.0f} + friction {result['friction_power']:.0f} + plunger stops "
+          f"{result['plunger_stop_power']:.2f} W; motor {result['motor_power']:.0f} W, cyclic load factor "
+          f"{result['cyclic_load_factor']:.2f}")
+    print(f"  surface stroke {result['surface_stroke']:.4f} m, plunger stroke {result['plunger_stroke']:.4f} m "
+          f"({f['plunger_stroke_in']:.2f} in)")
+    if "reference" in result:
+        print(f"  {'against the published design':34s} {'published':>10s} {'crankfmu':>10s} {'difference':>10s}")
+        for key, row in result["reference"].items():
+            print(f"  {key:34s} {row['published']:10.2f} {row['crankfmu']:10.2f} {100 * row['relative']:+9.1f} %")
+    print(f"  wrote {out}/summary.json, cards.png, torque.png" + ("" if args.no_animation else ", well.gif"))
+    return 0
 
 
 def cmd_ssp(args) -> int:

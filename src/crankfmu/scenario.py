@@ -115,7 +115,7 @@ class Scenario:
     def ports(self):
         """The ``[[ports]]`` entries (dynamics.ports): force and couple inputs a master sets."""
         from .dynamics.ports import parse_ports
-        return parse_ports(self.data.get("ports", []), self.mechanism_definition(), self.where)
+        return parse_ports(self.data.get("ports", []), self.mechanism_definition(), self.where, self.values)
 
     @property
     def causality(self) -> str:
@@ -168,7 +168,7 @@ class Scenario:
             else:
                 loads.append(self._make_load(spec, mechanism, links, values))
         from .dynamics.ports import parse_ports
-        ports = parse_ports(self.data.get("ports", []), definition, self.where)
+        ports = parse_ports(self.data.get("ports", []), definition, self.where, values)
         reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads, ports)
         # J = J_flywheel + the links' kinetic energy per omega1^2 / 2, a sum of terms >= 0 (masses
         # and inertias were checked >= 0): a flywheel makes it positive at every angle; without

@@ -1,0 +1,419 @@
+"""The sucker-rod string: Gibbs' damped wave equation for a tapered string of rods, the pump at
+its bottom, and buoyancy; one discretisation shared by RodString.fmu and the in-process well.
+
+The equation (Gibbs 1963; Everitt & Jennings 1992) for the rods' displacement u(x, t), downward
+positive, x the depth from the polished rod:
+
+    rho A u_tt = (E A u_x)_x - c rho A u_t + w_b,      w_b = rho A g (1 - rho_fluid / rho_steel)
+
+with the buoyant weight w_b distributed along the string (the effective-force convention: the
+fluid pressure's resultant on a rod is its displaced weight, exact at the surface, where the
+polished rod load is measured, and what RP 11L's Wrf = W (1 - 0.128 G) states). The damping
+coefficient is Gibbs' viscous one, c = pi nu a / (2 L) (1/s), with nu the dimensionless damping
+factor of the well file and a the wave speed: the rod-fluid drag that damps the string's first
+mode (a / (4 L) Hz) by the fraction nu of critical.
+
+Discretisation: the string is cut in segments of about ``segment`` m within each taper (each
+taper's length is a whole number of segments, so a joint between tapers is a node), each segment
+a spring E A / dx between two nodes, each node carrying half of the adjoining segments' masses
+and buoyant weights (lumped mass: the second-order finite-difference scheme of the wave equation
+on a non-uniform grid). Time is stepped by the explicit central difference (leapfrog), velocities
+at half steps, the damping taken at the step's mid-point; it is stable for the Courant number
+a dt / dx <= 1 in every segment (``courant`` of the well file, checked at build). Second order
+in dx and dt, as tests/test_rodstring.py shows against the analytic solution of a damped string
+with harmonic top motion and a spring-dashpot at its foot.
+
+The pump (``ValvePump``): the plunger is the bottom node. The force P the pump exerts on the
+rods (downward positive) is set-valued, like dry friction:
+
+- moving up: the travelling valve is closed and the plunger lifts the fluid: P = Fo + Ff;
+- moving down through liquid: the travelling valve is open: P = -Ff;
+- moving down through gas (partial fillage: the first (1 - fillage) of the downstroke below the
+  top of the stroke): the valve stays closed: P = Fo - Ff, until the plunger strikes the liquid
+  (fluid pound) and the load drops;
+- at rest: P anywhere between the two, the rods stretching or relaxing while the load transfers
+  between the tubing and the rods.
+
+Fo = (p_discharge - p_intake) x plunger area, Ff the plunger friction. Each step solves for P
+exactly (a projection: the unique P and velocity satisfying the law after the step).
+
+Energy (discrete, exact to round-off): the work of the polished rod equals the change of the
+string's kinetic, strain and gravitational energy, plus the damping loss, plus the pump's work,
+split into hydraulic work (Fo times the loaded plunger travel), friction, and the loss of the
+plunger node stopping at the ends of the stroke (the lumped half-segment's kinetic energy; it
+vanishes with the segment).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import DefinitionError
+
+
+@dataclass(frozen=True)
+class Taper:
+    """One section of the string, top first."""
+
+    length: float            # m
+    diameter: float          # m
+    E: float                 # Pa, Young's modulus
+    mass_per_length: float   # kg/m, the rods with their couplings (API RP 11L's Wr / g)
+
+    @property
+    def area(self) -> float:
+        return math.pi * self.diameter ** 2 / 4
+
+    @property
+    def wave_speed(self) -> float:
+        """a = sqrt(E / rho) with rho the mass per length over the area (m/s)."""
+        return math.sqrt(self.E * self.area / self.mass_per_length)
+
+
+@dataclass(frozen=True)
+class StringDesign:
+    """Everything the string and the pump need, in SI."""
+
+    tapers: tuple
+    rho_fluid: float          # kg/m3
+    rho_steel: float          # kg/m3, the rods' material (buoyancy by displaced volume)
+    plunger_diameter: float   # m
+    fluid_level: float        # m, depth of the working fluid level in the annulus
+    p_tubing: float = 0.0     # Pa, at the wellhead
+    p_casing: float = 0.0     # Pa, at the wellhead
+    damping: float = 0.0      # Gibbs' dimensionless factor nu
+    friction: float = 0.0     # N, plunger friction
+    fillage: float = 1.0      # the barrel's liquid fraction on each downstroke
+    g: float = 9.81
+    segment: float = 10.0     # m, target segment length
+    courant: float = 1.0      # a dt / dx at the largest step
+
+    @property
+    def depth(self) -> float:
+        return sum(t.length for t in self.tapers)
+
+    @property
+    def plunger_area(self) -> float:
+        return math.pi * self.plunger_diameter ** 2 / 4
+
+    @property
+    def fluid_load(self) -> float:
+        """Fo = (p_discharge - p_intake) A_p (N): the tubing's liquid column over the plunger
+        against the annulus' liquid column above the pump."""
+        p_discharge = self.p_tubing + self.rho_fluid * self.g * self.depth
+        p_intake = self.p_casing + self.rho_fluid * self.g * max(self.depth - self.fluid_level, 0.0)
+        return (p_discharge - p_intake) * self.plunger_area
+
+    @property
+    def buoyancy_factor(self) -> float:
+        return 1.0 - self.rho_fluid / self.rho_steel
+
+    @property
+    def weight_in_air(self) -> float:
+        return sum(t.mass_per_length * t.length for t in self.tapers) * self.g
+
+    @property
+    def buoyant_weight(self) -> float:
+        """Wrf (N): the string's weight in the fluid."""
+        return self.weight_in_air * self.buoyancy_factor
+
+    @property
+    def wave_travel_time(self) -> float:
+        """s: from the polished rod to the pump."""
+        return sum(t.length / t.wave_speed for t in self.tapers)
+
+    @property
+    def damping_coefficient(self) -> float:
+        """Gibbs' c = pi nu a / (2 L) (1/s), a the string's mean wave speed L / travel time."""
+        a = self.depth / self.wave_travel_time
+        return math.pi * self.damping * a / (2 * self.depth)
+
+    def check(self, where: str = "rod string"):
+        if not self.tapers:
+            raise DefinitionError(f"{where}: the string needs at least one taper")
+        for i, t in enumerate(self.tapers, 1):
+            for name in ("length", "diameter", "E", "mass_per_length"):
+                value = getattr(t, name)
+                if not (math.isfinite(value) and value > 0):
+                    raise DefinitionError(f"{where}: taper {i} {name} = {value!r} must be > 0 (valid range (0, inf))")
+        if not 0.0 < self.fillage <= 1.0:
+            raise DefinitionError(f"{where}: fillage = {self.fillage!r} is out of range: valid range (0, 1]")
+        if not 0.0 < self.courant <= 1.0:
+            raise DefinitionError(f"{where}: courant = {self.courant!r} is out of range: valid range (0, 1] "
+                                  "(the explicit scheme is unstable above 1)")
+        if not self.segment > 0:
+            raise DefinitionError(f"{where}: segment = {self.segment!r} must be > 0 m")
+        if self.fluid_load < 0:
+            raise DefinitionError(f"{where}: the fluid load is negative ({self.fluid_load:g} N): the intake pressure "
+                                  "exceeds the discharge pressure")
+
+
+@dataclass
+class Grid:
+    """Nodes 0 (polished rod) .. N (plunger): node masses, buoyant weights, segment stiffnesses."""
+
+    x: np.ndarray          # m, node depths
+    mass: np.ndarray       # kg, per node
+    weight: np.ndarray     # N, buoyant weight per node (downward)
+    stiffness: np.ndarray  # N/m, per segment
+    dt_max: float          # s, the Courant limit times ``courant``
+
+
+def grid(design: StringDesign) -> Grid:
+    xs, mass_seg, weight_seg, k_seg, dt_max = [0.0], [], [], [], math.inf
+    for t in design.tapers:
+        n = max(1, math.ceil(t.length / design.segment - 1e-9))
+        dx = t.length / n
+        for _ in range(n):
+            xs.append(xs[-1] + dx)
+            mass_seg.append(t.mass_per_length * dx)
+            weight_seg.append(t.mass_per_length * dx * design.g * design.buoyancy_factor)
+            k_seg.append(t.E * t.area / dx)
+        dt_max = min(dt_max, design.courant * dx / t.wave_speed)
+    mass_seg, weight_seg = np.array(mass_seg), np.array(weight_seg)
+    node_mass, node_weight = np.zeros(len(xs)), np.zeros(len(xs))
+    node_mass[:-1] += mass_seg / 2
+    node_mass[1:] += mass_seg / 2
+    node_weight[:-1] += weight_seg / 2
+    node_weight[1:] += weight_seg / 2
+    return Grid(np.array(xs), node_mass, node_weight, np.array(k_seg), dt_max)
+
+
+# ---------------------------------------------------------------------------------------- pumps
+UP, DOWN, REST = 1, -1, 0
+
+
+@dataclass
+class ValvePump:
+    """The pump's set-valued force on the plunger node (module docstring)."""
+
+    Fo: float
+    friction: float = 0.0
+    fillage: float = 1.0
+    motion: int = REST
+    u_top: float = math.nan       # plunger position (downward) where the last upstroke ended
+    u_bottom: float = math.nan    # ... where it began
+    # the pump's work, split (J): hydraulic, friction, the plunger node's stops
+    hydraulic: float = 0.0
+    friction_loss: float = 0.0
+    stop_loss: float = 0.0
+    _gas: bool = False
+
+    def loaded_going_down(self, u: float) -> bool:
+        """True while the plunger descends through the barrel's gas (the valve stays closed)."""
+        if self.fillage >= 1.0 or math.isnan(self.u_top) or math.isnan(self.u_bottom):
+            return False
+        return u < self.u_top + (1.0 - self.fillage) * (self.u_bottom - self.u_top)
+
+    def solve(self, v_free: float, b: float, u: float, v_old: float) -> tuple[float, float]:
+        """(P, v_new) with v_new = v_free + b P and P in the pump's law."""
+        gas = self.loaded_going_down(u)
+        p_hi = self.Fo + self.friction
+        p_lo = (self.Fo if gas else 0.0) - self.friction
+        p_rest = -v_free / b
+        if p_rest > p_hi:
+            P, motion = p_hi, UP
+        elif p_rest < p_lo:
+            P, motion = p_lo, DOWN
+        else:
+            P, motion = p_rest, REST
+        if motion == UP and self.motion != UP:
+            self.u_bottom = u
+        elif motion != UP and self.motion == UP:
+            self.u_top = u
+        self.motion = motion
+        self._gas = gas
+        return P, v_free + b * P
+
+    def account(self, P: float, travel: float):
+        """Split the pump's work -P x travel (travel downward, m) over the step just solved."""
+        if self.motion == REST:
+            self.stop_loss -= P * travel
+            return
+        fluid = self.Fo if (self.motion == UP or self._gas) else 0.0
+        self.hydraulic -= fluid * travel
+        self.friction_loss -= (P - fluid) * travel
+
+    @property
+    def work(self) -> float:
+        return self.hydraulic + self.friction_loss + self.stop_loss
+
+    def state(self) -> list:
+        return [self.motion, self.u_top, self.u_bottom, self.hydraulic, self.friction_loss, self.stop_loss]
+
+    def restore(self, s):
+        self.motion, self.u_top, self.u_bottom, self.hydraulic, self.friction_loss, self.stop_loss = s
+        self.motion = int(self.motion)
+
+
+@dataclass
+class LinearFoot:
+    """A spring-dashpot at the string's foot, P = -k u - c v: the linear boundary whose
+    harmonic response is known in closed form (``harmonic_solution``)."""
+
+    k: float
+    c: float
+    hydraulic: float = 0.0
+    friction_loss: float = 0.0
+    stop_loss: float = 0.0
+
+    def solve(self, v_free, b, u, v_old):
+        v_new = (v_free - b * self.k * u - b * self.c * v_old / 2) / (1 + b * self.c / 2)
+        return -self.k * u - self.c * (v_new + v_old) / 2, v_new
+
+    def account(self, P, travel):
+        self.friction_loss -= P * travel
+
+    @property
+    def work(self):
+        return self.friction_loss
+
+    def state(self):
+        return [self.friction_loss]
+
+    def restore(self, s):
+        (self.friction_loss,) = s
+
+
+# ----------------------------------------------------------------------------------- the string
+@dataclass
+class RodString:
+    """The discretised string stepped on its own time grid; the top follows the polished rod.
+
+    State: node positions ``u`` at time ``t`` (downward, m, from the unstretched string hanging
+    from the polished rod's reference), node velocities ``v`` half a step before. ``load`` is the
+    polished rod load at ``t`` (N, up on the rods), ``work`` the polished rod's work (J)."""
+
+    design: StringDesign
+    pump: object = None
+    dt: float = 0.0
+    grid: Grid = None
+    t: float = 0.0
+    u: np.ndarray = None
+    v: np.ndarray = None
+    load: float = 0.0
+    work: float = 0.0
+    damping_loss: float = 0.0
+    energy_start: float = 0.0
+    _last_u: np.ndarray = field(default=None, repr=False)
+
+    def __post_init__(self):
+        self.design.check()
+        self.grid = grid(self.design)
+        if self.pump is None:
+            self.pump = ValvePump(self.design.fluid_load, self.design.friction, self.design.fillage)
+        if not self.dt:
+            self.dt = self.grid.dt_max
+        c = self.design.damping_coefficient
+        self._c = c
+        self.u = np.zeros_like(self.grid.x)
+        self.v = np.zeros_like(self.grid.x)
+
+    # ---------------------------------------------------------------- set-up
+    def hang(self, t: float, top: float, pump_force: float = 0.0):
+        """At rest at time t in static equilibrium, the polished rod at ``top`` (m, downward) and
+        the pump holding ``pump_force`` (N, down on the plunger): the downstroke's rest, 0."""
+        g = self.grid
+        below = np.cumsum(g.weight[::-1])[::-1]          # weight of nodes j..N
+        tension = below[1:] + pump_force                 # segment j carries the nodes below it
+        self.u = top + np.concatenate(([0.0], np.cumsum(tension / g.stiffness)))
+        self.v = np.zeros_like(self.u)
+        self.t = t
+        self.load = tension[0] + g.weight[0]
+        self.work = self.damping_loss = 0.0
+        self.energy_start = self.stored_energy(self.u)
+        return self
+
+    def stored_energy(self, u_next: np.ndarray) -> float:
+        """Kinetic, strain and gravitational energy at the half step between u and u_next (J),
+        the discrete energy the leapfrog conserves."""
+        g = self.grid
+        e, e_next = np.diff(self.u), np.diff(u_next)
+        return float(0.5 * np.dot(g.mass, self.v * self.v) + 0.5 * np.dot(g.stiffness, e * e_next)
+                     - np.dot(g.weight, (self.u + u_next) / 2))
+
+    def energy(self) -> float:
+        """The stored energy now (J): kinetic at the last half step, strain and weight at the
+        mid-point of the last step."""
+        return self.stored_energy(self._last_u) if self._last_u is not None else self.energy_start
+
+    # ---------------------------------------------------------------- stepping
+    def step(self, top_next: float, dt: float | None = None):
+        """One step of length dt (default self.dt): the polished rod moves to ``top_next``."""
+        dt = self.dt if dt is None else dt
+        g, u, v, c = self.grid, self.u, self.v, self._c
+        T = g.stiffness * (u[1:] - u[:-1])
+        f = g.weight.copy()
+        f[:-1] += T
+        f[1:] -= T
+        scale = 1.0 / (1.0 + c * dt / 2)
+        b = dt * scale / g.mass
+        v_new = (1.0 - c * dt / 2) * scale * v + b * f
+        P, v_new[-1] = self.pump.solve(float(v_new[-1]), float(b[-1]), float(u[-1]), float(v[-1]))
+        v_new[0] = (top_next - u[0]) / dt
+        mid = (v_new + v) / 2
+        # the polished rod: segment 0's tension, the top half-segment's weight, inertia and drag
+        self.load = float(T[0] + g.weight[0] - g.mass[0] * ((v_new[0] - v[0]) / dt + c * mid[0]))
+        travel = dt * mid
+        self.work -= self.load * travel[0]
+        self.damping_loss += c * dt * float(np.dot(g.mass, mid * mid))
+        self.pump.account(P, float(travel[-1]))
+        self.pump_force = P
+        u_next = u + dt * v_new
+        u_next[0] = top_next
+        self.v = v_new
+        self._last_u = u
+        self.u = u_next
+        self.t += dt
+
+    def balance(self) -> float:
+        """work - (stored energy change + damping + pump work): zero to round-off (J)."""
+        return self.work - (self.energy() - self.energy_start + self.damping_loss + self.pump.work)
+
+    # ---------------------------------------------------------------- readings
+    @property
+    def pump_position(self) -> float:
+        return float(self.u[-1])
+
+    @property
+    def pump_load(self) -> float:
+        """The rods' tension at the pump (N): the last segment's."""
+        return float(self.grid.stiffness[-1] * (self.u[-1] - self.u[-2]))
+
+    def state(self) -> list:
+        last = None if self._last_u is None else self._last_u.tolist()
+        return [self.t, self.u.tolist(), self.v.tolist(), last, self.load, self.work, self.damping_loss,
+                self.energy_start, getattr(self, "pump_force", 0.0), self.pump.state()]
+
+    def restore(self, s):
+        (self.t, u, v, last, self.load, self.work, self.damping_loss, self.energy_start, self.pump_force, pump) = s
+        self.u, self.v = np.array(u), np.array(v)
+        self._last_u = None if last is None else np.array(last)
+        self.pump.restore(pump)
+
+
+# --------------------------------------------------------------------------- the closed form
+def harmonic_solution(design: StringDesign, omega: float, amplitude: float, foot_k: float, foot_c: float):
+    """The steady harmonic response of a uniform string (one taper) without gravity, its top
+    moving as amplitude sin(omega t) and its foot on a spring-dashpot (LinearFoot): returns
+    (u(x, t), tension(x, t)) as functions. U'' + kappa^2 U = 0, kappa^2 = (omega^2 - i c omega)/a^2,
+    U(0) = -i amplitude, E A U'(L) = -(k + i omega c_foot) U(L)."""
+    (taper,) = design.tapers
+    a, L, EA = taper.wave_speed, taper.length, taper.E * taper.area
+    c = design.damping_coefficient
+    kappa = np.sqrt((omega ** 2 - 1j * c * omega) / a ** 2 + 0j)
+    Z = foot_k + 1j * omega * foot_c
+    A = -1j * amplitude
+    B = A * (EA * kappa * np.sin(kappa * L) - Z * np.cos(kappa * L)) / (EA * kappa * np.cos(kappa * L)
+                                                                        + Z * np.sin(kappa * L))
+
+    def u(x, t):
+        return np.real((A * np.cos(kappa * x) + B * np.sin(kappa * x)) * np.exp(1j * omega * t))
+
+    def tension(x, t):
+        return np.real(EA * kappa * (-A * np.sin(kappa * x) + B * np.cos(kappa * x)) * np.exp(1j * omega * t))
+
+    return u, tension
