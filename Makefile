@@ -43,6 +43,7 @@ fmu: $(STAMP)
 	$(BIN)/crankfmu fmu seed000 --causality speed --out build/fmus
 	$(BIN)/crankfmu fmu dc_pi --drive --causality speed --out build/fmus
 	$(BIN)/crankfmu fmu die_cushion --cushion --out build/fmus
+	$(BIN)/crankfmu fmu rp11l_guo --well --out build/fmus
 	@# native FMUs (C, linux64 and win64, no Python on the host)
 	for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
 

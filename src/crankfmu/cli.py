@@ -307,9 +307,9 @@ def cmd_fmu(args) -> int:
         return 0
     from .fmi.build import build
 
-    if args.drive and args.cushion:
-        raise CrankfmuError("--drive and --cushion: give one (what kind of file SCENARIO is)")
-    kind = "drive" if args.drive else "cushion" if args.cushion else "scenario"
+    if args.drive + args.cushion + args.well > 1:
+        raise CrankfmuError("--drive, --cushion and --well: give one (what kind of file SCENARIO is)")
+    kind = "drive" if args.drive else "cushion" if args.cushion else "well" if args.well else "scenario"
     path = build(kind, args.source, Path(args.out), args.name, args.causality)
     print(f"built {path}")
     return 0
@@ -421,6 +421,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for NAME.fmu and its cross-check files NAME_ref.csv/.opt")
     p.add_argument("--name", default=None, help="the FMU's model identifier (default: the file's fmu key)")
     p.add_argument("--drive", action="store_true", help="SCENARIO is a drive file (Drive.fmu: drives/dc_pi.toml)")
+    p.add_argument("--well", action="store_true",
+                   help="SCENARIO is a well file (RodString.fmu: wells/rp11l_guo.toml)")
     p.add_argument("--cushion", action="store_true",
                    help="SCENARIO is a cushion file (DieCushion.fmu: elements/die_cushion.toml)")
     p.add_argument("--native", action="store_true",
@@ -442,9 +444,10 @@ def build_parser() -> argparse.ArgumentParser:
                                     "and FourBarDriveSpeed.ssp (the same in speed causality), for third-party masters")
     p.add_argument("--fmus", default="build/fmus", help="folder with the FMUs (make fmu)")
     p.add_argument("--out", required=True)
-    p.add_argument("--system", action="append", choices=("FourBarDrive", "FourBarDriveSpeed", "PressCushion"),
+    p.add_argument("--system", action="append", choices=("FourBarDrive", "FourBarDriveSpeed", "PressCushion", "PumpingWell", "well"),
                    help="which SSP (default: FourBarDrive and FourBarDriveSpeed; PressCushion needs TogglePress.fmu, "
-                        "built from tests/data/user/togglepress_scenario.toml, and DieCushion.fmu)")
+                        "built from tests/data/user/togglepress_scenario.toml, and DieCushion.fmu; PumpingWell, or well: PumpJack.fmu "
+                        "and RodString.fmu)")
     p.set_defaults(func=cmd_ssp)
 
     p = sub.add_parser("well", help="a beam pumping well (wells/*.toml: rod string, pump, surface unit) run to "
@@ -511,6 +514,7 @@ def cmd_ssp(args) -> int:
     from .fmi.ssp import write_ssp
 
     for system in args.system or ("FourBarDrive", "FourBarDriveSpeed"):
+        system = "PumpingWell" if system == "well" else system
         path = write_ssp(Path(args.fmus), Path(args.out), system=system)
         print(f"wrote {path}")
     return 0

@@ -90,6 +90,15 @@ CUSHION_OUTPUTS = (
     Variable("F", "N", "force of the cushion on the ram along the ram's axis (to the press's ram_F)"),
 )
 
+#: RodString.fmu's outputs (its inputs s, v and its parameters are its well file's)
+ROD_STRING_OUTPUTS = (
+    Variable("F", "N", "polished rod load: the rods' pull down on the unit's rope port (to the unit's rod_F)"),
+    Variable("u_pump", "m", "plunger position, downward, on the polished rod's scale (s)"),
+    Variable("F_pump", "N", "rod tension at the pump (the pump card's load)"),
+    Variable("W_polished", "J", "work done by the polished rod on the string since the start"),
+    Variable("W_hydraulic", "J", "work done by the plunger on the fluid since the start"),
+)
+
 #: DriveSpeed.fmu's outputs: the crank speed it imposes, then Drive.fmu's
 DRIVE_SPEED_OUTPUTS = (
     Variable("omega", "rad/s", "crank speed the drive imposes (its rotor and flywheel, at the crank)"),

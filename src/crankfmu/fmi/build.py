@@ -41,6 +41,7 @@ from ..atomic import replacing
 from . import documentation
 from . import cushion as cushion_core
 from . import drive as drive_core
+from . import rodstring as rodstring_core
 from . import slave, speed
 
 HERE = Path(__file__).resolve().parent
@@ -54,11 +55,11 @@ RUNTIME = ("__init__.py", "cache.py", "contract.py", "errors.py", "expressions.p
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "native",
            "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/speed.py", "fmi/drive.py", "fmi/cushion.py",
-           "parameters.py", "datafiles.py", "drives", "elements")
+           "fmi/rodstring.py", "parameters.py", "datafiles.py", "drives", "elements", "wells")
 
 
 #: the package's folders of data files: an FMU carries only the files it reads (Source.data)
-DATA_FOLDERS = ("scenarios", "drives", "elements", "mechanisms/files")
+DATA_FOLDERS = ("scenarios", "drives", "elements", "wells", "mechanisms/files")
 
 
 def copy_runtime(dest: Path, files: dict | None = None, data=()):
@@ -123,11 +124,13 @@ def packaged_sources() -> list[tuple[str, str]]:
     """(kind, name) of every packaged data file with an ``fmu`` key, in file order."""
     from ..dynamics.cushion import available_cushions, load_cushion
     from ..dynamics.drive import available_drives, load_drive
+    from ..dynamics.well import available_wells, load_well
     from ..scenario import available_scenarios, load_scenario
 
     return ([("scenario", n) for n in available_scenarios() if load_scenario(n).data.get("fmu")]
             + [("drive", n) for n in available_drives() if load_drive(n).fmu]
-            + [("cushion", n) for n in available_cushions() if load_cushion(n).fmu])
+            + [("cushion", n) for n in available_cushions() if load_cushion(n).fmu]
+            + [("well", n) for n in available_wells() if load_well(n).fmu])
 
 
 #: a model identifier names the binary and the C symbols' prefix: a C identifier
@@ -222,6 +225,19 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
                                                                                                    params),
                       variables=lambda: cushion_core.declared(cushion), load=cushion.name,
                       data=(f"elements/{cushion.name}.toml",))
+    if kind == "well":
+        from ..dynamics.well import load_well
+
+        well = load_well(name)
+        if causality is not None:
+            raise CrankfmuError("--causality is for a mechanism's or a drive's FMU; a rod string takes the polished "
+                                "rod's motion")
+        return Source(kind, well.name, _fmu_name(fmu_name or well.fmu, well.where), well.title,
+                      well.experiment, "fmi.rodstring:RodStringCore", {}, {},
+                      documentation=lambda f, md, params, ref: documentation.rodstring_documentation(f, well, md,
+                                                                                                     params),
+                      variables=lambda: rodstring_core.declared(well), load=well.name,
+                      data=(f"wells/{well.name}.toml",))
     raise CrankfmuError(f"build: unknown kind {kind!r}")
 
 

@@ -195,6 +195,15 @@ def cushion_documentation(name: str, cushion_file, model_description: bytes, par
                                    "(PressCushion.ssp: <code>crankfmu ssp</code>).", model_description, parameters)
 
 
+def rodstring_documentation(name: str, well_file, model_description: bytes, parameters: dict) -> dict[str, bytes]:
+    """documentation/index.html of RodString.fmu."""
+    from ..dynamics import rodstring
+
+    return component_documentation(name, well_file, rodstring, "It hangs from a pumping unit's rope port "
+                                   "(PumpingWell.ssp: <code>crankfmu ssp --system PumpingWell</code>).",
+                                   model_description, parameters)
+
+
 def _page(title: str, body: str) -> bytes:
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
             f"<style>{STYLE}</style></head>\n<body>\n{body}</body></html>\n").encode()

@@ -137,8 +137,13 @@ def lazy_outputs(core, motion):
 
     def quantities():
         _, omega1, epsilon1 = motion()
+        # the ports' quantities of the model as built: a rope's lever is a length of the design
+        # (its parameters may have been set since the FMU was instantiated)
+        ports = core.model.reduced.ports
+        plain = core.quantities[:len(core.quantities) - 3 * len(ports)]
+        current = [*plain, *(q for port in ports for q in port.quantities)]
         return {k: float(v[0]) for k, v in
-                evaluate_all(core.quantities, kinematics(), float(omega1), float(epsilon1)).items()}
+                evaluate_all(current, kinematics(), float(omega1), float(epsilon1)).items()}
 
     def reactions():
         phi1, omega1, epsilon1 = motion()

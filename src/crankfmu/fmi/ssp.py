@@ -10,6 +10,11 @@ runs as they are (the ecos command, libcosim), in either causality at the crank.
 
 The components are named FourBar and Drive in both.
 
+- ``PumpingWell.ssp``: PumpJack.fmu (its data-file rod loads off, the geometry, counterweights and
+  NEMA D motor line of the well wells/rp11l_guo.toml: dynamics.well.unit_scenario) and
+  RodString.fmu on its rope port: PumpJack.rod_s -> RodString.s, PumpJack.rod_v -> RodString.v,
+  RodString.F -> PumpJack.rod_F. The well as one model (dynamics.well.CoupledWell) is the reference.
+
 - ``PressCushion.ssp``: TogglePress.fmu (the knuckle-joint press of the tests, its data-file
   cushion switched off: k_cushion = c_cushion = 0) and DieCushion.fmu on its ram port:
   Press.ram_s -> Cushion.s, Press.ram_v -> Cushion.v, Cushion.F -> Press.ram_F. The same press
@@ -37,6 +42,8 @@ from ..atomic import replacing
 from ..errors import CrankfmuError
 
 MOTOR_OFF = {"A": 0.0, "B": 0.0, "A_low": 0.0, "B_low": 0.0}
+#: the well of PumpingWell.ssp
+WELL = "rp11l_guo"
 
 
 def _drive_values(speed_causal: bool) -> dict[str, float]:
@@ -49,6 +56,18 @@ def _drive_values(speed_causal: bool) -> dict[str, float]:
     if speed_causal:
         values.update({n: p.value for n, p in drive.speed_parameters.items()})
     return values
+
+
+def _well_values(component: str) -> dict[str, float]:
+    """PumpingWell: the unit's parameters for the well (dynamics.well.unit_scenario: geometry,
+    counterweights, motor line, rod loads off) or the string's (its well file's)."""
+    from ..dynamics.well import load_well, unit_scenario
+
+    well = load_well(WELL)
+    if component == "RodString":
+        return well.values
+    scenario = unit_scenario(well)
+    return {n: scenario.values[n] for n in scenario.parameters}
 
 
 def _cushion_values() -> dict[str, float]:
@@ -90,6 +109,14 @@ SYSTEMS = {s.name: s for s in (
            (("Press", "ram_s", "Cushion", "s"), ("Press", "ram_v", "Cushion", "v"), ("Cushion", "F", "Press", "ram_F")),
            {"Press": {"k_cushion": 0.0, "c_cushion": 0.0}}, {"Cushion": _cushion_values}, mechanism="Press",
            stop_time=3.0),
+    System("PumpingWell", "beam pumping unit with its motor line and the rod string of the RP 11L example hanging "
+           "from its horsehead", {"PumpJack": "PumpJack", "RodString": "RodString"},
+           {"PumpJack": (("rod_s", "output"), ("rod_v", "output"), ("omega1", "output"), ("rod_F", "input")),
+            "RodString": (("F", "output"), ("s", "input"), ("v", "input"))},
+           (("PumpJack", "rod_s", "RodString", "s"), ("PumpJack", "rod_v", "RodString", "v"),
+            ("RodString", "F", "PumpJack", "rod_F")),
+           {}, {"PumpJack": lambda: _well_values("PumpJack"), "RodString": lambda: _well_values("RodString")},
+           mechanism="PumpJack", stop_time=20.0),
 )}
 
 

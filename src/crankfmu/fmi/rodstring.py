@@ -1,0 +1,80 @@
+"""RodString.fmu: the rod string and pump of ``dynamics.rodstring`` as a co-simulation FMU, built
+from a well file (``wells/*.toml``).
+
+Inputs: the polished rod's position ``s`` and velocity ``v`` along the unit's rope port (downward;
+a unit's rod_s and rod_v). Output: the polished rod load ``F`` (to the unit's rod_F), the plunger's
+position and the rods' tension at the pump, and the work done at both ends. Inside a
+communication step the string takes its own steps, as many as keep the Courant number at or below
+the well file's ``courant``; the polished rod moves linearly from where it is to s + v h, the
+position the inputs predict for the step's end (the host's v carries the motion between
+communication points). F at a communication point is the first segment's tension plus the top
+half-segment's buoyant weight. The string hangs at rest from the polished rod's position at the
+first step (a master sets connected inputs after initialisation).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..contract import ROD_STRING_OUTPUTS
+from ..dynamics.rodstring import RodString
+from ..dynamics.well import load_well
+from .core import Declared, SlaveCore
+
+
+def declared(well_file) -> Declared:
+    return Declared(list(ROD_STRING_OUTPUTS), list(well_file.inputs.values()), list(well_file.parameters.values()))
+
+
+class RodStringCore(SlaveCore):
+    def __init__(self, slave, well_name: str):
+        self.file = load_well(well_name)
+        super().__init__(slave, self.file.experiment.start_time)
+        self.string: RodString | None = None
+        self.out = np.zeros(len(ROD_STRING_OUTPUTS))
+        self.declare(declared(self.file), {v.name: (lambda k=k: float(self.out[k]))
+                                           for k, v in enumerate(ROD_STRING_OUTPUTS)})
+        self.attach()
+
+    def _update_outputs(self):
+        s, g = self.string, self.string.grid
+        self.out[:] = (g.stiffness[0] * (s.u[1] - s.u[0]) + g.weight[0], s.pump_position, s.pump_load, s.work,
+                       s.pump.hydraulic)
+
+    def initialise(self):
+        design = self.file.design({k: v for k, v in self.values.items() if k in self.file.parameters})
+        self.string = RodString(design).hang(self.time, self.values["s"])
+        self.hung = False
+        self._update_outputs()
+
+    def advance(self, target: float):
+        h = target - self.time
+        if h <= 0:
+            return
+        if not self.hung:
+            # a master sets the connected inputs after initialisation: the string hangs, at rest,
+            # from the polished rod's position at the first step
+            self.string.hang(self.time, self.values["s"])
+            self.hung = True
+        n = max(1, math.ceil(h / self.string.grid.dt_max - 1e-9))
+        dt = h / n
+        start, end = float(self.string.u[0]), self.values["s"] + self.values["v"] * h
+        for k in range(1, n + 1):
+            self.string.step(start + (end - start) * k / n, dt)
+        self._update_outputs()
+
+    def outputs_now(self) -> np.ndarray:
+        return self.out
+
+    def model_state(self):
+        return None if self.string is None else [self.hung, self.string.state()]
+
+    def can_restore(self) -> bool:
+        return self.string is not None
+
+    def restore_model_state(self, state):
+        self.hung, string = state
+        self.string.restore(string)
+        self._update_outputs()
