@@ -1,6 +1,6 @@
 """PumpingWell.ssp: PumpJack.fmu (its motor line, counterweights and geometry of the RP 11L well)
 with RodString.fmu hanging from its rope port, run by two third-party masters, the ecos C++
-command and libcosim, against the well as one model (dynamics.well.CoupledWell) with the same
+command and libcosim, against the well as one model (crankfmu.well.CoupledWell) with the same
 string grid and string step: the co-simulation differs from it by the coupling's O(H) error
 alone, and the two masters agree."""
 
@@ -13,8 +13,9 @@ import pytest
 
 from crankfmu.cli import main
 from crankfmu.dynamics.rodstring import grid
-from crankfmu.dynamics.well import CoupledWell, load_well, unit_scenario
+from crankfmu.dynamics.well import load_well
 from crankfmu.fmi.ssp import WELL
+from crankfmu.well import CoupledWell, unit_scenario
 
 pytest.importorskip("ecospy")
 pytest.importorskip("libcosimpy")

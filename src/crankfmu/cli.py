@@ -480,7 +480,7 @@ def cmd_well(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     result = study.summary(well, cw, stroke)
     result["strokes_run"] = len(strokes)
-    result["card_change_last_stroke"] = study.card_change(strokes[-2], stroke, cw) if len(strokes) > 1 else None
+    result["card_change_last_stroke"] = study.card_change(strokes[-2], stroke) if len(strokes) > 1 else None
     with replacing(out / "summary.json") as partial:
         partial.write_text(json.dumps(result, indent=2) + "\n")
     parts = study.torque_parts(cw, stroke)

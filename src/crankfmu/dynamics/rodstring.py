@@ -361,7 +361,6 @@ class RodString:
         self.work -= self.load * travel[0]
         self.damping_loss += c * dt * float(np.dot(g.mass, mid * mid))
         self.pump.account(P, float(travel[-1]))
-        self.pump_force = P
         u_next = u + dt * v_new
         u_next[0] = top_next
         self.v = v_new
@@ -379,17 +378,25 @@ class RodString:
         return float(self.u[-1])
 
     @property
+    def static_load(self) -> float:
+        """The polished rod load at the state now without the top half-segment's inertia and drag
+        (N): the first segment's tension plus that half-segment's buoyant weight. What a coupled
+        unit feels at a step's end, before the next step says how the top moves."""
+        return float(self.grid.stiffness[0] * (self.u[1] - self.u[0]) + self.grid.weight[0])
+
+    @property
     def pump_load(self) -> float:
         """The rods' tension at the pump (N): the last segment's."""
         return float(self.grid.stiffness[-1] * (self.u[-1] - self.u[-2]))
 
     def state(self) -> list:
-        last = None if self._last_u is None else self._last_u.tolist()
-        return [self.t, self.u.tolist(), self.v.tolist(), last, self.load, self.work, self.damping_loss,
-                self.energy_start, getattr(self, "pump_force", 0.0), self.pump.state()]
+        """Everything the continuation depends on, as copies (an FMU's state; a step to redo)."""
+        last = None if self._last_u is None else self._last_u.copy()
+        return [self.t, self.u.copy(), self.v.copy(), last, self.load, self.work, self.damping_loss,
+                self.energy_start, self.pump.state()]
 
     def restore(self, s):
-        (self.t, u, v, last, self.load, self.work, self.damping_loss, self.energy_start, self.pump_force, pump) = s
+        (self.t, u, v, last, self.load, self.work, self.damping_loss, self.energy_start, pump) = s
         self.u, self.v = np.array(u), np.array(v)
         self._last_u = None if last is None else np.array(last)
         self.pump.restore(pump)

@@ -213,32 +213,37 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
                       drive.title, drive.experiment, "fmi.drive:DriveCore", {}, {},
                       documentation=docs,
                       variables=lambda: drive_core.declared(drive), load=drive.name, data=(f"drives/{drive.name}.toml",))
-    if kind == "cushion":
-        from ..dynamics.cushion import load_cushion
-
-        cushion = load_cushion(name)
+    if kind in COMPONENTS:
+        load, folder, core, declared, document, takes = COMPONENTS[kind]()
+        component = load(name)
         if causality is not None:
-            raise CrankfmuError("--causality is for a mechanism's or a drive's FMU; a cushion takes the ram's motion")
-        return Source(kind, cushion.name, _fmu_name(fmu_name or cushion.fmu, cushion.where), cushion.title,
-                      cushion.experiment, "fmi.cushion:CushionCore", {}, {},
-                      documentation=lambda f, md, params, ref: documentation.cushion_documentation(f, cushion, md,
-                                                                                                   params),
-                      variables=lambda: cushion_core.declared(cushion), load=cushion.name,
-                      data=(f"elements/{cushion.name}.toml",))
-    if kind == "well":
-        from ..dynamics.well import load_well
-
-        well = load_well(name)
-        if causality is not None:
-            raise CrankfmuError("--causality is for a mechanism's or a drive's FMU; a rod string takes the polished "
-                                "rod's motion")
-        return Source(kind, well.name, _fmu_name(fmu_name or well.fmu, well.where), well.title,
-                      well.experiment, "fmi.rodstring:RodStringCore", {}, {},
-                      documentation=lambda f, md, params, ref: documentation.rodstring_documentation(f, well, md,
-                                                                                                     params),
-                      variables=lambda: rodstring_core.declared(well), load=well.name,
-                      data=(f"wells/{well.name}.toml",))
+            raise CrankfmuError(f"--causality is for a mechanism's or a drive's FMU; {takes}")
+        return Source(kind, component.name, _fmu_name(fmu_name or component.fmu, component.where), component.title,
+                      component.experiment, core, {}, {},
+                      documentation=lambda f, md, params, ref: document(f, component, md, params),
+                      variables=lambda: declared(component), load=component.name,
+                      data=(f"{folder}/{component.name}.toml",))
     raise CrankfmuError(f"build: unknown kind {kind!r}")
+
+
+def _cushion():
+    from ..dynamics.cushion import load_cushion
+
+    return (load_cushion, "elements", "fmi.cushion:CushionCore", cushion_core.declared,
+            documentation.cushion_documentation, "a cushion takes the ram's motion")
+
+
+def _well():
+    from ..dynamics.well import load_well
+
+    return (load_well, "wells", "fmi.rodstring:RodStringCore", rodstring_core.declared,
+            documentation.rodstring_documentation, "a rod string takes the polished rod's motion")
+
+
+#: the small models built from a data file that is not a mechanism's: kind -> () -> (loader, its
+#: data folder, the FMU's core, its declared variables, its documentation, what it takes instead
+#: of a causality at the crank)
+COMPONENTS = {"cushion": _cushion, "well": _well}
 
 
 def _is_path(name) -> bool:

@@ -67,6 +67,12 @@ class Declared(NamedTuple):
     def units(self) -> dict[str, str]:
         return {v.name: v.unit for v in (*self.outputs, *self.inputs, *self.parameters)}
 
+    @classmethod
+    def of_file(cls, outputs, data_file) -> "Declared":
+        """A component FMU's variables (a drive, a cushion, a rod string): the contract's
+        ``outputs``, then its data file's inputs and parameters."""
+        return cls(list(outputs), list(data_file.inputs.values()), list(data_file.parameters.values()))
+
 
 class SlaveCore:
     """Variables, life cycle, refusals and state of one FMU instance.

@@ -15,7 +15,7 @@ from .core import Declared, SlaveCore
 
 
 def declared(cushion_file) -> Declared:
-    return Declared(list(CUSHION_OUTPUTS), list(cushion_file.inputs.values()), list(cushion_file.parameters.values()))
+    return Declared.of_file(CUSHION_OUTPUTS, cushion_file)
 
 
 class CushionCore(SlaveCore):

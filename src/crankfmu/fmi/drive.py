@@ -23,7 +23,7 @@ from .core import Declared, SlaveCore
 
 def declared(drive_file) -> Declared:
     """The variables of Drive.fmu: the contract's drive outputs, the drive file's inputs and parameters."""
-    return Declared(list(OUTPUTS), list(drive_file.inputs.values()), list(drive_file.parameters.values()))
+    return Declared.of_file(OUTPUTS, drive_file)
 
 
 class DriveCore(SlaveCore):

@@ -25,7 +25,7 @@ from .core import Declared, SlaveCore
 
 
 def declared(well_file) -> Declared:
-    return Declared(list(ROD_STRING_OUTPUTS), list(well_file.inputs.values()), list(well_file.parameters.values()))
+    return Declared.of_file(ROD_STRING_OUTPUTS, well_file)
 
 
 class RodStringCore(SlaveCore):
@@ -39,9 +39,8 @@ class RodStringCore(SlaveCore):
         self.attach()
 
     def _update_outputs(self):
-        s, g = self.string, self.string.grid
-        self.out[:] = (g.stiffness[0] * (s.u[1] - s.u[0]) + g.weight[0], s.pump_position, s.pump_load, s.work,
-                       s.pump.hydraulic)
+        s = self.string
+        self.out[:] = (s.static_load, s.pump_position, s.pump_load, s.work, s.pump.hydraulic)
 
     def initialise(self):
         design = self.file.design({k: v for k, v in self.values.items() if k in self.file.parameters})

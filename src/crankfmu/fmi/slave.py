@@ -69,10 +69,12 @@ def build_design(scenario, values: dict):
     return design
 
 
-def output_quantities(scenario) -> list:
+def output_quantities(scenario, ports=None) -> list:
     """The mechanism quantities an FMU of ``scenario`` outputs: its [[outputs]], then each port's
-    position, velocity and acceleration (dynamics.ports)."""
-    return [*scenario.quantities, *(q for port in scenario.ports for q in port.quantities)]
+    position, velocity and acceleration (dynamics.ports). ``ports``: those of a model as built,
+    whose parameters may differ from the file's (a rope's lever is a length of the design)."""
+    return [*scenario.quantities, *(q for port in (scenario.ports if ports is None else ports)
+                                    for q in port.quantities)]
 
 
 def reaction_variables(scenario) -> list:
@@ -137,13 +139,8 @@ def lazy_outputs(core, motion):
 
     def quantities():
         _, omega1, epsilon1 = motion()
-        # the ports' quantities of the model as built: a rope's lever is a length of the design
-        # (its parameters may have been set since the FMU was instantiated)
-        ports = core.model.reduced.ports
-        plain = core.quantities[:len(core.quantities) - 3 * len(ports)]
-        current = [*plain, *(q for port in ports for q in port.quantities)]
         return {k: float(v[0]) for k, v in
-                evaluate_all(current, kinematics(), float(omega1), float(epsilon1)).items()}
+                evaluate_all(core.quantities, kinematics(), float(omega1), float(epsilon1)).items()}
 
     def reactions():
         phi1, omega1, epsilon1 = motion()
@@ -195,6 +192,7 @@ class FmuCore(SlaveCore):
     def initialise(self):
         v = self.values
         self.model, table = build_design(self.scenario, {n: v[n] for n in self.scenario.parameters})
+        self.quantities = output_quantities(self.scenario, self.model.reduced.ports)
         if table.error_bound > table.tolerance:
             self.log(f"the reduced model is tabulated to {table.error_bound:.2g} relative, not "
                      f"{table.tolerance:g}: the geometry is close to a dead point", "warning")

@@ -85,6 +85,7 @@ class SpeedCore(SlaveCore):
         values = {**self.scenario.values, **{n: self.values[n] for n in self.scenario.parameters
                                              if n in self.values}}
         self.model, self.table = build_design(self.scenario, values)
+        self.quantities = output_quantities(self.scenario, self.model.reduced.ports)
         omega = self.values[OMEGA1.name]
         self.state.update(phi1=self.values["phi1_start"], omega1=omega, slope=0.0, last_step=None,
                           W_drive=0.0, W_load=0.0, W_ext=0.0)

@@ -11,9 +11,9 @@ runs as they are (the ecos command, libcosim), in either causality at the crank.
 The components are named FourBar and Drive in both.
 
 - ``PumpingWell.ssp``: PumpJack.fmu (its data-file rod loads off, the geometry, counterweights and
-  NEMA D motor line of the well wells/rp11l_guo.toml: dynamics.well.unit_scenario) and
+  NEMA D motor line of the well wells/rp11l_guo.toml: crankfmu.well.unit_scenario) and
   RodString.fmu on its rope port: PumpJack.rod_s -> RodString.s, PumpJack.rod_v -> RodString.v,
-  RodString.F -> PumpJack.rod_F. The well as one model (dynamics.well.CoupledWell) is the reference.
+  RodString.F -> PumpJack.rod_F. The well as one model (crankfmu.well.CoupledWell) is the reference.
 
 - ``PressCushion.ssp``: TogglePress.fmu (the knuckle-joint press of the tests, its data-file
   cushion switched off: k_cushion = c_cushion = 0) and DieCushion.fmu on its ram port:
@@ -59,9 +59,10 @@ def _drive_values(speed_causal: bool) -> dict[str, float]:
 
 
 def _well_values(component: str) -> dict[str, float]:
-    """PumpingWell: the unit's parameters for the well (dynamics.well.unit_scenario: geometry,
+    """PumpingWell: the unit's parameters for the well (crankfmu.well.unit_scenario: geometry,
     counterweights, motor line, rod loads off) or the string's (its well file's)."""
-    from ..dynamics.well import load_well, unit_scenario
+    from ..dynamics.well import load_well
+    from ..well import unit_scenario
 
     well = load_well(WELL)
     if component == "RodString":

@@ -1,5 +1,5 @@
 """``crankfmu well WELL.toml --out DIR``: the pumping well run to steady state as one model
-(dynamics.well.CoupledWell), read the way a production engineer reads it.
+(crankfmu.well.CoupledWell), read the way a production engineer reads it.
 
 - the sheave: the motor line's synchronous speed is corrected after each stroke until the mean
   crank speed is the well file's strokes/min (to 1e-4), then held;
@@ -23,15 +23,13 @@
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..dynamics.motor import MotorLine
-from ..dynamics.well import CoupledWell, load_well, target_speed, unit_scenario
+from ..dynamics.well import load_well
+from ..well import CoupledWell, line_through, target_speed, unit_scenario
 from ..native import ROW_FIELDS
 from ..progress import ProgressBar
 
@@ -85,8 +83,8 @@ def run(well_name, max_strokes: int = 40, tolerance: float = 5e-4, dt: float | N
     scenario = unit_scenario(well, design=design)
     cw = CoupledWell(scenario, design, dt=dt)
     target = target_speed(well)
-    motor_values = {k: scenario.values[k] for k in ("A", "B")}
-    omega_sync = motor_values["A"] / motor_values["B"]
+    slope = cw.motor.B
+    omega_sync = cw.motor.A / slope
     phi_b = bottom_angle(cw)
     bar = ProgressBar(max_strokes, f"well {well.name}: strokes") if progress else None
     # run to the first bottom of stroke
@@ -117,17 +115,16 @@ def run(well_name, max_strokes: int = 40, tolerance: float = 5e-4, dt: float | N
                 tuned = True
             else:
                 omega_sync += error
-                B = motor_values["B"]
-                cw.set_motor(MotorLine(B * omega_sync, B, B * omega_sync, B, 0.0))
+                cw.set_motor(line_through(omega_sync, slope))
                 continue
-        if len(strokes) >= 2 and tuned and card_change(strokes[-2], strokes[-1], cw) < tolerance:
+        if len(strokes) >= 2 and tuned and card_change(strokes[-2], strokes[-1]) < tolerance:
             break
     if bar:
         bar.close()
     return well, cw, strokes
 
 
-def card_change(a: Stroke, b: Stroke, cw: CoupledWell) -> float:
+def card_change(a: Stroke, b: Stroke) -> float:
     """The largest difference of the surface load at the same crank angle between two strokes,
     over the peak load."""
     grid = np.linspace(0.0, 1.0, 721)
