@@ -203,3 +203,19 @@ def test_kernel_state_is_one_array_and_a_restored_step_repeats_bit_for_bit():
     again = stepper.advance(0.6, 0.6).copy()
     assert np.array_equal(first, again)
     assert stepper.state.size == layout.STATE_SIZE
+
+
+def test_a_step_clipped_to_the_limit_ends_on_it_exactly():
+    """A step clipped to t_limit ends at t_limit itself: t + (t_limit - t) misses t_limit by an
+    ulp when t is much smaller than t_limit, and the ulp left was a step-size underflow (found on
+    the pumping well's first string step, 1/600 s). Every limit of a fine grid is reached from a
+    fresh start, exactly."""
+    from crankfmu.integrators.fast import FastStepper
+
+    model = crankfmu.load_scenario("seed000").build()
+    stepper = FastStepper(table_of(model.reduced), model.motor, model.reduced.J_flywheel, 1e-10)
+    for k in range(1, 400):
+        t_limit = k / 6e4
+        stepper.start(0.0, model.y0)
+        stepper.advance(t_limit, t_limit)     # raised SchemeError (underflow) before the fix
+        assert stepper.state[layout.T] == t_limit

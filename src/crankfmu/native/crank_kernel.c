@@ -427,8 +427,12 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
     double h = fmin(S[CK_H], P[CK_H_MAX]);
     double n_rhs = S[CK_N_RHS];
     double err = 0.0;
+    int to_limit;
     for (;;) {
-        if (t + h >= t_limit) h = t_limit - t;
+        /* a step clipped to the limit ends on it exactly: t + (t_limit - t) can miss t_limit by an
+         * ulp, and the ulp left would be an underflow on the next step */
+        to_limit = t + h >= t_limit;
+        if (to_limit) h = t_limit - t;
         if (h <= 1e-14 * fmax(1.0, fabs(t))) return CK_UNDERFLOW;
         rk_step(S, t, w->y, w->f0, h, T, P, w);
         n_rhs += CK_N_STAGES;
@@ -438,7 +442,7 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
     }
     double factor = err == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(err, ERROR_EXPONENT));
     double h_next = fmin(h * factor, P[CK_H_MAX]);
-    double t_new = t + h == t_limit ? t_limit : t + h;
+    double t_new = to_limit ? t_limit : t + h;
 
     events(S, t, w->y, T, P, w->work, w->g0);
     events(S, t_new, w->ynew, T, P, w->work, w->g1);
