@@ -12,11 +12,18 @@ port inputs); the string's step needs the polished rod's position at the step's 
 the unit's step, which needs the load at the end: the step is iterated to its fixed point (two
 passes: the load's sensitivity to the unit's step over one string step is about 1e-4), so there
 is no communication step and no lag between the two.
+
+The load the unit feels is the string's static load at the step's ends (the first segment's
+tension and the top half-segment's buoyant weight, ``RodString.static_load``), the output of
+RodString.fmu: the top half-segment's inertia (16 kg at 10 m segments, vanishing with the grid)
+is carried by the prescribed motion in both, so the one model and the co-simulated system are
+the same physics and differ only by the communication step.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -42,34 +49,41 @@ def rope_port(scenario):
     return ports[0]
 
 
-def counterbalance_effect(well: WellFile, design: StringDesign) -> float:
-    """CBE (N) of the [unit] table: RP 11L's 1.06 (Wrf + Fo/2), or a number."""
-    spec = well.unit.get("counterbalance", "rp11l")
-    if spec == "rp11l":
-        return 1.06 * (design.buoyant_weight + design.fluid_load / 2)
+def rp11l_counterbalance(design: StringDesign) -> float:
+    """RP 11L's counterbalance effect (N): 1.06 (Wrf + Fo/2)."""
+    return 1.06 * (design.buoyant_weight + design.fluid_load / 2)
+
+
+def counterbalance_spec(well: WellFile):
+    """The [unit] table's counterbalance: "balanced", "rp11l" or a counterbalance effect (N)."""
+    spec = well.unit.get("counterbalance", "balanced")
+    if spec in ("balanced", "rp11l"):
+        return spec
     if isinstance(spec, (int, float)) and not isinstance(spec, bool) and spec >= 0:
         return float(spec)
-    raise DefinitionError(f"{well.where}: [unit] counterbalance = {spec!r}: give \"rp11l\" or a counterbalance "
-                          "effect in N (>= 0)")
+    raise DefinitionError(f"{well.where}: [unit] counterbalance = {spec!r}: give \"balanced\", \"rp11l\" or a "
+                          "counterbalance effect in N (>= 0)")
+
+
+def counterbalance_of(scenario) -> float:
+    """The counterbalance effect (N) of the scenario's counterweights (API 11E's definition): the
+    polished rod load that balances the unit's weights with the crank horizontal on the upstroke
+    (phi1 = pi, the counterweights' torque largest and helping the rods up). The rod load's torque
+    is its rope's transfer function times the load."""
+    port = rope_port(scenario)
+    phi = np.array([math.pi])
+    model = scenario.build()
+    kin = model.mechanism.kinematics(phi)
+    gravity = sum(float(np.asarray(load.torque(kin, 0.0)).ravel()[0]) for load in model.reduced.loads
+                  if isinstance(load, Weights))
+    return -gravity / float(port.transfer(kin)[1][0])
 
 
 def counterweight_mass(scenario, cbe: float) -> float:
-    """m_cw (kg) whose counterbalance effect is ``cbe``: with the crank horizontal on the upstroke
-    (phi1 = pi, the counterweights' torque largest and helping the rods up), a polished rod load
-    of ``cbe`` balances the unit's weights (API 11E's definition). The rod load's torque is its
-    rope's transfer function times the load; the weights' torque is linear in m_cw."""
-    port = rope_port(scenario)
-    phi = np.array([math.pi])
-
-    def static_torque(m_cw):
-        model = scenario.with_params(m_cw=m_cw).build()
-        kin = model.mechanism.kinematics(phi)
-        gravity = sum(float(np.asarray(load.torque(kin, 0.0)).ravel()[0]) for load in model.reduced.loads
-                      if isinstance(load, Weights))
-        return gravity + cbe * float(port.transfer(kin)[1][0])
-
-    t0, t1 = static_torque(0.0), static_torque(1000.0)
-    m = -t0 * 1000.0 / (t1 - t0)
+    """m_cw (kg) whose counterbalance effect is ``cbe``: the effect is linear in m_cw."""
+    c0 = counterbalance_of(scenario.with_params(m_cw=0.0))
+    c1 = (counterbalance_of(scenario.with_params(m_cw=1000.0)) - c0) / 1000.0
+    m = (cbe - c0) / c1
     if not m >= 0:
         raise DefinitionError(f"counterbalance effect {cbe:g} N needs a negative counterweight ({m:g} kg)")
     return m
@@ -86,11 +100,14 @@ def motor_line(rated_power: float, rated_slip: float, omega_sync: float) -> Moto
     return line_through(omega_sync, rated_power / omega_rated / (rated_slip * omega_sync))
 
 
-def unit_scenario(well: WellFile, omega_sync: float | None = None, design: StringDesign | None = None):
+def unit_scenario(well: WellFile, design: StringDesign | None = None, m_cw: float | None = None,
+                  progress: bool = False):
     """The unit's scenario for this well: its [unit.parameters], the data-file rod loads off, the
-    counterweights for the counterbalance effect, and the motor line for the synchronous speed at
-    the crank ``omega_sync`` (default: the line's no-load speed at the target strokes/min plus
-    the rated slip, the starting guess ``steady_unit`` refines)."""
+    counterweights (``m_cw`` in kg, or from the [unit] counterbalance: balanced by runs of the
+    well, ``balanced_counterweight``, or the counterweights of a counterbalance effect), and the
+    motor line for the synchronous speed at the crank: the line's no-load speed at the target
+    strokes/min plus half the rated slip, the starting guess the sheave (``run_to_steady``)
+    corrects."""
     from .scenario import load_scenario
 
     design = design or well.design()
@@ -99,7 +116,6 @@ def unit_scenario(well: WellFile, omega_sync: float | None = None, design: Strin
     values = {**dict(unit.get("parameters", {})), **ROD_LOADS_OFF, "g": design.g}
     scenario = scenario.with_params(**values)
     rope_port(scenario)
-    scenario = scenario.with_params(m_cw=counterweight_mass(scenario, counterbalance_effect(well, design)))
     motor = unit.get("motor", {})
     try:
         power, slip = float(motor["rated_power"]), float(motor["rated_slip"])
@@ -108,11 +124,16 @@ def unit_scenario(well: WellFile, omega_sync: float | None = None, design: Strin
     if not (power > 0 and 0 < slip < 1):
         raise DefinitionError(f"{well.where}: [unit.motor] rated_power = {power!r} must be > 0 W and rated_slip = "
                               f"{slip!r} in (0, 1)")
-    if omega_sync is None:
-        omega_sync = target_speed(well) * (1 + slip / 2)
-    line = motor_line(power, slip, omega_sync)
-    return scenario.with_params(A=line.A, B=line.B, A_low=line.A_low, B_low=line.B_low,
-                                omega_switch=line.omega_switch, omega1_start=target_speed(well))
+    line = motor_line(power, slip, target_speed(well) * (1 + slip / 2))
+    scenario = scenario.with_params(A=line.A, B=line.B, A_low=line.A_low, B_low=line.B_low,
+                                    omega_switch=line.omega_switch, omega1_start=target_speed(well))
+    if m_cw is None:
+        spec = counterbalance_spec(well)
+        if spec == "balanced":
+            m_cw = balanced_counterweight(well, scenario, design, progress=progress)
+        else:
+            m_cw = counterweight_mass(scenario, rp11l_counterbalance(design) if spec == "rp11l" else spec)
+    return scenario.with_params(m_cw=m_cw)
 
 
 def target_speed(well: WellFile) -> float:
@@ -164,7 +185,7 @@ class CoupledWell:
     def step(self):
         dt, t = self.dt, self.t
         saved_string = self.string.state()
-        load_a, load_b = self.string.load, self.load_end
+        load_a = load_b = self.load_end
         for n_pass in range(2):
             self._start_unit(load_a, (load_b - load_a) / dt)
             row = self.stepper.advance(t + dt, t + dt)
@@ -172,7 +193,6 @@ class CoupledWell:
             if n_pass:
                 self.string.restore(saved_string)
             self.string.step(self.rope.position(phi), dt)
-            load_a = self.string.load
             load_b = self.string.static_load
         # the unit's state at t + dt from the last pass
         y = np.zeros_like(self.y)
@@ -202,3 +222,175 @@ class RopeMotion:
 
     def velocity(self, phi: float, omega: float) -> float:
         return float(self.ds(phi % (2 * math.pi))) * omega
+
+
+# ------------------------------------------------------------------------------- steady state
+#: a stroke's samples, one per string step
+FIELDS = ("t", "phi1", "omega1", "epsilon1", "M_motor", "s", "F", "u_pump", "F_pump", "work", "hydraulic",
+          "damping", "friction", "stops")
+ROW = {name: i for i, name in enumerate(kernel.ROW_FIELDS)}
+
+
+@dataclass
+class Stroke:
+    """One stroke's samples, one per string step (arrays by FIELDS), and its energies (J)."""
+
+    data: dict
+
+    def __getitem__(self, key):
+        return self.data[key]
+
+    @property
+    def period(self) -> float:
+        return float(self["t"][-1] - self["t"][0])
+
+    def delta(self, key) -> float:
+        return float(self[key][-1] - self[key][0])
+
+
+def _sample(cw: CoupledWell) -> list[float]:
+    s, pump = cw.string, cw.string.pump
+    r = cw.row
+    # the load at the sample's time: the string's load is that of the start of its last step
+    return [cw.t, r[ROW["phi1"]], r[ROW["omega1"]], r[ROW["epsilon1"]], r[ROW["M_motor"]], s.u[0], cw.load_end,
+            s.pump_position, s.pump_load, s.work, pump.hydraulic, s.damping_loss, pump.friction_loss, pump.stop_loss]
+
+
+def bottom_angle(cw: CoupledWell) -> float:
+    """The crank angle (rad, in [0, 2 pi)) of the polished rod's lowest point."""
+    from scipy.optimize import brentq
+
+    phi = np.linspace(0.0, 2 * math.pi, 3601)[:-1]
+    i = int(np.argmax(cw.rope.s(phi)))
+    # refine on the cubic: s'(phi) = 0 near phi[i]
+    a, b = phi[i] - 2 * math.pi / 3600, phi[i] + 2 * math.pi / 3600
+    return brentq(lambda p: cw.rope.velocity(p, 1.0), a, b) % (2 * math.pi)
+
+
+def card_change(a: Stroke, b: Stroke) -> float:
+    """The largest difference of the surface load at the same crank angle between two strokes,
+    over the peak load."""
+    grid = np.linspace(0.0, 1.0, 721)
+    fa = np.interp(grid, (a["phi1"] - a["phi1"][0]) / (2 * math.pi), a["F"])
+    fb = np.interp(grid, (b["phi1"] - b["phi1"][0]) / (2 * math.pi), b["F"])
+    return float(np.max(np.abs(fa - fb)) / np.max(np.abs(fb)))
+
+
+def run_to_steady(well: WellFile, scenario, design: StringDesign, max_strokes: int = 40, tolerance: float = 5e-4,
+                  dt: float | None = None, bar=None):
+    """(the coupled model, its strokes) run to steady state. Each stroke is cut at the bottom of
+    the polished rod's travel.
+    - the sheave: the motor line's synchronous speed is corrected after each stroke until the
+      mean crank speed is the well file's strokes/min (to 5e-4), then held;
+    - steady state: strokes are run until two successive surface cards agree to ``tolerance`` of
+      the peak load at every crank angle, or ``max_strokes``."""
+    cw = CoupledWell(scenario, design, dt=dt)
+    target = target_speed(well)
+    slope = cw.motor.B
+    omega_sync = cw.motor.A / slope
+    phi_b = bottom_angle(cw)
+    # run to the first bottom of stroke
+    next_bottom = phi_b + 2 * math.pi * math.ceil((cw.y[0] - phi_b) / (2 * math.pi) + 1e-9)
+    while cw.y[0] < next_bottom:
+        cw.step()
+    strokes: list[Stroke] = []
+    samples = [_sample(cw)]
+    tuned = False
+    while len(strokes) < max_strokes:
+        next_bottom += 2 * math.pi
+        while cw.y[0] < next_bottom:
+            cw.step()
+            samples.append(_sample(cw))
+        stroke = Stroke({k: np.array(col) for k, col in zip(FIELDS, zip(*samples))})
+        samples = [samples[-1]]
+        strokes.append(stroke)
+        if bar:
+            bar(len(strokes))
+        if not tuned:
+            # the sheave: move the synchronous speed by the speed error (the line's slope is steep,
+            # so the mean torque hardly changes with it)
+            error = target - 2 * math.pi / stroke.period
+            if abs(error) < 5e-4 * target:
+                tuned = True
+            else:
+                omega_sync += error
+                cw.set_motor(line_through(omega_sync, slope))
+                continue
+        if len(strokes) >= 2 and card_change(strokes[-2], strokes[-1]) < tolerance:
+            break
+    return cw, strokes
+
+
+def gearbox_torque(cw: CoupledWell, stroke: Stroke) -> np.ndarray:
+    """The net gearbox torque (N.m) over a stroke, from the drive's side: M_motor - J_flywheel
+    epsilon1 (the rotor and sheaves are on the motor's side of the reducer)."""
+    return stroke["M_motor"] - cw.model.reduced.J_flywheel * stroke["epsilon1"]
+
+
+def stroke_halves(stroke: Stroke) -> np.ndarray:
+    """True where the polished rod rises (its position s, positive downward, falls)."""
+    return np.gradient(stroke["s"]) < 0
+
+
+def torque_peaks(cw: CoupledWell, stroke: Stroke) -> tuple[float, float]:
+    """The peak net gearbox torque (N.m) on the upstroke and on the downstroke."""
+    net, up = gearbox_torque(cw, stroke), stroke_halves(stroke)
+    return float(net[up].max()), float(net[~up].max())
+
+
+_BALANCED: dict = {}
+
+
+def balanced_counterweight(well: WellFile, scenario, design: StringDesign, tolerance: float = 1e-3,
+                           max_runs: int = 8, progress: bool = False) -> float:
+    """m_cw (kg) for which the unit is balanced: the peak net gearbox torque of the upstroke
+    equals the downstroke's, at steady state. This is the balance RP 11L's peak torque assumes
+    and the one a crew sets in the field, moving the counterweights until the motor's peaks on
+    both strokes are equal; RP 11L's CBE, 1.06 (Wrf + Fo/2), is its estimate of it.
+
+    Newton's method on the counterweight: a run to steady state gives the net torque over the
+    stroke; the counterweights' part of it is linear in m_cw (their gravity torque per kg), so the
+    m_cw that equalises the two peaks with the rest of that stroke held is found by bisection, and
+    the next run takes it; it stops when the two peaks agree to ``tolerance`` of the peak. Each
+    run starts from RP 11L's CBE's counterweights only the first time."""
+    key = (repr(sorted(scenario.values.items())), repr(design))
+    if key in _BALANCED:
+        return _BALANCED[key]
+    from scipy.optimize import brentq
+
+    from .progress import ProgressBar
+
+    m = counterweight_mass(scenario, rp11l_counterbalance(design))
+    bar = ProgressBar(max_runs, f"well {well.name}: balancing the counterweights") if progress else None
+    for run in range(max_runs):
+        trial = scenario.with_params(m_cw=m)
+        cw, strokes = run_to_steady(well, trial, design)
+        stroke = strokes[-1]
+        net, up = gearbox_torque(cw, stroke), stroke_halves(stroke)
+        if bar:
+            bar(run + 1)
+        gap = net[up].max() - net[~up].max()
+        if abs(gap) < tolerance * np.abs(net).max():
+            break
+        # the counterweights' torque per kg at the stroke's crank angles (their weights' torque is
+        # Q; the net torque carries -Q)
+        phi = np.mod(stroke["phi1"], 2 * math.pi)
+        q = [trial.with_params(m_cw=m + dm).build().reduced.coefficients(phi)[2] for dm in (0.0, 1.0)]
+        per_kg = -(q[1] - q[0])
+
+        def peaks_gap(dm):
+            shifted = net + dm * per_kg
+            return shifted[up].max() - shifted[~up].max()
+
+        try:
+            m += brentq(peaks_gap, -m, m)
+        except ValueError:
+            raise DefinitionError(f"{well.where}: no counterweight between 0 and {2 * m:g} kg balances the unit's "
+                                  "peak torques; give [unit] counterbalance as a number (N)") from None
+    else:
+        raise DefinitionError(f"{well.where}: the counterweights did not balance in {max_runs} runs (peak gap "
+                              f"{gap:g} N.m); give [unit] counterbalance as a number (N)")
+    if bar:
+        bar.close()
+    _BALANCED[key] = m
+    return m

@@ -1,10 +1,10 @@
 """``crankfmu well WELL.toml --out DIR``: the pumping well run to steady state as one model
 (crankfmu.well.CoupledWell), read the way a production engineer reads it.
 
-- the sheave: the motor line's synchronous speed is corrected after each stroke until the mean
-  crank speed is the well file's strokes/min (to 1e-4), then held;
-- steady state: strokes are run until two successive surface cards agree to 1e-4 of the peak load
-  at every crank angle (``tolerance``), or ``max_strokes``;
+- the run: crankfmu.well.run_to_steady (the sheave set to the file's strokes/min, then strokes
+  until two successive surface cards agree to ``tolerance`` of the peak load at every crank
+  angle), after balancing the counterweights if the file asks for it (``counterbalance =
+  "balanced"``: equal peak torques on the upstroke and the downstroke);
 - a stroke runs from the bottom of the polished rod's travel to the next (the crank angle where
   the rope's position is lowest);
 - the cards: polished rod and pump load against their position, upward from the bottom of stroke;
@@ -17,120 +17,38 @@
   compared with the drive's torque less the weights and inertia (``api_torque_difference``);
 - summary.json: PPRL, MPRL (N), PRHP (W), the hydraulic, damping, friction and plunger-stop powers
   (W), peak_torque (N.m), motor power (W, mean M_motor omega1), the cyclic load factor (RMS over
-  mean motor torque), strokes/min, surface and plunger strokes (m); with the well file's
+  mean motor torque), strokes/min, surface and plunger strokes (m), the counterweights and their
+  counterbalance effect beside RP 11L's, the upstroke's and downstroke's peak torques; with the well file's
   [reference] (a published design's numbers) side by side.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..dynamics.well import load_well
-from ..well import CoupledWell, line_through, target_speed, unit_scenario
-from ..native import ROW_FIELDS
 from ..progress import ProgressBar
+from ..well import (CoupledWell, Stroke, card_change, counterbalance_of, counterbalance_spec, gearbox_torque,
+                    rp11l_counterbalance, run_to_steady, torque_peaks, unit_scenario)
 
-ROW = {name: i for i, name in enumerate(ROW_FIELDS)}
+__all__ = ["run", "card_change", "torque_parts", "api_rod_torque", "summary", "comparison"]
+
 LB, INCH, IN_LB, HP = 4.4482216152605, 0.0254, 0.1129848290276167, 745.69987158227
-FIELDS = ("t", "phi1", "omega1", "epsilon1", "M_motor", "s", "F", "u_pump", "F_pump", "work", "hydraulic",
-          "damping", "friction", "stops")
-
-
-@dataclass
-class Stroke:
-    """One stroke's samples, one per string step (arrays by FIELDS), and its energies (J)."""
-
-    data: dict
-
-    def __getitem__(self, key):
-        return self.data[key]
-
-    @property
-    def period(self) -> float:
-        return float(self["t"][-1] - self["t"][0])
-
-    def delta(self, key) -> float:
-        return float(self[key][-1] - self[key][0])
-
-
-def _sample(cw: CoupledWell) -> list[float]:
-    s, pump = cw.string, cw.string.pump
-    r = cw.row
-    # the load at the sample's time: the string's load is that of the start of its last step
-    return [cw.t, r[ROW["phi1"]], r[ROW["omega1"]], r[ROW["epsilon1"]], r[ROW["M_motor"]], s.u[0], cw.load_end,
-            s.pump_position, s.pump_load, s.work, pump.hydraulic, s.damping_loss, pump.friction_loss, pump.stop_loss]
-
-
-def bottom_angle(cw: CoupledWell) -> float:
-    """The crank angle (rad, in [0, 2 pi)) of the polished rod's lowest point."""
-    phi = np.linspace(0.0, 2 * math.pi, 3601)[:-1]
-    s = cw.rope.s(phi)
-    i = int(np.argmax(s))
-    # refine on the cubic: s'(phi) = 0 near phi[i]
-    from scipy.optimize import brentq
-    a, b = phi[i] - 2 * math.pi / 3600, phi[i] + 2 * math.pi / 3600
-    return brentq(lambda p: cw.rope.velocity(p, 1.0), a, b) % (2 * math.pi)
 
 
 def run(well_name, max_strokes: int = 40, tolerance: float = 5e-4, dt: float | None = None, progress=True):
-    """(well file, coupled model, the last two strokes, the strokes run). Each stroke is cut at
-    the bottom of the polished rod's travel."""
+    """(well file, coupled model, the strokes run): the well's unit (its counterweights balanced
+    first if the file asks for it) and string run to steady state (crankfmu.well.run_to_steady)."""
     well = load_well(well_name)
     design = well.design()
-    scenario = unit_scenario(well, design=design)
-    cw = CoupledWell(scenario, design, dt=dt)
-    target = target_speed(well)
-    slope = cw.motor.B
-    omega_sync = cw.motor.A / slope
-    phi_b = bottom_angle(cw)
+    scenario = unit_scenario(well, design=design, progress=progress)
     bar = ProgressBar(max_strokes, f"well {well.name}: strokes") if progress else None
-    # run to the first bottom of stroke
-    next_bottom = phi_b + 2 * math.pi * math.ceil((cw.y[0] - phi_b) / (2 * math.pi) + 1e-9)
-    while cw.y[0] < next_bottom:
-        cw.step()
-    strokes: list[Stroke] = []
-    samples = [_sample(cw)]
-    tuned = False
-    n = 0
-    while n < max_strokes:
-        next_bottom += 2 * math.pi
-        while cw.y[0] < next_bottom:
-            cw.step()
-            samples.append(_sample(cw))
-        stroke = Stroke({k: np.array(col) for k, col in zip(FIELDS, zip(*samples))})
-        samples = [samples[-1]]
-        strokes.append(stroke)
-        n += 1
-        if bar:
-            bar(n)
-        mean_speed = 2 * math.pi / stroke.period
-        if not tuned:
-            # the sheave: move the synchronous speed by the speed error (the line's slope is steep,
-            # so the mean torque hardly changes with it)
-            error = target - mean_speed
-            if abs(error) < 5e-4 * target:
-                tuned = True
-            else:
-                omega_sync += error
-                cw.set_motor(line_through(omega_sync, slope))
-                continue
-        if len(strokes) >= 2 and tuned and card_change(strokes[-2], strokes[-1]) < tolerance:
-            break
+    cw, strokes = run_to_steady(well, scenario, design, max_strokes=max_strokes, tolerance=tolerance, dt=dt, bar=bar)
     if bar:
         bar.close()
     return well, cw, strokes
-
-
-def card_change(a: Stroke, b: Stroke) -> float:
-    """The largest difference of the surface load at the same crank angle between two strokes,
-    over the peak load."""
-    grid = np.linspace(0.0, 1.0, 721)
-    fa = np.interp(grid, (a["phi1"] - a["phi1"][0]) / (2 * math.pi), a["F"])
-    fb = np.interp(grid, (b["phi1"] - b["phi1"][0]) / (2 * math.pi), b["F"])
-    return float(np.max(np.abs(fa - fb)) / np.max(np.abs(fb)))
 
 
 def torque_parts(cw: CoupledWell, stroke: Stroke) -> dict:
@@ -139,7 +57,7 @@ def torque_parts(cw: CoupledWell, stroke: Stroke) -> dict:
     phi, omega, eps = stroke["phi1"], stroke["omega1"], stroke["epsilon1"]
     J, half_dJ, Q_weights, kin = reduced.coefficients(np.mod(phi, 2 * math.pi))
     s_prime = cw.port.transfer(kin)[1]
-    net = stroke["M_motor"] - reduced.J_flywheel * eps
+    net = gearbox_torque(cw, stroke)
     rod = -stroke["F"] * s_prime
     weights = -Q_weights
     inertia = (J - reduced.J_flywheel) * eps + half_dJ * omega ** 2
@@ -165,6 +83,7 @@ def summary(well, cw: CoupledWell, stroke: Stroke) -> dict:
     pump_up = -(stroke["u_pump"] - stroke["u_pump"].max())
     motor_torque = stroke["M_motor"]
     mean_torque = float(np.mean(motor_torque))
+    up_peak, down_peak = torque_peaks(cw, stroke)
     out = {
         "PPRL": float(stroke["F"].max()), "MPRL": float(stroke["F"].min()),
         "peak_torque": float(np.max(np.abs(parts["net"]))),
@@ -183,11 +102,16 @@ def summary(well, cw: CoupledWell, stroke: Stroke) -> dict:
                                                      - api_rod_torque(cw, stroke, parts))) / np.max(np.abs(parts["net"]))),
         "fluid_load": cw.string.design.fluid_load, "buoyant_rod_weight": cw.string.design.buoyant_weight,
         "counterweight_mass": cw.scenario.values["m_cw"],
+        "counterbalance": counterbalance_spec(well),
+        "counterbalance_effect": counterbalance_of(cw.scenario),
+        "rp11l_counterbalance_effect": rp11l_counterbalance(cw.string.design),
+        "peak_torque_upstroke": up_peak, "peak_torque_downstroke": down_peak,
         "units": {"PPRL": "N", "MPRL": "N", "peak_torque": "N.m", "PRHP": "W", "hydraulic_power": "W",
                   "damping_power": "W", "friction_power": "W", "plunger_stop_power": "W", "motor_power": "W",
                   "cyclic_load_factor": "1", "strokes_per_minute": "1/min", "surface_stroke": "m",
                   "plunger_stroke": "m", "torque_closure": "1", "api_torque_difference": "1", "fluid_load": "N", "buoyant_rod_weight": "N",
-                  "counterweight_mass": "kg"},
+                  "counterweight_mass": "kg", "counterbalance_effect": "N",
+                  "rp11l_counterbalance_effect": "N", "peak_torque_upstroke": "N.m", "peak_torque_downstroke": "N.m"},
     }
     out["field_units"] = {"PPRL_lb": out["PPRL"] / LB, "MPRL_lb": out["MPRL"] / LB,
                           "peak_torque_in_lb": out["peak_torque"] / IN_LB, "PRHP_hp": out["PRHP"] / HP,
