@@ -73,16 +73,24 @@ def test_the_native_fmu_gives_the_pythonfmu_fmus_numbers(name, scratch):
     native_fmu, python_fmu = _built(name, True, scratch), _built(name, False, scratch)
     a = fmpy.simulate_fmu(str(native_fmu), output_interval=1e-3)
     b = fmpy.simulate_fmu(str(python_fmu), output_interval=1e-3)
-    # the joint reactions are the pythonfmu FMU's only (Newton-Euler when read): the native FMU
-    # does not carry them yet
-    reactions = {n for n, _, _ in reaction_outputs(load_scenario(SCENARIOS[name]).mechanism_definition())}
+    # the joint reactions: tabulated terms in the native FMU, Newton-Euler when read in the
+    # pythonfmu FMU (test_native_reactions.py: to 1e-8 of the largest reaction, away from the
+    # slider forces' switch angles, where the force is set-valued)
+    scenario = load_scenario(SCENARIOS[name])
+    reactions = [n for n, _, _ in reaction_outputs(scenario.mechanism_definition())]
     names = [n for n in b.dtype.names if n != "time" and n not in reactions]
-    assert set(names) <= set(a.dtype.names)
+    assert set(names) <= set(a.dtype.names) and set(reactions) <= set(a.dtype.names)
     assert len(names) >= len(FIELDS) + (0 if name == "FourBar" else 1)
     assert a["time"][-1] == pytest.approx(b["time"][-1])
     for n in names:
         scale = np.max(np.abs(b[n]))
         assert np.max(np.abs(a[n] - b[n])) <= 1e-9 * scale, (n, np.max(np.abs(a[n] - b[n])) / max(scale, 1e-300))
+    from test_native_reactions import away_from_switches
+
+    away = away_from_switches(scenario.build().reduced, b["phi1"])
+    scale = max(np.max(np.abs(b[n])) for n in reactions)
+    for n in reactions:
+        assert np.max(np.abs(a[n] - b[n])[away]) <= 1e-8 * scale, (n, np.max(np.abs(a[n] - b[n])[away]) / scale)
 
 
 @pytest.mark.parametrize("name", SCENARIOS)
@@ -240,7 +248,9 @@ def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(native, tmp_path):
     # outlast fmpy's wait for its server to answer
     subprocess.run([wine, "wineboot", "-i"], env=env, capture_output=True, timeout=300)
     subprocess.run([str(wineserver), "-w"], env=env, capture_output=True, timeout=300)
-    command = [sys.executable, "-c", REMOTE_RUN, str(windows_only), str(tmp_path / "remote.npy"), *FIELDS]
+    # the contract's outputs and two joint reactions (tabulated terms times the kernel's weights)
+    fields = (*FIELDS, "O_Fx", "A_Fy")
+    command = [sys.executable, "-c", REMOTE_RUN, str(windows_only), str(tmp_path / "remote.npy"), *fields]
     if os.geteuid() == 0:
         # fmpy 0.3.32's client makes its lock file with mode 000 and holds an fcntl lock on it,
         # which wine cannot see; the server's watchdog opens the file for writing every 0.5 s and
@@ -263,7 +273,7 @@ def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(native, tmp_path):
     remote = np.load(tmp_path / "remote.npy")
     local = fmpy.simulate_fmu(str(native), output_interval=1e-3)
     assert remote.shape[1] == local.size and remote[0][-1] == pytest.approx(2.0)
-    for i, name in enumerate(FIELDS, start=1):
+    for i, name in enumerate(fields, start=1):
         scale = np.max(np.abs(local[name]))
         assert np.max(np.abs(remote[i] - local[name])) <= 1e-12 * scale, name
 

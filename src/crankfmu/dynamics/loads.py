@@ -168,6 +168,11 @@ class SliderForce:
     def values(self, kin: Kinematics, omega1) -> list:
         return [self.force(kin, omega1)]
 
+    def column_applied(self, kin: Kinematics, column: int) -> list[AppliedLoad]:
+        """The force of column ``column`` at value 1 (1 N along the axis), where it acts."""
+        one = np.ones_like(kin.phi1)
+        return [AppliedLoad(self.link, self.point, *((one, 0.0) if self.axis == 0 else (0.0, one)))]
+
 
 def slider_schedule(mechanism: Mechanism, sliders: list[SliderForce]):
     """Where slider forces switch and their constant values in between, for integrators that hold

@@ -57,13 +57,14 @@ class JointReactions:
 
 
 def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: bool = True,
-                    extra=None, kin=None) -> JointReactions:
+                    extra=None, kin=None, loads=None) -> JointReactions:
     """Solve every joint's reaction and the driving moment at a prescribed crank motion.
 
     ``inertia=False`` neglects the inertia forces and moments (the static equilibrium moment).
     ``extra(kin)``: more applied loads (loads.AppliedLoad) at the kinematics, beside the model's
     own: the ports' inputs (dynamics.ports). ``kin``: the kinematics at phi1, where the caller has
-    them already.
+    them already. ``loads``: the model's loads that act (default all; the reactions are linear in
+    the loads, and their tables, dynamics.tabulated.tabulate_reactions, take them part by part).
     """
     mechanism = reduced.mechanism
     definition = mechanism.definition
@@ -126,7 +127,7 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
             b[:, r + 2] += link.inertia * (epsilon1 * q + w2 * qq)
     if inertia:
         b[:, row[crank[0]] + 2] += reduced.J_flywheel * epsilon1
-    applied = [f for load in reduced.loads for f in load.applied(kin, omega1)]
+    applied = [f for load in (reduced.loads if loads is None else loads) for f in load.applied(kin, omega1)]
     for f in [*applied, *(extra(kin) if extra else ())]:
         if f.link == "ground":          # a spring anchored on the frame: the frame carries that end
             continue
@@ -170,13 +171,17 @@ def reaction_outputs(definition) -> list[tuple[str, str, str]]:
             for joint in definition.joints for suffix, unit, what in REACTION_OUTPUTS[joint.kind]]
 
 
-def reaction_values(reactions: JointReactions, index: int = 0) -> dict[str, float]:
-    """The outputs of ``reaction_outputs`` at one of the solved states."""
+def reaction_arrays(reactions: JointReactions) -> dict[str, np.ndarray]:
+    """The outputs of ``reaction_outputs`` at every solved state."""
     out = {}
     for name, kind in reactions.kind.items():
         fx, fy = reactions.force[name]
         values = (fx, fy) if kind == "revolute" else (reactions.normal[name], reactions.couple[name])
         for (suffix, _, _), value in zip(REACTION_OUTPUTS[kind], values):
-            out[f"{name}_{suffix}"] = float(value[index])
+            out[f"{name}_{suffix}"] = value
     return out
 
+
+def reaction_values(reactions: JointReactions, index: int = 0) -> dict[str, float]:
+    """The outputs of ``reaction_outputs`` at one of the solved states."""
+    return {name: float(value[index]) for name, value in reaction_arrays(reactions).items()}

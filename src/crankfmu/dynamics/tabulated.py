@@ -323,3 +323,76 @@ def table_of(reduced: ReducedModel, tolerance: float = 1e-11) -> ReducedTable:
     if tolerance not in tables:
         tables[tolerance] = tabulate(reduced, tolerance)
     return tables[tolerance]
+
+
+# ------------------------------------------------------------------------------- joint reactions
+#: the terms a joint reaction is linear in, before the switched loads' and the ports' values
+REACTION_TERMS = ("1", "epsilon1", "omega1^2", "omega1")
+
+
+@dataclass
+class ReactionTable:
+    """The joint reactions (dynamics.reactions, Newton-Euler) tabulated for the native FMU.
+
+    A reaction is linear in the crank's acceleration, in omega1^2 (the centripetal terms), in the
+    loads linear in omega1 (dampers), in each switched load's value (a slider force's signed
+    magnitude, a user load's direction selector) and in each port's input, with coefficients
+    that are functions of phi1 alone: R = R_1 + epsilon1 R_eps + omega1^2 R_w2 + omega1 R_w
+    + sum_s value_s R_s + sum_p input_p R_p.
+
+    coefficients  (n_components n_terms, n, 4): component-major, terms in the order REACTION_TERMS,
+                  the switched loads' columns (the reduced table's order), the ports
+    names         the components' output names (dynamics.reactions.reaction_outputs' order)
+    n_terms       4 + switched columns + ports
+    error_bound   the checked largest relative difference from the Newton-Euler solve
+    """
+
+    coefficients: np.ndarray
+    names: tuple[str, ...]
+    n_terms: int
+    error_bound: float
+    construction: str
+
+
+def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: int = 1 << 16,
+                       loosest: float = 1e-8) -> ReactionTable:
+    """The coefficients of every joint reaction (ReactionTable) as periodic cubics, to
+    ``tolerance`` relative to each function's largest magnitude, by the reduced table's
+    constructions. Each term is one Newton-Euler solve with that part of the loads alone."""
+    from .reactions import joint_reactions, reaction_arrays, reaction_outputs
+
+    names = tuple(name for name, _, _ in reaction_outputs(reduced.mechanism.definition))
+    fixed = [load for load in reduced.loads if load.position_only]
+    viscous = [load for load in reduced.loads if getattr(load, "linear_in_omega1", False)]
+    columns = [(load, j) for load in reduced.sliders for j in range(len(load.column_names))]
+
+    def solve(phi1, omega1=0.0, epsilon1=0.0, inertia=False, loads=(), extra=None):
+        kin = reduced.mechanism.kinematics(phi1)
+        arrays = reaction_arrays(joint_reactions(reduced, phi1, omega1, epsilon1, inertia=inertia, loads=list(loads),
+                                                 extra=extra, kin=kin))
+        return np.array([np.broadcast_to(arrays[name], phi1.shape) for name in names])
+
+    def terms(phi1):
+        phi1 = np.asarray(phi1, dtype=float)
+        out = [solve(phi1, loads=fixed),
+               solve(phi1, epsilon1=1.0, inertia=True),
+               solve(phi1, omega1=1.0, inertia=True),
+               solve(phi1, omega1=1.0, loads=viscous)]
+        for load, j in columns:
+            out.append(solve(phi1, extra=lambda kin, load=load, j=j: load.column_applied(kin, j)))
+        for port in reduced.ports:
+            out.append(solve(phi1, extra=lambda kin, port=port: port.applied(kin, 1.0)))
+        return np.stack(out, axis=1)                # (components, terms, angles)
+
+    n_terms = len(REACTION_TERMS) + len(columns) + len(reduced.ports)
+    # a term a component does not have (a damper's on a pin it does not load, a port's on a joint
+    # it bypasses) is zero up to the solve's round-off: exactly zero in the table, so that round-off
+    # is not tabulated to a relative tolerance
+    probe = terms(np.linspace(0.0, TWO_PI, 97)[:-1])
+    keep = np.max(np.abs(probe), axis=2) > 1e-12 * np.max(np.abs(probe), axis=(0, 2))[None, :]
+
+    def engine(phi1):
+        return (terms(phi1) * keep[:, :, None]).reshape(len(names) * n_terms, -1)
+
+    coefficients, error, construction = _cubics(engine, tolerance, 256, n_max, loosest)
+    return ReactionTable(coefficients, names, n_terms, error, construction)

@@ -126,6 +126,10 @@ class ExpressionLoad:
         """Which column acts (1) and which does not (0), by the chosen velocity's sign."""
         return list(self._selectors(kin, omega1))
 
+    def column_applied(self, kin: Kinematics, column: int) -> list[AppliedLoad]:
+        """Column ``column``'s expressions (0: rising, 1: falling) at value 1, where they act."""
+        return [AppliedLoad(self.link, self.point, *self._components(kin, (self.increasing, self.decreasing)[column]))]
+
     def switch_angles(self, mechanism: Mechanism) -> list[float]:
         """The chosen coordinate's extremes: where its velocity changes sign."""
         found = mechanism.stationary_angles(self._rate)

@@ -123,6 +123,25 @@ static double external_torque(double t, const CkTables* T, const double* P, cons
     return tau;
 }
 
+int ck_reaction_weights(const double* S, double t, double omega, double epsilon, const CkTables* T, const double* P,
+                        double* out)
+{
+    int n = 0;
+    out[n++] = 1.0;
+    out[n++] = epsilon;
+    out[n++] = omega * omega;
+    out[n++] = omega;
+    /* the mode at t: a step ends on every event, so before the step's end it is the step's mode */
+    int within = t < S[CK_T];
+    double direction = within ? S[CK_STEP_DIRECTION] : S[CK_DIRECTION];
+    int d = direction > 0.0 ? 0 : 1, k = (int)(within ? S[CK_STEP_INTERVAL] : S[CK_INTERVAL]);
+    for (int s = 0; s < T->n_sliders; s++)
+        out[n++] = direction != 0.0 ? T->forces[((size_t)k * 2 + d) * T->n_sliders + s] : 0.0;
+    double dt = t - P[CK_T_INPUT];
+    for (int i = 0; i < T->n_ports; i++) out[n++] = P[CK_PORT_INPUT + i] + P[CK_PORT_RATE + i] * dt;
+    return n;
+}
+
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
  * torque at time t */
 static void coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,

@@ -95,6 +95,13 @@ CK_API int ck_layout(int* out, int n);
  * phi into out[0:n_functions] */
 CK_API void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out);
 
+/* the values the joint reactions' tabulated terms multiply (dynamics/tabulated.py, ReactionTable),
+ * into out: 1, epsilon1, omega1^2, omega1, each switched load's value in the mode at t (the
+ * tables' forces of its interval and direction, 0 at rest; t within S's last step or at its end),
+ * each port's input at t; returns the count */
+CK_API int ck_reaction_weights(const double* S, double t, double omega, double epsilon, const CkTables* tables,
+                               const double* P, double* out);
+
 CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
 CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,
                       double* row);

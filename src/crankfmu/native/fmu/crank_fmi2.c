@@ -330,12 +330,37 @@ fmi2Status fmi2CancelStep(fmi2Component c) { return fail((Instance*)c, "%s", "fm
 
 /* ------------------------------------------------------------------------------ variables */
 
-/* the outputs of the output row `row`: the contract's, the scenario's [[outputs]] (from their
+/* what one fmi2GetReal call evaluates once for all the variables it reads */
+typedef struct {
+    double quantities[3 * N_QUANTITY_COORDINATES + 1];
+    int have_quantities;
+    double reactions[N_REACTIONS * REACTION_TERMS + 1];
+    double weights[REACTION_TERMS + 1];
+    int have_reactions;
+} Reads;
+
+/* the outputs of the instance's output row: the contract's, the scenario's [[outputs]] (from their
  * tabulated transfer functions: value q, velocity q' omega1, acceleration q'' omega1^2 +
- * q' epsilon1, as mechanisms/quantities.py states them) and the states' derivatives */
-static double output_value(const Instance* in, const double* row, int vr, double* quantities, int* have_quantities)
+ * q' epsilon1, as mechanisms/quantities.py states them), the joint reactions (their tabulated
+ * terms at phi1 times the state's weights: Newton-Euler's linear combination) and the states'
+ * derivatives */
+static double output_value(const Instance* in, int vr, Reads* reads)
 {
+    const double* row = in->now.row;
     const Variable* v = &VARIABLES[vr];
+    if (v->kind == KIND_REACTION) {
+        if (!reads->have_reactions) {
+            ck_periodic_cubics(REACTION_COEFFICIENTS, N_REACTIONS * REACTION_TERMS, REACTION_INTERVALS,
+                               row[ROW_PHI1], reads->reactions);
+            ck_reaction_weights(in->now.S, in->now.time, row[ROW_OMEGA1], row[ROW_EPSILON1], &in->tables,
+                                in->now.P, reads->weights);
+            reads->have_reactions = 1;
+        }
+        const double* terms = reads->reactions + (size_t)(vr - VR_FIRST_REACTION) * REACTION_TERMS;
+        double value = 0.0;
+        for (int j = 0; j < REACTION_TERMS; j++) value += reads->weights[j] * terms[j];
+        return value;
+    }
     if (v->kind == KIND_DERIVATIVE) {
         double omega = row[ROW_OMEGA1];
         switch (vr - VR_FIRST_DERIVATIVE) {
@@ -348,9 +373,10 @@ static double output_value(const Instance* in, const double* row, int vr, double
     }
     if (v->kind == KIND_QUANTITY) {
         double phi = row[ROW_PHI1], omega = row[ROW_OMEGA1];
-        if (!*have_quantities) {             /* all functions at once: one interval search per call */
+        double* quantities = reads->quantities;
+        if (!reads->have_quantities) {       /* all functions at once: one interval search per call */
             ck_periodic_cubics(QUANTITY_COEFFICIENTS, QUANTITY_FUNCTIONS, QUANTITY_INTERVALS, phi, quantities);
-            *have_quantities = 1;
+            reads->have_quantities = 1;
         }
         int k = vr - VR_FIRST_QUANTITY, c = QUANTITY_COORDINATE[k];
         double q = quantities[3 * c] + QUANTITY_WINDING[c] * phi, dq = quantities[3 * c + 1];
@@ -363,7 +389,10 @@ static double output_value(const Instance* in, const double* row, int vr, double
     return row[OUTPUT_ROW[vr]];
 }
 
-static int is_computed(int kind) { return kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_DERIVATIVE; }
+static int is_computed(int kind)
+{
+    return kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_DERIVATIVE || kind == KIND_REACTION;
+}
 
 /* an input's place among the inputs: tau_ext 0, port i 1 + i */
 static int input_index(int vr) { return vr == VR_TAU_EXT ? 0 : 1 + (vr - VR_FIRST_PORT); }
@@ -373,9 +402,9 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     Instance* in = (Instance*)c;
     if (!in) return fmi2Error;
     if (nvr > 0 && (!vr || !value)) return fail(in, "%s", "fmi2GetReal: null arrays");
-    double quantities[3 * N_QUANTITY_COORDINATES + 1];
-    int have_quantities = 0;
-    const double* row = in->now.row;
+    Reads reads;
+    reads.have_quantities = reads.have_reactions = 0;
+    const Instance* source = in;
     Instance preview;
     for (size_t i = 0; i < nvr; i++) {
         if (vr[i] >= N_VARIABLES) {
@@ -392,14 +421,14 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
             value[i] = VARIABLES[k].start;
             continue;
         }
-        if (in->now.phase == INITIALIZATION && row == in->now.row) {
+        if (in->now.phase == INITIALIZATION && source == in) {
             /* what the start values give, computed on a copy: they may still change */
             preview = *in;
             me_start(&preview);
             me_evaluate(&preview);
-            row = preview.now.row;
+            source = &preview;
         }
-        value[i] = output_value(in, row, k, quantities, &have_quantities);
+        value[i] = output_value(source, k, &reads);
     }
     return fmi2OK;
 }

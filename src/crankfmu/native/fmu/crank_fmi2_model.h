@@ -8,7 +8,7 @@
 #include "crank_kernel.h"
 #include "model_config.h"
 
-enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED, KIND_QUANTITY, KIND_DERIVATIVE };
+enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED, KIND_QUANTITY, KIND_DERIVATIVE, KIND_REACTION };
 
 typedef struct {
     const char* name;
@@ -24,7 +24,7 @@ typedef struct {
  * (N_OUTPUTS, model_config.h), then the input tau_ext, the tunables (native_build.TUNABLE's order),
  * the fixed parameters (N_FIXED), the scenario's [[outputs]] and its ports' outputs
  * (N_QUANTITIES), the derivatives of the Model Exchange states (phi1, omega1, W_motor, W_load,
- * W_ext: the kernel's y), and the ports' inputs (N_PORTS) */
+ * W_ext: the kernel's y), the ports' inputs (N_PORTS) and the joint reactions (N_REACTIONS) */
 enum {
     VR_TAU_EXT = N_OUTPUTS,
     VR_A, VR_B, VR_A_LOW, VR_B_LOW, VR_OMEGA_SWITCH, VR_J_FLYWHEEL, VR_PHI1_START, VR_OMEGA1_START, VR_RTOL,
@@ -34,7 +34,8 @@ enum {
 #define VR_FIRST_DERIVATIVE (VR_FIRST_QUANTITY + N_QUANTITIES)
 #define N_STATES CK_N_Y
 #define VR_FIRST_PORT (VR_FIRST_DERIVATIVE + N_STATES)
-#define N_VARIABLES (VR_FIRST_PORT + N_PORTS)
+#define VR_FIRST_REACTION (VR_FIRST_PORT + N_PORTS)
+#define N_VARIABLES (VR_FIRST_REACTION + N_REACTIONS)
 /* the inputs: tau_ext (0) and the ports' (1 + i) */
 #define N_INPUTS (1 + N_PORTS)
 
@@ -54,5 +55,9 @@ extern const int QUANTITY_COORDINATE[];
 extern const int QUANTITY_ORDER[];
 extern const double QUANTITY_WINDING[];
 extern const double QUANTITY_COEFFICIENTS[];
+
+/* the joint reactions: reaction k is sum_j REACTION_TERMS weights (ck_reaction_weights) times the
+ * periodic cubics k REACTION_TERMS + j of REACTION_COEFFICIENTS (dynamics/tabulated.py, ReactionTable) */
+extern const double REACTION_COEFFICIENTS[];
 
 #endif
