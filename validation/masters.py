@@ -45,6 +45,13 @@ class MasterRun:
         return self.values[name]
 
 
+def largest_difference(a: MasterRun, b: MasterRun, variable: str, step: float) -> float:
+    """max |a - b| of ``variable`` at the communication points both runs report (libcosim from the
+    first step on, ecos from t = 0)."""
+    _, ia, ib = np.intersect1d(np.round(a.time / step), np.round(b.time / step), return_indices=True)
+    return float(np.max(np.abs(a[variable][ia] - b[variable][ib])))
+
+
 def version(master: str) -> str:
     from importlib.metadata import PackageNotFoundError, version as package_version
 

@@ -332,6 +332,11 @@ def stroke_halves(stroke: Stroke) -> np.ndarray:
     return np.gradient(stroke["s"]) < 0
 
 
+def _peak_gap(net: np.ndarray, up: np.ndarray) -> float:
+    """The upstroke's peak of ``net`` less the downstroke's."""
+    return float(net[up].max() - net[~up].max())
+
+
 def torque_peaks(cw: CoupledWell, stroke: Stroke) -> tuple[float, float]:
     """The peak net gearbox torque (N.m) on the upstroke and on the downstroke."""
     net, up = gearbox_torque(cw, stroke), stroke_halves(stroke)
@@ -361,29 +366,24 @@ def balanced_counterweight(well: WellFile, scenario, design: StringDesign, toler
     from .progress import ProgressBar
 
     m = counterweight_mass(scenario, rp11l_counterbalance(design))
+    # the counterweights' gravity torque is linear in m_cw: its part per kg from two models, built once
+    reduced = [scenario.with_params(m_cw=mass).build().reduced for mass in (0.0, 1.0)]
     bar = ProgressBar(max_runs, f"well {well.name}: balancing the counterweights") if progress else None
     for run in range(max_runs):
-        trial = scenario.with_params(m_cw=m)
-        cw, strokes = run_to_steady(well, trial, design)
+        cw, strokes = run_to_steady(well, scenario.with_params(m_cw=m), design)
         stroke = strokes[-1]
         net, up = gearbox_torque(cw, stroke), stroke_halves(stroke)
         if bar:
             bar(run + 1)
-        gap = net[up].max() - net[~up].max()
+        gap = _peak_gap(net, up)
         if abs(gap) < tolerance * np.abs(net).max():
             break
         # the counterweights' torque per kg at the stroke's crank angles (their weights' torque is
         # Q; the net torque carries -Q)
         phi = np.mod(stroke["phi1"], 2 * math.pi)
-        q = [trial.with_params(m_cw=m + dm).build().reduced.coefficients(phi)[2] for dm in (0.0, 1.0)]
-        per_kg = -(q[1] - q[0])
-
-        def peaks_gap(dm):
-            shifted = net + dm * per_kg
-            return shifted[up].max() - shifted[~up].max()
-
+        per_kg = -(reduced[1].coefficients(phi)[2] - reduced[0].coefficients(phi)[2])
         try:
-            m += brentq(peaks_gap, -m, m)
+            m += brentq(lambda dm: _peak_gap(net + dm * per_kg, up), -m, m)
         except ValueError:
             raise DefinitionError(f"{well.where}: no counterweight between 0 and {2 * m:g} kg balances the unit's "
                                   "peak torques; give [unit] counterbalance as a number (N)") from None

@@ -105,6 +105,13 @@ class SlaveCore:
         for p in declared.parameters:
             self.parameter(p)
 
+    def declare_array_outputs(self, declared: "Declared"):
+        """``declare`` for a component FMU (a drive, a cushion, a rod string): its outputs are read
+        from ``self.out``, an array in the declared outputs' order that the model fills once per
+        step."""
+        self.out = np.zeros(len(declared.outputs))
+        self.declare(declared, {v.name: (lambda k=k: float(self.out[k])) for k, v in enumerate(declared.outputs)})
+
     def output(self, name, unit, description, getter):
         from pythonfmu.enums import Fmi2Causality, Fmi2Variability
         from pythonfmu.variables import Real

@@ -22,9 +22,7 @@ class CushionCore(SlaveCore):
     def __init__(self, slave, cushion_name: str):
         self.file = load_cushion(cushion_name)
         super().__init__(slave, self.file.experiment.start_time)
-        self.out = np.zeros(len(CUSHION_OUTPUTS))
-        self.declare(declared(self.file), {v.name: (lambda k=k: float(self.out[k]))
-                                           for k, v in enumerate(CUSHION_OUTPUTS)})
+        self.declare_array_outputs(declared(self.file))
         self.attach()
 
     def _update_outputs(self):

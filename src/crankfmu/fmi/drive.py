@@ -29,16 +29,14 @@ def declared(drive_file) -> Declared:
 class DriveCore(SlaveCore):
     """Drive.fmu: the speed is an input; the state is (i, x)."""
 
-    output_variables = OUTPUTS
     state_size = 2                           # i A, x rad
 
     def __init__(self, slave, drive_name: str):
         self.file = load_drive(drive_name)
         super().__init__(slave, self.file.experiment.start_time)
         self.state = np.zeros(self.state_size)
-        self.out = np.zeros(len(self.output_variables))   # the outputs at the current time, filled once per step
         self.drive = None
-        self.declare(self.declared(), {v.name: (lambda k=k: float(self.out[k])) for k, v in enumerate(self.output_variables)})
+        self.declare_array_outputs(self.declared())
         self.attach()
 
     def declared(self) -> Declared:
@@ -54,7 +52,7 @@ class DriveCore(SlaveCore):
         return self.drive.step(*self.state, self.values["omega"], self.values["omega_set"], h)
 
     def output_row(self, omega, tau, i, u):
-        """The outputs in output_variables' order."""
+        """The outputs in the declared outputs' order."""
         return tau, i, u, u * i
 
     def _update_outputs(self):
@@ -101,7 +99,6 @@ class DriveSpeedCore(DriveCore):
     """DriveSpeed.fmu: the drive with its rotor and flywheel, in speed causality; the state is
     (i, x, omega)."""
 
-    output_variables = DRIVE_SPEED_OUTPUTS
     state_size = 3
 
     def declared(self) -> Declared:

@@ -33,9 +33,7 @@ class RodStringCore(SlaveCore):
         self.file = load_well(well_name)
         super().__init__(slave, self.file.experiment.start_time)
         self.string: RodString | None = None
-        self.out = np.zeros(len(ROD_STRING_OUTPUTS))
-        self.declare(declared(self.file), {v.name: (lambda k=k: float(self.out[k]))
-                                           for k, v in enumerate(ROD_STRING_OUTPUTS)})
+        self.declare_array_outputs(declared(self.file))
         self.attach()
 
     def _update_outputs(self):
