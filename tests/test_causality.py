@@ -9,6 +9,7 @@ from __future__ import annotations
 import copy
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,25 +20,34 @@ from crankfmu.errors import DefinitionError
 from crankfmu.scenario import Scenario, load_scenario
 
 
-@pytest.fixture(scope="module")
-def speed_fmu(tmp_path_factory):
-    out = tmp_path_factory.mktemp("speed")
-    assert main(["fmu", "seed001", "--causality", "speed", "--out", str(out)]) == 0
+@pytest.fixture(scope="module", params=["python"])
+def speed_fmu(request, tmp_path_factory):
+    """Seed 001's speed-causal FMU: the kernel's speed step (ck_speed_advance) behind pythonfmu."""
+    out = tmp_path_factory.mktemp(f"speed_{request.param}")
+    native = ["--native"] if request.param == "native" else []
+    assert main(["fmu", "seed001", "--causality", "speed", *native, "--out", str(out)]) == 0
     return out / "ThreeLoopSpeed.fmu"
 
 
 class Host:
-    """fmpy's low-level API on one instance of the speed-causal FMU, logging off."""
+    """fmpy's low-level API on one Co-Simulation instance of a speed-causal FMU, logging off, every
+    message kept (test_native_speed.py uses it too)."""
 
     def __init__(self, path, tmp_path, start_values=None):
         from fmpy import extract, read_model_description
         from fmpy.fmi2 import FMU2Slave
 
+        from fuzz_host import callbacks
+
         md = read_model_description(str(path))
+        self.md = md
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+        self.messages = []
+        self._keep = callbacks(lambda env, name, status, category, message: self.messages.append(message.decode()))
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path), str(tmp_path / "x")),
                              modelIdentifier=md.coSimulation.modelIdentifier)
-        self.fmu.instantiate(loggingOn=False)
+        self.fmu.instantiate(loggingOn=False, callbacks=self._keep[0])
         self.fmu.setupExperiment(startTime=0.0)
         self.fmu.enterInitializationMode()
         for name, value in (start_values or {}).items():
@@ -45,9 +55,12 @@ class Host:
         self.fmu.exitInitializationMode()
         self.t = 0.0
 
-    def step_to(self, t, omega=None):
+    def step_to(self, t, omega=None, **inputs):
+        """One step to t, the inputs (omega1 and any other by name) set first."""
         if omega is not None:
-            self.fmu.setReal([self.vr["omega1"]], [omega])
+            inputs["omega1"] = omega
+        if inputs:
+            self.fmu.setReal([self.vr[n] for n in inputs], list(inputs.values()))
         self.fmu.doStep(currentCommunicationPoint=self.t, communicationStepSize=t - self.t)
         self.t = t
 
@@ -116,6 +129,58 @@ def test_the_energy_balance_closes_in_speed_causality(speed_fmu, tmp_path):
     W_drive, W_load, W_ext, E1 = host.get("W_drive", "W_load", "W_ext", "E_kin")
     host.close()
     assert abs(W_drive + W_load + W_ext - (E1 - E0)) <= 1e-8 * (abs(W_drive) + abs(W_load))
+
+
+def test_the_kernels_works_are_the_integrals_of_the_powers():
+    """The kernel's speed step (ck_speed_advance) on seed 001 (slider forces: Q jumps at their
+    switch angles) over 0.25 s from 2.5 rad with omega1 = 14 - 100 t given with its derivative:
+    the crank turns forward, stops at 0.14 s and turns back, crossing switch angles both ways. Its works against
+    scipy's quad of the powers (tau_drive, Q and 0 times omega1, evaluated in numpy from the same
+    table) split at the reversal and at every switch crossing (found here by brentq): 1e-10 of
+    the largest work; and phi1 is the line's integral."""
+    from scipy.integrate import quad
+    from scipy.optimize import brentq
+
+    from crankfmu.dynamics import modes
+    from crankfmu.dynamics.tabulated import table_of
+    from crankfmu.integrators.fast import TABLE_TOLERANCE, SpeedStepper
+
+    model = load_scenario("seed001").build()
+    table = table_of(model.reduced, TABLE_TOLERANCE)
+    J_flywheel = model.reduced.J_flywheel
+    phi0, w0, rate, h = 2.5, 14.0, -100.0, 0.25
+    stepper = SpeedStepper(table, J_flywheel)
+    stepper.start(0.0, phi0, w0)
+    row = stepper.advance(h, w0, rate).copy()
+    phi = lambda s: phi0 + w0 * s + 0.5 * rate * s * s          # noqa: E731
+    omega = lambda s: w0 + rate * s                               # noqa: E731
+
+    def powers(s):
+        p, w = np.array([phi(s)]), np.array([omega(s)])
+        J, half_dJ, Q = table.coefficients_at(p, w, J_flywheel)
+        return float(modes.drive_torque(J, half_dJ, Q, 0.0, w, rate)[0] * w[0]), float(Q[0] * w[0])
+
+    s_turn = -w0 / rate
+    cuts = [0.0, s_turn, h]
+    for sa, sb in ((0.0, s_turn), (s_turn, h)):
+        lo, hi = sorted((phi(sa), phi(sb)))
+        for angle in table.switch_angles:
+            for n in range(int(np.floor((lo - angle) / (2 * np.pi))), int(np.ceil((hi - angle) / (2 * np.pi))) + 1):
+                theta = angle + 2 * np.pi * n
+                if lo < theta < hi:
+                    cuts.append(brentq(lambda s: phi(s) - theta, sa, sb, xtol=1e-15, rtol=1e-15))
+    cuts = sorted(cuts)
+    assert len(cuts) > 4                                # switches crossed on both sides of the reversal
+    expected = np.zeros(2)
+    for a, b in zip(cuts, cuts[1:]):
+        for j in range(2):
+            expected[j] += quad(lambda s: powers(s)[j], a, b, epsabs=1e-13, epsrel=1e-13, limit=200)[0]
+    W_drive, W_load, W_ext = row[2], row[3], row[4]
+    scale = np.max(np.abs(expected))
+    assert abs(W_drive - expected[0]) <= 1e-10 * scale and abs(W_load - expected[1]) <= 1e-10 * scale, \
+        (W_drive - expected[0], W_load - expected[1], scale)
+    assert W_ext == 0.0
+    assert row[0] == pytest.approx(phi(h), rel=1e-15) and row[1] == pytest.approx(omega(h), rel=1e-15)
 
 
 def test_fmpy_finds_no_problem_and_the_variables_are_the_speed_causal_ones(speed_fmu):

@@ -93,6 +93,12 @@ def direction_of_speed(omega):
     return -1.0 if omega < 0.0 else 1.0
 
 
+def direction_imposed(omega):
+    """The slider forces' side where the drive imposes omega1 (speed causality): omega1's sign, and
+    none at rest (the crank held still by the drive feels no Coulomb force). Arrays too."""
+    return np.where(omega > 0.0, 1.0, np.where(omega < 0.0, -1.0, 0.0))
+
+
 def motor_on_switch(m_low, m_high, rest):
     """Branch to continue in from omega1 = omega_switch, by Filippov's rule.
 

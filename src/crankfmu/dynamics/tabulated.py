@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import DefinitionError, SchemeError
 from ..numerics import periodic_cubic_spline, periodic_hermite, periodic_series, series_on_grid
+from . import modes
 from .reduced import ReducedModel
 
 TWO_PI = 2.0 * math.pi
@@ -97,8 +98,9 @@ class ReducedTable:
         Q = values[Q_POSITION] + values[Q_VISCOUS] * omega1
         if self.forces.shape[2]:
             k = self.interval_of(phi1)
+            direction = modes.direction_imposed(omega1)
             for s in range(self.forces.shape[2]):
-                force = np.where(omega1 > 0, self.forces[k, 0, s], np.where(omega1 < 0, self.forces[k, 1, s], 0.0))
+                force = np.where(direction > 0, self.forces[k, 0, s], np.where(direction < 0, self.forces[k, 1, s], 0.0))
                 Q = Q + force * values[FIRST_SLIDER + s]
         return J, values[HALF_DJ], Q
 

@@ -38,8 +38,6 @@ from ..parameters import Parameter
 from ..scenario import load_scenario
 from .core import Declared, SlaveCore
 
-#: where each output sits in the kernel's output row (E_kin is computed from J_red and omega1)
-ROW = {name: i for i, name in enumerate(ROW_FIELDS)}
 (TAU_EXT,) = INPUTS
 
 #: built designs of this process, most recent last: an instance that is reset, or freed and
@@ -159,13 +157,54 @@ def lazy_outputs(core, motion):
     return caches, getters
 
 
-class FmuCore(SlaveCore):
+class RowOutputs:
+    """What the mechanism cores in either causality share: the outputs are the kernel's output row
+    (``row``, filled in place by ``stepper``, laid out as ``fields``), the state is the stepper's
+    array, and the quantities and reactions are cached until the next step (``lazy``)."""
+
+    fields: tuple = ROW_FIELDS
+
+    def _getter(self, name: str):
+        row, index = self.row, self.fields.index
+        if name == "E_kin":
+            J, omega = index("J_red"), index("omega1")
+            kinetic_energy = modes.kinetic_energy
+            return lambda: kinetic_energy(float(row[J]), float(row[omega]))
+        i = index(name)
+        return lambda: float(row[i])
+
+    def _motion(self):
+        """(phi1, omega1, epsilon1) now."""
+        row = self.row
+        return row[0], row[1], row[self.fields.index("epsilon1")]
+
+    def _clear(self):
+        for lazy in self.lazy:
+            lazy.clear()
+
+    def model_state(self):
+        if self.stepper is None:
+            return None
+        return {"row": self.row.tolist(), "stepper": self.stepper.state.tolist(),
+                "stepper_parameters": self.stepper.P.tolist()}
+
+    def can_restore(self) -> bool:
+        return self.stepper is not None
+
+    def restore_model_state(self, state):
+        self.row[:] = state["row"]
+        self._clear()
+        self.stepper.state[:] = state["stepper"]
+        self.stepper.P[:] = state["stepper_parameters"]
+
+
+class FmuCore(RowOutputs, SlaveCore):
     """Variables and model of a crankfmu FMU for one scenario."""
 
     def __init__(self, slave, scenario_name: str):
         self.scenario = fmu_scenario(scenario_name)
         super().__init__(slave, self.scenario.experiment.start_time)
-        self.row = np.zeros(len(ROW))       # the kernel's output row at the current time
+        self.row = np.zeros(len(ROW_FIELDS))       # the kernel's output row at the current time
         self.model = None
         self.stepper: FastStepper | None = None
         self.quantities = output_quantities(self.scenario)
@@ -175,15 +214,6 @@ class FmuCore(SlaveCore):
         getters.update({out.name: self._getter(out.name) for out in OUTPUTS})
         self.declare(declared(self.scenario), getters)
         self.attach()
-
-    def _getter(self, name: str):
-        row = self.row
-        if name == "E_kin":
-            J, omega = ROW["J_red"], ROW["omega1"]
-            kinetic_energy = modes.kinetic_energy
-            return lambda: kinetic_energy(float(row[J]), float(row[omega]))
-        i = ROW[name]
-        return lambda: float(row[i])
 
     def _motor(self) -> MotorLine:
         return MotorLine(*(self.values[n] for n in MOTOR))
@@ -218,29 +248,4 @@ class FmuCore(SlaveCore):
         return self.row
 
     def outputs_text(self) -> str:
-        return ", ".join(f"{name} = {self.row[i]:g}" for name, i in ROW.items())
-
-    def _motion(self):
-        """(phi1, omega1, epsilon1) now."""
-        row = self.row
-        return row[ROW["phi1"]], row[ROW["omega1"]], row[ROW["epsilon1"]]
-
-    def _clear(self):
-        for lazy in self.lazy:
-            lazy.clear()
-
-    # ------------------------------------------------------------------ FMU state
-    def model_state(self):
-        if self.stepper is None:
-            return None
-        return {"row": self.row.tolist(), "stepper": self.stepper.state.tolist(),
-                "stepper_parameters": self.stepper.P.tolist()}
-
-    def can_restore(self) -> bool:
-        return self.stepper is not None
-
-    def restore_model_state(self, state):
-        self.row[:] = state["row"]
-        self._clear()
-        self.stepper.state[:] = state["stepper"]
-        self.stepper.P[:] = state["stepper_parameters"]
+        return ", ".join(f"{name} = {value:g}" for name, value in zip(self.fields, self.row))

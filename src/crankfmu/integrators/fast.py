@@ -178,3 +178,39 @@ class FastStepper:
         if status != 0:
             refused(status, self.state)
         return self.row
+
+
+class SpeedStepper:
+    """The kernel in speed causality (crank_kernel.h, ck_speed_*) one communication step at a time:
+    the drive imposes omega1, the kernel answers with tau_drive and integrates phi1 and the works.
+    The output row is FastStepper's layout with the drive in the motor's place (W_motor is W_drive,
+    M_motor is tau_drive); ``state`` is all that determines the continuation."""
+
+    def __init__(self, table, J_flywheel: float, row=None):
+        self.table = table
+        self.P = np.zeros(kernel.PARAM_SIZE)        # no motor line, no tau_ext: the drive is outside
+        self.P[kernel.J_FLYWHEEL] = J_flywheel
+        self.tables = kernel.Tables(*table.arrays())
+        self.state = np.zeros(kernel.STATE_SIZE)
+        self.row = np.zeros(kernel.OUT_SIZE) if row is None else row
+        self.bound = kernel.Bound(self.state, self.tables, self.P, self.row)
+
+    def set_port_inputs(self, values, rates=None, t_input: float = 0.0):
+        """The ports' inputs, held from t_input or linear in time with ``rates`` (per s)."""
+        n = len(values)
+        self.P[kernel.PORT_INPUT:kernel.PORT_INPUT + n] = values
+        self.P[kernel.PORT_RATE:kernel.PORT_RATE + n] = 0.0 if rates is None else rates
+        self.P[kernel.T_INPUT] = t_input
+
+    def start(self, t: float, phi1: float, omega1: float) -> np.ndarray:
+        self.bound.speed_begin(float(t), float(phi1), float(omega1))
+        return self.row
+
+    def advance(self, t_target: float, omega1: float, rate: float | None = None) -> np.ndarray:
+        """One step to t_target with the input omega1 at its start (rad/s) and its derivative
+        ``rate`` (rad/s2) where the host gave one; the output row at t_target."""
+        if self.bound.speed_advance(float(t_target), float(omega1), rate) != 0:
+            raise SchemeError(f"speed causality: the step from t = {self.state[kernel.T]:.9g} s to {t_target:.9g} s "
+                              f"with omega1 = {omega1:g} rad/s is refused (not forward, not finite, or over 1e9 "
+                              "degrees of crank angle)")
+        return self.row

@@ -81,6 +81,9 @@ def _load() -> ctypes.CDLL:
         "ck_begin": (None, [D, ctypes.c_double, D, T, D, D]),
         "ck_advance": (ctypes.c_int, [D, ctypes.c_double, ctypes.c_double, T, D, D]),
         "ck_dense": (None, [D, ctypes.c_double, D]),
+        "ck_speed_begin": (None, [D, ctypes.c_double, ctypes.c_double, ctypes.c_double, T, D, D]),
+        "ck_speed_advance": (ctypes.c_int, [D, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_int, T,
+                                            D, D]),
         "ck_run_chunk": (ctypes.c_int, [D, ctypes.c_double, D, ctypes.c_int, I, D, D, ctypes.c_int, I, D,
                                         ctypes.c_int, I, D, ctypes.c_int, I, T, D]),
         "ck_dense_many": (None, [D, ctypes.c_int, D, ctypes.c_int, D]),
@@ -137,6 +140,8 @@ assert PARAM_SIZE == 12 + 2 * MAX_PORTS
 # on the crank (tau_ext and the ports', N.m: W_ext's rate over omega1)
 ROW_FIELDS = ("phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor", "M_load", "J_red", "tau_e")
 assert OUT_SIZE == len(ROW_FIELDS)
+#: the output row in speed causality (ck_speed_*): the same layout, the drive in the motor's place
+SPEED_ROW_FIELDS = tuple({"W_motor": "W_drive", "M_motor": "tau_drive"}.get(n, n) for n in ROW_FIELDS)
 #: what the stepping functions return besides an event slot
 NO_EVENT, UNDERFLOW, BAD_STATE = -1, -2, -3
 
@@ -209,6 +214,13 @@ class Bound:
 
     def advance(self, t_target: float, t_limit: float) -> int:
         return self._advance(self.S, t_target, t_limit, self.tables, self.P, self.row)
+
+    def speed_begin(self, t: float, phi1: float, omega1: float):
+        LIBRARY.ck_speed_begin(self.S, t, phi1, omega1, self.tables, self.P, self.row)
+
+    def speed_advance(self, t_target: float, omega1: float, rate: float | None) -> int:
+        return LIBRARY.ck_speed_advance(self.S, t_target, omega1, 0.0 if rate is None else rate, rate is not None,
+                                        self.tables, self.P, self.row)
 
 
 def dense(S, t, out):

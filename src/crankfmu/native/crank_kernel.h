@@ -114,6 +114,24 @@ CK_API void ck_dense_many(const double* store, int n_store, const double* times,
 CK_API void ck_steady_batch(const double* params, int n_designs, double phi_start, const double* omega_guess,
                             double rtol_shoot, int max_turns, const CkTables* tables, double* out);
 
+/* ---- speed causality: the drive imposes omega1 (an input), the kernel answers with the torque it
+ * takes, tau_drive = J epsilon1 + 0.5 J' omega1^2 - Q - tau_e, and integrates phi1 and the works.
+ * The same state array, other slots in use: S[CK_T] the time, S[CK_Y..] (phi1, omega1, W_drive,
+ * W_load, W_ext), S[CK_F + 1] omega1's slope over the last step (epsilon1), S[CK_T_PREV] and
+ * S[CK_Y_PREV + 1] the last step's start and the input omega1 there, S[CK_DIRECTION],
+ * S[CK_INTERVAL] the slider forces' side and switch interval now (what ck_reaction_weights reads).
+ * The output row has the torque-causal layout with the drive in the motor's place: W_motor is
+ * W_drive and M_motor is tau_drive. P holds the flywheel and the ports' inputs (its motor line
+ * and tau_ext are not read: tau_ext must be 0). */
+/* the start at (t, phi1, omega1), at rest in acceleration */
+CK_API void ck_speed_begin(double* S, double t, double phi, double omega, const CkTables* tables, const double* P,
+                           double* row);
+/* one communication step to t_target with the input omega1 at its start; rate_given: the input's
+ * derivative is rate (1/s2), else omega1's slope is the input's change over the last step. 0, or
+ * CK_BAD_STATE (a step not forward, non-finite values, or more than 1e9 degrees in one step) */
+CK_API int ck_speed_advance(double* S, double t_target, double omega, double rate, int rate_given,
+                            const CkTables* tables, const double* P, double* row);
+
 /* ---- Model Exchange (the native FMU): the host integrates y = (phi1, omega1, W_motor, W_load,
  * W_ext); S holds the mode (CK_MOTOR .. CK_PHI_HI) */
 /* the mode of a start or restart at y */

@@ -56,6 +56,10 @@ static inline double ck_motor_of_speed(double omega, double omega_switch)
 /* the slider forces' side for a moving crank (forward at rest until ck_direction_at_rest) */
 static inline double ck_direction_of_speed(double omega) { return omega < 0.0 ? -1.0 : 1.0; }
 
+/* the slider forces' side where the drive imposes omega1 (speed causality): omega1's sign, none at
+ * rest (the crank held still by the drive feels no Coulomb force) */
+static inline double ck_direction_imposed(double omega) { return omega > 0.0 ? 1.0 : (omega < 0.0 ? -1.0 : 0.0); }
+
 /* Filippov's rule on omega1 = omega_switch: m_low, m_high the lines' torques there, rest the
  * acceleration term without the motor. A line that jumps down traps the speed: SLIDE. */
 static inline double ck_motor_on_switch(double m_low, double m_high, double rest)
