@@ -46,6 +46,7 @@ fmu: $(STAMP)
 	$(BIN)/crankfmu fmu rp11l_guo --well --out build/fmus
 	@# native FMUs (C, linux64 and win64, no Python on the host)
 	for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
+	$(BIN)/crankfmu fmu seed000 --native --causality speed --out build/fmus/native
 
 demo: fmu
 	$(BIN)/crankfmu simulate seed000 --out $(OUT)

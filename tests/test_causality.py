@@ -20,9 +20,10 @@ from crankfmu.errors import DefinitionError
 from crankfmu.scenario import Scenario, load_scenario
 
 
-@pytest.fixture(scope="module", params=["python"])
+@pytest.fixture(scope="module", params=["python", "native"])
 def speed_fmu(request, tmp_path_factory):
-    """Seed 001's speed-causal FMU: the kernel's speed step (ck_speed_advance) behind pythonfmu."""
+    """Seed 001's speed-causal FMU, the pythonfmu one and the native one: one kernel step
+    (ck_speed_advance) behind either, so each check below holds for both."""
     out = tmp_path_factory.mktemp(f"speed_{request.param}")
     native = ["--native"] if request.param == "native" else []
     assert main(["fmu", "seed001", "--causality", "speed", *native, "--out", str(out)]) == 0
@@ -200,9 +201,14 @@ def test_a_bad_causality_is_refused(tmp_path, capsys):
     data["crank"] = {"causality": "position"}
     with pytest.raises(DefinitionError, match=r"causality must be one of torque, speed, got 'position'"):
         Scenario(data, base.where, base.path).causality
-    assert main(["fmu", "seed000", "--native", "--causality", "speed", "--out", str(tmp_path / "n")]) != 0
-    assert re.search(r"--native --causality speed", capsys.readouterr().err)
-    assert not (tmp_path / "n").exists()
+    # a user's file with that causality: both builds refuse it in one line, and write nothing
+    text = (Path(crankfmu.__file__).parent / "scenarios" / "seed000.toml").read_text()
+    bad = tmp_path / "position.toml"
+    bad.write_text(text.replace("[parameters]", '[crank]\ncausality = "position"\n\n[parameters]', 1))
+    for native in ([], ["--native"]):
+        assert main(["fmu", str(bad), *native, "--out", str(tmp_path / "n")]) != 0
+        assert re.search(r"causality must be one of torque, speed, got 'position'", capsys.readouterr().err), native
+        assert not (tmp_path / "n").exists()
 
 
 # ------------------------------------------------------------------ the drive's speed-causal variant

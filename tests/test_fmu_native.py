@@ -220,21 +220,18 @@ np.save(sys.argv[2], np.stack([result[n] for n in ("time",) + tuple(sys.argv[3:]
 """
 
 
-def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(native, tmp_path):
-    """fmpy remotes an FMU that has no binary for the host's platform: a copy without
+def run_win64_under_wine(fmu: Path, tmp_path: Path, fields) -> np.ndarray:
+    """fmpy remotes an FMU that has no binary for the host's platform: a copy of ``fmu`` without
     binaries/linux64 runs its win64 DLL in fmpy's server_tcp.exe under Debian's wine64 (which
-    `make` puts on PATH), in a fresh process with a fresh HOME and wine prefix. It matches the
-    linux64 binary to 1e-12 of each output's largest value (the two C libraries' pow and the like
-    differ in the last bits, so not bit for bit)."""
-    import fmpy
-
+    `make` puts on PATH), in a fresh process with a fresh HOME and wine prefix, over its default
+    experiment at 1 ms. Returns the rows time, *fields."""
     wine = shutil.which("wine64") or shutil.which("wine64", path="/usr/lib/wine")
     if wine is None:
         if os.environ.get("CI"):
             pytest.fail("wine64 is missing: `make` installs Debian's wine64")
         pytest.skip("wine64 is not installed (make installs it)")
-    windows_only = tmp_path / "FourBar.fmu"
-    with zipfile.ZipFile(native) as source, zipfile.ZipFile(windows_only, "w") as copy:
+    windows_only = tmp_path / fmu.name
+    with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(windows_only, "w") as copy:
         for item in source.infolist():
             if not item.filename.startswith("binaries/linux64/"):
                 copy.writestr(item, source.read(item))
@@ -248,8 +245,6 @@ def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(native, tmp_path):
     # outlast fmpy's wait for its server to answer
     subprocess.run([wine, "wineboot", "-i"], env=env, capture_output=True, timeout=300)
     subprocess.run([str(wineserver), "-w"], env=env, capture_output=True, timeout=300)
-    # the contract's outputs and two joint reactions (tabulated terms times the kernel's weights)
-    fields = (*FIELDS, "O_Fx", "A_Fy")
     command = [sys.executable, "-c", REMOTE_RUN, str(windows_only), str(tmp_path / "remote.npy"), *fields]
     if os.geteuid() == 0:
         # fmpy 0.3.32's client makes its lock file with mode 000 and holds an fcntl lock on it,
@@ -270,7 +265,18 @@ def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(native, tmp_path):
                 pass
             subprocess.run([str(wineserver), "-k"], env=env, capture_output=True, timeout=60)
     assert returncode == 0, (tmp_path / "remote.log").read_text()[-3000:]
-    remote = np.load(tmp_path / "remote.npy")
+    return np.load(tmp_path / "remote.npy")
+
+
+def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(native, tmp_path):
+    """The win64 DLL under wine (run_win64_under_wine) matches the linux64 binary to 1e-12 of each
+    output's largest value (the two C libraries' pow and the like differ in the last bits, so not
+    bit for bit)."""
+    import fmpy
+
+    # the contract's outputs and two joint reactions (tabulated terms times the kernel's weights)
+    fields = (*FIELDS, "O_Fx", "A_Fy")
+    remote = run_win64_under_wine(native, tmp_path, fields)
     local = fmpy.simulate_fmu(str(native), output_interval=1e-3)
     assert remote.shape[1] == local.size and remote[0][-1] == pytest.approx(2.0)
     for i, name in enumerate(fields, start=1):

@@ -299,10 +299,7 @@ def cmd_fmu(args) -> int:
             raise CrankfmuError("--native builds a scenario's FMU; Drive.fmu is a Python FMU")
         from .fmi.native_build import build_native
 
-        if args.causality == "speed":
-            raise CrankfmuError("--native --causality speed: the native FMU takes a torque at its crank for now; "
-                                "build the Python FMU in speed causality (without --native)")
-        path = build_native(args.source, Path(args.out), args.name)
+        path = build_native(args.source, Path(args.out), args.name, causality=args.causality)
         print(f"built {path}")
         return 0
     from .fmi.build import build

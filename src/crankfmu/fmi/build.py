@@ -156,6 +156,7 @@ class Source:
     load: str = ""                  # what the core loads: the packaged name, or "user/<file>.toml" in the FMU
     files: dict = field(default_factory=dict)   # a user's data files: path in the package -> text
     data: tuple = ()                # the packaged data files it reads: paths in the package
+    causality: str = "torque"       # at the crank (a scenario) or the shaft (a drive): "torque" or "speed"
 
 
 def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str | None = None) -> Source:
@@ -184,7 +185,7 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
         source = Source(kind, scenario.name, fmu, title, scenario.experiment, core,
                         {v.name: v.initial for v in outputs}, groups, lambda: reference(scenario),
                         lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params, ref),
-                        lambda: core_module.declared(scenario), load=scenario.name)
+                        lambda: core_module.declared(scenario), load=scenario.name, causality=causality)
         if _is_path(name):
             source.load, source.files = _user_files(scenario, name)
         else:
@@ -206,7 +207,7 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
                           drive.title + " (speed causality: it carries the rotor and flywheel)", drive.experiment,
                           "fmi.drive:DriveSpeedCore", {}, {}, documentation=docs,
                           variables=lambda: drive_core.declared_speed(drive), load=drive.name,
-                          data=(f"drives/{drive.name}.toml",))
+                          data=(f"drives/{drive.name}.toml",), causality="speed")
         if causality not in (None, "torque"):
             raise CrankfmuError(f"--causality must be torque or speed, got {causality!r}")
         return Source(kind, drive.name, _fmu_name(fmu_name or drive.fmu, drive.where),
@@ -323,7 +324,7 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
     vendor = ET.Element("VendorAnnotations")
     tool = ET.SubElement(vendor, "Tool", name="crankfmu")
     annotation = ET.SubElement(tool, source.kind.capitalize(), name=source.name)
-    if source.core == "fmi.speed:SpeedCore":
+    if source.causality == "speed":
         annotation.set("causality", "speed")
     if source.files:      # a user's scenario: where the FMU carries it (the harness reads that copy)
         annotation.set("file", source.load)

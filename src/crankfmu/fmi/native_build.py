@@ -15,6 +15,11 @@ The geometry, masses, loads and gravity the tables were built from are declared 
 parameters with their values: a host that sets another value gets fmi2Error and a message with
 the rebuild command. A, B, A_low, B_low, omega_switch, J_flywheel and rtol are tunable, tau_ext
 is the input, phi1_start and omega1_start set the initial state.
+
+In speed causality (``--causality speed``, or the file's ``[crank] causality``) the same shell is
+compiled with CAUSALITY_SPEED: the input is omega1 (its derivative taken where the host gives
+one), the outputs are fmi.speed's (tau_drive, W_drive, ...), J_flywheel is tunable and
+phi1_start sets the initial state; Co-Simulation only.
 """
 
 from __future__ import annotations
@@ -31,16 +36,22 @@ from xml.etree import ElementTree as ET
 
 from .. import units as si
 from ..atomic import replacing
-from ..contract import INPUTS, OUTPUTS
+from ..contract import INPUTS, MOTOR_PARAMETERS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
 from ..errors import CrankfmuError
-from ..native import N_Y, ROW_FIELDS, layout
+from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
 from ..native.sources import CFLAGS, HERE as NATIVE, SOURCES as KERNEL_SOURCES
-from .build import LS_REF, LS_REF_MANIFEST, cross_check_options, preflight, reference_result, stage
+from .build import LS_REF, LS_REF_MANIFEST, cross_check_options, preflight, stage
 
 SHELL = NATIVE / "fmu"
 SHELL_SOURCES = ("crank_fmi2.c", "crank_fmi2_model.h")
 #: the parameters the tables do not depend on, in the shell's value-reference order
 TUNABLE = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel", "phi1_start", "omega1_start", "rtol")
+#: speed causality's tunables, in the shell's order (the motor line is outside, omega1 is the input)
+SPEED_TUNABLE = ("J_flywheel", "phi1_start")
+#: what a speed-causal FMU does not declare: the motor line, the start speed (the input is the
+#: speed) and rtol (its step has no error control to tune: the line's integral is exact and the
+#: works are Gauss-Legendre sums)
+SPEED_NOT_DECLARED = (*MOTOR_PARAMETERS, "omega1_start", "rtol")
 #: set before initialisation only: they are the initial state
 INITIAL = ("phi1_start", "omega1_start")
 WIN64_CC = "x86_64-w64-mingw32-gcc"
@@ -69,13 +80,14 @@ def _c_doubles(values) -> str:
 class NativeModel:
     """What a native FMU is generated from: the scenario, its tables and its variables."""
 
-    def __init__(self, source, scenario_name):
+    def __init__(self, source, scenario_name, causality: str = "torque"):
         from ..dynamics.tabulated import REACTION_TERMS, table_of, tabulate_quantities, tabulate_reactions
         from ..integrators.fast import TABLE_TOLERANCE
         from ..parameters import Parameter
         from ..scenario import load_scenario
 
         self.source = source
+        self.speed = causality == "speed"
         self.scenario = load_scenario(scenario_name)
         model = self.scenario.build()
         self.table = table_of(model.reduced, TABLE_TOLERANCE)
@@ -101,12 +113,16 @@ class NativeModel:
         missing = [n for n in TUNABLE if n not in params]
         if missing:
             raise CrankfmuError(f"{self.scenario.name}: missing parameter(s) {', '.join(missing)}")
-        self.outputs = list(OUTPUTS)
-        self.input = INPUTS[0]
-        self.tunable = [params[n] for n in TUNABLE]
-        self.fixed = [p for n, p in params.items() if n not in TUNABLE]
-        self.rebuild = f"crankfmu fmu {scenario_name} --native --out DIR (after changing the value in the scenario file)"
-        text = repr((self.source.fmu, [float(x) for x in self.table.coefficients.ravel()[:64]],
+        tunable = SPEED_TUNABLE if self.speed else TUNABLE
+        self.outputs = list(SPEED_OUTPUTS if self.speed else OUTPUTS)
+        self.input = SPEED_INPUTS[0] if self.speed else INPUTS[0]
+        # the speed's start is the scenario's start speed, as the Python FMU's
+        self.input_start = float(params["omega1_start"].value) if self.speed else 0.0
+        self.tunable = [params[n] for n in tunable]
+        self.fixed = [p for n, p in params.items() if n not in (*tunable, *(SPEED_NOT_DECLARED if self.speed else TUNABLE))]
+        self.rebuild = (f"crankfmu fmu {scenario_name} --native{' --causality speed' if self.speed else ''} --out DIR "
+                        "(after changing the value in the scenario file)")
+        text = repr((self.source.fmu, causality, [float(x) for x in self.table.coefficients.ravel()[:64]],
                      [(p.name, p.value) for p in (*self.tunable, *self.fixed)], [q.name for q in self.quantities],
                      [v.name for v in self.reactions]))
         digest = hashlib.sha256(text.encode()).hexdigest()
@@ -122,6 +138,7 @@ class NativeModel:
                 f"#define MODEL_IDENTIFIER {_c_string(self.source.fmu)}\n"
                 f"#define MODEL_GUID {_c_string(self.guid)}\n"
                 f"#define MODEL_GUID_PREFIX16 {_c_string(self.guid[1:17])}\n"
+                f"#define CAUSALITY_SPEED {int(self.speed)}\n"
                 f"#define N_OUTPUTS {len(self.outputs)}\n"
                 f"#define N_FIXED {len(self.fixed)}\n"
                 f"#define N_QUANTITIES {len(self.quantities)}\n"
@@ -151,7 +168,7 @@ class NativeModel:
                     f"{float(p.max or 0.0).hex()}, {_c_string(p.range_text())}, {_c_string(p.unit)}}},")
 
         rows = [variable(v.name, "KIND_OUTPUT", unit=v.unit) for v in self.outputs]
-        rows.append(variable(self.input.name, "KIND_INPUT", 0.0, unit=self.input.unit))
+        rows.append(variable(self.input.name, "KIND_INPUT", self.input_start, unit=self.input.unit))
         rows += [variable(p.name, "KIND_TUNABLE", p=p) for p in self.tunable]
         rows += [variable(p.name, "KIND_FIXED", p=p) for p in self.fixed]
         rows += [variable(q.name, "KIND_QUANTITY", unit=u) for q, u in zip(self.quantities, self.quantity_units)]
@@ -178,26 +195,32 @@ class NativeModel:
                 f"const double REACTION_COEFFICIENTS[] = {_c_doubles(R.coefficients.ravel() if R else [])};\n")
 
     def derivatives(self) -> list[tuple[str, str]]:
-        """(state, unit of its derivative) of the Model Exchange states: the kernel's y."""
+        """(state, unit of its derivative) of the Model Exchange states: the kernel's y (none in
+        speed causality: Co-Simulation only)."""
+        if self.speed:
+            return []
         per_second = {"rad": "rad/s", "rad/s": "rad/s2", "J": "W"}
         units = {v.name: v.unit for v in self.outputs}
         return [(name, per_second[units[name]]) for name in ROW_FIELDS[:N_STATES]]
 
     def output_rows(self) -> list[int]:
         """Each contract output's place in the kernel's output row; -1 for E_kin (from J_red, omega1)."""
-        return [ROW_FIELDS.index(v.name) if v.name in ROW_FIELDS else -1 for v in self.outputs]
+        fields = SPEED_ROW_FIELDS if self.speed else ROW_FIELDS
+        return [fields.index(v.name) if v.name in fields else -1 for v in self.outputs]
 
     # ------------------------------------------------------------------ modelDescription
     def model_description(self, sources: list[str]) -> bytes:
         exp = self.scenario.experiment
         root = ET.Element("fmiModelDescription", fmiVersion="2.0", modelName=self.source.fmu, guid=self.guid,
                           description=self.scenario.title, generationTool="crankfmu (native)",
-                          variableNamingConvention="structured", numberOfEventIndicators=str(N_EVENT_INDICATORS))
+                          variableNamingConvention="structured",
+                          numberOfEventIndicators=str(0 if self.speed else N_EVENT_INDICATORS))
         common = dict(modelIdentifier=self.source.fmu, canGetAndSetFMUstate="true", canSerializeFMUstate="true",
                       canNotUseMemoryManagementFunctions="false")
-        for kind, extra in (("ModelExchange", {"completedIntegratorStepNotNeeded": "true"}),
-                            ("CoSimulation", {"canHandleVariableCommunicationStepSize": "true",
-                                              "canInterpolateInputs": "true"})):
+        interfaces = (("ModelExchange", {"completedIntegratorStepNotNeeded": "true"}),
+                      ("CoSimulation", {"canHandleVariableCommunicationStepSize": "true",
+                                        "canInterpolateInputs": "true"}))
+        for kind, extra in interfaces[1:] if self.speed else interfaces:
             files = ET.SubElement(ET.SubElement(root, kind, **common, **extra), "SourceFiles")
             for name in sources:
                 if name.endswith(".c"):
@@ -231,7 +254,7 @@ class NativeModel:
         outputs = [scalar(v.name, v.unit, v.description, causality="output", variability="continuous",
                           initial="calculated") for v in self.outputs]
         inputs = [scalar(self.input.name, self.input.unit, self.input.description, causality="input",
-                         variability="continuous", start="0.0")]
+                         variability="continuous", start=repr(self.input_start))]
         for p in (*self.tunable, *self.fixed):
             fixed = p in self.fixed
             note = (f" (the tables were built for {p.value!r} {p.unit}; {self.rebuild})" if fixed
@@ -243,7 +266,7 @@ class NativeModel:
                 max=repr(float(p.value)) if fixed else (None if p.max is None else repr(float(p.max)))))
         outputs += [scalar(q.name, unit, q.description, causality="output", variability="continuous",
                            initial="calculated") for q, unit in zip(self.quantities, self.quantity_units)]
-        index_of = {v.name: i + 1 for i, v in enumerate(self.outputs)}
+        index_of = {v.name: i + 1 for i, v in enumerate(self.outputs)}       # (torque causality's)
         derivative_indices = [scalar(f"der({name})", unit, f"time derivative of {name} (Model Exchange)",
                                      causality="local", variability="continuous", initial="calculated",
                                      derivative=str(index_of[name])) for name, unit in derivatives]
@@ -253,6 +276,8 @@ class NativeModel:
                            initial="calculated") for v in self.reactions]
         structure = ET.SubElement(root, "ModelStructure")
         for tag, indices in (("Outputs", outputs), ("Derivatives", derivative_indices)):
+            if not indices:
+                continue           # (speed causality: no states; an empty element is not allowed)
             element = ET.SubElement(structure, tag)
             for i in indices:
                 ET.SubElement(element, "Unknown", index=str(i))
@@ -293,15 +318,15 @@ def compile_binary(compiler: str, folder: Path, out: Path, windows: bool):
         raise CrankfmuError(f"compiling the native FMU with {compiler} failed: {done.stderr.strip()}")
 
 
-def build_native(data_name: str, dest: Path, name: str | None = None, win64: bool | None = None) -> Path:
+def build_native(data_name: str, dest: Path, name: str | None = None, win64: bool | None = None,
+                 causality: str | None = None) -> Path:
     """The native FMU of a scenario (a packaged name or a user's file) in ``dest``. ``win64``: also
-    the Windows binary (default: where x86_64-w64-mingw32-gcc is installed)."""
-    from . import documentation
-
-    source = preflight("scenario", data_name, name)
+    the Windows binary (default: where x86_64-w64-mingw32-gcc is installed). ``causality``:
+    "torque" or "speed" (default: the file's [crank] causality), as for the Python FMU."""
+    source = preflight("scenario", data_name, name, causality)
     fmu = source.fmu
     with stage(fmu, "tabulating the model"):
-        model = NativeModel(source, data_name)
+        model = NativeModel(source, data_name, source.causality)
     if win64 is None:
         win64 = shutil.which(WIN64_CC) is not None
     dest.mkdir(parents=True, exist_ok=True)
@@ -321,11 +346,11 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
             with stage(fmu, "compiling the win64 binary"):
                 compile_binary(WIN64_CC, src, Path(tmp) / f"{fmu}.dll", windows=True)
         with stage(fmu, "the reference run of the default experiment"):
-            reference = reference_result(model.scenario)
+            reference = source.reference()
         with stage(fmu, "the modelDescription"):
             md = model.model_description(sources)
         with stage(fmu, "the documentation"):
-            docs = documentation.scenario_documentation(fmu, model.scenario, md, model.parameters(), reference)
+            docs = source.documentation(fmu, md, model.parameters(), reference)
         partial = written.enter_context(replacing(out))
         with stage(fmu, "writing the FMU"), zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", md)

@@ -10,6 +10,9 @@
  * Model Exchange: the host integrates the kernel's y (phi1, omega1 and the three works); this
  * shell keeps the mode in the kernel's state array and hands the host the kernel's derivatives,
  * event indicators (with hysteresis) and event update (crank_kernel.h).
+ * Speed causality (model_config.h's CAUSALITY_SPEED): the host imposes omega1, with its derivative
+ * where it gives one (fmi2SetRealInputDerivatives), and the kernel answers with tau_drive
+ * (ck_speed_advance); Co-Simulation only.
  *
  * Failures are loud: every error is logged whatever loggingOn says, the call returns fmi2Error,
  * NaN and out-of-range values are refused, and an instance that failed refuses further steps.
@@ -42,6 +45,8 @@ typedef struct {
     double dydt[N_STATES];         /* Model Exchange: the derivatives at the current state */
     double input_rate[N_INPUTS];   /* Co-Simulation: each input's first derivative (1/s), from
                                       fmi2SetRealInputDerivatives; 0 (held) once the input is set */
+    int rate_given[N_INPUTS];      /* whether the host gave it since it last set the input (speed
+                                      causality: else omega1's slope is a backward difference) */
 } Snapshot;
 
 typedef struct {
@@ -100,6 +105,11 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     probe.name = instanceName ? instanceName : "?";
     if (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) {
         logf_(&probe, fmi2Error, "logStatusError", "%s", "fmi2Instantiate: fmuType is neither fmi2ModelExchange nor fmi2CoSimulation");
+        return NULL;
+    }
+    if (CAUSALITY_SPEED && fmuType == fmi2ModelExchange) {
+        logf_(&probe, fmi2Error, "logStatusError", "%s", "fmi2Instantiate: this FMU is Co-Simulation only: in speed "
+              "causality tau_drive needs omega1's derivative, which a Model Exchange host cannot pass");
         return NULL;
     }
     if (!fmuGUID || strcmp(fmuGUID, MODEL_GUID) != 0) {
@@ -184,12 +194,21 @@ static void load_parameters(Instance* in)
 {
     const double* v = in->now.values;
     double* P = in->now.P;
+#if CAUSALITY_SPEED
+    memset(P, 0, sizeof in->now.P);                 /* no motor line and no tau_ext: the drive is outside */
+    P[CK_J_FLYWHEEL] = v[VR_J_FLYWHEEL];
+    for (int i = 0; i < N_PORTS; i++) {
+        P[CK_PORT_INPUT + i] = v[VR_FIRST_PORT + i];
+        P[CK_PORT_RATE + i] = in->now.input_rate[1 + i];
+    }
+    P[CK_T_INPUT] = in->now.time;
+#else
     P[CK_A_] = v[VR_A];
     P[CK_B_] = v[VR_B];
     P[CK_A_LOW] = v[VR_A_LOW];
     P[CK_B_LOW] = v[VR_B_LOW];
     P[CK_OMEGA_SWITCH] = v[VR_OMEGA_SWITCH];
-    P[CK_TAU_EXT] = v[VR_TAU_EXT];
+    P[CK_TAU_EXT] = v[VR_CRANK_INPUT];
     P[CK_TAU_EXT_RATE] = in->now.input_rate[0];
     for (int i = 0; i < N_PORTS; i++) {
         P[CK_PORT_INPUT + i] = v[VR_FIRST_PORT + i];
@@ -202,6 +221,27 @@ static void load_parameters(Instance* in)
     P[CK_RTOL] = v[VR_RTOL];
     P[CK_ATOL] = v[VR_RTOL];
     P[CK_H_MAX] = INFINITY;
+#endif
+}
+
+/* the crank's speed at the start: omega1_start, or the input omega1 in speed causality */
+static double start_speed(const Instance* in)
+{
+#if CAUSALITY_SPEED
+    return in->now.values[VR_CRANK_INPUT];
+#else
+    return in->now.values[VR_OMEGA1_START];
+#endif
+}
+
+/* whether a variable sets the initial state (variability fixed: before the end of initialisation) */
+static int sets_initial_state(int vr)
+{
+#if CAUSALITY_SPEED
+    return vr == VR_PHI1_START;
+#else
+    return vr == VR_PHI1_START || vr == VR_OMEGA1_START;
+#endif
 }
 
 static int outputs_finite(const Instance* in)
@@ -219,7 +259,7 @@ static void me_start(Instance* in)
     memset(S, 0, sizeof in->now.S);
     S[CK_T] = in->now.time;
     S[CK_Y] = in->now.values[VR_PHI1_START];
-    S[CK_Y + 1] = in->now.values[VR_OMEGA1_START];
+    S[CK_Y + 1] = start_speed(in);
     ck_me_mode(S, S + CK_Y, &in->tables, in->now.P);
 }
 
@@ -231,6 +271,20 @@ static int me_evaluate(Instance* in)
     for (int j = 0; j < N_STATES; j++)
         if (!isfinite(in->now.dydt[j])) return 0;
     return outputs_finite(in);
+}
+
+/* Co-Simulation: the kernel's state and the output row at the start */
+static void cs_start(Instance* in)
+{
+    load_parameters(in);
+    memset(in->now.S, 0, sizeof in->now.S);
+#if CAUSALITY_SPEED
+    ck_speed_begin(in->now.S, in->now.time, in->now.values[VR_PHI1_START], start_speed(in), &in->tables, in->now.P,
+                   in->now.row);
+#else
+    double y[CK_N_Y] = {in->now.values[VR_PHI1_START], start_speed(in), 0.0, 0.0, 0.0};
+    ck_begin(in->now.S, in->now.time, y, &in->tables, in->now.P, in->now.row);
+#endif
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c)
@@ -248,10 +302,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
         in->now.pending = 0;
         return fmi2OK;
     }
-    load_parameters(in);
-    double y[CK_N_Y] = {in->now.values[VR_PHI1_START], in->now.values[VR_OMEGA1_START], 0.0, 0.0, 0.0};
-    memset(in->now.S, 0, sizeof in->now.S);
-    ck_begin(in->now.S, in->now.time, y, &in->tables, in->now.P, in->now.row);
+    cs_start(in);
     if (!outputs_finite(in)) {
         in->now.phase = FAILED;
         return fail(in, "%s", "the initial state gives non-finite outputs");
@@ -277,6 +328,7 @@ fmi2Status fmi2Reset(fmi2Component c)
     return fmi2OK;
 }
 
+#if !CAUSALITY_SPEED
 /* restart the kernel at the current time (a tunable or the input changed), keeping its step size */
 static void restart(Instance* in)
 {
@@ -291,6 +343,7 @@ static void restart(Instance* in)
     in->now.S[CK_N_STEPS] = n_steps;
     in->now.pending = 0;
 }
+#endif
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint)
@@ -311,15 +364,24 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                  currentCommunicationPoint, t);
         return fail(in, "%s", detail);
     }
-    if (in->now.pending) restart(in);
     double target = t + communicationStepSize;
+#if CAUSALITY_SPEED
+    /* the inputs as set now: the ports' held (or linear, with their rates) from t, omega1 a line */
+    load_parameters(in);
+    int status = ck_speed_advance(in->now.S, target, in->now.values[VR_CRANK_INPUT], in->now.input_rate[0],
+                                  in->now.rate_given[0], &in->tables, in->now.P, in->now.row);
+#else
+    if (in->now.pending) restart(in);
     int status = ck_advance(in->now.S, target, fmax(in->now.t_limit, target), &in->tables, in->now.P, in->now.row);
+#endif
     if (status != 0 || !outputs_finite(in)) {
         in->now.phase = FAILED;
         char detail[160];
         snprintf(detail, sizeof detail, "the integration failed near t = %.9g s (%s)", in->now.S[CK_T],
-                 status == CK_UNDERFLOW ? "step size underflow" : status == CK_BAD_STATE ? "a corrupted state"
-                                                                                            : "non-finite outputs");
+                 status == CK_UNDERFLOW    ? "step size underflow"
+                 : CAUSALITY_SPEED         ? "non-finite values, or a step of over 1e9 degrees of crank angle"
+                 : status == CK_BAD_STATE  ? "a corrupted state"
+                                           : "non-finite outputs");
         return fail(in, "%s", detail);
     }
     in->now.time = target;
@@ -395,7 +457,7 @@ static int is_computed(int kind)
 }
 
 /* an input's place among the inputs: tau_ext 0, port i 1 + i */
-static int input_index(int vr) { return vr == VR_TAU_EXT ? 0 : 1 + (vr - VR_FIRST_PORT); }
+static int input_index(int vr) { return vr == VR_CRANK_INPUT ? 0 : 1 + (vr - VR_FIRST_PORT); }
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[])
 {
@@ -424,8 +486,12 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         if (in->now.phase == INITIALIZATION && source == in) {
             /* what the start values give, computed on a copy: they may still change */
             preview = *in;
-            me_start(&preview);
-            me_evaluate(&preview);
+            if (in->model_exchange) {
+                me_start(&preview);
+                me_evaluate(&preview);
+            } else {
+                cs_start(&preview);
+            }
             source = &preview;
         }
         value[i] = output_value(source, k, &reads);
@@ -451,7 +517,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
             snprintf(detail, sizeof detail, "%s is computed by the FMU: it cannot be set", v->name);
             return fail(in, "%s", detail);
         }
-        int fixed_variability = v->kind == KIND_FIXED || vr[i] == VR_PHI1_START || vr[i] == VR_OMEGA1_START;
+        int fixed_variability = v->kind == KIND_FIXED || sets_initial_state((int)vr[i]);
         if (fixed_variability && in->now.phase >= STEPPING) {
             snprintf(detail, sizeof detail, "%s is a fixed parameter: it can be set before the end of "
                      "initialisation only (fmi2Reset, then set it)", v->name);
@@ -464,12 +530,17 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
                      "rebuild it for a new value: %s", v->name, x, v->name, v->start, REBUILD_COMMAND);
             return fail(in, "%s", detail);
         }
+        if (v->kind == KIND_INPUT && !isfinite(x)) {
+            snprintf(detail, sizeof detail, "input %s = %.17g: an input must be finite (%s)", v->name, x, v->unit);
+            return fail(in, "%s", detail);
+        }
         if (!isfinite(x) || (v->has_min && (v->min_inclusive ? x < v->min : x <= v->min)) ||
             (v->has_max && x > v->max)) {
             snprintf(detail, sizeof detail, "parameter %s = %.17g is out of range: valid range %s (%s)", v->name, x,
                      v->range, v->unit);
             return fail(in, "%s", detail);
         }
+        if (v->kind == KIND_INPUT) in->now.rate_given[input_index((int)vr[i])] = 0;
         /* the value it has (an input also held, no derivative given): nothing changes, no restart */
         if (x == in->now.values[vr[i]] && (v->kind != KIND_INPUT || in->now.input_rate[input_index((int)vr[i])] == 0.0))
             continue;
@@ -616,6 +687,7 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
         double* rate = &in->now.input_rate[input_index((int)vr[i])];
         if (*rate != value[i] && in->now.phase >= STEPPING) in->now.pending = 1;
         *rate = value[i];
+        in->now.rate_given[input_index((int)vr[i])] = 1;
     }
     return fmi2OK;
 }

@@ -20,23 +20,35 @@ typedef struct {
     const char* unit;
 } Variable;
 
-/* value references, in the order of native_build.NativeModel.data_c's table: the contract's outputs first
- * (N_OUTPUTS, model_config.h), then the input tau_ext, the tunables (native_build.TUNABLE's order),
- * the fixed parameters (N_FIXED), the scenario's [[outputs]] and its ports' outputs
- * (N_QUANTITIES), the derivatives of the Model Exchange states (phi1, omega1, W_motor, W_load,
- * W_ext: the kernel's y), the ports' inputs (N_PORTS) and the joint reactions (N_REACTIONS) */
+/* value references, in the order of native_build.NativeModel.data_c's table: the outputs first
+ * (N_OUTPUTS, model_config.h), then the crank's input (VR_CRANK_INPUT), the tunables
+ * (native_build.TUNABLE's order, or SPEED_TUNABLE's), the fixed parameters (N_FIXED), the
+ * scenario's [[outputs]] and its ports' outputs (N_QUANTITIES), the derivatives of the Model
+ * Exchange states (phi1, omega1, W_motor, W_load, W_ext: the kernel's y; none in speed causality),
+ * the ports' inputs (N_PORTS) and the joint reactions (N_REACTIONS).
+ *
+ * Torque causality (CAUSALITY_SPEED 0): the input tau_ext, the motor line, Co-Simulation and
+ * Model Exchange. Speed causality (1): the input omega1, the outputs tau_drive and W_drive in the
+ * output row's M_motor and W_motor places (crank_kernel.h, ck_speed_*), Co-Simulation only:
+ * tau_drive needs omega1's derivative, which a Model Exchange host has no call to pass. */
+#if CAUSALITY_SPEED
+enum { VR_CRANK_INPUT = N_OUTPUTS, VR_J_FLYWHEEL, VR_PHI1_START, VR_FIRST_FIXED };
+#define N_DERIVATIVES 0
+#else
 enum {
-    VR_TAU_EXT = N_OUTPUTS,
+    VR_CRANK_INPUT = N_OUTPUTS,
     VR_A, VR_B, VR_A_LOW, VR_B_LOW, VR_OMEGA_SWITCH, VR_J_FLYWHEEL, VR_PHI1_START, VR_OMEGA1_START, VR_RTOL,
     VR_FIRST_FIXED
 };
+#define N_DERIVATIVES N_STATES
+#endif
+#define N_STATES CK_N_Y
 #define VR_FIRST_QUANTITY (VR_FIRST_FIXED + N_FIXED)
 #define VR_FIRST_DERIVATIVE (VR_FIRST_QUANTITY + N_QUANTITIES)
-#define N_STATES CK_N_Y
-#define VR_FIRST_PORT (VR_FIRST_DERIVATIVE + N_STATES)
+#define VR_FIRST_PORT (VR_FIRST_DERIVATIVE + N_DERIVATIVES)
 #define VR_FIRST_REACTION (VR_FIRST_PORT + N_PORTS)
 #define N_VARIABLES (VR_FIRST_REACTION + N_REACTIONS)
-/* the inputs: tau_ext (0) and the ports' (1 + i) */
+/* the inputs: the crank's (0) and the ports' (1 + i) */
 #define N_INPUTS (1 + N_PORTS)
 
 /* each output's place in the kernel's output row (-1: E_kin, computed from J_red and omega1) */
