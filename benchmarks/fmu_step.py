@@ -53,22 +53,41 @@ def initialised(fmu_path: Path, where: str | None = None):
     return fmu, {v.name: v.valueReference for v in md.modelVariables}
 
 
-def step_loop(fmu_path: Path, step: float, stop: float):
-    """(seconds per step, omega1 after each step) of one run through FMU2Slave."""
+def step_loop(fmu_path: Path, step: float, stop: float, speeds=None):
+    """(seconds per step, the output after each step) of one run through FMU2Slave: omega1 of a
+    torque-causal FMU; tau_drive of a speed-causal one, whose input omega1 is set to ``speeds[k]``
+    before step k, as a drive's master would."""
     fmu, refs = initialised(fmu_path)
-    vr = refs["omega1"]
+    vr = refs["omega1" if speeds is None else "tau_drive"]
+    omega_in = refs["omega1"]
     n = int(round(stop / step))
-    omega = np.empty(n)
+    out = np.empty(n)
     t = 0.0
     started = time.perf_counter()
     for k in range(n):
+        if speeds is not None:
+            fmu.setReal([omega_in], [float(speeds[k])])
         fmu.doStep(currentCommunicationPoint=t, communicationStepSize=step)
         t = (k + 1) * step
-        omega[k] = fmu.getReal([vr])[0]
+        out[k] = fmu.getReal([vr])[0]
     elapsed = time.perf_counter() - started
     fmu.terminate()
     fmu.freeInstance()
-    return elapsed / n, omega
+    return elapsed / n, out
+
+
+def measure_speed_causal(fmus: dict, step: float, stop: float, repeats: int) -> dict:
+    """Per-step wall times of speed-causal FMUs ({label: path}, interleaved runs, omega1 set to
+    15 + 3 sin(4 t) rad/s before each step) and each one's tau_drive over the run ("tau_drive": by
+    label)."""
+    per_step = {label: [] for label in fmus}
+    tau = {}
+    speeds = 15.0 + 3.0 * np.sin(4.0 * step * np.arange(int(round(stop / step))))
+    for _ in range(repeats):
+        for label, path in fmus.items():
+            seconds, tau[label] = step_loop(path, step, stop, speeds)
+            per_step[label].append(seconds)
+    return {"per_step": per_step, "tau_drive": tau}
 
 
 def measure(fourbar: Path, step: float, stop: float, repeats: int, extra: dict | None = None) -> dict:

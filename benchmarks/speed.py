@@ -179,6 +179,17 @@ def main(argv=None) -> int:
                "whole_s": statistics.median(m["whole"]["FourBar.fmu"]),
                "noop_whole_s": statistics.median(m["whole"]["do-nothing FMU"]),
                "reset_init_s": end_to_end.fmu_reset_and_initialise(Path(args.fmu), 3 if args.quick else 7)})
+        # speed causality: the native and the Python FourBarSpeed.fmu run the same kernel step, so the
+        # same numbers; what the native one saves is the Python around it
+        speed_fmus = {"FourBarSpeed.fmu": Path(args.fmu).parent / "FourBarSpeed.fmu",
+                      "native FourBarSpeed.fmu": Path(args.native).parent / "FourBarSpeed.fmu"}
+        if all(path.exists() for path in speed_fmus.values()):
+            sm = fmu_step.measure_speed_causal(speed_fmus, 1e-3, 2.0, 2 if args.quick else 5)
+            py_s, nat_s = (statistics.median(sm["per_step"][label]) for label in speed_fmus)
+            difference = float(np.max(np.abs(sm["tau_drive"]["FourBarSpeed.fmu"]
+                                             - sm["tau_drive"]["native FourBarSpeed.fmu"])))
+            fmu["speed"] = {"python_us_per_step": 1e6 * py_s, "native_us_per_step": 1e6 * nat_s,
+                            "tau_drive_difference": difference}
         rows.append({"family": "FourBar.fmu via fmpy, 1 ms steps", "setting": "rtol 1e-11 (default)",
                      "omega1_error": m["error"], "time_s": fb * 2000, "n_rhs": None,
                      "note": f"{1e6 * fb:.1f} us/step; do-nothing FMU {1e6 * nop:.1f} us/step"})
@@ -292,6 +303,13 @@ def main(argv=None) -> int:
                           f"{nat['fmpy_us_per_step']:.2f} vs {fmu['noop_us_per_step']:.2f} us/step, ratio "
                           f"{nat['fmpy_us_per_step'] / fmu['noop_us_per_step']:.2f}; omega1 error "
                           f"{nat['fmpy_omega1_error']:.1e} rad/s", nat["fmpy_omega1_error"] <= TARGET_ERROR))
+    if fmu.get("speed"):
+        sp = fmu["speed"]
+        targets17.append(("native FourBarSpeed.fmu per 1 ms step through fmpy, against the Python FourBarSpeed.fmu, "
+                          "omega1 set every step (issue 28: reported; the same kernel step, so the same tau_drive)",
+                          f"{sp['native_us_per_step']:.2f} vs {sp['python_us_per_step']:.2f} us/step, ratio "
+                          f"{sp['native_us_per_step'] / sp['python_us_per_step']:.3f}; tau_drive differs by "
+                          f"{sp['tau_drive_difference']:.1e} N.m", sp["tau_drive_difference"] == 0.0))
     lines += ["", "## Targets (issue 17)", "", "| target | measured | met |", "|---|---|---|"]
     lines += [f"| {t} | {m} | {'MET' if ok else ('NOT MET' if ok is not None else 'not measured')} |"
               for t, m, ok in targets17]

@@ -364,7 +364,10 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                  currentCommunicationPoint, t);
         return fail(in, "%s", detail);
     }
-    double target = t + communicationStepSize;
+    /* the step ends on the host's clock, as the Python FMUs' does: an instance's own sum of steps
+     * can drift from it by an ulp, which the speed step (h enters its line) would carry on */
+    double target = currentCommunicationPoint + communicationStepSize;
+    if (!(target > t)) target = t + communicationStepSize;
 #if CAUSALITY_SPEED
     /* the inputs as set now: the ports' held (or linear, with their rates) from t, omega1 a line */
     load_parameters(in);
