@@ -36,11 +36,12 @@ from xml.etree import ElementTree as ET
 
 from .. import units as si
 from ..atomic import replacing
-from ..contract import INPUTS, MOTOR_PARAMETERS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
+from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
 from ..errors import CrankfmuError
 from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
 from ..native.sources import CFLAGS, HERE as NATIVE, SOURCES as KERNEL_SOURCES
 from .build import LS_REF, LS_REF_MANIFEST, cross_check_options, preflight, stage
+from .speed import NOT_DECLARED
 
 SHELL = NATIVE / "fmu"
 SHELL_SOURCES = ("crank_fmi2.c", "crank_fmi2_model.h")
@@ -48,10 +49,6 @@ SHELL_SOURCES = ("crank_fmi2.c", "crank_fmi2_model.h")
 TUNABLE = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel", "phi1_start", "omega1_start", "rtol")
 #: speed causality's tunables, in the shell's order (the motor line is outside, omega1 is the input)
 SPEED_TUNABLE = ("J_flywheel", "phi1_start")
-#: what a speed-causal FMU does not declare: the motor line, the start speed (the input is the
-#: speed) and rtol (its step has no error control to tune: the line's integral is exact and the
-#: works are Gauss-Legendre sums)
-SPEED_NOT_DECLARED = (*MOTOR_PARAMETERS, "omega1_start", "rtol")
 #: set before initialisation only: they are the initial state
 INITIAL = ("phi1_start", "omega1_start")
 WIN64_CC = "x86_64-w64-mingw32-gcc"
@@ -119,7 +116,10 @@ class NativeModel:
         # the speed's start is the scenario's start speed, as the Python FMU's
         self.input_start = float(params["omega1_start"].value) if self.speed else 0.0
         self.tunable = [params[n] for n in tunable]
-        self.fixed = [p for n, p in params.items() if n not in (*tunable, *(SPEED_NOT_DECLARED if self.speed else TUNABLE))]
+        # a speed-causal FMU declares what the Python one does (fmi.speed.NOT_DECLARED), and no rtol:
+        # its step has no error control to tune (the line's integral is exact, the works quadratures)
+        undeclared = (*NOT_DECLARED, "rtol") if self.speed else ()
+        self.fixed = [p for n, p in params.items() if n not in (*tunable, *undeclared)]
         self.rebuild = (f"crankfmu fmu {scenario_name} --native{' --causality speed' if self.speed else ''} --out DIR "
                         "(after changing the value in the scenario file)")
         text = repr((self.source.fmu, causality, [float(x) for x in self.table.coefficients.ravel()[:64]],
@@ -266,7 +266,7 @@ class NativeModel:
                 max=repr(float(p.value)) if fixed else (None if p.max is None else repr(float(p.max)))))
         outputs += [scalar(q.name, unit, q.description, causality="output", variability="continuous",
                            initial="calculated") for q, unit in zip(self.quantities, self.quantity_units)]
-        index_of = {v.name: i + 1 for i, v in enumerate(self.outputs)}       # (torque causality's)
+        index_of = {v.name: i + 1 for i, v in enumerate(self.outputs)}
         derivative_indices = [scalar(f"der({name})", unit, f"time derivative of {name} (Model Exchange)",
                                      causality="local", variability="continuous", initial="calculated",
                                      derivative=str(index_of[name])) for name, unit in derivatives]

@@ -182,6 +182,12 @@ class RowOutputs:
         for lazy in self.lazy:
             lazy.clear()
 
+    def outputs_now(self) -> np.ndarray:
+        return self.row
+
+    def outputs_text(self) -> str:
+        return ", ".join(f"{name} = {value:g}" for name, value in zip(self.fields, self.row))
+
     def model_state(self):
         if self.stepper is None:
             return None
@@ -243,9 +249,3 @@ class FmuCore(RowOutputs, SlaveCore):
             self.stepper.restart(self.time)
         self._clear()
         self.stepper.advance(target, max(self.t_limit, target))      # fills self.row
-
-    def outputs_now(self) -> np.ndarray:
-        return self.row
-
-    def outputs_text(self) -> str:
-        return ", ".join(f"{name} = {value:g}" for name, value in zip(self.fields, self.row))

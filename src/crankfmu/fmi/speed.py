@@ -81,6 +81,3 @@ class SpeedCore(RowOutputs, SlaveCore):
         self.stepper.set_port_inputs(self._ports(), t_input=self.time)
         self._clear()
         self.stepper.advance(target, self.values[OMEGA1.name])
-
-    def outputs_now(self) -> np.ndarray:
-        return np.array([self._getter(v.name)() for v in SPEED_OUTPUTS], dtype=float)

@@ -148,10 +148,7 @@ class FastStepper:
     def set_port_inputs(self, values, rates=None, t_input: float = 0.0):
         """The ports' inputs (N or N.m, in the ports' order), held from now, or linear in time from
         t_input with ``rates`` (per s)."""
-        n = len(values)
-        self.P[kernel.PORT_INPUT:kernel.PORT_INPUT + n] = values
-        self.P[kernel.PORT_RATE:kernel.PORT_RATE + n] = 0.0 if rates is None else rates
-        self.P[kernel.T_INPUT] = t_input
+        kernel.set_port_inputs(self.P, values, rates, t_input)
 
     def start(self, t: float, y) -> np.ndarray:
         """Initialise at (t, y) and return the output row there."""
@@ -197,10 +194,7 @@ class SpeedStepper:
 
     def set_port_inputs(self, values, rates=None, t_input: float = 0.0):
         """The ports' inputs, held from t_input or linear in time with ``rates`` (per s)."""
-        n = len(values)
-        self.P[kernel.PORT_INPUT:kernel.PORT_INPUT + n] = values
-        self.P[kernel.PORT_RATE:kernel.PORT_RATE + n] = 0.0 if rates is None else rates
-        self.P[kernel.T_INPUT] = t_input
+        kernel.set_port_inputs(self.P, values, rates, t_input)
 
     def start(self, t: float, phi1: float, omega1: float) -> np.ndarray:
         self.bound.speed_begin(float(t), float(phi1), float(omega1))

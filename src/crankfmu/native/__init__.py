@@ -162,6 +162,15 @@ def set_motor(P: np.ndarray, motor):
         motor.A, motor.B, motor.A_low, motor.B_low, motor.omega_switch)
 
 
+def set_port_inputs(P: np.ndarray, values, rates=None, t_input: float = 0.0):
+    """Write the ports' inputs (N or N.m, in the ports' order) into a parameter array: held from
+    t_input, or linear in time from there with ``rates`` (per s)."""
+    n = len(values)
+    P[PORT_INPUT:PORT_INPUT + n] = values
+    P[PORT_RATE:PORT_RATE + n] = 0.0 if rates is None else rates
+    P[T_INPUT] = t_input
+
+
 def tableau() -> dict[str, np.ndarray]:
     """The Dormand-Prince tableau the kernel steps with (crank_tableau.h): A, B, E, P, C."""
     out = np.zeros(128)

@@ -838,10 +838,12 @@ static double line_time(double phi0, double omega, double slope, double theta, d
     return fmin(fmax(s, sa), sb);
 }
 
-/* the works over [sa, sb] of the step from (t, phi0), where the powers are smooth: W[0..2] +=
- * the drive's, the loads' and the external torque's */
-static void smooth_works(double t, double phi0, double omega, double slope, double sa, double sb, const CkTables* T,
-                         const double* P, const double* nodes, const double* weights, double* work, double* W)
+/* the works over [sa, sb] of the step from (t, phi0), where the powers are smooth (the slider
+ * forces' side and switch interval k hold: the caller found them): W[0..2] += the drive's, the
+ * loads' and the external torque's */
+static void smooth_works(double t, double phi0, double omega, double slope, double sa, double sb, double direction,
+                         int k, const CkTables* T, const double* P, const double* nodes, const double* weights,
+                         double* work, double* W)
 {
     double turned = fabs(line_angle(phi0, omega, slope, sb) - line_angle(phi0, omega, slope, sa));
     double per_piece = CK_TWO_PI / 360.0;
@@ -851,7 +853,7 @@ static void smooth_works(double t, double phi0, double omega, double slope, doub
         for (int i = 0; i < 5; i++) {
             double s = sa + ((double)p + nodes[i]) * hp, wq = weights[i] * hp;
             double w_s = omega + slope * s, phi = line_angle(phi0, omega, slope, s);
-            imposed_coefficients(t + s, phi, w_s, T, P, work, &J, &half_dJ, &Q, &tau);
+            coefficients(t + s, phi, w_s, direction, (double)k, T, P, work, &J, &half_dJ, &Q, &tau);
             W[0] += wq * ck_drive_torque(J, half_dJ, Q, tau, w_s, slope) * w_s;
             W[1] += wq * Q * w_s;
             W[2] += wq * tau * w_s;
@@ -888,16 +890,17 @@ int ck_speed_advance(double* S, double t_target, double omega, double rate, int 
         double sa = ends[g], sb = ends[g + 1];
         double phi_a = line_angle(phi0, omega, slope, sa), phi_b = line_angle(phi0, omega, slope, sb);
         int forward = phi_b >= phi_a;
-        double lo, hi, s_from = sa;
+        /* omega1's sign holds inside the segment: the side of its middle */
+        double direction = ck_direction_imposed(omega + slope * 0.5 * (sa + sb)), lo, hi, s_from = sa;
         int k = ck_interval_of(T->switch_angles, T->m, phi_a, forward ? 1.0 : -1.0, &lo, &hi);
         /* each switch angle the segment crosses ends a piece */
         while (T->m > 0 && (forward ? hi < phi_b : lo > phi_b)) {
             double s_cross = fmax(line_time(phi0, omega, slope, forward ? hi : lo, sa, sb), s_from);
-            smooth_works(t, phi0, omega, slope, s_from, s_cross, T, P, nodes, weights, w.work, W);
+            smooth_works(t, phi0, omega, slope, s_from, s_cross, direction, k, T, P, nodes, weights, w.work, W);
             s_from = s_cross;
             k = ck_next_interval(T->switch_angles, T->m, k, &lo, &hi, forward);
         }
-        smooth_works(t, phi0, omega, slope, s_from, sb, T, P, nodes, weights, w.work, W);
+        smooth_works(t, phi0, omega, slope, s_from, sb, direction, k, T, P, nodes, weights, w.work, W);
     }
     S[CK_T_PREV] = t;
     S[CK_Y_PREV] = phi0;
