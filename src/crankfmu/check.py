@@ -243,7 +243,23 @@ def check_scenario(source) -> Report:
         report.add("OK", f"{port.input_description}; input {port.input_name}, outputs "
                    + ", ".join(q.name for q in port.quantities))
     fmu_declarations(report, source, scenario, path)
+    native_tables_check(report, scenario, path)
     return report
+
+
+def native_tables_check(report: Report, scenario, path):
+    """What ``crankfmu fmu --native`` would refuse: its tables, built and checked by the same
+    function (fmi.native_build.native_tables), so check refuses exactly what the build would."""
+    from .fmi.native_build import native_tables
+
+    try:
+        tables = native_tables(scenario)
+    except CrankfmuError as exc:
+        report.add("FAIL", f"crankfmu fmu --native would refuse it: {exc}", locate(path, str(exc)))
+        return
+    built = [f"{what} {t.construction} (checked error {t.error_bound:.2g})"
+             for what, t in zip(("movement equation:", "outputs and ports:", "joint reactions:"), tables) if t]
+    report.add("OK", "the native FMU's tables: " + "; ".join(built))
 
 
 def fmu_declarations(report: Report, source, scenario, path):

@@ -530,17 +530,29 @@ def main(argv=None) -> int:
             return importlib.import_module(delegate).main(rest)
         return args.func(args)
     except CrankfmuError as exc:
+        show_traceback()
         print(f"crankfmu: error: {_one_line(exc)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("crankfmu: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:     # a bug or the machine (disk full, permissions): one line, not a traceback
-        if os.environ.get("CRANKFMU_TRACEBACK"):
+        if show_traceback():
             raise
         print(f"crankfmu: error: {type(exc).__name__}: {_one_line(exc)} (CRANKFMU_TRACEBACK=1 shows where)",
               file=sys.stderr)
         return 1
+
+
+def show_traceback() -> bool:
+    """With CRANKFMU_TRACEBACK=1, the traceback of the failure being handled goes to stderr before
+    its one line (for a bug report); every command that turns a failure into one line calls it."""
+    if not os.environ.get("CRANKFMU_TRACEBACK"):
+        return False
+    import traceback
+
+    traceback.print_exc(file=sys.stderr)
+    return True
 
 
 def _one_line(exc) -> str:

@@ -1,4 +1,15 @@
-"""Errors crankfmu raises. Every message names the offending item and what is valid."""
+"""Errors crankfmu raises. Every message names the offending item and what is valid, its numbers
+as their user wrote them (:func:`format_value`)."""
+
+
+def format_value(value) -> str:
+    """A number as its user wrote it: the shortest text that reads back as the same double (``0.1``,
+    not ``0.10000000000000001``; ``1e-11``, not ``9.999999999999999e-12``; ``2.0``), as Python's
+    repr writes it and the native FMU's messages too; anything else as ``str``."""
+    try:
+        return repr(float(value))
+    except (TypeError, ValueError):
+        return str(value)
 
 
 class CrankfmuError(Exception):

@@ -19,11 +19,31 @@ from .simulation import Result
 from .atomic import replacing, write_text
 
 
+def extra_columns(result: Result) -> dict[str, tuple[np.ndarray, str]]:
+    """The scenario's [[outputs]] and its ports' inputs and s, v, a at the run's states, as the FMU
+    outputs them: name -> (values, unit). Angles count whole turns (the contour engine's)."""
+    from .mechanisms.quantities import evaluate_all
+
+    scenario, model = result.scenario, result.model
+    out = {}
+    if scenario.quantities:
+        definition = scenario.mechanism_definition()
+        kin = model.mechanism.kinematics(np.asarray(result.phi1))
+        values = evaluate_all(scenario.quantities, kin, np.asarray(result.omega1), np.asarray(result.epsilon1))
+        out.update({q.name: (values[q.name], q.unit(definition)) for q in scenario.quantities})
+    for port in model.equation.ports:
+        out[port.input_name] = (result.ports[port.input_name], port.input_unit)
+        out.update({q.name: (result.ports[q.name], q.unit(model.mechanism.definition)) for q in port.quantities})
+    return out
+
+
 def write_timeseries(result: Result, path: Path) -> Path:
-    """Plain CSV, one header line; the units are listed in summary.json ("columns")."""
-    data = np.column_stack([getattr(result, c) for c in COLUMNS])
+    """Plain CSV, one header line: the contract's columns, then the scenario's [[outputs]] and its
+    ports'; the units are listed in summary.json ("columns")."""
+    extra = extra_columns(result)
+    data = np.column_stack([getattr(result, c) for c in COLUMNS] + [v for v, _ in extra.values()])
     with replacing(path) as partial:
-        np.savetxt(partial, data, delimiter=",", header=",".join(COLUMNS), comments="", fmt="%.15g")
+        np.savetxt(partial, data, delimiter=",", header=",".join([*COLUMNS, *extra]), comments="", fmt="%.15g")
     return path
 
 
@@ -44,7 +64,7 @@ def write_run(result: Result, out_dir: str | Path) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     exp = result.scenario.experiment
     summary = result.summary()
-    summary["columns"] = dict(COLUMNS)
+    summary["columns"] = {**COLUMNS, **{name: unit for name, (_, unit) in extra_columns(result).items()}}
     write_timeseries(result, out / "timeseries.csv")
     write_summary(summary, out / "summary.json")
     plot_cycles(result, out, exp.cycles, exp.summary_cycle)

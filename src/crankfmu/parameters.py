@@ -8,7 +8,7 @@ import re
 from dataclasses import dataclass
 from typing import Mapping
 
-from .errors import DefinitionError, ParameterError
+from .errors import DefinitionError, ParameterError, format_value
 from .units import check_unit
 
 
@@ -27,8 +27,9 @@ class Parameter:
     tunable: bool = False
 
     def range_text(self) -> str:
-        lo = "(-inf" if self.min is None else ("[" if self.min_inclusive else "(") + f"{self.min:g}"
-        hi = "inf)" if self.max is None else f"{self.max:g}" + ("]" if self.max_inclusive else ")")
+        # a bound as the file writes it: 0 and 1 (a whole bound without ".0"), 0.45, 1e-11
+        lo = "(-inf" if self.min is None else ("[" if self.min_inclusive else "(") + format_value(self.min).removesuffix(".0")
+        hi = "inf)" if self.max is None else format_value(self.max).removesuffix(".0") + ("]" if self.max_inclusive else ")")
         return f"{lo}, {hi} {self.unit}".rstrip()
 
     def check(self, value) -> float:
@@ -43,7 +44,7 @@ class Parameter:
             ok = v <= self.max if self.max_inclusive else v < self.max
         if not ok:
             raise ParameterError(
-                f"parameter {self.name} = {value!r} is out of range: valid range {self.range_text()} "
+                f"parameter {self.name} = {format_value(value)} is out of range: valid range {self.range_text()} "
                 f"({self.description})", self.name)
         return v
 

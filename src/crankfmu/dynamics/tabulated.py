@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import DefinitionError, SchemeError
+from ..errors import DefinitionError, SchemeError, format_value
 from ..numerics import periodic_cubic_spline, periodic_hermite, periodic_series, series_on_grid
 from . import modes
 from .reduced import ReducedModel
@@ -152,17 +152,43 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
                                   "(velocity-dependent loads it knows: linear in omega1, or switched by a "
                                   "velocity's direction)")
     engine = lambda phi1: _engine_values(reduced, sliders, viscous, phi1)  # noqa: E731
-    coefficients, error, construction = _cubics(engine, tolerance, n_start, n_max, loosest)
+    names = (["the reduced inertia J_red", "0.5 dJ_red/dphi1", "the loads' generalized force",
+              "the dampers' generalized force per omega1"]
+             + [f"slider force column {name}" for load in sliders for name in load.column_names]
+             + [f"port {port.name}'s transfer function" for port in reduced.ports])
+    coefficients, error, construction = _cubics(engine, tolerance, n_start, n_max, loosest,
+                                                ("the reduced model", names))
     switch, forces = reduced.slider_schedule()
     return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(name for load in sliders for name in load.column_names), construction,
                         len(reduced.ports))
 
 
-def _cubics(engine, tolerance: float, n_start: int, n_max: int, loosest: float):
+def _cubics(engine, tolerance: float, n_start: int, n_max: int, loosest: float, named=("the functions", ())):
     """(coefficients, checked error, construction) of the periodic functions ``engine`` gives: a
-    Fourier series where it converges, else a spline of samples."""
-    return _from_series(engine, tolerance) or _from_samples(engine, tolerance, n_start, n_max, loosest)
+    Fourier series where it converges, else a spline of samples. ``named``: (what the functions
+    are, each row's name), for the message of a table that cannot be built."""
+    return (_from_series(engine, tolerance)
+            or _from_samples(engine, tolerance, n_start, n_max, loosest, named))
+
+
+def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance: float, n: int) -> str:
+    """The message of a table that cannot be built: which function, and whether it jumps (a
+    discontinuity in phi1: no number of intervals can follow it) or is steep (a dead point near)."""
+    what, names = named
+    row = int(np.argmax(errors))
+    name = names[row] if row < len(names) else f"function {row}"
+    steps = np.abs(np.diff(np.append(values[row], values[row, 0])))
+    k = int(np.argmax(steps))
+    typical = float(np.median(steps)) + 1e-300
+    at = f"phi1 = {math.degrees(k * TWO_PI / n):.2f} to {math.degrees((k + 1) * TWO_PI / n):.2f} deg"
+    head = (f"{what}: {name} cannot be tabulated to {format_value(tolerance)} with {n} intervals "
+            f"(error {errors[row]:.2g})")
+    if steps[k] > 1e3 * typical:
+        return (f"{head}: it jumps by {values[row, (k + 1) % n] - values[row, k]:.4g} between {at}, a discontinuity "
+                "in the crank angle (a closed form's branch cut?), not a dead point")
+    return (f"{head}: it changes fastest between {at}; the mechanism is too close to a dead point there; "
+            "use method 'reference'")
 
 
 def _scale(values: np.ndarray) -> np.ndarray:
@@ -235,7 +261,8 @@ def _from_series(engine, tolerance: float, n_first: int = 64, n_last: int = 4096
             return None
 
 
-def _from_samples(engine, tolerance: float, n_start: int, n_max: int, loosest: float):
+def _from_samples(engine, tolerance: float, n_start: int, n_max: int, loosest: float,
+                  named=("the functions", ())):
     """(coefficients, checked error, construction) of the periodic cubic spline of the engine's
     samples, the intervals halved until the spline agrees with the engine to ``tolerance``."""
     n = n_start
@@ -247,15 +274,14 @@ def _from_samples(engine, tolerance: float, n_start: int, n_max: int, loosest: f
         # (0.3 of an interval in) catches a spline that is right at midpoints only
         h = TWO_PI / n
         check = np.concatenate([nodes[:-1] + 0.5 * h, nodes[:-1] + 0.3 * h])
-        error = float(np.max(np.max(np.abs(_evaluate(coefficients, check) - engine(check)), axis=1) / _scale(values)))
+        errors = np.max(np.abs(_evaluate(coefficients, check) - engine(check)), axis=1) / _scale(values)
+        error = float(np.max(errors))
         if error <= tolerance:
             break
         if 2 * n > n_max:
             if error <= loosest:
                 break
-            raise SchemeError(
-                f"the reduced model cannot be tabulated to {tolerance:g} with {n} intervals (error "
-                f"{error:.2g}): the mechanism is too close to a dead point; use method 'reference'")
+            raise SchemeError(_why_not_tabulated(values, errors, named, tolerance, n))
         n *= 2
     return coefficients, error, f"cubic spline of {n} samples"
 
@@ -307,7 +333,10 @@ def tabulate_quantities(mechanism, quantities, definition, tolerance: float = 1e
             rows += [q - w * phi1, dq, ddq]
         return np.array(rows, dtype=float)
 
-    coefficients, error, construction = _cubics(engine, tolerance, 256, n_max, loosest)
+    names = [f"[[outputs]] {first[c].name} ({c}{suffix})" for c in coordinates
+             for suffix in ("", "'", "''")]
+    coefficients, error, construction = _cubics(engine, tolerance, 256, n_max, loosest,
+                                                ("the scenario's [[outputs]]", names))
     return QuantityTable(coefficients, coordinates, winding, error, construction)
 
 
@@ -396,5 +425,7 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
     def engine(phi1):
         return (terms(phi1) * keep[:, :, None]).reshape(len(names) * n_terms, -1)
 
-    coefficients, error, construction = _cubics(engine, tolerance, 256, n_max, loosest)
+    named = ("the joint reactions", [f"{name} ({term} term)" for name in names
+                                     for term in (*REACTION_TERMS, *(f"column {k}" for k in range(n_terms - 4)))])
+    coefficients, error, construction = _cubics(engine, tolerance, 256, n_max, loosest, named)
     return ReactionTable(coefficients, names, n_terms, error, construction)

@@ -278,6 +278,25 @@ def _user_files(scenario, path) -> tuple[str, dict]:
     return load, files
 
 
+#: where a native FMU carries a user's data files (a pythonfmu FMU packs them in its package)
+NATIVE_USER_FILES = "resources/crankfmu"
+
+
+def vendor_annotations(source: Source, build: str) -> ET.Element:
+    """Which data file the FMU implements, so the harness runs the same file in process:
+    ``<Tool name="crankfmu"><Scenario name=... causality=... file=... build=.../></Tool>``
+    (Drive, Cushion, Well for the components). ``build`` is "python" or "native"; ``file``, for
+    a user's scenario, is where the FMU carries it (in its package, or under NATIVE_USER_FILES)."""
+    vendor = ET.Element("VendorAnnotations")
+    tool = ET.SubElement(vendor, "Tool", name="crankfmu")
+    annotation = ET.SubElement(tool, source.kind.capitalize(), name=source.name, build=build)
+    if source.causality == "speed":
+        annotation.set("causality", "speed")
+    if source.files:
+        annotation.set("file", source.load)
+    return vendor
+
+
 def complete_model_description(xml_bytes: bytes, units: dict[str, str], parameters: dict, source: Source) -> bytes:
     """pythonfmu's modelDescription with units, parameter ranges (min/max where a bound exists),
     UnitDefinitions, DefaultExperiment, the data file's name and InitialUnknowns."""
@@ -318,17 +337,9 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
                          tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
     position = [c.tag for c in root].index("ModelVariables")
     root.insert(position, default)
-    # which data file the FMU implements: the harness runs the same file in process
     for old in root.findall("VendorAnnotations"):
         root.remove(old)
-    vendor = ET.Element("VendorAnnotations")
-    tool = ET.SubElement(vendor, "Tool", name="crankfmu")
-    annotation = ET.SubElement(tool, source.kind.capitalize(), name=source.name)
-    if source.causality == "speed":
-        annotation.set("causality", "speed")
-    if source.files:      # a user's scenario: where the FMU carries it (the harness reads that copy)
-        annotation.set("file", source.load)
-    root.insert(position + 1, vendor)
+    root.insert(position + 1, vendor_annotations(source, "python"))
 
     structure = root.find("ModelStructure")
     for old in structure.findall("InitialUnknowns"):

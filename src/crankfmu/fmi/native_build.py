@@ -40,7 +40,8 @@ from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
 from ..errors import CrankfmuError
 from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
 from ..native.sources import CFLAGS, HERE as NATIVE, SOURCES as KERNEL_SOURCES
-from .build import LS_REF, LS_REF_MANIFEST, cross_check_options, preflight, stage
+from .build import (LS_REF, LS_REF_MANIFEST, NATIVE_USER_FILES, cross_check_options, preflight, stage,
+                    vendor_annotations)
 from .speed import NOT_DECLARED
 
 SHELL = NATIVE / "fmu"
@@ -74,31 +75,44 @@ def _c_doubles(values) -> str:
     return "{\n    " + ",\n    ".join(lines) + "\n}"
 
 
+def native_tables(scenario):
+    """(the reduced model's table, the [[outputs]] and ports' table or None, the joint reactions'
+    table or None): every table a native FMU of ``scenario`` carries, built and checked as the
+    build does. ``crankfmu check`` builds them too, so it refuses exactly what the build would."""
+    from ..dynamics.tabulated import table_of, tabulate_quantities, tabulate_reactions
+    from ..integrators.fast import TABLE_TOLERANCE
+    from .slave import output_quantities, reaction_variables
+
+    model = scenario.build()
+    definition = scenario.mechanism_definition()
+    table = table_of(model.reduced, TABLE_TOLERANCE)
+    quantities = output_quantities(scenario)       # [[outputs]], then the ports' s, v, a
+    quantity_table = (tabulate_quantities(model.mechanism, quantities, definition, TABLE_TOLERANCE)
+                      if quantities else None)
+    # the joint reactions: their terms tabulated (read on demand, so a looser tolerance than the
+    # movement equation's keeps the FMU small); the kernel supplies the terms' weights
+    reaction_table = tabulate_reactions(model.reduced, REACTION_TOLERANCE) if reaction_variables(scenario) else None
+    return table, quantity_table, reaction_table
+
+
 class NativeModel:
     """What a native FMU is generated from: the scenario, its tables and its variables."""
 
     def __init__(self, source, scenario_name, causality: str = "torque"):
-        from ..dynamics.tabulated import REACTION_TERMS, table_of, tabulate_quantities, tabulate_reactions
-        from ..integrators.fast import TABLE_TOLERANCE
+        from ..dynamics.tabulated import REACTION_TERMS
         from ..parameters import Parameter
         from ..scenario import load_scenario
+        from .slave import output_quantities, reaction_variables
 
         self.source = source
         self.speed = causality == "speed"
         self.scenario = load_scenario(scenario_name)
-        model = self.scenario.build()
-        self.table = table_of(model.reduced, TABLE_TOLERANCE)
+        self.table, self.quantity_table, self.reaction_table = native_tables(self.scenario)
         definition = self.scenario.mechanism_definition()
-        from .slave import output_quantities, reaction_variables
-        self.quantities = output_quantities(self.scenario)       # [[outputs]], then the ports' s, v, a
+        self.quantities = output_quantities(self.scenario)
         self.ports = self.scenario.ports
         self.quantity_units = [q.unit(definition) for q in self.quantities]
-        self.quantity_table = (tabulate_quantities(model.mechanism, self.quantities, definition, TABLE_TOLERANCE)
-                               if self.quantities else None)
-        # the joint reactions: their terms tabulated (read on demand, so a looser tolerance than the
-        # movement equation's keeps the FMU small); the kernel supplies the terms' weights
         self.reactions = reaction_variables(self.scenario)
-        self.reaction_table = tabulate_reactions(model.reduced, REACTION_TOLERANCE) if self.reactions else None
         if self.reaction_table is not None:
             n_sliders = self.table.forces.shape[2] if self.table.forces.ndim == 3 else 0
             assert self.reaction_table.n_terms == len(REACTION_TERMS) + n_sliders + len(self.ports)
@@ -237,6 +251,7 @@ class NativeModel:
                           {k: str(v) for k, v in si.base_units(unit).items()})
         ET.SubElement(root, "DefaultExperiment", startTime=repr(exp.start_time), stopTime=repr(exp.stop_time),
                       tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
+        root.append(vendor_annotations(self.source, "native"))
         variables = ET.SubElement(root, "ModelVariables")
         vr = -1
 
@@ -362,6 +377,8 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
             z.writestr("sources/buildDescription.xml", build_description(fmu, sources))
             for path, content in docs.items():
                 z.writestr(path, content)
+            for path, text in source.files.items():      # a user's scenario and mechanism files
+                z.writestr(f"{NATIVE_USER_FILES}/{path}", text)
             z.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=fmu))
             z.writestr(f"{LS_REF}/{fmu}_out.csv", reference)
         Path(written.enter_context(replacing(dest / f"{fmu}_ref.csv"))).write_text(reference)

@@ -45,6 +45,8 @@ from ..numerics import bracketed_roots, determinants
 TWO_PI = 2.0 * math.pi
 #: crank angles of the turn scan (every 0.25 deg): the assembly check and stationary angles
 SCAN_POINTS = 1440
+#: angles of the turn table (Mechanism.turn_table) that positions are made continuous by
+TURN_POINTS = 720
 
 
 # --------------------------------------------------------------------------------------------
@@ -516,6 +518,10 @@ class Mechanism:
         self._env = env
         self._table = None
         self._scan = None
+        # the angle unknowns (columns of q): continuous along the turn, counting whole turns
+        self._angle_columns = np.array([j for j, u in enumerate(self.unknown_names, start=1)
+                                        if definition.unknowns[u] == "angle"], dtype=int)
+        self._turn = None
         if self._closed_form is None:
             self._table = self._continuation_table()
 
@@ -582,19 +588,105 @@ class Mechanism:
         Raises AssemblyError where the mechanism cannot be assembled.
         """
         phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
-        if self._closed_form is not None:
-            env = dict(self._env)
-            env["phi1"] = phi1
-            with np.errstate(invalid="ignore", divide="ignore"):
-                for name, expr in self._closed_form:
-                    value = expr.evaluate(env)
-                    env[name] = value if np.shape(value) == phi1.shape else np.broadcast_to(value, phi1.shape)
-            q = np.column_stack([phi1] + [env[u] for u in self.unknown_names])
-            bad = ~np.all(np.isfinite(q), axis=1)
-            if np.any(bad):
-                raise self._assembly_error(phi1[bad][0], "the contour equations have no real solution")
+        q = self._closed_form_positions(phi1) if self._closed_form is not None else self._newton_from_table(phi1)
+        return self._count_turns(q)
+
+    def _closed_form_positions(self, phi1) -> np.ndarray:
+        """q from the file's closed form, its angles as the expressions give them (an atan2 stays
+        in (-pi, pi]): :meth:`_count_turns` makes them continuous."""
+        env = dict(self._env)
+        env["phi1"] = phi1
+        with np.errstate(invalid="ignore", divide="ignore"):
+            for name, expr in self._closed_form:
+                value = expr.evaluate(env)
+                env[name] = value if np.shape(value) == phi1.shape else np.broadcast_to(value, phi1.shape)
+        q = np.column_stack([phi1] + [np.asarray(env[u], dtype=float) for u in self.unknown_names])
+        bad = ~np.all(np.isfinite(q), axis=1)
+        if np.any(bad):
+            raise self._assembly_error(phi1[bad][0], "the contour equations have no real solution")
+        return q
+
+    # ---------------------------------------------------------------- whole turns
+    def turn_table(self):
+        """(grid, q on it, winding): one crank turn from the assembly's start (the guess's phi1, or 0
+        for a closed form) on TURN_POINTS + 1 angles, every angle unknown continuous along it, and
+        each angle unknown's whole turns per crank turn (1 for a link that turns fully with the
+        crank, 0 for one that oscillates). The reference every position is made continuous by.
+
+        A closed form may use atan2 with its branch cut: its angles are unwrapped along the turn
+        (a jump of a whole turn between neighbouring angles is the cut, not the motion). A jump
+        that is not a whole turn cannot be unwrapped: the closed form is refused, naming it."""
+        if self._turn is None:
+            if self._closed_form is None:
+                grid, table = self._table
+                table = table.copy()
+            else:
+                grid = np.linspace(0.0, TWO_PI, TURN_POINTS + 1)
+                table = self._closed_form_positions(grid)
+                cols = self._angle_columns
+                table[:, cols] = np.unwrap(table[:, cols], axis=0)
+            cols = self._angle_columns
+            winding = np.round((table[-1, cols] - table[0, cols]) / TWO_PI)
+            self._turn = (grid, table, winding)
+        return self._turn
+
+    def _refuse_jumps(self):
+        """DefinitionError where an unwrapped closed-form unknown still jumps: its increment between
+        neighbouring angles of the turn table against the trapezoid rule on its exact transfer
+        function (the assembly check runs it last, on a geometry that closes and has no dead point)."""
+        grid, table, _ = self.turn_table()
+        cols = self._angle_columns
+        for j, name in enumerate(self.unknown_names, start=1):
+            scale = TWO_PI if j in cols else max(self.length_scale, 1e-300)
+            a, b = grid[:-1], grid[1:]
+            miss = self._trapezoid_miss(a, b, table[:-1, j], table[1:, j], j)
+            i = int(np.argmax(miss))
+            # a steep but continuous function misses by h^3/12 |q'''|: refine the worst interval until
+            # it either closes (smooth) or keeps the same gap however fine (a jump)
+            lo, hi = float(a[i]), float(b[i])
+            gaps = [float(miss[i])]
+            for _ in range(3):
+                if gaps[-1] <= 1e-3 * scale or (len(gaps) > 1 and gaps[-1] < 0.25 * gaps[-2]):
+                    break                    # closed, or closing as the interval shrinks: steep, not a jump
+                fine = np.linspace(lo, hi, 65)
+                q = self._closed_form_positions(fine)
+                q[:, cols] = np.unwrap(q[:, cols], axis=0)
+                q[:, cols] += TWO_PI * np.round((table[i, cols] - q[0, cols]) / TWO_PI)
+                miss = self._trapezoid_miss(fine[:-1], fine[1:], q[:-1, j], q[1:, j], j)
+                i = int(np.argmax(miss))
+                lo, hi = float(fine[i]), float(fine[i + 1])
+                gap = float(q[i + 1, j] - q[i, j])
+                gaps.append(float(miss[i]))
+            else:
+                unit = "rad" if j in cols else "m"
+                what = "not a whole turn, so it cannot be made continuous" if unit == "rad" else "a length cannot jump"
+                raise DefinitionError(
+                    f"{self.definition.name}: the closed form of {name} jumps by {gap:.4g} {unit} at phi1 = "
+                    f"{math.degrees(lo):.4f} deg ({what}); write it continuous along the turn, or give a guess "
+                    "instead of a closed form")
+
+    def _trapezoid_miss(self, a, b, qa, qb, j) -> np.ndarray:
+        """|q(b) - q(a) - (b - a) (q'(a) + q'(b)) / 2| for unknown column j on each interval (the
+        transfer functions from the closed form as written: they do not see whole turns)."""
+        name = self.unknown_names[j - 1]
+        ka = self.kinematics_from_q(self._closed_form_positions(np.asarray(a, dtype=float)), second=False)
+        kb = self.kinematics_from_q(self._closed_form_positions(np.asarray(b, dtype=float)), second=False)
+        return np.abs(qb - qa - 0.5 * (b - a) * (ka.dq[name] + kb.dq[name]))
+
+    def _count_turns(self, q) -> np.ndarray:
+        """q with each angle unknown moved by whole turns to the continuous branch: the turn table's
+        value nearest in phi1, plus winding whole turns per crank turn since the table's start."""
+        cols = self._angle_columns
+        if cols.size == 0:
             return q
-        return self._newton_from_table(phi1)
+        grid, table, winding = self.turn_table()
+        h = grid[1] - grid[0]
+        turns = np.floor((q[:, 0] - grid[0]) / TWO_PI)
+        rel = q[:, 0] - grid[0] - TWO_PI * turns
+        i = np.clip(np.rint(rel / h).astype(int), 0, len(grid) - 1)
+        near = table[i][:, cols] + TWO_PI * turns[:, None] * winding
+        q[:, cols] += TWO_PI * np.round((near - q[:, cols]) / TWO_PI)
+        return q
 
     def _newton(self, q, max_iter=50):
         tol = 1e-13 * self.length_scale
@@ -813,6 +905,8 @@ class Mechanism:
         if worst < min_conditioning:
             raise self._assembly_error(
                 at, f"the mechanism locks at a dead point (conditioning {worst:.2e} < {min_conditioning:g})")
+        if self._closed_form is not None:
+            self._refuse_jumps()
         return worst, at
 
     def _refuse_sign_change(self, angles, h, signed, signed_next):

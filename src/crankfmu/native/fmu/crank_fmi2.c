@@ -78,6 +78,21 @@ static void logf_(const Instance* in, fmi2Status status, const char* category, c
     in->cb.logger(in->cb.componentEnvironment, in->name, status, category, escaped);
 }
 
+/* A number in a message as its user wrote it: the shortest %g text that reads back as the same
+ * double (0.1, not 0.10000000000000001; 1e-11, not 9.9999999999999994e-12), with ".0" on a whole
+ * number, as Python's repr (the CLI's and the Python FMU's messages) writes it. */
+typedef struct { char text[40]; } Number;
+static Number shortest(double x)
+{
+    Number n;
+    for (int digits = 1; digits <= 17; digits++) {
+        snprintf(n.text, sizeof n.text, "%.*g", digits, x);
+        if (!isfinite(x) || strtod(n.text, NULL) == x) break;
+    }
+    if (isfinite(x) && !strpbrk(n.text, ".e")) strcat(n.text, ".0");
+    return n;
+}
+
 static fmi2Status fail(Instance* in, const char* format, const char* detail)
 {
     logf_(in, fmi2Error, "logStatusError", format, detail);
@@ -360,8 +375,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     double t = in->now.time;
     if (fabs(currentCommunicationPoint - t) > 1e-9 * fmax(1.0, fabs(t)) + 1e-6 * communicationStepSize) {
         char detail[160];
-        snprintf(detail, sizeof detail, "fmi2DoStep at t = %.17g s, but this instance is at t = %.17g s",
-                 currentCommunicationPoint, t);
+        snprintf(detail, sizeof detail, "fmi2DoStep at t = %s s, but this instance is at t = %s s",
+                 shortest(currentCommunicationPoint).text, shortest(t).text);
         return fail(in, "%s", detail);
     }
     /* the step ends on the host's clock, as the Python FMUs' does: an instance's own sum of steps
@@ -529,17 +544,18 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         if (v->kind == KIND_FIXED) {
             if (x == v->start) continue;           /* setting the value it was built for is fine */
             snprintf(detail, sizeof detail,
-                     "%s = %.17g: this native FMU was built for %s = %.17g (its tables depend on it); "
-                     "rebuild it for a new value: %s", v->name, x, v->name, v->start, REBUILD_COMMAND);
+                     "%s = %s: this native FMU was built for %s = %s (its tables depend on it); "
+                     "rebuild it for a new value: %s", v->name, shortest(x).text, v->name, shortest(v->start).text,
+                     REBUILD_COMMAND);
             return fail(in, "%s", detail);
         }
         if (v->kind == KIND_INPUT && !isfinite(x)) {
-            snprintf(detail, sizeof detail, "input %s = %.17g: an input must be finite (%s)", v->name, x, v->unit);
+            snprintf(detail, sizeof detail, "input %s = %s: an input must be finite (%s)", v->name, shortest(x).text, v->unit);
             return fail(in, "%s", detail);
         }
         if (!isfinite(x) || (v->has_min && (v->min_inclusive ? x < v->min : x <= v->min)) ||
             (v->has_max && x > v->max)) {
-            snprintf(detail, sizeof detail, "parameter %s = %.17g is out of range: valid range %s (%s)", v->name, x,
+            snprintf(detail, sizeof detail, "parameter %s = %s is out of range: valid range %s (%s)", v->name, shortest(x).text,
                      v->range, v->unit);
             return fail(in, "%s", detail);
         }
@@ -681,8 +697,8 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
             return fail(in, "fmi2SetRealInputDerivatives: %s", detail);
         }
         if (!isfinite(value[i])) {
-            snprintf(detail, sizeof detail, "%s: the derivative %.17g must be finite", VARIABLES[vr[i]].name,
-                     value[i]);
+            snprintf(detail, sizeof detail, "%s: the derivative %s must be finite", VARIABLES[vr[i]].name,
+                     shortest(value[i]).text);
             return fail(in, "fmi2SetRealInputDerivatives: %s", detail);
         }
     }
