@@ -108,3 +108,24 @@ def test_a_port_force_enters_the_reactions_as_the_same_data_file_force_does(fmus
     for name in names:
         expected = np.array([reaction_values(sol, k)[name] for k in range(run.size)])
         assert np.max(np.abs(run[name] - expected)) <= 1e-9 * max(np.max(np.abs(expected)), 1.0), name
+
+
+@pytest.mark.parametrize("omega1", [15.0, -15.0])
+def test_on_a_sliders_extreme_the_reaction_takes_the_stroke_the_motion_enters(omega1):
+    """On a slider's extreme itself (its rate zero to round-off) the slider force, and with it every
+    joint reaction, is the force of the stroke the crank enters, turning either way: the rule of the
+    integrators' modes and of the native FMU's tables. The harness found the engine taking the
+    other stroke's by the sign of a 1e-16 rate: seed 001's O_Fx at t = 0 (phi1 = 0, an extreme)
+    was 150 N, the backward force, off the native ThreeLoop.fmu's."""
+    from crankfmu.dynamics.loads import SliderForce
+    from crankfmu.dynamics.reactions import joint_reactions, reaction_values
+    from crankfmu.scenario import load_scenario
+
+    model = load_scenario("seed001").build()
+    slider = next(load for load in model.reduced.loads if isinstance(load, SliderForce))
+    for extreme in slider.extremes:
+        at = reaction_values(joint_reactions(model.reduced, np.array([extreme]), omega1, 0.0))
+        entered = extreme + 1e-7 * np.sign(omega1)
+        just_after = reaction_values(joint_reactions(model.reduced, np.array([entered]), omega1, 0.0))
+        for name, value in at.items():
+            assert abs(value - just_after[name]) < 1e-2, (extreme, name, value, just_after[name])
