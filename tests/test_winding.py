@@ -89,6 +89,17 @@ def test_the_cli_and_both_fmus_agree_beyond_two_pi(built):
         assert np.max(np.abs(mine - cli)) < bar, (label, np.max(np.abs(mine - cli)))
 
 
+def test_validate_passes_both_fmus(built, tmp_path):
+    from crankfmu.validation import harness
+
+    checks, report = harness.validate([built / "python" / "Whitworth.fmu", built / "native" / "Whitworth.fmu"],
+                                      tmp_path, echo=None, jobs=1)
+    assert checks.failed == 0, [c.line() for c in checks.items if not c.passed and not c.skipped]
+    names = {c.name for c in checks.items}
+    assert {"Whitworth.python.cs.default.lever_angle_rel_error", "Whitworth.native.me.default.lever_angle_rel_error",
+            "Whitworth.native_vs_python.lever_angle_rel_difference"} <= names
+
+
 def test_a_closed_form_that_jumps_between_branches_is_refused_by_check(tmp_path, capsys):
     """The block's distance written with a sign that flips (and the lever half a turn round to
     match): the contours still close, but the motion jumps. check names the jump, and the native
@@ -123,3 +134,32 @@ def test_a_table_that_cannot_be_built_names_the_function_and_its_jump():
     message = str(refused.value)
     assert "lever_angle (phi3)" in message and "jumps by 6.283" in message and "dead point" in message
     assert "not a dead point" in message and "1e-11" in message
+
+
+def test_messages_print_numbers_as_written_and_tracebacks_on_request(built, tmp_path):
+    """The native FMU refuses another crank length naming the value it was built for as the file
+    writes it (r = 0.1, not 0.10000000000000001), with logging off too; the CLI's one-line failure
+    shows its traceback with CRANKFMU_TRACEBACK=1, and only then."""
+    import os
+    import subprocess
+    import sys
+
+    from fmpy import simulate_fmu
+
+    messages = []
+    logger = lambda *args: messages.append(args[-1].decode() if isinstance(args[-1], bytes) else str(args[-1]))  # noqa: E731
+    with pytest.raises(Exception):
+        simulate_fmu(str(built / "native" / "Whitworth.fmu"), stop_time=0.01, start_values={"r": 0.2},
+                     logger=logger, debug_logging=False)
+    refusal = next(m for m in messages if "r = 0.2" in m)
+    assert "built for r = 0.1 " in refusal and "0.1000000" not in refusal
+    bad = tmp_path / "bad.toml"
+    bad.write_text(WHITWORTH.read_text().replace('value = 0.1, unit = "m", min = 0', 'value = -0.1, unit = "m", min = 0'))
+    (tmp_path / "whitworth.toml").write_text((DATA / "whitworth.toml").read_text())
+    command = [sys.executable, "-m", "crankfmu", "fmu", str(bad), "--native", "--out", str(tmp_path / "o")]
+    plain = subprocess.run(command, capture_output=True, text=True, env={**os.environ, "CRANKFMU_TRACEBACK": ""})
+    traced = subprocess.run(command, capture_output=True, text=True, env={**os.environ, "CRANKFMU_TRACEBACK": "1"})
+    assert plain.returncode == traced.returncode == 1
+    assert "Traceback" not in plain.stderr and len(plain.stderr.strip().splitlines()) == 1
+    assert "r = -0.1 is out of range: valid range (0, inf) m" in plain.stderr
+    assert "Traceback (most recent call last)" in traced.stderr and plain.stderr.strip() in traced.stderr

@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline
 
 TWO_PI = 2.0 * math.pi
 
@@ -59,6 +58,28 @@ def phi_quadrature_residual(time, phi, omega, epsilon) -> float:
     return max_abs_error(phi - phi[0], integral)
 
 
+def turn_times(t, phi, w, levels) -> np.ndarray:
+    """Where the cubic Hermite interpolant of an increasing phi1 (omega1 its slope) reaches each of
+    ``levels``: each in its own sample interval (found by bisection of the samples), then Newton's
+    method on that interval's cubic from the chord's root, all levels at once (a thousand turns cost
+    what one does; scipy's PPoly.solve searched every interval per level)."""
+    levels = np.asarray(levels, dtype=float)
+    i = np.clip(np.searchsorted(phi, levels, side="left") - 1, 0, t.size - 2)
+    t0, h = t[i], t[i + 1] - t[i]
+    p0, p1, m0, m1 = phi[i], phi[i + 1], w[i] * h, w[i + 1] * h
+    target = levels - p0
+    s = np.clip(target / (p1 - p0), 0.0, 1.0)
+    for _ in range(30):
+        # Hermite basis on s in [0, 1]: p(s) and dp/ds
+        value = (2 * s**3 - 3 * s**2) * (p0 - p1) + (s**3 - 2 * s**2 + s) * m0 + (s**3 - s**2) * m1
+        slope = (6 * s**2 - 6 * s) * (p0 - p1) + (3 * s**2 - 4 * s + 1) * m0 + (3 * s**2 - 2 * s) * m1
+        step = (value - target) / np.where(slope > 0, slope, p1 - p0)
+        s = np.clip(s - step, 0.0, 1.0)
+        if np.all(np.abs(step) <= 1e-15):
+            break
+    return t0 + s * h
+
+
 def cycles(time, phi, omega) -> list[dict]:
     """Each complete crank turn in the samples: start and end time (phi1 = phi1(0) + 2 pi k, found
     on the cubic Hermite interpolant of phi1 with omega1 as its slope), omega1 min and max at the
@@ -66,14 +87,8 @@ def cycles(time, phi, omega) -> list[dict]:
     t, phi, w = (np.asarray(x, dtype=float) for x in (time, phi, omega))
     if t.size < 4 or np.any(np.diff(phi) <= 0):
         return []
-    spline = CubicHermiteSpline(t, phi, w)
     turns = int(math.floor((phi[-1] - phi[0]) / TWO_PI))
-    marks = [t[0]]
-    for k in range(1, turns + 1):
-        roots = spline.solve(phi[0] + TWO_PI * k, extrapolate=False)
-        if roots.size == 0:
-            break
-        marks.append(float(roots[0]))
+    marks = [t[0], *turn_times(t, phi, w, phi[0] + TWO_PI * np.arange(1, turns + 1))]
     out = []
     for k in range(1, len(marks)):
         t0, t1 = marks[k - 1], marks[k]

@@ -34,22 +34,61 @@ class FmuRun:
     settings: dict
     log: list[str] = field(default_factory=list)
     error: str | None = None           # set when the FMU refused (fmi2Error) or the run failed
+    units: dict = field(default_factory=dict)   # each output's unit, as the FMU declares it
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.values[name]
 
 
-def scenario_of(path) -> str | None:
-    """The scenario a torque-causal crankfmu FMU names in its modelDescription, or None: Drive.fmu
-    and DieCushion.fmu name their own files (``crankfmu hosts`` and the tests check them), and a
-    speed-causal mechanism FMU (tests/test_causality.py, the SSP in ``crankfmu hosts``) has no
-    motor line for the harness's cases."""
+@dataclass(frozen=True)
+class FmuKind:
+    """What a crankfmu FMU is, from its modelDescription: the data file it implements (``kind``:
+    scenario, drive, cushion or well; ``data``: its name), the causality at its shaft, its build
+    (python or native), its interfaces, and where it carries a user's file (``file``)."""
+
+    kind: str
+    data: str
+    causality: str
+    build: str
+    interfaces: tuple[str, ...]
+    file: str | None = None
+
+    @property
+    def label(self) -> str:
+        """The kind in a report's words: "mechanism", "mechanism, speed causality", "drive", ..."""
+        what = "mechanism" if self.kind == "scenario" else {"cushion": "die cushion", "well": "rod string"}.get(
+            self.kind, self.kind)
+        return what + (", speed causality" if self.causality == "speed" else "")
+
+
+#: where a run reports how far it is: (what runs, fraction done); the harness's workers set it to
+#: tell the parent, which draws one bar for all of them (None: each run draws its own bar)
+PROGRESS = None
+
+
+def report_progress(label: str, fraction: float):
+    if PROGRESS is not None:
+        PROGRESS(label, fraction)
+
+
+def kind_of(path) -> FmuKind | None:
+    """The FMU's kind, or None for an FMU crankfmu did not build (no crankfmu VendorAnnotation)."""
     with zipfile.ZipFile(path) as z:
         root = ET.fromstring(z.read("modelDescription.xml"))
-    node = root.find("VendorAnnotations/Tool[@name='crankfmu']/Scenario")
-    if node is None or not node.get("name") or node.get("causality") == "speed":
+    tool = root.find("VendorAnnotations/Tool[@name='crankfmu']")
+    if tool is None or not len(tool):
         return None
-    return node.get("name")
+    node = tool[0]
+    interfaces = tuple(tag for tag in ("CoSimulation", "ModelExchange") if root.find(tag) is not None)
+    native = node.get("build") == "native" or "native" in (root.get("generationTool") or "")
+    return FmuKind(node.tag.lower(), node.get("name") or "", node.get("causality") or "torque",
+                   "native" if native else "python", interfaces, node.get("file"))
+
+
+def scenario_of(path) -> str | None:
+    """The scenario a crankfmu mechanism FMU (either causality) implements, or None."""
+    kind = kind_of(path)
+    return kind.data if kind is not None and kind.kind == "scenario" else None
 
 
 class FmuUnderTest:
@@ -59,26 +98,44 @@ class FmuUnderTest:
         self.path = Path(path)
         if not self.path.is_file():
             raise CrankfmuError(f"no FMU at {self.path}: run `make fmu` (or give --fmu PATH)")
+        self.kind = kind_of(self.path)
+        if self.kind is None:
+            raise CrankfmuError(f"{self.path.name} carries no crankfmu VendorAnnotation (Tool name=\"crankfmu\"): "
+                                "not an FMU crankfmu built, so there is no data file to check it against")
         self.model_description = read_model_description(str(self.path))
-        self.name = self.model_description.coSimulation.modelIdentifier
-        self.scenario_name = self._scenario_name()
-        self.variables = {v.name: v for v in self.model_description.modelVariables}
-        self.outputs = [v.name for v in self.model_description.modelVariables if v.causality == "output"]
+        md = self.model_description
+        self.name = (md.coSimulation or md.modelExchange).modelIdentifier
+        self.scenario_name = self.kind.data
+        self.variables = {v.name: v for v in md.modelVariables}
+        self.outputs = [v.name for v in md.modelVariables if v.causality == "output"]
         self.units = {v.name: (v.unit or (v.declaredType.unit if v.declaredType else None))
-                      for v in self.model_description.modelVariables}
+                      for v in md.modelVariables}
         self.unzipdir = extract(str(self.path))
         self.scenario_source = self._scenario_source()
 
+    @property
+    def native(self) -> bool:
+        return self.kind.build == "native"
+
+    @property
+    def title(self) -> str:
+        """How the report names it: the file and its build (native FMUs share the Python ones' names)."""
+        return f"{self.name}.fmu ({self.kind.build})"
+
     def _scenario_source(self) -> str:
-        """What the in-process reference loads: the packaged scenario by name, or, for an FMU built
+        """What the in-process model loads: the packaged data file by name, or, for an FMU built
         from a user's scenario file, the copy the FMU carries (the same file the FMU runs)."""
-        with zipfile.ZipFile(self.path) as z:
-            root = ET.fromstring(z.read("modelDescription.xml"))
-        node = root.find("VendorAnnotations/Tool[@name='crankfmu']/Scenario")
-        inside = node.get("file") if node is not None else None
+        inside = self.kind.file
         if not inside:
             return self.scenario_name
-        # the FMU carries its package as one archive (fmi.build.pack): its user/ files, unpacked
+        if self.native:           # carried as plain files (fmi.build.NATIVE_USER_FILES)
+            from crankfmu.fmi.build import NATIVE_USER_FILES
+
+            path = Path(self.unzipdir) / NATIVE_USER_FILES / inside
+            if not path.is_file():
+                raise CrankfmuError(f"{self.path.name} names its scenario file {inside} but does not carry it")
+            return str(path)
+        # a pythonfmu FMU carries its package as one archive (fmi.build.pack): its user/ files, unpacked
         package = Path(self.unzipdir) / "resources" / f"crankfmu_{self.name}"
         with zipfile.ZipFile(package.with_suffix(".zip")) as packed:
             names = packed.namelist()
@@ -87,19 +144,15 @@ class FmuUnderTest:
             packed.extractall(package, [n for n in names if n.startswith("user/")])
         return str(package / inside)
 
-    def _scenario_name(self) -> str:
-        name = scenario_of(self.path)
-        if name is None:
-            raise CrankfmuError(f"{self.path.name} does not name its crankfmu scenario "
-                                "(VendorAnnotations/Tool[@name='crankfmu']/Scenario): not a crankfmu FMU?")
-        return name
-
     def close(self):
         shutil.rmtree(self.unzipdir, ignore_errors=True)
 
     def run(self, stop_time: float, step: float, start_values: dict | None = None, label: str = "",
-            output: list[str] | None = None, show_progress: bool = True) -> FmuRun:
-        """Simulate from 0 to ``stop_time`` s with communication step ``step`` s."""
+            output: list[str] | None = None, show_progress: bool = True, interface: str = "CoSimulation",
+            rtol: float | None = None, inputs=None) -> FmuRun:
+        """Simulate from 0 to ``stop_time`` s with communication (output) step ``step`` s, as
+        Co-Simulation or as Model Exchange through fmpy's CVode at relative tolerance ``rtol``;
+        ``inputs``: a structured array (time and input columns), as fmpy takes it."""
         from fmpy import simulate_fmu
 
         log: list[str] = []
@@ -112,19 +165,28 @@ class FmuUnderTest:
         if unknown:
             raise CrankfmuError(f"{self.name} has no variable {', '.join(unknown)}")
         settings = {"stop_time": stop_time, "step": step, **start_values}
-        bar = ProgressBar(stop_time, label=f"{self.name} {label or 'run'}",    # shows after 2 s
-                          delay=2.0 if show_progress else math.inf)
+        what = f"{self.name} ({self.kind.build}) {label or 'run'}"
+        bar = ProgressBar(stop_time, label=what,    # shows after 2 s
+                          delay=2.0 if show_progress and PROGRESS is None else math.inf)
+        report_progress(what, 0.0)
 
         def step_finished(t, recorder):
             bar(t)
+            report_progress(what, t / stop_time if stop_time > 0 else 1.0)
             return True
 
+        # fmpy's CVode takes at most 500 steps between two outputs: Model Exchange records at
+        # least every 10 ms (the rows on the asked grid are kept below)
+        interval = min(step, 1e-2) if interface == "ModelExchange" else step
+        if interface == "ModelExchange" and abs(step / interval - round(step / interval)) > 1e-9:
+            interval = step / math.ceil(step / interval)
         started = time.perf_counter()
         try:
             result = simulate_fmu(self.unzipdir, model_description=self.model_description, validate=False,
-                                  start_time=0.0, stop_time=stop_time, output_interval=step,
+                                  start_time=0.0, stop_time=stop_time, output_interval=interval,
                                   start_values=start_values, output=output or self.outputs,
-                                  debug_logging=True, logger=logger, step_finished=step_finished)
+                                  debug_logging=True, logger=logger, step_finished=step_finished,
+                                  fmi_type=interface, relative_tolerance=rtol, input=inputs)
         except Exception as exc:      # fmpy raises on fmi2Error: that is an outcome to check, not a crash
             return FmuRun(label, np.empty(0), {}, time.perf_counter() - started, settings, log,
                           error=f"{type(exc).__name__}: {exc}")
@@ -133,7 +195,14 @@ class FmuUnderTest:
         wall = time.perf_counter() - started
         values = {name: np.asarray(result[name], dtype=float) for name in result.dtype.names}
         t = values.pop("time")
+        if interface == "ModelExchange":
+            # fmpy records events (before and after each) as extra rows: keep the last row at each
+            # output time, the grid a Co-Simulation run and the reference share
+            grid = np.round(t / step) * step
+            on = np.nonzero(np.isclose(t, grid, rtol=0.0, atol=1e-9 * max(step, 1.0)))[0]
+            keep = on[np.append(grid[on][1:] != grid[on][:-1], True)]
+            t, values = grid[keep], {k: v[keep] for k, v in values.items()}
         if not (t.size and math.isclose(t[-1], stop_time, rel_tol=1e-9, abs_tol=1e-12)):
             return FmuRun(label, t, values, wall, settings, log,
                           error=f"the run stopped at t = {t[-1] if t.size else 0:g} s before {stop_time:g} s")
-        return FmuRun(label, t, values, wall, settings, log)
+        return FmuRun(label, t, values, wall, settings, log, units=self.units)

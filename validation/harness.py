@@ -1,112 +1,200 @@
-"""``crankfmu validate [--fmu PATH ...] [--out DIR] [--quick]``: every FMU against the in-process
-reference and the papers. One line per check, ``N passed, M failed``, exit status 1 on any
-failure, ``DIR/report.md`` with tables and plots."""
+"""``crankfmu validate [--fmu PATH ...] [--out DIR] [--quick] [--jobs N]``: every FMU against the
+in-process reference, closed forms and the papers. One line per check, ``N passed, M failed, K
+skipped``, exit status 1 on any failure, ``DIR/report.md`` with a summary table and plots.
+
+Without ``--fmu`` it takes every FMU under build/fmus/ (the native ones in build/fmus/native/
+too). Each FMU is checked as its kind asks (its crankfmu VendorAnnotation says what it is):
+
+* a mechanism in torque causality, Python or native: the default experiment against the
+  reference in each interface it has (Co-Simulation; Model Exchange through fmpy's CVode), every
+  output, the paper's numbers, every hard case, speed against error, and the native FMU against
+  the Python one of the same file (mechanism.py);
+* a mechanism in speed causality: tau_drive at constant omega1 against the equilibrium moment, a
+  torque-causal reference played back, the energy balance (speed.py);
+* the drive, the die cushion, the rod string: their closed forms (components.py).
+
+An FMU it cannot check is listed under "not validated" with the reason, and counted. The FMUs of
+one data file form a group that one worker process runs, so they share its reference runs; the
+groups run on ``--jobs`` processes (default: the machine's cores, at most 2 by default on CI).
+"""
 
 from __future__ import annotations
 
 import argparse
 import math
+import multiprocessing
+import os
 import sys
 import time
-import zipfile
+import traceback
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-import numpy as np
-
 from crankfmu.errors import CrankfmuError
-from crankfmu.progress import ProgressBar
-from crankfmu.scenario import load_scenario
 
-from . import cases as hard_cases
-from . import work_precision
 from .checks import CheckList
-from .compare import cycles, energy_residual, max_abs_error, phi_quadrature_residual, relative_error
-from .fmu_runner import FmuUnderTest, scenario_of
-from .paper import check_paper
-from .reference import reference_run
-from .report import plot_overlay, plot_work_precision, write_report
 
 DEFAULT_FMUS = Path("build") / "fmus"
-OUTPUT_TOLERANCE = 1e-6        # relative: the FMU's rtol (1e-10) leaves ~1e-9; 1e-6 is the contract's bound
-LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
+#: the groups' relative cost (the long runs and the speed-against-error study): the dearest start first
+COST = {"seed000": 10, "pumpjack": 6, "seed001": 5, "seed003": 5, "well:rp11l_guo": 4}
 
 
-def _carried_reference(fmu: FmuUnderTest):
-    """The result the FMU carries (fmi-ls-ref), as {column: array}, or None."""
-    with zipfile.ZipFile(fmu.path) as z:
-        name = f"{LS_REF}/{fmu.name}_out.csv"
-        if name not in z.namelist():
-            return None
-        text = z.read(name).decode()
-    header, *rows = text.strip().splitlines()
-    cols = [c.strip('"') for c in header.split(",")]
-    data = np.array([[float(x) for x in r.split(",")] for r in rows])
-    return {c: data[:, i] for i, c in enumerate(cols)}
+def discover(folder: Path = DEFAULT_FMUS) -> list[Path]:
+    """Every FMU under ``folder``, its subfolders (native/) included."""
+    return sorted(folder.rglob("*.fmu"))
 
 
-def check_default(fmu: FmuUnderTest, scenario, checks, out: Path) -> dict:
-    """The default experiment through fmpy against the reference at the same points."""
-    exp = scenario.experiment
-    prefix = f"{fmu.name}.default"
-    run = fmu.run(exp.stop_time, exp.output_interval, label="default")
-    if run.error:
-        checks.holds(f"{prefix}.ran", False, note=run.error)
-        return {}
-    ref = reference_run(scenario, run.time)
-    rows = []
-    for name in fmu.outputs:
-        if name not in ref.values:
+def plan(paths) -> tuple[list[list[str]], list[tuple[str, str]]]:
+    """(groups of FMU paths, one group per data file and causality; the FMUs not validated, with why)."""
+    from .fmu_runner import kind_of
+
+    groups: dict[tuple, list[str]] = {}
+    not_validated = []
+    for path in map(Path, paths):
+        if not path.is_file():
+            not_validated.append((str(path), "no such file"))
             continue
-        a, r = max_abs_error(run[name], ref[name]), relative_error(run[name], ref[name])
-        checks.at_most(f"{prefix}.{name}_rel_error", r, OUTPUT_TOLERANCE)
-        rows.append({"output": name, "unit": fmu.units.get(name) or "1", "abs": a, "rel": r, "tol": OUTPUT_TOLERANCE})
-    checks.at_most(f"{prefix}.energy_residual", energy_residual(run.values), 1e-8)
-    floor = phi_quadrature_residual(ref.time, ref["phi1"], ref["omega1"], ref["epsilon1"])
-    checks.at_most(f"{prefix}.phi1_is_integral_of_omega1",
-                   phi_quadrature_residual(run.time, run["phi1"], run["omega1"], run["epsilon1"]),
-                   2.0 * floor + 1e-8, "rad", note=f"Hermite-rule floor on the reference {floor:.2e} rad")
-    # the same for each mechanism-specific position with its velocity and acceleration outputs
-    by_of = {}
-    for q in scenario.quantities:
-        by_of.setdefault(q.of, {})[q.order] = q.name
-    for of, names in by_of.items():
-        if {0, 1, 2} <= set(names) and all(names[o] in run.values for o in (0, 1, 2)):
-            x, v, a = names[0], names[1], names[2]
-            floor = phi_quadrature_residual(ref.time, ref[x], ref[v], ref[a])
-            checks.at_most(f"{prefix}.{x}_is_integral_of_{v}", phi_quadrature_residual(run.time, run[x], run[v], run[a]),
-                           2.0 * floor + 1e-8, note=f"Hermite-rule floor on the reference {floor:.2e}")
-    fc, rc = cycles(run.time, run["phi1"], run["omega1"]), cycles(ref.time, ref["phi1"], ref["omega1"])
-    k = min(exp.summary_cycle, len(fc), len(rc))
-    if k:
-        for key in ("omega1_min", "omega1_max", "omega1_mean"):
-            checks.at_most(f"{prefix}.cycle{k}_{key}_error", fc[k - 1][key] - rc[k - 1][key], 1e-6, "rad/s")
-    carried = _carried_reference(fmu)
-    if carried is not None and carried["time"].shape == run.time.shape:
-        checks.at_most(f"{prefix}.omega1_vs_carried_fmi_ls_ref", relative_error(run["omega1"], carried["omega1"]),
-                       OUTPUT_TOLERANCE)
-    from fmpy.validation import validate_fmu
-    problems = validate_fmu(str(fmu.path))
-    checks.holds(f"{fmu.name}.fmpy_validate", not problems, note="; ".join(map(str, problems))[:300])
-    plot = plot_overlay(run, ref, out / f"{fmu.name}_default.png",
-                        f"{fmu.name}.fmu, default experiment ({scenario.name})")
-    model = ref.result.model
-    n_paper = len(checks.items)
-    check_paper(scenario, model, run, checks, fmu.name)
-    return {"default": {"span": exp.stop_time - exp.start_time, "step": exp.output_interval, "fmu_wall": run.wall,
-                        "ref_wall": ref.wall, "rows": rows, "plot": plot.name},
-            "paper": checks.items[n_paper:]}
+        try:
+            kind = kind_of(path)
+        except Exception as exc:                  # not a zip, no modelDescription: say so, go on
+            not_validated.append((str(path), f"cannot be read as an FMU: {type(exc).__name__}: {exc}"))
+            continue
+        if kind is None:
+            not_validated.append((str(path), "carries no crankfmu VendorAnnotation: not an FMU crankfmu built, "
+                                             "so there is no data file to check it against"))
+            continue
+        groups.setdefault((kind.kind, kind.data, kind.causality, kind.file or ""), []).append(str(path))
+    ordered = sorted(groups.items(), key=lambda item: -COST.get(
+        item[0][1] if item[0][0] == "scenario" else f"{item[0][0]}:{item[0][1]}", 1))
+    return [paths for _, paths in ordered], not_validated
 
 
-def check_work_precision(fmu, scenario, checks, out: Path, quick: bool) -> dict:
-    bar = ProgressBar(1.0, label=f"{fmu.name} work-precision", stream=sys.stderr)
+# ------------------------------------------------------------------------------------ one group
+def run_group(paths: list[str], out: str, quick: bool) -> dict:
+    """Validate the FMUs of one data file (in a worker process): their sections, checks and the
+    FMUs found not validatable inside."""
+    from .fmu_runner import FmuUnderTest
+
+    out = Path(out)
+    checks = CheckList(echo=None)
+    sections, not_validated = [], []
+    fmus = []
+    for path in paths:
+        try:
+            fmus.append(FmuUnderTest(path))
+        except CrankfmuError as exc:
+            not_validated.append((path, str(exc)))
     try:
-        points, meta = work_precision.run_study(fmu, scenario, quick, progress=bar)
+        by_build = {}
+        for fmu in fmus:
+            started, n_before = time.perf_counter(), len(checks.items)
+            try:
+                section = _validate_one(fmu, checks, out, quick)
+            except Exception as exc:      # a bug in a check, or a crash of the FMU: a failed check, go on
+                checks.holds(f"{fmu.name}.{fmu.kind.build}.harness_ran", False,
+                             note=f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3)[-400:]}")
+                section = {}
+            section.update(name=fmu.name, build=fmu.kind.build, kind=fmu.kind.label, data=fmu.kind.data,
+                           interfaces=list(fmu.kind.interfaces), path=str(fmu.path))
+            by_build[fmu.kind.build] = (fmu, section)
+            section["wall"] = time.perf_counter() - started
+            section["n_before"], section["n_end"] = n_before, len(checks.items)
+            sections.append(section)
+        if {"python", "native"} <= by_build.keys():
+            _native_against_python(by_build, checks)
+        _work_precision(fmus, sections, checks, out, quick)
     finally:
-        bar.close()
-    prefix = f"{fmu.name}.work_precision"
+        for fmu in fmus:
+            fmu.close()
+        from .fmu_runner import report_progress
+        report_progress("", 1.0)                  # this worker is free: off the status line
+    # each section's checks: the items made while it ran, and the comparisons added to it after
+    ends = [s["n_before"] for s in sections[1:]] + [sections[-1]["n_end"] if sections else 0]
+    for section, end in zip(sections, ends):
+        section["checks"] = checks.items[section.pop("n_before"):end] + section.pop("extra_checks", [])
+        section.pop("n_end", None)
+        for entry in section.get("default", []):
+            entry.pop("run", None)               # the arrays stay in the worker
+    return {"sections": sections, "not_validated": not_validated, "checks": checks.items}
+
+
+def _validate_one(fmu, checks, out, quick) -> dict:
+    from crankfmu.scenario import load_scenario
+
+    kind = fmu.kind
+    if kind.kind == "scenario":
+        scenario = load_scenario(fmu.scenario_source)
+        if kind.causality == "speed":
+            from .speed import check_speed_fmu
+            return check_speed_fmu(fmu, scenario, checks, out, quick)
+        from .mechanism import check_model
+        return check_model(fmu, scenario, checks, out, quick)
+    from . import components
+    check = {"drive": components.check_drive, "cushion": components.check_cushion,
+             "well": components.check_rod_string}.get(kind.kind)
+    if check is None:
+        checks.skip(f"{fmu.name}.{kind.build}", f"no checks for an FMU of kind {kind.kind!r}")
+        return {}
+    return check(fmu, checks, out, quick)
+
+
+def _native_against_python(by_build, checks):
+    """The native FMU of a data file against its Python FMU, on their Co-Simulation runs."""
+    (native, n_section), (python, p_section) = by_build["native"], by_build["python"]
+    n_run = next((d.get("run") for d in n_section.get("default", []) if d.get("interface") == "CoSimulation"), None)
+    p_run = next((d.get("run") for d in p_section.get("default", []) if d.get("interface") == "CoSimulation"), None)
+    if n_run is None or p_run is None or n_run.time.shape != p_run.time.shape:
+        item = checks.skip(f"{native.name}.native_vs_python", "one of the two default runs did not complete")
+        n_section.setdefault("extra_checks", []).append(item)
+        return
+    n_before = len(checks.items)
+    if native.kind.kind == "scenario" and native.kind.causality == "torque":
+        from crankfmu.scenario import load_scenario
+
+        from .mechanism import check_native_against_python
+        result = check_native_against_python(native, python, load_scenario(native.scenario_source), checks,
+                                             n_run, p_run)
+    else:
+        from .speed import check_speed_native_against_python
+        reactions = {v.name for v in native.model_description.modelVariables if v.name.endswith(("_Fx", "_Fy"))}
+        result = check_speed_native_against_python(native, python, n_run, p_run, checks, reactions)
+    n_section["native_vs_python"] = result
+    n_section.setdefault("extra_checks", []).extend(checks.items[n_before:])
+
+
+def _work_precision(fmus, sections, checks, out, quick):
+    """Speed against error on a scenario whose case file asks for it: every FMU of the group."""
+    from crankfmu.scenario import load_scenario
+
+    from . import cases as hard_cases
+    from .work_precision import run_study
+
+    mechanisms = [f for f in fmus if f.kind.kind == "scenario" and f.kind.causality == "torque"]
+    if not mechanisms:
+        return
+    scenario = load_scenario(mechanisms[0].scenario_source)
+    if not hard_cases.load_cases(scenario.name).work_precision:
+        return
+    n_before = len(checks.items)
+    from .fmu_runner import report_progress
+    labelled = [(f"{f.kind.build.capitalize()} FMU", f) for f in mechanisms]
+    points, meta = run_study(labelled, scenario, quick,
+                             progress=lambda x: report_progress(f"{scenario.name} speed against error", x))
+    section = sections[0]
+    section["work_precision"] = _work_precision_section(points, meta, scenario, checks, out)
+    section.setdefault("extra_checks", []).extend(checks.items[n_before:])
+
+
+def _work_precision_section(points, meta, scenario, checks, out) -> dict:
+    from . import work_precision
+    from .report import plot_work_precision
+
+    prefix = f"{scenario.name}.work_precision"
     for p in points:
-        if p.family.startswith("FMU") and "rtol 1e-10" in (p.family + p.setting):
-            checks.at_most(f"{prefix}.fmu_{p.setting.replace(' ', '_')}_omega1_error", p.omega1_error, 1e-6, "rad/s")
+        if "FMU" in p.family and "rtol sweep" in p.family and p.setting == "rtol 1e-10":
+            tag = p.family.split(",")[0].replace(" ", "_")
+            checks.at_most(f"{prefix}.{tag}_{'me_' if 'Model Exchange' in p.family else ''}rtol_1e-10_omega1_error",
+                           p.omega1_error, 1e-6, "rad/s")
     for family in ("paper eq. 17 (seed 000)", "paper eq. 3 (seed 003)"):
         pts = [p for p in points if p.family == family and math.isfinite(p.omega1_error)]
         if len(pts) >= 2:
@@ -114,7 +202,6 @@ def check_work_precision(fmu, scenario, checks, out: Path, quick: bool) -> dict:
             order = math.log10(a.omega1_error / b.omega1_error)
             checks.close(f"{prefix}.{family.split()[2]}_convergence_order", order, 1.0, 0.15,
                          note=f"{a.setting} -> {b.setting}")
-    ratios = work_precision.ratio_table(points)
     verdict = []
     for target in (1e-6, 1e-9):
         best, second = work_precision.fastest(points, target)
@@ -127,69 +214,129 @@ def check_work_precision(fmu, scenario, checks, out: Path, quick: bool) -> dict:
             verdict.append(f"- At {target:g} rad/s the fastest is **{best.family}** ({best.setting}, "
                            f"{best.time_s * 1e3:.3g} ms), {second.time_s / best.time_s:.3g} times faster than the "
                            f"next method, {second.family} ({second.setting}, {second.time_s * 1e3:.3g} ms).")
-    plot = plot_work_precision(points, out / f"{fmu.name}_work_precision.png",
+    plot = plot_work_precision(points, out / f"{scenario.name}_work_precision.png",
                                f"{scenario.name}: speed against error (one run, one machine)")
-    for line in verdict:
-        print(line.replace("**", ""))
-    return {"points": points, "meta": meta, "ratios": ratios, "targets": work_precision.TARGETS,
-            "verdict": verdict, "plot": plot.name}
+    return {"points": points, "meta": meta, "ratios": work_precision.ratio_table(points),
+            "targets": work_precision.TARGETS, "verdict": verdict, "plot": plot.name}
 
 
-def validate(fmu_paths, out, quick: bool = False, echo=print) -> tuple[CheckList, Path]:
+# ------------------------------------------------------------------------------------ all groups
+_STATUS = None
+
+
+def _worker_init(status):
+    """In each worker: runs report how far they are to the parent's status board, not to stderr."""
+    global _STATUS
+    from . import fmu_runner
+
+    _STATUS = status
+    pid = os.getpid()
+    fmu_runner.PROGRESS = lambda label, fraction: status.__setitem__(pid, (label, fraction))
+
+
+class StatusLine:
+    """One line for every worker, redrawn each second on a terminal (a line every 15 s in a log):
+    the groups done, what each worker runs and how far it is, and the time since the start, so
+    the display moves even while a reference runs."""
+
+    def __init__(self, total: int, stream=None):
+        self.total, self.stream = total, stream or sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+        self.last = -math.inf
+
+    def show(self, done: int, status: dict, force: bool = False):
+        now = time.perf_counter()
+        if not force and now - self.last < (1.0 if self.tty else 15.0):
+            return
+        self.last = now
+        running = "; ".join(f"{label} {100 * fraction:3.0f}%" for label, fraction in list(status.values())[:4]
+                            if label)
+        filled = int(round(30 * done / max(self.total, 1)))
+        line = (f"validate [{'#' * filled}{'.' * (30 - filled)}] {done}/{self.total} groups, "
+                f"{now - self.t0:5.0f} s" + (f" | {running}" if running and done < self.total else ""))
+        width = 160
+        self.stream.write(f"\r{line[:width]:<{width}}" if self.tty else f"{line[:width]}\n")
+        self.stream.flush()
+
+    def close(self):
+        if self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None = None) -> tuple[CheckList, Path]:
+    from .report import write_report
+
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     checks = CheckList(echo)
-    sections = []
     started = time.perf_counter()
-    for path in fmu_paths:
-        try:
-            fmu = FmuUnderTest(path)
-        except CrankfmuError as exc:
-            checks.holds(f"{Path(path).stem}.loads", False, note=str(exc))
-            continue
-        try:
-            scenario = load_scenario(fmu.scenario_source)
-            section = {"name": fmu.name, "scenario": scenario.name,
-                       "intro": [f"`{fmu.path}`; scenario file `{scenario.where}`.", ""]}
-            section.update(check_default(fmu, scenario, checks, out))
-            case_file = hard_cases.load_cases(scenario.name)
-            if case_file.work_precision:
-                section["work_precision"] = check_work_precision(fmu, scenario, checks, out, quick)
-            rows = []
-            for case in case_file.cases:
-                if quick and not case.quick:
-                    continue
-                for g in case_file.gravity:
-                    row = hard_cases.run_case(fmu, scenario, case, g, quick, checks)
-                    if "fmu" in row:
-                        row["plot"] = plot_overlay(row.pop("fmu"), row.pop("ref"),
-                                                   out / f"{fmu.name}_{case.name}_g{g:g}.png",
-                                                   f"{fmu.name}.fmu, {case.name}, g = {g:g} m/s2").name
-                    rows.append(row)
-            section["hard"] = rows
-            sections.append(section)
-        finally:
-            fmu.close()
-    report = write_report(out, sections, checks, quick, time.perf_counter() - started)
+    groups, not_validated = plan(fmu_paths)
+    results = []
+    jobs = max(1, min(jobs or os.cpu_count() or 1, len(groups) or 1))
+    if jobs == 1:
+        for group in groups:
+            results.append(run_group(group, str(out), quick))
+            checks.extend(results[-1]["checks"])
+    else:
+        context = multiprocessing.get_context("spawn")      # fmpy's and matplotlib's state stay per worker
+        with context.Manager() as manager:
+            status = manager.dict()
+            line = StatusLine(len(groups))
+            with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_init,
+                                     initargs=(status,)) as pool:
+                pending = {pool.submit(run_group, group, str(out), quick) for group in groups}
+                done = 0
+                while pending:
+                    finished = {f for f in pending if f.done()}
+                    for future in finished:
+                        pending.discard(future)
+                        done += 1
+                        result = future.result()
+                        results.append(result)
+                        if line.tty:
+                            line.stream.write("\r" + " " * 160 + "\r")
+                        checks.extend(result["checks"])
+                    line.show(done, dict(status), force=bool(finished))
+                    if pending:
+                        time.sleep(0.5)
+            line.close()
+    sections = [s for r in results for s in r["sections"]]
+    for r in results:
+        not_validated += r["not_validated"]
+    for name, why in not_validated:
+        checks.skip(f"{Path(name).name}.not_validated", why)
+    report = write_report(out, sections, not_validated, checks, quick, time.perf_counter() - started)
     return checks, report
 
 
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
-    parser = parser or argparse.ArgumentParser(prog="crankfmu validate", description=__doc__)
+    parser = parser or argparse.ArgumentParser(prog="crankfmu validate", description=__doc__.split("\n\n")[0],
+                                               formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--fmu", action="append", default=[], metavar="PATH",
-                        help=f"an FMU to validate (repeatable; default: every FMU in {DEFAULT_FMUS}/)")
+                        help=f"an FMU to validate (repeatable; default: every FMU under {DEFAULT_FMUS}/)")
     parser.add_argument("--out", default="build/validation", help="directory for report.md and the plots")
     parser.add_argument("--quick", action="store_true", help="the CI subset: shorter hard cases, fewer "
-                                                             "work-precision points")
+                                                             "speed-against-error points")
+    parser.add_argument("--jobs", type=int, default=None, metavar="N",
+                        help="worker processes, one data file's FMUs each (default: the machine's cores)")
     return parser
 
 
 def run_from_args(args) -> int:
-    # the mechanism FMUs (each names its scenario); Drive.fmu is checked by `crankfmu hosts`
-    paths = args.fmu or sorted(str(p) for p in DEFAULT_FMUS.glob("*.fmu") if scenario_of(p) is not None)
+    for path in args.fmu:
+        if not Path(path).is_file():
+            raise CrankfmuError(f"no FMU at {path}: build it (make fmu) or give the path of an .fmu file")
+    paths = args.fmu or [str(p) for p in discover()]
     if not paths:
-        raise CrankfmuError(f"no FMUs in {DEFAULT_FMUS}/: build them with `make fmu`, or give --fmu PATH")
-    checks, report = validate(paths, args.out, args.quick)
+        raise CrankfmuError(f"no FMUs under {DEFAULT_FMUS}/: build them with `make fmu`, or give --fmu PATH")
+    if args.jobs is not None and args.jobs < 1:
+        raise CrankfmuError(f"--jobs must be >= 1, got {args.jobs}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CrankfmuError(f"--out {out}: exists and is not a folder")
+    checks, report = validate(paths, out, args.quick, jobs=args.jobs)
     print(checks.summary())
     print(f"wrote {report}")
     return 0 if checks.failed == 0 else 1
@@ -200,5 +347,8 @@ def main(argv=None) -> int:
     try:
         return run_from_args(args)
     except CrankfmuError as exc:
+        from crankfmu.cli import show_traceback
+
+        show_traceback()
         print(f"crankfmu validate: error: {exc}", file=sys.stderr)
         return 2

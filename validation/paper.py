@@ -52,20 +52,68 @@ def reduced_inertia_min(entry, model, fmu_run):
     return float(min(fmu_run["J_red"]))
 
 
+def reduced_inertia_max(entry, model, fmu_run):
+    """The largest reduced inertia J_red over the turn (kg.m2), from the FMU's own output over its run."""
+    return float(max(fmu_run["J_red"]))
+
+
+#: flywheel designs made in this process, by scenario (file and values) and delta: the Python and the
+#: native FMU of one scenario share one (a design takes about 10 s)
+_FLYWHEELS: dict = {}
+
+
+def flywheel(entry, model, fmu_run):
+    """``key`` of ``crankfmu flywheel``'s design for the coefficient of speed fluctuation ``delta``
+    (studies.flywheel.FlywheelDesign: e.g. omega_peak_reduction, epsilon_peak_reduction)."""
+    from crankfmu.studies.flywheel import design_flywheel
+
+    scenario, delta = model.scenario, float(entry["delta"])
+    key = (str(scenario.where), tuple(sorted(scenario.values.items())), delta)
+    if key not in _FLYWHEELS:
+        _FLYWHEELS[key] = design_flywheel(scenario, delta)
+    return float(getattr(_FLYWHEELS[key], entry["key"]))
+
+
 QUANTITIES = {f.__name__: f for f in (rocker_extreme_deg, settled_change, kinematic_cycle, inertia_ratio,
-                                      reduced_inertia_min)}
+                                      reduced_inertia_min, reduced_inertia_max, flywheel)}
+
+#: a [[paper]] entry's verdict: it agrees (within its tolerance), it disagrees (the file says why and
+#: what this data set gives instead: ``disagrees`` the reason, ``ours`` the value, checked to
+#: ``tolerance`` so a change shows), or it cannot be compared (``not_comparable``, the reason)
+VERDICTS = ("agrees", "disagrees", "not comparable")
 
 
 def check_paper(scenario, model, fmu_run, checks, prefix: str):
-    """One check per ``[[paper]]`` entry of the scenario file."""
+    """One check per ``[[paper]]`` entry of the scenario file, each with its verdict (``Check.verdict``)."""
     for entry in scenario.data.get("paper", []):
+        name = f"{prefix}.paper.{entry['name']}"
+        source = entry.get("source", "")
+        if "not_comparable" in entry:
+            check = checks.skip(name, f"not comparable: {entry['not_comparable']} ({source})")
+            check.expected, check.verdict = _published(entry), "not comparable"
+            continue
         quantity = QUANTITIES.get(entry.get("quantity"))
         if quantity is None:
             raise DefinitionError(f"{scenario.where}: [[paper]] {entry.get('name')!r}: unknown quantity "
                                   f"{entry.get('quantity')!r} (known: {', '.join(QUANTITIES)})")
         value = quantity(entry, model, fmu_run)
-        checks.close(f"{prefix}.paper.{entry['name']}", value, entry["expected"], entry["tolerance"],
-                     entry.get("unit", ""), note=entry.get("source", ""))
+        published, tol = float(entry["expected"]), float(entry["tolerance"])
+        if "disagrees" in entry and not abs(value - published) <= tol:
+            if "ours" not in entry:
+                raise DefinitionError(f"{scenario.where}: [[paper]] {entry['name']!r}: a disagreement needs "
+                                      "ours = the value this data set gives")
+            check = checks.close(name, value, float(entry["ours"]), tol, entry.get("unit", ""),
+                                 note=f"{entry['disagrees']} ({source})")
+            check.verdict = "disagrees" if check.passed else "changed"
+        else:
+            check = checks.close(name, value, published, tol, entry.get("unit", ""), note=source)
+            check.verdict = "agrees" if check.passed else "disagrees, unexplained"
+        check.published = _published(entry)
+
+
+def _published(entry) -> str:
+    unit = entry.get("unit", "")
+    return f"{entry['expected']:g} {'' if unit == '1' else unit}".strip()
     study = scenario.kinematics_study
     if study.get("paper"):
         # the paper's graphical values at its check position ([kinematics.paper]), within
@@ -74,6 +122,8 @@ def check_paper(scenario, model, fmu_run, checks, prefix: str):
         exact, detail = values_at(model.scenario, float(study["at_deg"]))
         rel = float(study.get("paper_tolerance", 0.015))
         for name, published in study["paper"].items():
-            checks.close(f"{prefix}.paper.{name}_at_{study['at_deg']:g}deg", exact[name], published,
-                         rel * abs(published), detail["units"][name],
-                         note=f"graphical value, {100 * rel:g} % tolerance")
+            check = checks.close(f"{prefix}.paper.{name}_at_{study['at_deg']:g}deg", exact[name], published,
+                                 rel * abs(published), detail["units"][name],
+                                 note=f"graphical value, {100 * rel:g} % tolerance")
+            check.verdict = "agrees" if check.passed else "disagrees, unexplained"
+            check.published = f"{published:g} {detail['units'][name]}"

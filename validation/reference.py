@@ -36,6 +36,8 @@ class ReferenceRun:
     wall: float
     settings: dict = field(default_factory=dict)
     result: object = None              # the crankfmu Result behind it, when there is one
+    quantity_names: frozenset = frozenset()     # the [[outputs]] and the ports' s, v, a among values
+    reaction_names: frozenset = frozenset()     # the joint reactions among values
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.values[name]
@@ -49,18 +51,47 @@ def reference_run(scenario, times, method: str = "reference", rtol: float | None
                  output_times=times, progress=progress)
     wall = time.perf_counter() - started
     values = {c: np.asarray(getattr(r, c)) for c in COLUMNS if c != "time"}
-    values.update(_quantities(r.model, scenario, values))
-    return ReferenceRun(method, times, values, wall, dict(r.settings), r)
+    return _with_outputs(ReferenceRun(method, times, values, wall, dict(r.settings), r), r.model, scenario)
 
 
-def _quantities(model, scenario, values) -> dict:
-    """The scenario's mechanism-specific outputs at the reference's states."""
-    quantities = scenario.quantities
-    if not quantities:
-        return {}
+#: reference runs made in this process, by (scenario file and values, times, method): the Python
+#: and the native FMU of one scenario, and each interface, share them
+_RUNS: dict = {}
+
+
+def cached_reference(scenario, times, method: str = "reference") -> ReferenceRun:
+    """``reference_run`` once per scenario (its file and every value), time grid and method."""
+    times = np.asarray(times, dtype=float)
+    key = (str(scenario.where), tuple(sorted(scenario.values.items())), method, times.size,
+           float(times[0]), float(times[-1]), hash(times.tobytes()))
+    if key not in _RUNS:
+        _RUNS[key] = reference_run(scenario, times, method) if method != "periodic" else \
+            periodic_reference(scenario, times)
+    return _RUNS[key]
+
+
+def _with_outputs(run: ReferenceRun, model, scenario) -> ReferenceRun:
+    """The run with every other output a mechanism FMU declares, at the reference's states: the
+    scenario's [[outputs]] and the ports' s, v, a (the analytic kinematics), and the joint
+    reactions (Newton-Euler, the ports' inputs zero as the harness leaves them)."""
+    from crankfmu.fmi.slave import output_quantities, reaction_variables
     from crankfmu.mechanisms.quantities import evaluate_all
-    kin = model.mechanism.kinematics(np.asarray(values["phi1"]))
-    return evaluate_all(quantities, kin, np.asarray(values["omega1"]), np.asarray(values["epsilon1"]))
+
+    values = run.values
+    phi1, omega1, epsilon1 = (np.asarray(values[n], dtype=float) for n in ("phi1", "omega1", "epsilon1"))
+    quantities = output_quantities(scenario)
+    kin = model.mechanism.kinematics(phi1) if quantities or reaction_variables(scenario) else None
+    if quantities:
+        values.update(evaluate_all(quantities, kin, omega1, epsilon1))
+    reactions = reaction_variables(scenario)
+    if reactions:
+        from crankfmu.dynamics.reactions import joint_reactions, reaction_arrays
+
+        values.update({k: np.asarray(v, dtype=float) for k, v in reaction_arrays(
+            joint_reactions(model.reduced, phi1, omega1, epsilon1, kin=kin)).items()})
+    run.quantity_names = frozenset(q.name for q in quantities)
+    run.reaction_names = frozenset(v.name for v in reactions)
+    return run
 
 
 def periodic_reference(scenario, times, settle_time: float = 12.0, progress=None) -> ReferenceRun:
@@ -99,11 +130,11 @@ def periodic_reference(scenario, times, settle_time: float = 12.0, progress=None
     out = r.model.equation.outputs(y[PHI], y[OMEGA])
     values = {"phi1": y[PHI], "omega1": y[OMEGA], **out,
               "W_motor": y[W_MOTOR], "W_load": y[W_LOAD], "W_ext": y[W_EXT]}
-    values.update(_quantities(r.model, scenario, values))
     cycles = max(float(np.max(n)) if n.size else 0.0, 0.0)
     # the period is known to about the DOP853 tolerance times the time scale of one turn
     period_error = max(abs(periods[-1] - periods[-2]), 1e-12 * period)
     settings = {"method": "reference, periodic extension", "settle_time": settle_time, "period": period,
                 "cycles_extended": cycles,
                 "phase_uncertainty": cycles * period_error * float(np.max(np.abs(y[OMEGA])))}
-    return ReferenceRun("reference (periodic)", times, values, time.perf_counter() - started, settings, r)
+    return _with_outputs(ReferenceRun("reference (periodic)", times, values, time.perf_counter() - started,
+                                      settings, r), r.model, scenario)

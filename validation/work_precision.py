@@ -86,7 +86,11 @@ def solve_ivp_peer(model, grid, method, rtol):
     return y[OMEGA], y[PHI]
 
 
-def run_study(fmu, scenario, quick: bool = False, progress=None) -> tuple[list[Point], dict]:
+def run_study(fmus, scenario, quick: bool = False, progress=None) -> tuple[list[Point], dict]:
+    """Every method's points on ``scenario``: each FMU of ``fmus`` ((label, FmuUnderTest) pairs, the
+    Python and native builds of the scenario) in Co-Simulation (steps and rtols swept) and, where
+    it has Model Exchange, through fmpy's CVode (rtols swept), beside the in-process methods and
+    scipy's, all timed in this one run."""
     exp = scenario.experiment
     n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
     grid = exp.start_time + exp.output_interval * np.arange(n + 1)
@@ -94,14 +98,20 @@ def run_study(fmu, scenario, quick: bool = False, progress=None) -> tuple[list[P
     q = QUICK if quick else {"fmu_steps": FMU_STEPS, "fmu_rtols": FMU_RTOLS, "scheme_steps_deg": SCHEME_STEPS_DEG,
                              "scipy_methods": SCIPY_METHODS, "scipy_rtols": SCIPY_RTOLS}
     repeats = 1 if quick else 3
-    default_rtol = fmu.variables["rtol"].start if "rtol" in fmu.variables else None
     jobs = []
-    for step in q["fmu_steps"]:
-        jobs.append((f"FMU, rtol {float(default_rtol):g}, step sweep", f"step {step:g} s",
-                     lambda s=step: fmu.run(exp.stop_time, s, show_progress=False)))
-    for rtol in q["fmu_rtols"]:
-        jobs.append(("FMU, 1 ms steps, rtol sweep", f"rtol {rtol:g}",
-                     lambda r=rtol: fmu.run(exp.stop_time, 1e-3, {"rtol": r}, show_progress=False)))
+    for name, fmu in fmus:
+        default_rtol = fmu.variables["rtol"].start if "rtol" in fmu.variables else None
+        for step in q["fmu_steps"]:
+            jobs.append((f"{name}, rtol {float(default_rtol):g}, step sweep", f"step {step:g} s",
+                         lambda s=step, f=fmu: f.run(exp.stop_time, s, show_progress=False)))
+        for rtol in q["fmu_rtols"]:
+            jobs.append((f"{name}, 1 ms steps, rtol sweep", f"rtol {rtol:g}",
+                         lambda r=rtol, f=fmu: f.run(exp.stop_time, 1e-3, {"rtol": r}, show_progress=False)))
+        if "ModelExchange" in fmu.kind.interfaces:
+            for rtol in q["fmu_rtols"]:
+                jobs.append((f"{name} as Model Exchange (fmpy CVode), 1 ms output", f"rtol {rtol:g}",
+                             lambda r=rtol, f=fmu: f.run(exp.stop_time, 1e-3, show_progress=False,
+                                                         interface="ModelExchange", rtol=r)))
     jobs.append(("crankfmu reference (DOP853 + kink events)", "rtol 1e-12",
                  lambda: reference_run(scenario, grid, "reference")))
     for rtol in (1e-6, 1e-8, 1e-10):

@@ -1,0 +1,210 @@
+"""A mechanism FMU in torque causality (Python or native) against the in-process reference.
+
+Each interface the FMU offers is checked on its own: Co-Simulation (the FMU's own stepper) and
+Model Exchange (fmpy's CVode on the FMU's derivatives and event indicators). Every output the FMU
+declares is compared with the reference at the same communication points: the contract's, the
+scenario's ``[[outputs]]``, the ports' s, v, a and the joint reactions (Newton-Euler at the
+reference's states). The paper's numbers and the hard cases (cases.py) follow, and, when both
+builds of one scenario are validated, the native FMU against the Python one.
+"""
+
+from __future__ import annotations
+
+import zipfile
+
+import numpy as np
+
+from crankfmu.errors import format_value
+
+from . import cases as hard_cases
+from .compare import cycles, energy_residual, max_abs_error, phi_quadrature_residual, relative_error
+from .paper import check_paper
+from .reference import cached_reference
+from .report import plot_outputs
+
+#: Co-Simulation: the FMU's stepper at its default rtol (1e-10 or 1e-11) leaves about 1e-9 of each
+#: output's scale; 1e-6 is the contract's bound
+OUTPUT_TOLERANCE = 1e-6
+#: Model Exchange: fmpy's CVode (BDF) at this rtol leaves about 1e-8 of omega1's scale and 6e-9 of
+#: the work in the energy balance over seed 000's 2 s (measured); the checks keep the contract's
+#: 1e-6 on the outputs and 1e-7 on the energy balance
+ME_RTOL = 1e-10
+ME_ENERGY_TOLERANCE = 1e-7
+#: ... except epsilon1 and the joint reactions (algebraic in epsilon1 and in a switched force's
+#: value): fmpy's CVode locates a slider force's switch to its root-finding tolerance, and those
+#: outputs carry what that leaves (1.8e-6 measured on the Whitworth shaper at rtol 1e-10 and
+#: 8.8e-7 at 1e-12: not an integration error)
+ME_ALGEBRAIC_TOLERANCE = 1e-5
+#: the native FMU against the Python one of the same file, both in Co-Simulation: one C kernel
+#: steps both; the native FMU's [[outputs]] and reactions come from tables checked to 1e-11 and
+#: 1e-8 (fmi.native_build.REACTION_TOLERANCE) of each term's scale
+NATIVE_PYTHON_TOLERANCE = {"contract": 1e-9, "quantity": 1e-9, "reaction": 1e-7}
+LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
+INTERFACE_TAG = {"CoSimulation": "cs", "ModelExchange": "me"}
+
+
+def interfaces(fmu) -> list[str]:
+    """The interfaces the harness drives: each one the FMU declares."""
+    return list(fmu.kind.interfaces)
+
+
+def carried_reference(fmu):
+    """The result the FMU carries (fmi-ls-ref), as {column: array}, or None."""
+    with zipfile.ZipFile(fmu.path) as z:
+        name = f"{LS_REF}/{fmu.name}_out.csv"
+        if name not in z.namelist():
+            return None
+        text = z.read(name).decode()
+    header, *rows = text.strip().splitlines()
+    cols = [c.strip('"') for c in header.split(",")]
+    data = np.array([[float(x) for x in r.split(",")] for r in rows])
+    return {c: data[:, i] for i, c in enumerate(cols)}
+
+
+def output_group(name: str, fmu, ref) -> str:
+    """contract, quantity ([[outputs]], ports) or reaction: what an output's tolerance depends on."""
+    if name in ref.reaction_names:
+        return "reaction"
+    if name in ref.quantity_names:
+        return "quantity"
+    return "contract"
+
+
+def compare_outputs(prefix, fmu, run, ref, checks, tolerance, algebraic_tolerance=None) -> list[dict]:
+    """One check per output the FMU declares: its largest error relative to the output's scale
+    (``algebraic_tolerance`` for epsilon1 and the joint reactions, where given). An output the
+    reference cannot give is a failed check, not a silent skip."""
+    rows = []
+    for name in fmu.outputs:
+        if name not in ref.values:
+            checks.holds(f"{prefix}.{name}_compared", False, note="the reference has no such output")
+            continue
+        tol = tolerance
+        if algebraic_tolerance and (name == "epsilon1" or name in ref.reaction_names):
+            tol = algebraic_tolerance
+        a, r = max_abs_error(run[name], ref[name]), relative_error(run[name], ref[name])
+        checks.at_most(f"{prefix}.{name}_rel_error", r, tol)
+        rows.append({"output": name, "unit": fmu.units.get(name) or "1", "abs": a, "rel": r, "tol": tol,
+                     "group": output_group(name, fmu, ref)})
+    return rows
+
+
+def check_default(fmu, scenario, checks, out, interface: str) -> dict:
+    """The default experiment through fmpy against the reference at the same points."""
+    exp = scenario.experiment
+    tag = INTERFACE_TAG[interface]
+    prefix = f"{fmu.name}.{fmu.kind.build}.{tag}.default"
+    me = interface == "ModelExchange"
+    run = fmu.run(exp.stop_time, exp.output_interval, label=f"default ({tag})", interface=interface,
+                  rtol=ME_RTOL if me else None)
+    if run.error:
+        checks.holds(f"{prefix}.ran", False, note=run.error)
+        return {"interface": interface}
+    ref = cached_reference(scenario, run.time)
+    rows = compare_outputs(prefix, fmu, run, ref, checks, OUTPUT_TOLERANCE, ME_ALGEBRAIC_TOLERANCE if me else None)
+    checks.at_most(f"{prefix}.energy_residual", energy_residual(run.values), ME_ENERGY_TOLERANCE if me else 1e-8)
+    floor = phi_quadrature_residual(ref.time, ref["phi1"], ref["omega1"], ref["epsilon1"])
+    checks.at_most(f"{prefix}.phi1_is_integral_of_omega1",
+                   phi_quadrature_residual(run.time, run["phi1"], run["omega1"], run["epsilon1"]),
+                   2.0 * floor + (1e-6 if me else 1e-8), "rad",
+                   note=f"Hermite-rule floor on the reference {floor:.2e} rad")
+    by_of = {}
+    for q in scenario.quantities:
+        by_of.setdefault(q.of, {})[q.order] = q.name
+    for names in by_of.values():
+        if {0, 1, 2} <= set(names) and all(names[o] in run.values for o in (0, 1, 2)):
+            x, v, a = names[0], names[1], names[2]
+            floor = phi_quadrature_residual(ref.time, ref[x], ref[v], ref[a])
+            checks.at_most(f"{prefix}.{x}_is_integral_of_{v}", phi_quadrature_residual(run.time, run[x], run[v], run[a]),
+                           2.0 * floor + (1e-6 if me else 1e-8), note=f"Hermite-rule floor on the reference {floor:.2e}")
+    fc, rc = cycles(run.time, run["phi1"], run["omega1"]), cycles(ref.time, ref["phi1"], ref["omega1"])
+    k = min(exp.summary_cycle, len(fc), len(rc))
+    if k:
+        for key in ("omega1_min", "omega1_max", "omega1_mean"):
+            checks.at_most(f"{prefix}.cycle{k}_{key}_error", fc[k - 1][key] - rc[k - 1][key], 1e-6, "rad/s")
+    carried = carried_reference(fmu)
+    if carried is not None and carried["time"].shape == run.time.shape:
+        checks.at_most(f"{prefix}.omega1_vs_carried_fmi_ls_ref", relative_error(run["omega1"], carried["omega1"]),
+                       OUTPUT_TOLERANCE)
+    plot = plot_outputs(run, ref, [r["output"] for r in rows], {r["output"]: r["tol"] for r in rows},
+                        out / f"{fmu.name}_{fmu.kind.build}_{tag}_default.png",
+                        f"{fmu.title}, {interface}, default experiment ({scenario.name})")
+    section = {"interface": interface, "span": exp.stop_time - exp.start_time, "step": exp.output_interval,
+               "fmu_wall": run.wall, "ref_wall": ref.wall, "rows": rows, "plot": plot.name, "run": run}
+    return section
+
+
+def check_model(fmu, scenario, checks, out, quick: bool) -> dict:
+    """Everything a torque-causal mechanism FMU gets: fmpy's validation, the default experiment in
+    each interface, the paper's numbers (on the Co-Simulation run) and every hard case in each
+    interface. Returns the report's section."""
+    from fmpy.validation import validate_fmu
+
+    problems = validate_fmu(str(fmu.path))
+    checks.holds(f"{fmu.name}.{fmu.kind.build}.fmpy_validate", not problems, note="; ".join(map(str, problems))[:300])
+    section = {"default": [], "hard": [], "paper": []}
+    for interface in interfaces(fmu):
+        default = check_default(fmu, scenario, checks, out, interface)
+        section["default"].append(default)
+        if interface == "CoSimulation" and "run" in default:
+            n_paper = len(checks.items)
+            check_paper(scenario, scenario.build(), default["run"], checks, f"{fmu.name}.{fmu.kind.build}")
+            section["paper"] = checks.items[n_paper:]
+    case_file = hard_cases.load_cases(scenario.name)
+    for interface in interfaces(fmu):
+        for case in case_file.cases:
+            if quick and not case.quick:
+                continue
+            for g in case_file.gravity:
+                frozen = frozen_values(fmu, {**case.set, "g": g})
+                if frozen and not case.refused_parameter:
+                    name = f"{fmu.name}.{fmu.kind.build}.{INTERFACE_TAG[interface]}.hard.{case.name}.g{g:g}"
+                    checks.skip(name, f"sets {frozen}: this native FMU's tables were built for the file's values "
+                                      "(its geometry, masses, loads and gravity are fixed)")
+                    section["hard"].append({"case": case.name, "g": g, "stop_time": case.span(quick),
+                                            "step": case.step, "expect": case.expect, "interface": interface,
+                                            "note": f"not run: sets {frozen}, fixed in this native FMU",
+                                            "checks": checks.items[-1:]})
+                    continue
+                row = hard_cases.run_case(fmu, scenario, case, g, quick, checks, interface)
+                if "fmu" in row:
+                    run, ref = row.pop("fmu"), row.pop("ref")
+                    names = [n for n in ("omega1", "phi1", "E_kin") if n in run.values]
+                    row["plot"] = plot_outputs(
+                        run, ref, names, {"omega1": case.omega1_tolerance},
+                        out / f"{fmu.name}_{fmu.kind.build}_{INTERFACE_TAG[interface]}_{case.name}_g{g:g}.png",
+                        f"{fmu.title}, {interface}, {case.name}, g = {g:g} m/s2").name
+                section["hard"].append(row)
+    return section
+
+
+def frozen_values(fmu, values: dict) -> str:
+    """The values a case sets that the FMU cannot take: a native FMU's fixed parameters (its tables
+    were built for them) set to another value; "" when it takes them all."""
+    if not fmu.native:
+        return ""
+    changed = []
+    for name, value in values.items():
+        v = fmu.variables.get(name)
+        if v is not None and v.causality == "parameter" and v.variability == "fixed" \
+                and name not in ("phi1_start", "omega1_start") and float(v.start) != float(value):
+            changed.append(f"{name} = {format_value(value)} (built for {format_value(v.start)})")
+    return ", ".join(changed)
+
+
+def check_native_against_python(native, python, scenario, checks, native_run, python_run) -> dict:
+    """The two builds of one scenario file, both in Co-Simulation over the default experiment:
+    every output they share, to NATIVE_PYTHON_TOLERANCE of its scale by kind of output."""
+    prefix = f"{native.name}.native_vs_python"
+    rows = []
+    ref_like = cached_reference(scenario, python_run.time)
+    for name in python.outputs:
+        if name not in native.outputs:
+            checks.holds(f"{prefix}.{name}_declared_by_both", False, note="the native FMU does not declare it")
+            continue
+        group = output_group(name, native, ref_like)
+        tol = NATIVE_PYTHON_TOLERANCE[group]
+        r = relative_error(native_run[name], python_run[name])
+        checks.at_most(f"{prefix}.{name}_rel_difference", r, tol)
+        rows.append({"output": name, "rel": r, "tol": tol, "group": group})
+    return {"rows": rows}
