@@ -620,14 +620,23 @@ class Mechanism:
             if self._closed_form is None:
                 grid, table = self._table
                 table = table.copy()
+                raw = None
             else:
                 grid = np.linspace(0.0, TWO_PI, TURN_POINTS + 1)
                 table = self._closed_form_positions(grid)
-                cols = self._angle_columns
-                table[:, cols] = np.unwrap(table[:, cols], axis=0)
+                raw = table[:, self._angle_columns].copy()
+                table[:, self._angle_columns] = np.unwrap(raw, axis=0)
             cols = self._angle_columns
             winding = np.round((table[-1, cols] - table[0, cols]) / TWO_PI)
             self._turn = (grid, table, winding)
+            # positions need no counting when every angle swings (no whole turns) and the closed
+            # form's values are the continuous ones, away from any odd multiple of pi (a cut could
+            # lie between two table angles there): the common case, and half the cost of a position
+            away = raw is None or (np.array_equal(raw, table[:, cols])
+                                   and np.min(np.abs(np.mod(raw, TWO_PI) - math.pi)) > 0.1)
+            self._counting = bool(np.any(winding != 0) or not away)
+            self._nearest = (float(grid[0]), 1.0 / float(grid[1] - grid[0]), np.ascontiguousarray(table[:, cols]),
+                             winding if np.any(winding != 0) else None)
         return self._turn
 
     def _refuse_jumps(self):
@@ -679,13 +688,17 @@ class Mechanism:
         cols = self._angle_columns
         if cols.size == 0:
             return q
-        grid, table, winding = self.turn_table()
-        h = grid[1] - grid[0]
-        turns = np.floor((q[:, 0] - grid[0]) / TWO_PI)
-        rel = q[:, 0] - grid[0] - TWO_PI * turns
-        i = np.clip(np.rint(rel / h).astype(int), 0, len(grid) - 1)
-        near = table[i][:, cols] + TWO_PI * turns[:, None] * winding
-        q[:, cols] += TWO_PI * np.round((near - q[:, cols]) / TWO_PI)
+        self.turn_table()
+        if not self._counting:
+            return q
+        start, inverse_h, angles, winding = self._nearest
+        rel = q[:, 0] - start
+        turns = np.floor(rel * (1.0 / TWO_PI))
+        # rel - 2 pi turns lies in [0, 2 pi): its nearest table angle is 0..TURN_POINTS
+        near = angles[((rel - TWO_PI * turns) * inverse_h + 0.5).astype(np.intp)]
+        if winding is not None:
+            near = near + TWO_PI * turns[:, None] * winding
+        q[:, cols] += TWO_PI * np.round((near - q[:, cols]) * (1.0 / TWO_PI))
         return q
 
     def _newton(self, q, max_iter=50):
