@@ -162,7 +162,7 @@ def test_refusals_are_loud_with_logging_off(native, tmp_path):
     fmu.instantiate(loggingOn=False, callbacks=keep[0])
 
     for name, value, expected in (("l1", 0.3, r"built for l1 = 0\.2.*crankfmu fmu seed000 --native"),
-                                  ("J_flywheel", -1.0, r"J_flywheel = -1 is out of range: valid range \[0, inf\) kg\.m2"),
+                                  ("J_flywheel", -1.0, r"J_flywheel = -1\.0 is out of range: valid range \[0, inf\) kg\.m2"),
                                   ("A", float("nan"), r"parameter A = nan is out of range"),
                                   ("omega1", 1.0, r"omega1 is computed by the FMU: it cannot be set")):
         with pytest.raises(FMICallException):

@@ -221,17 +221,31 @@ def _work_precision_section(points, meta, scenario, checks, out) -> dict:
 
 
 # ------------------------------------------------------------------------------------ all groups
-_STATUS = None
+def _worker_init(queue):
+    """In each worker: runs report how far they are to the parent (through ``queue``, at most twice a
+    second), not to stderr; and the worker ends itself when the parent is gone (killed, say), not
+    running its group on for nobody."""
+    import threading
 
-
-def _worker_init(status):
-    """In each worker: runs report how far they are to the parent's status board, not to stderr."""
-    global _STATUS
     from . import fmu_runner
 
-    _STATUS = status
-    pid = os.getpid()
-    fmu_runner.PROGRESS = lambda label, fraction: status.__setitem__(pid, (label, fraction))
+    pid, parent = os.getpid(), os.getppid()
+    last = {"label": None, "at": 0.0}
+
+    def progress(label, fraction):
+        now = time.monotonic()
+        if label != last["label"] or now - last["at"] >= 0.5 or fraction >= 1.0:
+            last.update(label=label, at=now)
+            queue.put((pid, label, fraction))
+
+    def watch():
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent:
+                os._exit(3)
+
+    fmu_runner.PROGRESS = progress
+    threading.Thread(target=watch, daemon=True).start()
 
 
 class StatusLine:
@@ -281,27 +295,28 @@ def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None =
             checks.extend(results[-1]["checks"])
     else:
         context = multiprocessing.get_context("spawn")      # fmpy's and matplotlib's state stay per worker
-        with context.Manager() as manager:
-            status = manager.dict()
-            line = StatusLine(len(groups))
-            with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_init,
-                                     initargs=(status,)) as pool:
-                pending = {pool.submit(run_group, group, str(out), quick) for group in groups}
-                done = 0
-                while pending:
-                    finished = {f for f in pending if f.done()}
-                    for future in finished:
-                        pending.discard(future)
-                        done += 1
-                        result = future.result()
-                        results.append(result)
-                        if line.tty:
-                            line.stream.write("\r" + " " * 160 + "\r")
-                        checks.extend(result["checks"])
-                    line.show(done, dict(status), force=bool(finished))
-                    if pending:
-                        time.sleep(0.5)
-            line.close()
+        queue, status = context.Queue(), {}
+        line = StatusLine(len(groups))
+        with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_init, initargs=(queue,)) as pool:
+            pending = {pool.submit(run_group, group, str(out), quick) for group in groups}
+            done = 0
+            while pending:
+                finished = {f for f in pending if f.done()}
+                for future in finished:
+                    pending.discard(future)
+                    done += 1
+                    result = future.result()
+                    results.append(result)
+                    if line.tty:
+                        line.stream.write("\r" + " " * 160 + "\r")
+                    checks.extend(result["checks"])
+                while not queue.empty():
+                    pid, label, fraction = queue.get_nowait()
+                    status[pid] = (label, fraction)
+                line.show(done, status, force=bool(finished))
+                if pending:
+                    time.sleep(0.5)
+        line.close()
     sections = [s for r in results for s in r["sections"]]
     for r in results:
         not_validated += r["not_validated"]

@@ -140,10 +140,10 @@ class SliderForce:
         pos = kin.point(self.point)
         omega1 = np.asarray(omega1, dtype=float)
         rate, curvature = pos[2 + self.axis], pos[4 + self.axis]
-        # on the slider's extreme itself (its rate within round-off of zero) the stroke the motion
-        # enters decides, as it does for the integrators' modes (modes.interval_of): that stroke's
-        # velocity has the sign of x'' whichever way the crank turns
-        at_extreme = np.isfinite(curvature) & (np.abs(rate) <= 1e-9 * np.abs(curvature))
+        # on the slider's extreme itself (its rate zero to round-off: within 1e-12 rad of it) the
+        # stroke the motion enters decides, as it does for the integrators' modes (modes.interval_of):
+        # that stroke's velocity has the sign of x'' whichever way the crank turns
+        at_extreme = np.isfinite(curvature) & (np.abs(rate) <= 1e-12 * np.abs(curvature))
         velocity = np.where(at_extreme, curvature * np.abs(omega1), rate * omega1)
         force = np.where(velocity > 0.0, -self.forward, np.where(velocity < 0.0, self.backward, 0.0))
         if self.band != (0.0, 1.0):

@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import DefinitionError
+from ..errors import DefinitionError, format_value
 
 
 @dataclass(frozen=True)
@@ -146,9 +146,44 @@ class StringDesign:
                                   "(the explicit scheme is unstable above 1)")
         if not self.segment > 0:
             raise DefinitionError(f"{where}: segment = {self.segment!r} must be > 0 m")
+        self._check_bounded(where)
         if self.fluid_load < 0:
             raise DefinitionError(f"{where}: the fluid load is negative ({self.fluid_load:g} N): the intake pressure "
                                   "exceeds the discharge pressure")
+
+
+    def _check_bounded(self, where: str):
+        """Refuse what would make a step unbounded in time or memory: more than MAX_SEGMENTS
+        segments, or an internal step (the Courant limit: courant x segment / wave speed) below
+        MIN_STEP, naming the value and its valid range with the other values as given."""
+        n = sum(max(1, math.ceil(t.length / self.segment - 1e-9)) for t in self.tapers)
+        if n > MAX_SEGMENTS:
+            shortest = self.depth / MAX_SEGMENTS
+            raise DefinitionError(f"{where}: segment = {format_value(self.segment)} m cuts the {self.depth:.6g} m string "
+                                  f"into {n} segments, more than {MAX_SEGMENTS}: valid range "
+                                  f"[{shortest:.4g}, inf) m with these tapers")
+        for i, t in enumerate(self.tapers, 1):
+            dx = t.length / max(1, math.ceil(t.length / self.segment - 1e-9))
+            dt = self.courant * dx / t.wave_speed
+            if dt < MIN_STEP:
+                # dt = courant dx sqrt(m / (E A)): the stiffest E, the lightest rods, the smallest
+                # courant that keep dt at MIN_STEP
+                E_max = t.mass_per_length * (self.courant * dx / MIN_STEP) ** 2 / t.area
+                courant_min = MIN_STEP * t.wave_speed / dx
+                fix = f"taper {i} E must be at most {E_max:.4g} Pa (valid range (0, {E_max:.4g}])"
+                if courant_min <= 1.0:
+                    fix += f", or courant at least {courant_min:.4g} (valid range [{courant_min:.4g}, 1])"
+                raise DefinitionError(
+                    f"{where}: courant = {format_value(self.courant)} and taper {i} E = {format_value(t.E)} Pa (wave "
+                    f"speed {t.wave_speed:.3g} m/s over {dx:.4g} m segments) make the string's internal step "
+                    f"{dt:.3g} s, below {format_value(MIN_STEP)} s, and a second's steps would not end: with the "
+                    f"other values as given, {fix}")
+
+
+#: a string of at most this many segments (memory and time per step stay bounded)
+MAX_SEGMENTS = 100_000
+#: the shortest internal step (s): a second of simulated time in at most a million steps
+MIN_STEP = 1e-6
 
 
 @dataclass

@@ -66,7 +66,10 @@ class RodStringCore(SlaveCore):
         return self.out
 
     def model_state(self):
-        return None if self.string is None else [self.hung, self.string.state()]
+        """The string's state as plain numbers and lists: the host may serialize it (canSerializeFMUstate)."""
+        if self.string is None:
+            return None
+        return [self.hung, [x.tolist() if isinstance(x, np.ndarray) else x for x in self.string.state()]]
 
     def can_restore(self) -> bool:
         return self.string is not None

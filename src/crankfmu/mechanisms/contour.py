@@ -694,8 +694,11 @@ class Mechanism:
         start, inverse_h, angles, winding = self._nearest
         rel = q[:, 0] - start
         turns = np.floor(rel * (1.0 / TWO_PI))
-        # rel - 2 pi turns lies in [0, 2 pi): its nearest table angle is 0..TURN_POINTS
-        near = angles[((rel - TWO_PI * turns) * inverse_h + 0.5).astype(np.intp)]
+        # rel - 2 pi turns lies in [0, 2 pi): its nearest table angle is 0..TURN_POINTS (clipped: a
+        # huge or non-finite phi1 a host's wild state gives loses that to round-off)
+        with np.errstate(invalid="ignore"):
+            nearest = ((rel - TWO_PI * turns) * inverse_h + 0.5).astype(np.intp)
+        near = angles[np.clip(nearest, 0, TURN_POINTS)]
         if winding is not None:
             near = near + TWO_PI * turns[:, None] * winding
         q[:, cols] += TWO_PI * np.round((near - q[:, cols]) * (1.0 / TWO_PI))

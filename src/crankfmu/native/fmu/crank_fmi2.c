@@ -78,18 +78,28 @@ static void logf_(const Instance* in, fmi2Status status, const char* category, c
     in->cb.logger(in->cb.componentEnvironment, in->name, status, category, escaped);
 }
 
-/* A number in a message as its user wrote it: the shortest %g text that reads back as the same
- * double (0.1, not 0.10000000000000001; 1e-11, not 9.9999999999999994e-12), with ".0" on a whole
- * number, as Python's repr (the CLI's and the Python FMU's messages) writes it. */
-typedef struct { char text[40]; } Number;
+/* A number in a message as its user wrote it, as Python's repr writes it (the CLI's and the
+ * Python FMU's messages): the fewest significant digits that read back as the same double (0.1, not
+ * 0.10000000000000001; 1e-11, not 9.9999999999999994e-12), in fixed notation from 1e-4 up to
+ * 1e16 with at least one decimal (2.0, 100.0), else in exponent notation (1e-11, 1e+300). */
+typedef struct { char text[48]; } Number;
 static Number shortest(double x)
 {
     Number n;
-    for (int digits = 1; digits <= 17; digits++) {
-        snprintf(n.text, sizeof n.text, "%.*g", digits, x);
-        if (!isfinite(x) || strtod(n.text, NULL) == x) break;
+    if (!isfinite(x)) {
+        snprintf(n.text, sizeof n.text, "%s", x != x ? "nan" : (x > 0 ? "inf" : "-inf"));
+        return n;
     }
-    if (isfinite(x) && !strpbrk(n.text, ".e")) strcat(n.text, ".0");
+    int digits = 1;
+    for (; digits < 17; digits++) {
+        snprintf(n.text, sizeof n.text, "%.*e", digits - 1, x);
+        if (strtod(n.text, NULL) == x) break;
+    }
+    snprintf(n.text, sizeof n.text, "%.*e", digits - 1, x);
+    int exponent = atoi(strchr(n.text, 'e') + 1);
+    if (x != 0.0 && (exponent < -4 || exponent >= 16)) return n;          /* 1e-11, 1e+300 */
+    int decimals = digits - 1 - exponent;
+    snprintf(n.text, sizeof n.text, "%.*f", decimals > 1 ? decimals : 1, x);
     return n;
 }
 
