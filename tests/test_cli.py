@@ -100,3 +100,50 @@ def test_validate_and_hosts_parse_their_own_options_and_load_only_when_run(capsy
     with pytest.raises(SystemExit):
         main(["validate", "--help"])
     assert "--quick" in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------- first contact: version, help, paths
+def test_version_and_help_name_their_defaults(capsys):
+    """--version answers; the top-level help is plain text (no reST markup) and does not point at
+    itself; every option of simulate shows its default, --method its choices explained."""
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0 and capsys.readouterr().out.strip() == f"crankfmu {version('crankfmu')}"
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    top = capsys.readouterr().out
+    assert "``" not in top and ":class:" not in top and "(``crankfmu --help``)" not in top and "FMU" in top
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "(default: reference)" in text and "fast: the C kernel" in text and "(default: None)" not in text
+    assert "--rtol RTOL relative (and absolute) tolerance" in text and "reference 1e-12" in text
+
+
+@pytest.mark.parametrize("command", [
+    ["simulate", "seed000", "--t-end", "0.01", "--out"],
+    ["equilibrium", "seed001", "--omega", "15", "--out"],
+    ["draw", "seed000", "--out"],
+    ["validate", "--fmu", "build/fmus/FourBar.fmu", "--out"],
+])
+def test_an_output_path_that_cannot_be_written_is_refused_before_any_work(command, tmp_path, capsys, monkeypatch):
+    """A file where the output folder would go: one line naming it, exit status != 0, before any
+    model is built or any FMU run (both made to fail the test here), nothing written (it used to
+    fail after the computation with NotADirectoryError)."""
+    from crankfmu.scenario import Scenario
+    from crankfmu.validation import harness
+
+    def computed(*args, **kwargs):
+        raise AssertionError("the computation started before the output path was checked")
+    monkeypatch.setattr(Scenario, "build", computed)
+    monkeypatch.setattr(harness, "validate", computed)
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    target = blocker / "out" / ("x.png" if command[0] == "draw" else "")
+    code = main([*command, str(target)])
+    err = capsys.readouterr().err.strip()
+    assert code != 0 and len(err.splitlines()) == 1, err
+    assert "is a file, not a folder" in err and "a_file" in err
+    assert blocker.read_text() == "not a folder" and sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]

@@ -348,9 +348,9 @@ def run_from_args(args) -> int:
         raise CrankfmuError(f"no FMUs under {DEFAULT_FMUS}/: build them with `make fmu`, or give --fmu PATH")
     if args.jobs is not None and args.jobs < 1:
         raise CrankfmuError(f"--jobs must be >= 1, got {args.jobs}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise CrankfmuError(f"--out {out}: exists and is not a folder")
+    from crankfmu.cli import check_output
+
+    out = check_output(args.out)
     checks, report = validate(paths, out, args.quick, jobs=args.jobs)
     print(checks.summary())
     print(f"wrote {report}")

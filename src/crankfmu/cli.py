@@ -312,27 +312,67 @@ def cmd_fmu(args) -> int:
     return 0
 
 
+def _parser_class():
+    """Subcommands' parsers with the same help formatter (defaults shown)."""
+    class Parser(argparse.ArgumentParser):
+        def __init__(self, *args, **kwargs):
+            kwargs.setdefault("formatter_class", _Help)
+            super().__init__(*args, **kwargs)
+    return Parser
+
+
 def _scenario_command(sub, name: str, func, help: str):
     """A subcommand on one scenario: SCENARIO, --out DIR and --set NAME=VALUE (repeatable)."""
-    p = sub.add_parser(name, help=help)
-    p.add_argument("scenario")
-    p.add_argument("--out", required=True)
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p = sub.add_parser(name, help=help, description=help[0].upper() + help[1:] + ".")
+    p.add_argument("scenario", help="packaged scenario name (e.g. seed000) or path to a .toml file")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a scenario parameter (SI units), repeatable")
     p.set_defaults(func=func)
     return p
 
 
+DESCRIPTION = """Planar crank mechanisms with their motor, flywheel and loads, from first principles:
+simulate them, study them as the papers do, and build FMI 2.0 FMUs of them (Python or native)
+that the validation harness proves against an in-process reference. Each command takes a packaged
+scenario name (seed000 ... seed004, pumpjack) or the path of your own scenario file;
+crankfmu COMMAND --help tells more."""
+
+
+class _Help(argparse.RawDescriptionHelpFormatter):
+    """Every option's default in its help (unless the help says it already, or there is none to
+    say: a flag, a required option, an empty list); descriptions kept as written."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if ("default" in text or action.required or action.default in (None, argparse.SUPPRESS, [])
+                or isinstance(action.default, bool) or not action.option_strings):
+            return text
+        return text + " (default: %(default)s)"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="crankfmu", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
+    from importlib.metadata import PackageNotFoundError, version
+
+    parser = argparse.ArgumentParser(prog="crankfmu", description=DESCRIPTION, formatter_class=_Help)
+    try:
+        parser.add_argument("--version", action="version", version=f"crankfmu {version('crankfmu')}")
+    except PackageNotFoundError:            # run from a source tree that was never installed
+        parser.add_argument("--version", action="version", version="crankfmu (not installed)")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_parser_class())
     p = sub.add_parser("simulate", help="run a scenario and write timeseries.csv, summary.json and plots")
     p.add_argument("scenario", help="packaged scenario name (e.g. seed000) or path to a .toml file")
     p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--method", default="reference", choices=METHODS)
+    p.add_argument("--method", default="reference", choices=METHODS,
+                   help="reference: DOP853 at rtol 1e-12 on the contour engine, every switch located; fast: the C "
+                        "kernel on the tabulated model (what the FMUs run); radau, dopri5: scipy on the engine; "
+                        "badoiu-eq17, lv-eq3: the papers' crank-angle schemes")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override a scenario parameter (SI units), repeatable")
     p.add_argument("--t-end", type=float, default=None, help="end time in s (default: the scenario's)")
-    p.add_argument("--rtol", type=float, default=None, help="tolerance of the time-domain methods")
+    p.add_argument("--rtol", type=float, default=None,
+                   help="relative (and absolute) tolerance of the time-domain methods (default: each method's "
+                        "own: reference 1e-12, fast, radau and dopri5 1e-11)")
     p.add_argument("--angle-step-deg", type=float, default=None,
                    help="angle step of the crank-angle schemes in deg (default 0.1)")
     p.set_defaults(func=cmd_simulate)
@@ -383,7 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--velocities", action="store_true", help="velocity vectors of the points (at --omega)")
     p.add_argument("--instant-centres", dest="instant_centres", action="store_true",
                    help="the instant centres of the turning links")
-    p.add_argument("--reactions", action="store_true", help="the joint reactions of `crankfmu equilibrium` "
+    p.add_argument("--reactions", action="store_true", help="the joint reactions of crankfmu equilibrium "
                                                              "at this angle (constant crank speed --omega)")
     p.add_argument("--plain", action="store_true", help="no overlays, even those of the scenario's [drawing] show")
     p.add_argument("--omega", type=float, default=None, help="crank speed in rad/s for velocities and reactions "
@@ -396,7 +436,7 @@ def build_parser() -> argparse.ArgumentParser:
                                         "speed or a simulated run, traced points, omega1 with a cursor")
     p.add_argument("scenario", help="packaged scenario name or path to a .toml file")
     p.add_argument("--out", required=True, help="FILE.gif or FILE.mp4")
-    p.add_argument("--result", default=None, metavar="DIR", help="a run of `crankfmu simulate` (DIR/timeseries.csv) "
+    p.add_argument("--result", default=None, metavar="DIR", help="a run of crankfmu simulate (DIR/timeseries.csv) "
                                                                    "to animate instead of a constant-speed turn")
     p.add_argument("--trace", default=None, metavar="P,Q", help="points whose paths are traced (default: the "
                                                                   "scenario's [drawing] trace)")
@@ -517,6 +557,30 @@ def cmd_ssp(args) -> int:
     return 0
 
 
+#: the commands whose --out is a file (its folder must be writable), not a folder
+_OUT_IS_FILE = ("draw", "animate")
+
+
+def check_output(path, is_file: bool = False) -> Path:
+    """CrankfmuError, before anything is computed, when ``path`` (a folder, or a file's folder)
+    cannot be created or written: an existing file where a folder must be, or no write permission
+    on the nearest existing folder. Nothing is created."""
+    path = Path(path)
+    folder = path.parent if is_file else path
+    if is_file and path.is_dir():
+        raise CrankfmuError(f"--out {path}: is a folder; give a file name ({path / 'out.png'}, say)")
+    probe = folder
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if probe.exists() and not probe.is_dir():
+        raise CrankfmuError(f"--out {path}: {probe} is a file, not a folder: it cannot hold the output")
+    if probe.exists() and not os.access(probe, os.W_OK | os.X_OK):
+        raise CrankfmuError(f"--out {path}: no permission to write in {probe}")
+    return path
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args, rest = parser.parse_known_args(argv)
@@ -524,6 +588,8 @@ def main(argv=None) -> int:
     if rest and not delegate:
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
     try:
+        if getattr(args, "out", None) is not None:
+            check_output(args.out, is_file=args.command in _OUT_IS_FILE)
         if delegate:
             import importlib
 
