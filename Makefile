@@ -1,29 +1,43 @@
 # Two commands on a fresh machine with Python 3.11+ and make:
 #   make demo   creates .venv, installs crankfmu with its dependencies, builds the FMUs, runs the
-#               seed-000 job and the full validation harness (build/validation/report.md)
-#   make test   same bootstrap, then the test suite and the harness's --quick subset
+#               five papers' studies and the pumping well, the harness's --quick subset on every
+#               FMU, and ends with a summary (build/demo/, build/validation-quick/report.md)
+#   make test   the same set-up plus the test tools (MinGW, wine, the ecos master's libtbb), then
+#               the test suite and the harness's --quick subset
+#   make validate  the full harness on every FMU (build/validation/report.md, about 3 minutes)
 #   make soak   1,800 short FMU host processes (300 per FMU), counting abnormal exits (about 23 min)
 #   make hosts  every third-party master on FourBar.fmu and FourBarDrive.ssp (about 2 min)
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
+DEV_STAMP := $(VENV)/.dev-stamp
 OUT    ?= build/demo
 
-.PHONY: demo test venv fmu validate bench soak hosts clean
+.PHONY: demo test venv fmu fmu-python fmu-native-a fmu-native-b demo-papers demo-well validate bench soak hosts clean
 
 # fmpy starts its remoting server as `wine64`, which Debian installs as /usr/lib/wine/wine64
 export PATH := /usr/lib/wine:$(PATH)
 
-# the C kernel (src/crankfmu/native) is compiled by the installation: a change of its sources reinstalls
+# the C kernel (src/crankfmu/native) is compiled by the installation: a change of its sources reinstalls.
+# What make demo uses: crankfmu and its dependencies, a C compiler; nothing else.
 $(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfmu/native/*.h)
-	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version' 
+	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version'
 	@# a C compiler builds the kernel and the FMUs' binaries
 	@command -v cc >/dev/null || command -v gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc; } \
 	  || { echo "make: no C compiler and apt-get could not install gcc (as root)"; exit 1; }
-	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	@echo "installing crankfmu and its dependencies into $(VENV) ..."
+	@$(PYTHON) -m venv $(VENV)
+	@$(BIN)/python -m pip install --quiet --upgrade pip
+	@$(BIN)/python -m pip install --quiet -e . > $(VENV)/install.log 2>&1 \
+	  || { cat $(VENV)/install.log; echo "make: pip install failed (the log above: $(VENV)/install.log)"; exit 1; }
+	@touch $(STAMP)
+
+# What make test, hosts, soak and bench add: the test tools and masters, the native FMUs' win64
+# cross compiler (MinGW), wine to run those DLLs, and Debian's libtbb12 for the ecos master
+$(DEV_STAMP): $(STAMP)
+	@$(BIN)/python -m pip install --quiet -e '.[dev]' > $(VENV)/install-dev.log 2>&1 \
+	  || { cat $(VENV)/install-dev.log; echo "make: pip install of the test tools failed"; exit 1; }
 	@# the native FMUs' win64 binaries: Debian's MinGW-w64 cross compiler
 	@command -v x86_64-w64-mingw32-gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc-mingw-w64-x86-64; } \
 	  || echo "make: could not install gcc-mingw-w64-x86-64 (apt-get, as root): native FMUs get no win64 binary"
@@ -33,34 +47,51 @@ $(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfm
 	@# the ecos C++ master (ecospy wheel) links Debian's libtbb12
 	@ldconfig -p | grep -q 'libtbb.so.12' || { apt-get update -qq && apt-get install -y -qq libtbb12; } \
 	  || echo "make: could not install libtbb12 (apt-get, as root): the ecos master's checks will fail"
-	@touch $(STAMP)
+	@touch $(DEV_STAMP)
 
 venv: $(STAMP)
 
+# the FMUs, on both cores: the Python ones, and the native ones in two halves (a native build
+# compiles megabytes of tables); the win64 binaries where MinGW is installed (make test installs it)
 fmu: $(STAMP)
-	for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
-	$(BIN)/crankfmu fmu dc_pi --drive --out build/fmus
-	$(BIN)/crankfmu fmu seed000 --causality speed --out build/fmus
-	$(BIN)/crankfmu fmu dc_pi --drive --causality speed --out build/fmus
-	$(BIN)/crankfmu fmu die_cushion --cushion --out build/fmus
-	$(BIN)/crankfmu fmu rp11l_guo --well --out build/fmus
-	@# native FMUs (C, linux64 and win64, no Python on the host)
-	for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
-	$(BIN)/crankfmu fmu seed000 --native --causality speed --out build/fmus/native
+	@$(MAKE) --no-print-directory -j2 fmu-python fmu-native-a fmu-native-b
 
+fmu-python: $(STAMP)
+	@for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
+	@$(BIN)/crankfmu fmu dc_pi --drive --out build/fmus
+	@$(BIN)/crankfmu fmu seed000 --causality speed --out build/fmus
+	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --out build/fmus
+	@$(BIN)/crankfmu fmu die_cushion --cushion --out build/fmus
+	@$(BIN)/crankfmu fmu rp11l_guo --well --out build/fmus
+
+# native FMUs (C, linux64 and win64, no Python on the host)
+fmu-native-a: $(STAMP)
+	@for s in seed000 seed001 seed002; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
+	@$(BIN)/crankfmu fmu seed000 --native --causality speed --out build/fmus/native
+
+fmu-native-b: $(STAMP)
+	@for s in seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
+
+# the main job: every FMU, the papers' studies and the pumping well (two lines of work on the two
+# cores), the harness's --quick subset on every FMU, and a summary of what was made
 demo: fmu
+	@$(MAKE) --no-print-directory -j2 demo-papers demo-well
+	$(BIN)/crankfmu validate --quick --out build/validation-quick > build/validation-quick.log || \
+	  { tail -5 build/validation-quick.log; echo "make demo: the harness found failures (build/validation-quick/report.md)"; exit 1; }
+	@echo
+	@echo "make demo: done."
+	@echo "  built    $$(ls build/fmus/*.fmu | wc -l) Python FMUs in build/fmus/, $$(ls build/fmus/native/*.fmu | wc -l) native FMUs in build/fmus/native/"
+	@echo "  checked  $$(tail -2 build/validation-quick.log | head -1) (the harness's --quick subset; make validate runs all)"
+	@echo "  look at  $(OUT)/ (the papers' studies, figures, animations; the pumping well in $(OUT)/well/)"
+	@echo "           build/validation-quick/report.md (every FMU against the reference, closed forms and the papers)"
+
+demo-papers: $(STAMP)
 	$(BIN)/crankfmu simulate seed000 --out $(OUT)
 	$(BIN)/crankfmu kinematics seed002 --at 30 --out $(OUT)/seed002
 	$(BIN)/crankfmu sweep seed004 --param e=0.30:0.45:4 --param l1=0.15:0.30:4 --out $(OUT)/seed004
 	$(BIN)/crankfmu sweep seed000 --param J_flywheel=0:20:100 --param B=10:30:100 --out $(OUT)/seed000-sweep --restart
 	$(BIN)/crankfmu equilibrium seed001 --omega 15,10,7,5 --out $(OUT)/seed001
 	$(BIN)/crankfmu flywheel seed003 --delta 0.05 --out $(OUT)/seed003
-	# the beam pumping unit (data files only): gearbox torque with and without counterbalance, a run
-	$(BIN)/crankfmu equilibrium pumpjack --omega 0.838 --out $(OUT)/pumpjack
-	$(BIN)/crankfmu equilibrium pumpjack --omega 0.838 --set m_cw=0 --out $(OUT)/pumpjack-no-counterbalance
-	$(BIN)/crankfmu simulate pumpjack --method fast --out $(OUT)/pumpjack
-	$(BIN)/crankfmu draw pumpjack --out $(OUT)/pumpjack/mechanism.png
-	$(BIN)/crankfmu animate pumpjack --result $(OUT)/pumpjack --out $(OUT)/pumpjack/run.gif
 	# the papers' mechanism figures beside each study's other figures, and one animation per mechanism
 	$(BIN)/crankfmu draw seed000 --out $(OUT)/mechanism_fig2.png
 	$(BIN)/crankfmu draw seed001 --out $(OUT)/seed001/mechanism_fig1.png
@@ -68,30 +99,40 @@ demo: fmu
 	$(BIN)/crankfmu draw seed002 --out $(OUT)/seed002/mechanism_fig2.png
 	$(BIN)/crankfmu draw seed003 --out $(OUT)/seed003/mechanism_fig1.png
 	$(BIN)/crankfmu draw seed004 --velocities --out $(OUT)/seed004/mechanism_fig1.png
+	for s in seed001 seed002; do $(BIN)/crankfmu animate $$s --out $(OUT)/$$s/mechanism.gif || exit 1; done
+
+demo-well: $(STAMP)
+	# the beam pumping unit (data files only): gearbox torque with and without counterbalance, a run,
+	# and the well: dynamometer cards, torque, animation
+	$(BIN)/crankfmu equilibrium pumpjack --omega 0.838 --out $(OUT)/pumpjack
+	$(BIN)/crankfmu equilibrium pumpjack --omega 0.838 --set m_cw=0 --out $(OUT)/pumpjack-no-counterbalance
+	$(BIN)/crankfmu simulate pumpjack --method fast --out $(OUT)/pumpjack
+	$(BIN)/crankfmu draw pumpjack --out $(OUT)/pumpjack/mechanism.png
+	$(BIN)/crankfmu animate pumpjack --result $(OUT)/pumpjack --out $(OUT)/pumpjack/run.gif
+	$(BIN)/crankfmu well rp11l_guo --out $(OUT)/well
 	$(BIN)/crankfmu animate seed000 --result $(OUT) --out $(OUT)/seed000_run.gif
-	for s in seed001 seed002 seed003 seed004; do $(BIN)/crankfmu animate $$s --out $(OUT)/$$s/mechanism.gif || exit 1; done
-	$(BIN)/crankfmu validate --out build/validation
+	for s in seed003 seed004; do $(BIN)/crankfmu animate $$s --out $(OUT)/$$s/mechanism.gif || exit 1; done
 
 # one test file per worker: a file's module fixtures (the fuzz children, the drop-in venvs) run once
-test: fmu
+test: $(DEV_STAMP) fmu
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 	$(BIN)/crankfmu validate --quick --out build/validation-quick
 
 validate: fmu
 	$(BIN)/crankfmu validate --out build/validation
 
-bench: fmu
+bench: $(DEV_STAMP) fmu
 	$(BIN)/python benchmarks/speed.py --out build/bench
 
 # the drop-in check: fmpy, the ecos C++ command, ecospy and libcosim on FourBar.fmu and
 # FourBarDrive.ssp (co-simulation error at 10, 1 and 0.1 ms against the coupled model in process)
-hosts: fmu
+hosts: $(DEV_STAMP) fmu
 	$(BIN)/crankfmu fmu tests/data/user/togglepress_scenario.toml --out build/fmus
 	$(BIN)/crankfmu hosts --out build/hosts
 
 # 1,800 short host processes (300 per FMU: fmpy and the C driver, logging on and off, a refused
 # parameter, a host exiting with the instance alive); exits 1 on any abnormal exit
-soak: fmu
+soak: $(DEV_STAMP) fmu
 	$(BIN)/python tests/soak.py --per-fmu 300
 
 clean:
