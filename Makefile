@@ -54,7 +54,7 @@ venv: $(STAMP)
 # the FMUs, on both cores: the Python ones, and the native ones in two halves (a native build
 # compiles megabytes of tables); the win64 binaries where MinGW is installed (make test installs it)
 fmu: $(STAMP)
-	@$(MAKE) --no-print-directory -j2 fmu-python fmu-native-a fmu-native-b
+	@$(MAKE) --no-print-directory -j2 --output-sync=target fmu-python fmu-native-a fmu-native-b
 
 fmu-python: $(STAMP)
 	@for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
@@ -75,7 +75,7 @@ fmu-native-b: $(STAMP)
 # the main job: every FMU, the papers' studies and the pumping well (two lines of work on the two
 # cores), the harness's --quick subset on every FMU, and a summary of what was made
 demo: fmu
-	@$(MAKE) --no-print-directory -j2 demo-papers demo-well
+	@$(MAKE) --no-print-directory -j2 --output-sync=target demo-papers demo-well
 	$(BIN)/crankfmu validate --quick --out build/validation-quick > build/validation-quick.log || \
 	  { tail -5 build/validation-quick.log; echo "make demo: the harness found failures (build/validation-quick/report.md)"; exit 1; }
 	@echo
