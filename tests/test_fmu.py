@@ -79,6 +79,10 @@ def test_units_and_default_experiment(unzipped):
     assert md.defaultExperiment.stopTime == "2.0"
     starts = {v.name: v.start for v in md.modelVariables}
     assert float(starts["A"]) == 400.0 and float(starts["omega1_start"]) == 0.1
+    # every start as the scenario file writes it (pythonfmu's 16 digits wrote rtol 1e-11 as
+    # 9.999999999999999e-12, and the FMU's documentation showed that)
+    assert starts["rtol"] == "1e-11" and starts["omega1_start"] == "0.1"
+    assert all(start == repr(float(start)) for start in starts.values() if start is not None)
 
 
 @pytest.mark.parametrize("step", [1e-4, 1e-3, 1e-2, 1e-1])

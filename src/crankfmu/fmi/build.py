@@ -312,6 +312,10 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
             raise CrankfmuError(f"build: no unit for variable {name}")
         if real is not None and unit != "1":
             real.set("unit", si.fmi_name(unit))
+        if real is not None and real.get("start") is not None:
+            # pythonfmu writes 16 digits (rtol 1e-11 as 9.999999999999999e-12): the shortest text
+            # of the same double, as the data file writes it (the native FMU's repr does too)
+            real.set("start", repr(float(real.get("start"))))
         p = parameters.get(name)
         if real is not None and p is not None:
             # FMI's min/max are inclusive: an exclusive bound is declared as the bound itself and
