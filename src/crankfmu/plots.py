@@ -35,6 +35,12 @@ def pyplot():
     return plt
 
 
+def legend_outside(ax, **kwargs):
+    """The legend to the right of the axes, never over the data."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False,
+                     **{"fontsize": 8, **kwargs})
+
+
 def turn_axis(ax, xlabel: str = "crank angle phi1 [deg]"):
     """An x axis over one crank turn, 0..360 deg in steps of 45, with a light grid."""
     ax.set_xlim(0, 360)
@@ -204,21 +210,24 @@ def plot_families(result, scenario, units: dict, out: Path) -> list[Path]:
     base = {a.name: min(a.values, key=lambda v: abs(v - scenario[a.name])) for a in result.axes}
     quantities = next(iter(result.series.values())).keys() if result.series else []
     deg = np.degrees(result.phi1) if result.phi1 is not None else None
+    def unit_of(name):
+        unit = scenario.parameters[name].unit if name in scenario.parameters else "1"
+        return "" if unit == "1" else f" {unit}"
+
     for axis, quantity in itertools.product(result.axes, quantities):
-        fig, ax = plt.subplots(figsize=(8, 4.5))
+        fig, ax = plt.subplots(figsize=(9.5, 4.5), constrained_layout=True)
         for i, v in enumerate(axis.values):
             series = result.series_at({**base, axis.name: v})
             if series is not None:
-                ax.plot(deg, series[quantity], lw=1.2, label=f"{axis.name} = {v:g}")
+                ax.plot(deg, series[quantity], lw=1.2, label=f"{axis.name} = {v:g}{unit_of(axis.name)}")
             else:
-                ax.plot([], [], lw=0, label=f"{axis.name} = {v:g}: cannot be assembled")
-        fixed = ", ".join(f"{k} = {v:g}" for k, v in base.items() if k != axis.name)
+                ax.plot([], [], lw=0, label=f"{axis.name} = {v:g}{unit_of(axis.name)}: cannot be assembled")
+        fixed = ", ".join(f"{k} = {v:g}{unit_of(k)}" for k, v in base.items() if k != axis.name)
         ax.set_title(f"{quantity} over a cycle, {axis.name} swept ({fixed})")
         ax.set_xlabel("crank angle phi1 [deg]")
         ax.set_ylabel(f"{quantity} [{units.get(quantity, '')}]")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8)
-        fig.tight_layout()
+        legend_outside(ax)
         paths.append(out / f"{quantity}_vs_{axis.name}.png")
         save_figure(fig, paths[-1], dpi=110)
         plt.close(fig)
@@ -277,23 +286,37 @@ def plot_steady(result, out: Path, units: dict | None = None) -> list[Path]:
 # equilibrium moments and joint reactions
 
 def plot_moments(scenario, results: list, out: Path) -> list[Path]:
-    """One figure per speed, as the paper's Figs. 2-5: curve 1 with inertia, curve 2 without."""
+    """One figure per speed, as the paper's Figs. 2-5: curve 1 with inertia, curve 2 without. The
+    scenario's [equilibrium] section names what the moment is (``moment``: seed 001's equilibrium
+    moment, a pumping unit's net gearbox torque), the paper's figure of each of its speeds
+    (``figures``, in the order of its omega1; none where the paper has none) and a ``rating`` (N.m)
+    drawn at plus and minus its value (a reducer's rated torque)."""
     plt = pyplot()
     paths = []
-    for k, r in enumerate(results):
+    spec = scenario.data.get("equilibrium", {})
+    label = spec.get("moment", "equilibrium moment M_e")
+    figures = dict(zip((float(w) for w in spec.get("omega1", [])), spec.get("figures", [])))
+    changed = ", ".join(f"{k} = {v:g}" for k, v in sorted(scenario.overrides.items()))
+    for r in results:
         m = r.moment
         deg = np.append(np.degrees(m.phi1), 360.0)
         close = lambda a: np.append(a, a[0])  # noqa: E731
-        fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-        ax.plot(deg, close(m.total), lw=1.6, label="1: with inertia forces and moments")
-        ax.plot(deg, close(m.static), lw=1.2, ls="--", label="2: inertia neglected")
+        fig, ax = plt.subplots(figsize=(9.5, 4.5), constrained_layout=True)
+        ax.plot(deg, close(m.total), lw=1.6, label="1: with inertia forces\nand moments [N.m]")
+        ax.plot(deg, close(m.static), lw=1.2, ls="--", label="2: inertia neglected [N.m]")
         ax.axhline(r.mean, color="0.5", lw=0.8, ls=":", label=f"cycle mean {r.mean:.2f} N.m")
+        if "rating" in spec:
+            rating = float(spec["rating"])
+            for sign in (1.0, -1.0):
+                ax.axhline(sign * rating, color="C3", lw=1.0, ls="-.",
+                           label=f"rating +/-{rating:.0f} N.m" if sign > 0 else None)
         turn_axis(ax)
-        ax.set_ylabel("equilibrium moment M_e [N.m]")
+        ax.set_ylabel(f"{label} [N.m]")
         s = r.summary()
-        ax.set_title(f"{scenario.name}: omega1 = {r.omega1:g} rad/s (Fig. {k + 2}); "
-                     f"inertia ratio {s['inertia_ratio']:.3f}")
-        ax.legend(loc="best", fontsize=8)
+        cite = f" ({figures[r.omega1]})" if r.omega1 in figures else ""
+        ax.set_title(f"{scenario.name}{f' with {changed}' if changed else ''}: {label} at omega1 = {r.omega1:g} "
+                     f"rad/s{cite}; inertia ratio {s['inertia_ratio']:.3f}", fontsize=10)
+        legend_outside(ax)
         p = out / f"Me_omega{r.key}.png"
         save_figure(fig, p, dpi=120)
         plt.close(fig)
@@ -303,14 +326,14 @@ def plot_moments(scenario, results: list, out: Path) -> list[Path]:
 
 def plot_reactions(scenario, r, path: Path) -> Path:
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(9.5, 4.5), constrained_layout=True)
     deg = np.degrees(r.reactions.phi1)
     for joint in r.reactions.force:
-        ax.plot(deg, r.reactions.magnitude(joint), lw=1.0, label=f"{joint} ({r.reactions.kind[joint]})")
+        ax.plot(deg, r.reactions.magnitude(joint), lw=1.0, label=f"{joint} ({r.reactions.kind[joint]}) [N]")
     turn_axis(ax)
     ax.set_ylabel("joint reaction |F| [N]")
     ax.set_title(f"{scenario.name}: joint reactions at omega1 = {r.omega1:g} rad/s")
-    ax.legend(loc="upper right", fontsize=7, ncol=2)
+    legend_outside(ax, fontsize=7)
     save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
