@@ -280,3 +280,20 @@ def test_every_fmu_carries_its_documentation(fmu_path):
         assert "Default experiment" in page and "Equations" in page
         if fmu.name not in ("Drive.fmu", "DriveSpeed.fmu", "DieCushion.fmu", "RodString.fmu"):     # not mechanisms
             assert "documentation/mechanism.png" in names and "J(phi1) domega1/dt" in page
+
+
+def test_an_animation_fits_a_page_at_most_one_megabyte_with_readable_text(tmp_path):
+    """A full 120-frame GIF of a mechanism (seed 001, the busiest drawing) is at most 1 MB at 960
+    pixels wide (9 pt text 12 px high): one palette for all frames, no dithering, so each frame
+    after the first stores only what moved. The frames still differ where the links move."""
+    from PIL import Image
+
+    path = animate(load_scenario("seed001"), tmp_path / "a.gif", frames=120, fps=20)
+    assert path.stat().st_size <= 1_000_000, path.stat().st_size
+    with Image.open(path) as img:
+        assert img.n_frames == 120 and img.size[0] >= 900
+        img.seek(0)
+        first = np.asarray(img.convert("L")).copy()
+        img.seek(60)
+        half = np.asarray(img.convert("L"))
+    assert np.mean(first != half) > 0.005
