@@ -34,7 +34,7 @@ def test_flywheel_adds_a_constant(scenario):
 
 
 def test_technological_moment_always_opposes_the_rocker(model):
-    """CASES.md: M_ru on the rocker never has positive power (M_ru * omega3 <= 0)."""
+    """docs/papers.md: M_ru on the rocker never has positive power (M_ru * omega3 <= 0)."""
     load = model.reduced.loads[1]
     kin = model.mechanism.kinematics(ANGLES)
     power_ratio = load.moment(ANGLES) * kin.link_angle("rocker")[1]

@@ -1,4 +1,4 @@
-"""Seed 003 (shaper, CASES.md data set): J_e by the paper's own velocity-ratio equations, the
+"""Seed 003 (shaper, docs/papers.md data set): J_e by the paper's own velocity-ratio equations, the
 flywheel found by simulation meets its target in a time-domain run, the eq. 3 stability limit."""
 
 import json

@@ -1,4 +1,4 @@
-"""The variables every crankfmu result and FMU exposes (shared/FMU_CONTRACT.md): the one home of
+"""The variables every crankfmu result and FMU exposes (docs/fmu-contract.md): the one home of
 each output's and input's name, SI unit, description, causality and initial dependencies.
 
 Read by ``simulation.Result`` and timeseries.csv (the columns), the FMU's variable registration

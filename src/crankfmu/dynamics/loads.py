@@ -218,7 +218,7 @@ class DeadPointMoment:
     the rocker's two extreme positions, found from the geometry as the roots of dphi_rocker/dphi1
     (for the four-bar: OA and AB collinear). phi1d is the extreme after which the rocker turns
     counter-clockwise, so the moment is negative while omega_rocker > 0 and positive while
-    omega_rocker < 0: it always opposes the rocker (CASES.md). Reduced to the crank:
+    omega_rocker < 0: it always opposes the rocker (docs/papers.md). Reduced to the crank:
     Q = M_ru * dphi_rocker/dphi1.
     """
 

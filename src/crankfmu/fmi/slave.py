@@ -1,6 +1,6 @@
 """The FMU's behaviour, kept in the package so the FMU runs the same model code as the CLI.
 
-``FmuCore`` registers the variables of shared/FMU_CONTRACT.md (plus the scenario's geometry,
+``FmuCore`` registers the variables of docs/fmu-contract.md (plus the scenario's geometry,
 mass and load parameters) on a pythonfmu ``Fmi2Slave`` and implements its life cycle. The slave
 scripts (generated from ``slave_script.py.in`` beside this file) are thin: ``class FourBar(Fmi2Slave)``
 delegating to ``FmuCore``. A scenario's ``[[outputs]]`` (slider position, arm speed, ...) become
