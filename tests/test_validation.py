@@ -256,3 +256,15 @@ def test_published_numbers_carry_their_verdict():
     checks = CheckList(echo=None)
     paper.check_paper(shaped, None, Run(31.0, 36.0), checks, "S")
     assert {c.name.split(".")[-1]: c.verdict for c in checks.items}["J_e_max"] == "changed" and checks.failed == 1
+
+
+def test_the_papers_graphical_values_are_checked_with_their_verdict():
+    """seed 002's [kinematics.paper] values at 30 deg (v_B, Omega2, ...) are published numbers too:
+    each is a check with its verdict (a rewrite of check_paper once left them unreachable)."""
+    from crankfmu.scenario import load_scenario
+
+    scenario = load_scenario("seed002")
+    checks = CheckList(echo=None)
+    paper.check_paper(scenario, scenario.build(), None, checks, "S")
+    graphical = [c for c in checks.items if c.name.endswith("_at_30deg")]
+    assert len(graphical) >= 6 and all(c.verdict == "agrees" and c.published for c in graphical)

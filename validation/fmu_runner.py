@@ -91,6 +91,15 @@ def scenario_of(path) -> str | None:
     return kind.data if kind is not None and kind.kind == "scenario" else None
 
 
+def input_signal(times, **columns) -> np.ndarray:
+    """Inputs as fmpy takes them: a structured array of ``time`` and one column per input."""
+    signal = np.zeros(np.size(times), dtype=[("time", float), *((name, float) for name in columns)])
+    signal["time"] = times
+    for name, value in columns.items():
+        signal[name] = value
+    return signal
+
+
 class FmuUnderTest:
     def __init__(self, path):
         from fmpy import extract, read_model_description

@@ -148,16 +148,10 @@ def _native_against_python(by_build, checks):
         n_section.setdefault("extra_checks", []).append(item)
         return
     n_before = len(checks.items)
-    if native.kind.kind == "scenario" and native.kind.causality == "torque":
-        from crankfmu.scenario import load_scenario
+    from crankfmu.scenario import load_scenario
 
-        from .mechanism import check_native_against_python
-        result = check_native_against_python(native, python, load_scenario(native.scenario_source), checks,
-                                             n_run, p_run)
-    else:
-        from .speed import check_speed_native_against_python
-        reactions = {v.name for v in native.model_description.modelVariables if v.name.endswith(("_Fx", "_Fy"))}
-        result = check_speed_native_against_python(native, python, n_run, p_run, checks, reactions)
+    from .mechanism import check_native_against_python
+    result = check_native_against_python(native, python, load_scenario(native.scenario_source), checks, n_run, p_run)
     n_section["native_vs_python"] = result
     n_section.setdefault("extra_checks", []).extend(checks.items[n_before:])
 

@@ -109,11 +109,6 @@ def check_paper(scenario, model, fmu_run, checks, prefix: str):
             check = checks.close(name, value, published, tol, entry.get("unit", ""), note=source)
             check.verdict = "agrees" if check.passed else "disagrees, unexplained"
         check.published = _published(entry)
-
-
-def _published(entry) -> str:
-    unit = entry.get("unit", "")
-    return f"{entry['expected']:g} {'' if unit == '1' else unit}".strip()
     study = scenario.kinematics_study
     if study.get("paper"):
         # the paper's graphical values at its check position ([kinematics.paper]), within
@@ -127,3 +122,8 @@ def _published(entry) -> str:
                                  note=f"graphical value, {100 * rel:g} % tolerance")
             check.verdict = "agrees" if check.passed else "disagrees, unexplained"
             check.published = f"{published:g} {detail['units'][name]}"
+
+
+def _published(entry) -> str:
+    unit = entry.get("unit", "")
+    return f"{entry['expected']:g} {'' if unit == '1' else unit}".strip()

@@ -20,6 +20,7 @@ from crankfmu.dynamics.inverse import equilibrium_moment
 from crankfmu.errors import CrankfmuError
 
 from .compare import max_abs_error, relative_error
+from .fmu_runner import input_signal
 from .mechanism import OUTPUT_TOLERANCE
 from .reference import ReferenceRun, _with_outputs, cached_reference
 from .report import plot_outputs
@@ -106,10 +107,8 @@ def _played_back(fmu, scenario, checks, prefix) -> dict:
         checks.skip(f"{prefix}.played_back", f"the file has no torque-causal run to play back: {exc}")
         row["checks"] = checks.items[n_before:]
         return row
-    signal = np.zeros(times.size, dtype=[("time", float), ("omega1", float)])
-    signal["time"], signal["omega1"] = times, ref["omega1"]
     run = fmu.run(PLAYBACK_SPAN, PLAYBACK_STEP, {"omega1": float(ref["omega1"][0])}, label="played back",
-                  inputs=signal)
+                  inputs=input_signal(times, omega1=ref["omega1"]))
     if run.error:
         checks.holds(f"{prefix}.played_back.ran", False, note=run.error)
     else:
@@ -128,9 +127,8 @@ def _varying(fmu, checks, prefix, omega) -> dict:
            "expect": "omega1 varying by 30 % at 3 rad/s: W_drive + W_load + W_ext = E_kin(t) - E_kin(0) to 1e-8"}
     n_before = len(checks.items)
     times = np.arange(0.0, 2.0 + 5e-4, 1e-3)
-    signal = np.zeros(times.size, dtype=[("time", float), ("omega1", float)])
-    signal["time"], signal["omega1"] = times, omega * (1.0 + 0.3 * np.sin(3.0 * times))
-    run = fmu.run(2.0, 1e-3, {"omega1": omega}, label="varying omega1", inputs=signal)
+    run = fmu.run(2.0, 1e-3, {"omega1": omega}, label="varying omega1",
+                  inputs=input_signal(times, omega1=omega * (1.0 + 0.3 * np.sin(3.0 * times))))
     if run.error:
         checks.holds(f"{prefix}.varying_omega1.ran", False, note=run.error)
     else:
@@ -141,19 +139,3 @@ def _varying(fmu, checks, prefix, omega) -> dict:
         row.update(fmu_wall=run.wall, energy_residual=residual)
     row["checks"] = checks.items[n_before:]
     return row
-
-
-def check_speed_native_against_python(native, python, native_run, python_run, checks, reactions=()) -> dict:
-    """The two speed-causal builds of one file at the same constant omega1: one kernel step
-    (ck_speed_advance) behind both, so the contract's outputs agree to round-off."""
-    rows = []
-    for name in python.outputs:
-        if name not in native.outputs:
-            checks.holds(f"{native.name}.native_vs_python.{name}_declared_by_both", False)
-            continue
-        tol = 1e-7 if name in reactions else 1e-9          # the reactions' tables: 1e-8 of each term
-        r = relative_error(native_run[name], python_run[name])
-        checks.at_most(f"{native.name}.native_vs_python.{name}_rel_difference", r, tol)
-        rows.append({"output": name, "rel": r, "tol": tol, "group": "contract"})
-    return {"rows": rows}
-

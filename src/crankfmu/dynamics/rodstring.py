@@ -156,14 +156,14 @@ class StringDesign:
         """Refuse what would make a step unbounded in time or memory: more than MAX_SEGMENTS
         segments, or an internal step (the Courant limit: courant x segment / wave speed) below
         MIN_STEP, naming the value and its valid range with the other values as given."""
-        n = sum(max(1, math.ceil(t.length / self.segment - 1e-9)) for t in self.tapers)
+        n = sum(_segments(t, self.segment) for t in self.tapers)
         if n > MAX_SEGMENTS:
             shortest = self.depth / MAX_SEGMENTS
             raise DefinitionError(f"{where}: segment = {format_value(self.segment)} m cuts the {self.depth:.6g} m string "
                                   f"into {n} segments, more than {MAX_SEGMENTS}: valid range "
                                   f"[{shortest:.4g}, inf) m with these tapers")
         for i, t in enumerate(self.tapers, 1):
-            dx = t.length / max(1, math.ceil(t.length / self.segment - 1e-9))
+            dx = t.length / _segments(t, self.segment)
             dt = self.courant * dx / t.wave_speed
             if dt < MIN_STEP:
                 # dt = courant dx sqrt(m / (E A)): the stiffest E, the lightest rods, the smallest
@@ -197,10 +197,15 @@ class Grid:
     dt_max: float          # s, the Courant limit times ``courant``
 
 
+def _segments(taper: Taper, segment: float) -> int:
+    """How many equal segments a taper is cut into: the fewest no longer than ``segment``."""
+    return max(1, math.ceil(taper.length / segment - 1e-9))
+
+
 def grid(design: StringDesign) -> Grid:
     xs, mass_seg, weight_seg, k_seg, dt_max = [0.0], [], [], [], math.inf
     for t in design.tapers:
-        n = max(1, math.ceil(t.length / design.segment - 1e-9))
+        n = _segments(t, design.segment)
         dx = t.length / n
         for _ in range(n):
             xs.append(xs[-1] + dx)
@@ -376,6 +381,14 @@ class RodString:
         return self.stored_energy(self._last_u) if self._last_u is not None else self.energy_start
 
     # ---------------------------------------------------------------- stepping
+    def advance(self, top_end: float, h: float):
+        """A communication step of h s: as many equal internal steps as keep the Courant number at
+        or below the design's, the polished rod moving linearly from where it is to ``top_end``."""
+        n = max(1, math.ceil(h / self.grid.dt_max - 1e-9))
+        start = float(self.u[0])
+        for k in range(1, n + 1):
+            self.step(start + (top_end - start) * k / n, h / n)
+
     def step(self, top_next: float, dt: float | None = None):
         """One step of length dt (default self.dt): the polished rod moves to ``top_next``."""
         dt = self.dt if dt is None else dt

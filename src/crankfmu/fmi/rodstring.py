@@ -14,7 +14,6 @@ first step (a master sets connected inputs after initialisation).
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
@@ -55,11 +54,7 @@ class RodStringCore(SlaveCore):
             # from the polished rod's position at the first step
             self.string.hang(self.time, self.values["s"])
             self.hung = True
-        n = max(1, math.ceil(h / self.string.grid.dt_max - 1e-9))
-        dt = h / n
-        start, end = float(self.string.u[0]), self.values["s"] + self.values["v"] * h
-        for k in range(1, n + 1):
-            self.string.step(start + (end - start) * k / n, dt)
+        self.string.advance(self.values["s"] + self.values["v"] * h, h)
         self._update_outputs()
 
     def outputs_now(self) -> np.ndarray:

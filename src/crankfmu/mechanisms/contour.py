@@ -330,10 +330,12 @@ class Mechanism:
         function (the assembly check runs it last, on a geometry that closes and has no dead point)."""
         grid, table, _ = self.turn_table()
         cols = self._angle_columns
+        # the transfer functions on the table, once for every unknown
+        rates = self.kinematics_from_q(self._closed_form_positions(grid), second=False).dq
         for j, name in enumerate(self.unknown_names, start=1):
             scale = TWO_PI if j in cols else max(self.length_scale, 1e-300)
             a, b = grid[:-1], grid[1:]
-            miss = self._trapezoid_miss(a, b, table[:-1, j], table[1:, j], j)
+            miss = np.abs(np.diff(table[:, j]) - 0.5 * (b - a) * (rates[name][:-1] + rates[name][1:]))
             i = int(np.argmax(miss))
             # a steep but continuous function misses by h^3/12 |q'''|: refine the worst interval until
             # it either closes (smooth) or keeps the same gap however fine (a jump)
