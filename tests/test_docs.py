@@ -45,3 +45,72 @@ def test_every_path_a_page_names_exists(page):
 def test_no_page_sends_the_reader_outside_the_repository():
     for page in PAGES:
         assert "shared/" not in page.read_text(), page.name
+
+
+# --------------------------------------------------------------------------------------------
+# docs/cli.md against the real command line
+
+CLI_PAGE = ROOT / "docs" / "cli.md"
+
+
+def cli_parsers():
+    """(name, parser) of every `crankfmu` subcommand as the program builds it. validate and hosts
+    parse their own options (the subcommand only names the module that does): their parsers are
+    built from those modules."""
+    import argparse
+    import importlib
+
+    from crankfmu.cli import build_parser
+
+    parser = build_parser()
+    yield "", parser
+    subparsers = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    assert len(subparsers) == 1, "crankfmu has one level of subcommands"
+    for name, sub in subparsers[0].choices.items():
+        delegate = sub.get_default("delegate")
+        if delegate:
+            sub = importlib.import_module(delegate).build_parser()
+        yield name, sub
+
+
+def long_flags(parser):
+    return sorted(s for a in parser._actions for s in a.option_strings if s.startswith("--") and s != "--help")
+
+
+def cli_sections(text: str) -> dict[str, str]:
+    """docs/cli.md's sections: `## crankfmu NAME` -> the text up to the next `## ` heading; the
+    page's text before the first command's section is the section of `crankfmu` itself ("")."""
+    parts = re.split(r"^## +crankfmu +(\S+) *$", text, flags=re.M)
+    sections = {"": parts[0]}
+    for name, body in zip(parts[1::2], parts[2::2]):
+        sections[name] = body.split("\n## ", 1)[0]
+    return sections
+
+
+def missing_from_cli_page(text: str) -> list[str]:
+    """What the real parser has that ``text`` (docs/cli.md) does not document: a subcommand
+    without its `## crankfmu NAME` section, or a long option not named in its command's section."""
+    sections = cli_sections(text)
+    missing = []
+    for name, parser in cli_parsers():
+        if name not in sections:
+            missing.append(f"crankfmu {name}")
+            continue
+        for flag in long_flags(parser):
+            if not re.search(rf"(?<![\w-]){re.escape(flag)}(?![\w-])", sections[name] if name else text):
+                missing.append(f"crankfmu {name} {flag}".replace("  ", " "))
+    return missing
+
+
+def test_cli_page_documents_every_command_and_option():
+    missing = missing_from_cli_page(CLI_PAGE.read_text())
+    assert not missing, f"docs/cli.md does not document: {missing}"
+
+
+def test_the_cli_page_check_fails_on_a_missing_option_or_command():
+    text = CLI_PAGE.read_text()
+    # an option gone from its command's section (it is still named elsewhere on the page)
+    assert "crankfmu sweep --chunk" in missing_from_cli_page(text.replace("--chunk", "--chunks"))
+    # a command's section gone
+    without = re.sub(r"^## crankfmu well\n.*?(?=^## )", "", text, flags=re.M | re.S)
+    assert "crankfmu well" in missing_from_cli_page(without)

@@ -183,7 +183,7 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
 
     t_end         s      end time (default: the scenario's stop_time)
     method               "fast" (the C kernel's Dormand-Prince on the tabulated model, every switch
-                         located; rtol default 1e-10), "reference" (DOP853 on the contour engine,
+                         located; rtol default 1e-11), "reference" (DOP853 on the contour engine,
                          rtol = atol = 1e-12), "radau", "dopri5", "badoiu-eq17", "lv-eq3"
     rtol          1      relative (and absolute) tolerance of the time-domain methods
     output_times  s      where arrays are sampled (default: the scenario's output interval for the
