@@ -1,7 +1,7 @@
 # Two commands on a fresh machine with Python 3.11+ and make:
 #   make demo   creates .venv, installs crankfmu with its dependencies, builds the FMUs, runs the
 #               five papers' studies and the pumping well, the harness's --quick subset on every
-#               FMU, and ends with a summary (build/demo/, build/validation-quick/report.md)
+#               FMU, and ends with a summary and a results page (build/demo/index.html)
 #   make test   the same set-up plus the test tools (MinGW, wine, the ecos master's libtbb), then
 #               the test suite and the harness's --quick subset
 #   make validate  the full harness on every FMU (build/validation/report.md, about 3 minutes)
@@ -34,7 +34,8 @@ $(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfm
 	@touch $(STAMP)
 
 # What make test, hosts, soak and bench add: the test tools and masters, the native FMUs' win64
-# cross compiler (MinGW), wine to run those DLLs, and Debian's libtbb12 for the ecos master
+# cross compiler (MinGW), wine to run those DLLs, Debian's libtbb12 for the ecos master, and
+# headless Chromium for the pages' tests
 $(DEV_STAMP): $(STAMP)
 	@$(BIN)/python -m pip install --quiet -e '.[dev]' > $(VENV)/install-dev.log 2>&1 \
 	  || { cat $(VENV)/install-dev.log; echo "make: pip install of the test tools failed"; exit 1; }
@@ -47,6 +48,9 @@ $(DEV_STAMP): $(STAMP)
 	@# the ecos C++ master (ecospy wheel) links Debian's libtbb12
 	@ldconfig -p | grep -q 'libtbb.so.12' || { apt-get update -qq && apt-get install -y -qq libtbb12; } \
 	  || echo "make: could not install libtbb12 (apt-get, as root): the ecos master's checks will fail"
+	@# the pages (the results page, the FMUs' documentation) are checked in a real browser: headless Chromium
+	@command -v chromium >/dev/null || { apt-get update -qq && apt-get install -y -qq chromium; } \
+	  || echo "make: could not install chromium (apt-get, as root): the pages' browser tests will fail"
 	@touch $(DEV_STAMP)
 
 venv: $(STAMP)
@@ -76,14 +80,15 @@ fmu-native-b: $(STAMP)
 # cores), the harness's --quick subset on every FMU, and a summary of what was made
 demo: fmu
 	@$(MAKE) --no-print-directory -j2 --output-sync=target demo-papers demo-well
-	$(BIN)/crankfmu validate --quick --out build/validation-quick > build/validation-quick.log || \
-	  { tail -5 build/validation-quick.log; echo "make demo: the harness found failures (build/validation-quick/report.md)"; exit 1; }
+	$(BIN)/crankfmu validate --quick --out $(OUT)/validation > $(OUT)/validation.log || \
+	  { tail -5 $(OUT)/validation.log; echo "make demo: the harness found failures ($(OUT)/validation/report.html)"; exit 1; }
+	@$(BIN)/crankfmu page $(OUT) --validation $(OUT)/validation > /dev/null
 	@echo
 	@echo "make demo: done."
 	@echo "  built    $$(ls build/fmus/*.fmu | wc -l) Python FMUs in build/fmus/, $$(ls build/fmus/native/*.fmu | wc -l) native FMUs in build/fmus/native/"
-	@echo "  checked  $$(tail -2 build/validation-quick.log | head -1) (the harness's --quick subset; make validate runs all)"
-	@echo "  look at  $(OUT)/ (the papers' studies, figures, animations; the pumping well in $(OUT)/well/)"
-	@echo "           build/validation-quick/report.md (every FMU against the reference, closed forms and the papers)"
+	@echo "  checked  $$(tail -2 $(OUT)/validation.log | head -1) (the harness's --quick subset; make validate runs all)"
+	@echo "  look at  $(OUT)/index.html: every figure and animation of the papers' studies and the pumping well,"
+	@echo "           the published numbers beside ours, and the validation report"
 
 demo-papers: $(STAMP)
 	$(BIN)/crankfmu simulate seed000 --out $(OUT)

@@ -5,6 +5,8 @@ versions and commit it was made with."""
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 import os
 import platform
@@ -15,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from crankfmu.atomic import save_figure, write_text
+from crankfmu.pages.markup import markdown, page
 from crankfmu.plots import pyplot
 
 def plot_outputs(run, ref, names, tolerances: dict, path: Path, title: str) -> Path:
@@ -172,8 +175,34 @@ def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str,
         lines += _details(s)
     lines += ["## Every check", "", "```"] + [c.line() for c in checks.items] + ["```", ""]
     path = out / "report.md"
-    write_text(path, "\n".join(lines))
+    text = "\n".join(lines)
+    write_text(path, text)
+    # the same report for a browser (the results page links it), and its checks for a program
+    write_text(out / "report.html", page("crankfmu validation report", markdown(text)).decode())
+    write_text(out / "checks.json", json.dumps(checks_record(sections, not_validated, checks, quick), indent=1,
+                                               default=_json_number) + "\n")
     return path
+
+
+def checks_record(sections: list[dict], not_validated, checks, quick: bool) -> dict:
+    """What a program (the results page) reads of a harness run: each FMU validated (its name,
+    build, kind, data file and counts) and every check with its fields."""
+    fmus = []
+    for s in sections:
+        items = s["checks"]
+        passed, skipped = sum(c.passed for c in items), sum(c.skipped for c in items)
+        fmus.append({"name": s["name"], "build": s["build"], "kind": s["kind"], "data": str(s["data"]),
+                     "interfaces": list(s["interfaces"]), "passed": passed, "skipped": skipped,
+                     "failed": len(items) - passed - skipped})
+    return {"summary": checks.summary(), "quick": quick, "versions": versions(), "fmus": fmus,
+            "not_validated": [{"name": n, "why": w} for n, w in not_validated],
+            "checks": [dataclasses.asdict(c) for c in checks.items]}
+
+
+def _json_number(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise TypeError(f"not JSON serialisable: {obj!r}")
 
 
 def _anchor(s) -> str:

@@ -30,9 +30,23 @@ def write_text(path, text: str) -> Path:
     return Path(path)
 
 
-def save_figure(fig, path, **savefig) -> Path:
-    """``fig.savefig(path, **savefig)``, whole or not at all (the format from the suffix)."""
+def figure_title(fig) -> str:
+    """The figure's own title: its suptitle, else its axes' titles joined (what a caption starts from)."""
+    sup = getattr(fig, "_suptitle", None)
+    if sup is not None and sup.get_text().strip():
+        return " ".join(sup.get_text().split())
+    return "; ".join(" ".join(ax.get_title().split()) for ax in fig.axes if ax.get_title().strip())
+
+
+def save_figure(fig, path, caption: str = "", scenario: str = "", **savefig) -> Path:
+    """``fig.savefig(path, **savefig)``, whole or not at all (the format from the suffix). A PNG
+    carries what it shows in its text chunks: its title (the figure's own), ``caption`` (what to
+    look at) and ``scenario`` (the data file it comes from), so a page that shows it (``crankfmu
+    page``) needs no list of figures of its own."""
     path = Path(path)
+    if path.suffix.lower() == ".png":
+        savefig["metadata"] = {**savefig.get("metadata", {}), "Title": figure_title(fig),
+                               "Description": caption, "Source": scenario}
     with replacing(path) as temporary:
         fig.savefig(temporary, format=path.suffix.lstrip(".") or None, **savefig)
     return path

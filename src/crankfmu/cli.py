@@ -114,7 +114,9 @@ def cmd_kinematics(args) -> int:
     plots = plot_time_series(ts, out, scenario.name)
     ks = scenario.kinematics_study
     plots.append(plot_velocity_plan(detail, ks.get("relative", []), out / "velocity_plan.png",
-                                    f"{scenario.name}: velocity plan at {args.at:g} deg"))
+                                    f"{scenario.name}: velocity plan at {args.at:g} deg"
+                                    + (f" (the paper's {ks['figures']['velocity_plan']})"
+                                       if "velocity_plan" in ks.get("figures", {}) else ""), scenario.name))
     if ts.get("approx_errors"):
         print(f"  the paper's approximation ({ts['approx_name']}) over {ts['time'][-1]:g} s, largest errors: "
               + ", ".join(f"{k} {v:.4g} {ts['units'].get(k, 'm')}" for k, v in ts["approx_errors"].items()))
@@ -165,7 +167,7 @@ def cmd_sweep(args) -> int:
                   f"{100 * c['share_of_second_half_mean']:.0f} % of its second half")
         written = f"peaks.csv, failed.csv, claims.json and {len(plots)} PNG"
     else:
-        plots = plot_steady(result, out, {n: scenario.parameters[n].unit for n in names})
+        plots = plot_steady(result, out, {n: scenario.parameters[n].unit for n in names}, scenario.name)
         if result.rows:
             deltas = np.array([r["delta"] for r in result.rows])
             best = result.rows[int(np.argmin(deltas))]
@@ -262,7 +264,9 @@ def cmd_draw(args) -> int:
     if out.suffix.lower() not in (".png", ".svg", ".pdf"):
         raise CrankfmuError(f"--out {out}: a drawing is written as .png, .svg or .pdf")
     fig = draw_figure(scenario, at, show, args.omega, trace, section.get("caption", ""))
-    save(fig, out)
+    cite = section.get("caption", "")
+    save(fig, out, scenario.name, (f"{cite}. " if cite else "") + f"{scenario.title}, drawn from its data files at phi1 = {at:g} deg"
+         + (f" with {', '.join(show)}" if show else "") + (f"; traced: {', '.join(trace)}" if trace else "") + ".")
     print(f"{scenario.name}: the mechanism at phi1 = {at:g} deg" + (f" with {', '.join(show)}" if show else "")
           + f": wrote {out}")
     return 0
@@ -496,11 +500,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-animation", action="store_true")
     p.set_defaults(func=cmd_well)
 
+    p = sub.add_parser("page", help="the results page: FOLDER/index.html shows every figure and animation under "
+                                     "FOLDER by data file, with captions, the paper's figures they reproduce, the "
+                                     "published numbers beside ours and the validation report")
+    p.add_argument("folder", help="a folder of results (make demo's build/demo)")
+    p.add_argument("--validation", default=None, metavar="DIR",
+                   help="a crankfmu validate --out folder (its checks.json and report.html) to show with them")
+    p.add_argument("--out", default=None, help="the page's file (default: FOLDER/index.html)")
+    p.set_defaults(func=cmd_page)
+
     p = sub.add_parser("hosts", add_help=False, help="the drop-in check: third-party masters (fmpy, ecos, "
                                                      "ecospy, libcosim) on FourBar.fmu and FourBarDrive.ssp; "
                                                      "PASS/FAIL lines")
     p.set_defaults(delegate="crankfmu.validation.hosts")
     return parser
+
+
+def cmd_page(args) -> int:
+    from .pages.results import write_page
+
+    out = write_page(args.folder, args.validation, args.out)
+    print(f"wrote {out}: open it in a browser")
+    return 0
 
 
 def cmd_well(args) -> int:
@@ -522,8 +543,8 @@ def cmd_well(args) -> int:
         partial.write_text(json.dumps(result, indent=2) + "\n")
     parts = study.torque_parts(cw, stroke)
     title = f"{well.title}\n{60 / stroke.period:.2f} strokes/min, stroke {len(strokes)} (steady)"
-    cards_png(stroke, cw.string.design, out, title)
-    torque_png(stroke, parts, study.api_rod_torque(cw, stroke, parts), out, title)
+    cards_png(stroke, cw.string.design, out, title, well.name)
+    torque_png(stroke, parts, study.api_rod_torque(cw, stroke, parts), out, title, well.name)
     if not args.no_animation:
         bar = ProgressBar(args.frames, "animation")
         animation_gif(cw, stroke, out, frames=args.frames, progress=bar)
@@ -558,7 +579,7 @@ def cmd_ssp(args) -> int:
 
 
 #: the commands whose --out is a file (its folder must be writable), not a folder
-_OUT_IS_FILE = ("draw", "animate")
+_OUT_IS_FILE = ("draw", "animate", "page")
 
 
 def check_output(path, is_file: bool = False) -> Path:

@@ -106,8 +106,8 @@ def write_flywheel(study, out_dir) -> list[Path]:
     plots = [
         plot_inertia(study.scenario, offset, out / "J_e.png"),
         plot_movement(study.reference, study.eq3, offset, out / "movement.png"),
-        plot_flywheel(study.design, offset, out / "flywheel.png"),
-        plot_stability(study.stability, out / "eq3_stability.png"),
+        plot_flywheel(study.design, offset, out / "flywheel.png", study.scenario.name),
+        plot_stability(study.stability, out / "eq3_stability.png", study.scenario.name),
     ]
     summary = {**study.summary(), "plots": [p.name for p in plots]}
     write_text(out / "flywheel.json", json.dumps(summary, indent=2) + "\n")

@@ -74,7 +74,10 @@ def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[
     ax2.set_ylabel("omega1 [rad/s]")
     ax2.grid(alpha=0.3)
     p = out_dir / "omega1_cycles.png"
-    save_figure(fig, p, dpi=120)
+    save_figure(fig, p, dpi=120, scenario=result.scenario.name,
+                caption=f"The crank speed omega1 from the start over {cycles} crank turns, against the crank angle (top, "
+                        "as the paper's Fig. 3 draws it) and against time (bottom). The run-up from rest settles into a "
+                        "periodic cycle.")
     plt.close(fig)
     paths.append(p)
 
@@ -90,9 +93,11 @@ def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[
     ax.set_ylabel("omega1 [rad/s]")
     ax.set_title(f"cycle {summary_cycle}: min {stats['omega1_min']:.4f}, max {stats['omega1_max']:.4f} rad/s, "
                  f"delta = {stats['delta']:.4f}")
-    ax.legend(loc="best")
+    legend_outside(ax)
     p = out_dir / f"omega1_cycle{summary_cycle}.png"
-    save_figure(fig, p, dpi=120)
+    save_figure(fig, p, dpi=120, scenario=result.scenario.name,
+                caption=f"The crank speed over turn {summary_cycle}, when the motion has settled (the paper's Fig. 4): "
+                        "its extremes and the coefficient of speed fluctuation delta = (max - min) / mean.")
     plt.close(fig)
     paths.append(p)
     return paths
@@ -115,8 +120,10 @@ def plot_startup(reference, runs: dict, out: Path, method="badoiu-eq17") -> Path
     ax.set_title(f"{reference.scenario.name}: start-up, first crank turn")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
-    ax.legend()
-    save_figure(fig, out, dpi=120)
+    legend_outside(ax)
+    save_figure(fig, out, dpi=120, scenario=reference.scenario.name,
+                caption=f"The start-up over the first crank turn: {method} at several angle steps against the "
+                        "time-domain reference.")
     plt.close(fig)
     return out
 
@@ -136,12 +143,15 @@ def plot_time_series(ts: dict, out: Path, title: str) -> list[Path]:
                     label=f"paper's approximation, max error {ts['approx_errors'][name]:.3g} {ts['units'][name]}")
         ax.set_xlabel("time [s]")
         ax.set_ylabel(f"{name} [{ts['units'][name]}]")
-        ax.set_title(f"{title}: {name}")
+        cite = ts.get("figures", {}).get(name)
+        ax.set_title(f"{title}: {name}" + (f" (the paper's {cite})" if cite else ""))
         ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", fontsize=8)
-        fig.tight_layout()
+        legend_outside(ax, fontsize=8)
         paths.append(out / f"{name}.png")
-        save_figure(fig, paths[-1], dpi=110)
+        save_figure(fig, paths[-1], dpi=110, bbox_inches="tight", scenario=title,
+                    caption=f"{name} over time at the paper's constant crank speed: the exact value from the contour "
+                            "engine" + (", and the paper's approximate formula with its largest error." if name in approx
+                                        else "."))
         plt.close(fig)
     if "path" in ts:
         fig, ax = plt.subplots(figsize=(7, 4))
@@ -152,17 +162,19 @@ def plot_time_series(ts: dict, out: Path, title: str) -> list[Path]:
         ax.set_aspect("equal")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
-        ax.set_title(f"{title}: path of the rod's point")
+        cite = ts.get("figures", {}).get("path")
+        ax.set_title(f"{title}: path of the rod's point" + (f" (the paper's {cite})" if cite else ""))
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8)
-        fig.tight_layout()
+        legend_outside(ax, fontsize=8)
         paths.append(out / "path.png")
-        save_figure(fig, paths[-1], dpi=110)
+        save_figure(fig, paths[-1], dpi=110, bbox_inches="tight", scenario=title,
+                    caption="The path of the point the paper traces over one crank turn, exact and by the paper's "
+                            "formulas.")
         plt.close(fig)
     return paths
 
 
-def plot_velocity_plan(detail: dict, relative, path: Path, title: str) -> Path:
+def plot_velocity_plan(detail: dict, relative, path: Path, title: str, scenario: str = "") -> Path:
     """Pole p at the origin, each point's velocity drawn from it to scale, the relative velocities
     joining their heads (the paper's Fig. 5b, from the computed velocities). The frame is square
     around the polygon (pole included) with a margin for the labels, and the labels are placed
@@ -197,7 +209,9 @@ def plot_velocity_plan(detail: dict, relative, path: Path, title: str) -> Path:
     fig.tight_layout()
     renderer = renderer_of(fig)
     place_labels(fig, ax, labels, obstacle_boxes(ax, corners, paths), renderer=renderer)
-    save_figure(fig, path, dpi=110)
+    save_figure(fig, path, dpi=110, scenario=scenario,
+                caption="The velocity plan (the paper's Fig. 5b) drawn from the computed velocities: each point's "
+                        "velocity from the pole p, the relative velocities joining their heads.")
     plt.close(fig)
     return path
 
@@ -223,18 +237,21 @@ def plot_families(result, scenario, units: dict, out: Path) -> list[Path]:
             else:
                 ax.plot([], [], lw=0, label=f"{axis.name} = {v:g}{unit_of(axis.name)}: cannot be assembled")
         fixed = ", ".join(f"{k} = {v:g}{unit_of(k)}" for k, v in base.items() if k != axis.name)
-        ax.set_title(f"{quantity} over a cycle, {axis.name} swept ({fixed})")
+        cite = scenario.data.get("kinematics", {}).get("figures", {}).get(f"{quantity}_vs_{axis.name}")
+        ax.set_title(f"{quantity} over a cycle, {axis.name} swept ({fixed})" + (f" (the paper's {cite})" if cite else ""))
         ax.set_xlabel("crank angle phi1 [deg]")
         ax.set_ylabel(f"{quantity} [{units.get(quantity, '')}]")
         ax.grid(True, alpha=0.3)
         legend_outside(ax)
         paths.append(out / f"{quantity}_vs_{axis.name}.png")
-        save_figure(fig, paths[-1], dpi=110)
+        save_figure(fig, paths[-1], dpi=110, scenario=scenario.name,
+                    caption=f"{quantity} over one crank turn for each value of {axis.name}, the other swept "
+                            f"parameters held ({fixed or 'none'}).")
         plt.close(fig)
     return paths
 
 
-def plot_steady(result, out: Path, units: dict | None = None) -> list[Path]:
+def plot_steady(result, out: Path, units: dict | None = None, scenario: str = "") -> list[Path]:
     """delta over the grid: a map for two swept parameters, curves for one (the first two axes;
     the others at their first value)."""
     if not result.rows:
@@ -277,7 +294,9 @@ def plot_steady(result, out: Path, units: dict | None = None) -> list[Path]:
                                                       if fixed else ""))
     path = out / "delta.png"
     fig.tight_layout()
-    save_figure(fig, path, dpi=120)
+    save_figure(fig, path, dpi=120, scenario=scenario,
+                caption="The steady cycle's coefficient of speed fluctuation delta over the design grid; the white "
+                        "lines are the usual design targets.")
     plt.close(fig)
     return [path]
 
@@ -318,7 +337,9 @@ def plot_moments(scenario, results: list, out: Path) -> list[Path]:
                      f"rad/s{cite}; inertia ratio {s['inertia_ratio']:.3f}", fontsize=10)
         legend_outside(ax)
         p = out / f"Me_omega{r.key}.png"
-        save_figure(fig, p, dpi=120)
+        save_figure(fig, p, dpi=120, scenario=scenario.name,
+                    caption=f"The {label} over one crank turn at the constant crank speed {r.omega1:g} rad/s: with the "
+                            "links' inertia forces and moments (curve 1) and without them (curve 2).")
         plt.close(fig)
         paths.append(p)
     return paths
@@ -334,7 +355,9 @@ def plot_reactions(scenario, r, path: Path) -> Path:
     ax.set_ylabel("joint reaction |F| [N]")
     ax.set_title(f"{scenario.name}: joint reactions at omega1 = {r.omega1:g} rad/s")
     legend_outside(ax, fontsize=7)
-    save_figure(fig, path, dpi=120)
+    save_figure(fig, path, dpi=120, scenario=scenario.name,
+                caption=f"The magnitude of every joint's reaction force over one crank turn at {r.omega1:g} rad/s "
+                        "(Newton-Euler, inertia included).")
     plt.close(fig)
     return path
 
@@ -357,8 +380,9 @@ def plot_inertia(scenario, offset, path):
     turn_axis(ax, "crank angle phi = theta1 - 90 deg [deg]")
     ax.set_ylabel("equivalent moment of inertia J_e [kg.m2]")
     ax.set_title(f"{scenario.name}: J_e(phi), eq. 12 (Fig. 3); min {J.min():.3f}, max {J.max():.3f} kg.m2")
-    ax.legend()
-    save_figure(fig, path, dpi=120)
+    legend_outside(ax)
+    save_figure(fig, path, dpi=120, scenario=scenario.name,
+                caption="The equivalent (reduced) moment of inertia at the crank over one turn.")
     plt.close(fig)
     return path
 
@@ -370,23 +394,25 @@ def plot_movement(reference, eq3, offset, path):
     a1.plot(deg, reference.omega1, lw=1.5, label="reference (DOP853, time domain)")
     a1.plot(paper_deg(eq3.trajectory.y[0], offset), eq3.trajectory.y[1], lw=1, ls="--", label="eq. 3, 1 deg")
     a1.set_ylabel("omega1 [rad/s]")
-    a1.legend()
     a2.plot(deg, reference.epsilon1, lw=1.2)
     a2.set_ylabel("epsilon1 [rad/s2]")
     a3.plot(deg, reference.M_motor + reference.M_load, lw=1.2, label="M_motor + M_load (Fig. 5)")
     a3.plot(deg, reference.M_load, lw=0.8, label="M_load (cutting force, weights)")
     a3.set_ylabel("equivalent torque [N.m]")
     a3.set_xlabel("crank angle phi from the start [deg]")
-    a3.legend(fontsize=8)
     for ax in (a1, a2, a3):
         ax.grid(alpha=0.3)
+    for ax in (a1, a3):
+        legend_outside(ax, fontsize=8)
     a1.set_title(f"{reference.scenario.name}: start at omega1 = {reference.omega1[0]:g} rad/s, no flywheel (Figs. 5-6)")
-    save_figure(fig, path, dpi=120)
+    save_figure(fig, path, dpi=120, scenario=reference.scenario.name,
+                caption="The run from the paper's start speed without a flywheel: crank speed (the crank-angle scheme "
+                        "of eq. 3 over the reference), acceleration and the equivalent torque.")
     plt.close(fig)
     return path
 
 
-def plot_flywheel(design, offset, path):
+def plot_flywheel(design, offset, path, scenario: str = ""):
     plt = pyplot()
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.5), constrained_layout=True, sharex=True)
     for c, label in ((design.without, "no flywheel"), (design.with_flywheel, f"J_F = {design.J_F_simulated:.1f} kg.m2")):
@@ -399,13 +425,14 @@ def plot_flywheel(design, offset, path):
                  f"-{100 * design.omega_peak_reduction:.2f} %, of |epsilon1| -{100 * design.epsilon_peak_reduction:.1f} %")
     for ax in (a1, a2):
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    save_figure(fig, path, dpi=120)
+        legend_outside(ax, fontsize=8)
+    save_figure(fig, path, dpi=120, scenario=scenario,
+                caption="The steady cycle with the flywheel sized for the target delta (eq. 17) and without one.")
     plt.close(fig)
     return path
 
 
-def plot_stability(stability, path):
+def plot_stability(stability, path, scenario: str = ""):
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
     ok = [r for r in stability.rows if r["stable"]]
@@ -422,7 +449,8 @@ def plot_stability(stability, path):
     ax.set_ylabel("max |omega1 error| over the last turn [rad/s]")
     ax.set_title(f"eq. 3 step-size study ({stability.turns} turns from the start, J_F = {stability.J_flywheel:g})")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8)
-    save_figure(fig, path, dpi=120)
+    legend_outside(ax, fontsize=8)
+    save_figure(fig, path, dpi=120, scenario=scenario, caption="How large an angle step the crank-angle scheme of eq. 3 takes before it "
+                "turns unstable, against the linear estimate.")
     plt.close(fig)
     return path

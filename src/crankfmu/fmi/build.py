@@ -184,7 +184,8 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
             fmu += "Speed"
         source = Source(kind, scenario.name, fmu, title, scenario.experiment, core,
                         {v.name: v.initial for v in outputs}, groups, lambda: reference(scenario),
-                        lambda f, md, params, ref: documentation.scenario_documentation(f, scenario, md, params, ref),
+                        lambda f, md, params, ref, **about: documentation.scenario_documentation(f, scenario, md, params, ref,
+                                                                                            **about),
                         lambda: core_module.declared(scenario), load=scenario.name, causality=causality)
         if _is_path(name):
             source.load, source.files = _user_files(scenario, name)
@@ -197,8 +198,8 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
         from ..dynamics.drive import load_drive
 
         drive = load_drive(name)
-        docs = lambda f, md, params, ref: documentation.drive_documentation(f, drive, md, params,  # noqa: E731
-                                                                            causality == "speed")
+        docs = lambda f, md, params, ref, **about: documentation.drive_documentation(  # noqa: E731
+            f, drive, md, params, causality == "speed", **about)
         if causality == "speed":
             if drive.speed_parameters is None:
                 raise CrankfmuError(f"{drive.where}: --causality speed needs the drive file's [speed_causality] "
@@ -221,7 +222,7 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
             raise CrankfmuError(f"--causality is for a mechanism's or a drive's FMU; {takes}")
         return Source(kind, component.name, _fmu_name(fmu_name or component.fmu, component.where), component.title,
                       component.experiment, core, {}, {},
-                      documentation=lambda f, md, params, ref: document(f, component, md, params),
+                      documentation=lambda f, md, params, ref, **about: document(f, component, md, params, **about),
                       variables=lambda: declared(component), load=component.name,
                       data=(f"{folder}/{component.name}.toml",))
     raise CrankfmuError(f"build: unknown kind {kind!r}")
@@ -575,7 +576,8 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
                     with stage(name, "completing the modelDescription"):
                         data = complete_model_description(data, slave_units, slave_parameters, source)
                     with stage(name, "the documentation"):
-                        docs = source.documentation(name, data, slave_parameters, reference)
+                        docs = source.documentation(name, data, slave_parameters, reference, build="python",
+                                                    platforms=sorted(pythonfmu_binaries()))
                 zout.writestr(item, data)
             with stage(name, "writing the FMU"):
                 for platform, library in pythonfmu_binaries().items():

@@ -365,7 +365,9 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
         with stage(fmu, "the modelDescription"):
             md = model.model_description(sources)
         with stage(fmu, "the documentation"):
-            docs = source.documentation(fmu, md, model.parameters(), reference)
+            docs = source.documentation(fmu, md, model.parameters(), reference, build="native",
+                                        platforms=["linux64"] + (["win64"] if win64 else []),
+                                        table_error=model.table.error_bound)
         partial = written.enter_context(replacing(out))
         with stage(fmu, "writing the FMU"), zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", md)

@@ -12,6 +12,7 @@ artists over them (blitting): a frame costs a few ms instead of a full redraw.
 from __future__ import annotations
 
 import csv
+import json
 import math
 import shutil
 import textwrap
@@ -61,7 +62,12 @@ def animate(scenario, out, result_dir=None, trace=None, frames: int = 120, fps: 
     try:
         with replacing(out) as partial:
             if out.suffix.lower() == ".gif":
-                _write_gif(fig, frame, count, partial, fps, progress)
+                # what the animation shows, in the GIF's comment (a page's caption: crankfmu page)
+                about = {"title": f"{scenario.title}: one crank turn" + (" of the run" if result_dir else ""),
+                         "caption": f"{scenario.title}, moving" + (f" as the run in {Path(result_dir).name or result_dir} "
+                                                                    "turns it" if result_dir else " at constant crank speed")
+                                    + ".", "scenario": scenario.name}
+                _write_gif(fig, frame, count, partial, fps, progress, json.dumps(about))
             else:
                 from matplotlib.animation import FFMpegWriter, FuncAnimation
 
@@ -75,7 +81,7 @@ def animate(scenario, out, result_dir=None, trace=None, frames: int = 120, fps: 
     return out
 
 
-def _write_gif(fig, frame, count, out: Path, fps: int, progress):
+def _write_gif(fig, frame, count, out: Path, fps: int, progress, comment: str = ""):
     """Blit each frame over the still background and write the frames with Pillow."""
     from PIL import Image
 
@@ -97,7 +103,7 @@ def _write_gif(fig, frame, count, out: Path, fps: int, progress):
     palette = images[0].quantize(colors=96, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
     frames = [image.quantize(palette=palette, dither=Image.Dither.NONE) for image in images]
     frames[0].save(out, format="GIF", save_all=True, append_images=frames[1:], duration=int(round(1000 / fps)),
-                   loop=0, optimize=True, disposal=1)
+                   loop=0, optimize=True, disposal=1, comment=comment.encode())
 
 
 def animation_figure(scenario, result_dir=None, trace=None, frames: int = 120, omega1: float | None = None):

@@ -371,12 +371,12 @@ def _reactions(ax, scenario, sketch, frames, picture, w, phi, labels, paths, key
     return tips
 
 
-def save(fig, path) -> None:
+def save(fig, path, scenario: str = "", caption: str = "") -> None:
     from pathlib import Path
 
     from ..plots import pyplot
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    save_figure(fig, path, dpi=110)
+    save_figure(fig, path, dpi=110, scenario=scenario, caption=caption)
     pyplot().close(fig)

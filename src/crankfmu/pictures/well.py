@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import replacing
-from ..plots import pyplot
+from ..atomic import replacing, save_figure
+from ..plots import legend_outside, pyplot
 
 KN = 1e-3
 
@@ -19,7 +19,7 @@ def _positions(stroke):
     return -(stroke["s"] - stroke["s"].max()), -(stroke["u_pump"] - stroke["u_pump"].max())
 
 
-def cards_png(stroke, design, out: Path, title: str) -> Path:
+def cards_png(stroke, design, out: Path, title: str, scenario: str = "") -> Path:
     plt = pyplot()
     surface, pump = _positions(stroke)
     fig, ax = plt.subplots(figsize=(8, 5.5))
@@ -35,15 +35,17 @@ def cards_png(stroke, design, out: Path, title: str) -> Path:
     ax.set_ylabel("load [kN]")
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(loc="center right", fontsize=8)
+    legend_outside(ax, fontsize=8)
     path = Path(out) / "cards.png"
-    with replacing(path) as partial:
-        fig.savefig(partial, dpi=120, format="png")
+    save_figure(fig, path, dpi=120, bbox_inches="tight", scenario=scenario,
+                caption="The dynamometer cards of the steady stroke: the polished rod's load against its position "
+                        "(surface card) and the rods' load at the pump against the plunger's position (pump card), "
+                        "with the buoyant rod weight Wrf and the fluid load Fo.")
     plt.close(fig)
     return path
 
 
-def torque_png(stroke, parts: dict, api_rod, out: Path, title: str) -> Path:
+def torque_png(stroke, parts: dict, api_rod, out: Path, title: str, scenario: str = "") -> Path:
     plt = pyplot()
     angle = np.degrees(stroke["phi1"] - stroke["phi1"][0])
     fig, ax = plt.subplots(figsize=(9, 5.5))
@@ -59,10 +61,11 @@ def torque_png(stroke, parts: dict, api_rod, out: Path, title: str) -> Path:
     ax.set_xticks(range(0, 361, 45))
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="lower left")
+    legend_outside(ax, fontsize=8)
     path = Path(out) / "torque.png"
-    with replacing(path) as partial:
-        fig.savefig(partial, dpi=120, format="png")
+    save_figure(fig, path, dpi=120, bbox_inches="tight", scenario=scenario,
+                caption="The net gearbox torque over the steady stroke and its parts (rod load, counterweights and "
+                        "unit weights, unit inertia), with API 11E's torque factor times the card's load beside it.")
     plt.close(fig)
     return path
 

@@ -113,6 +113,7 @@ def time_series(scenario, omega1: float | None = None, span: float | None = None
     if "path" in ks:
         x, y = kin.point(ks["path"])[:2]
         out["path"] = (x, y)
+    out["figures"] = dict(ks.get("figures", {}))     # our figure -> the paper's that it reproduces
     approx_name = ks.get("approximation")
     if approx_name:
         approx = APPROXIMATIONS[approx_name](scenario.values, phi, w)

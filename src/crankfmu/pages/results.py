@@ -1,0 +1,249 @@
+"""The results page (``crankfmu page``, the end of ``make demo``): one self-contained HTML file that
+shows every figure and animation a folder of results holds, grouped by the data file each comes
+from (a paper's scenario, the pump jack, the well), each with its caption and the paper's figure it
+reproduces, the key numbers beside the published ones, and the validation report.
+
+Nothing is listed here by hand. A figure says what it is in its own file (``atomic.save_figure``
+writes its title, caption and scenario into the PNG; an animation into the GIF's comment); the
+paper's citation and figure titles come from the scenario file (``citation``, ``[paper_figures]``);
+the published numbers from the harness's ``checks.json`` and from a study's ``summary.json``
+(its ``reference`` table); the report is the harness's ``report.html``.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import os
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..atomic import write_text
+from ..errors import CrankfmuError
+from .markup import page
+
+#: the order of the groups: the papers' scenarios, then the beam pumping unit and its well
+ORDER = ("seed000", "seed001", "seed002", "seed003", "seed004", "pumpjack", "rp11l_guo")
+IMAGES = (".png", ".gif")
+
+
+@dataclass
+class Figure:
+    path: Path            # relative to the page
+    title: str
+    caption: str
+    scenario: str
+
+
+@dataclass
+class Group:
+    name: str
+    title: str = ""
+    citation: str = ""
+    paper_figures: dict = field(default_factory=dict)
+    figures: list = field(default_factory=list)
+    references: list = field(default_factory=list)      # (folder, the summary's reference table)
+
+
+def figure_info(path: Path) -> dict:
+    """What a figure says of itself: title, caption, scenario (empty where it says nothing)."""
+    from PIL import Image
+
+    with Image.open(path) as image:
+        if path.suffix.lower() == ".gif":
+            try:
+                about = json.loads((image.info.get("comment") or b"{}").decode())
+            except (ValueError, UnicodeDecodeError):
+                about = {}
+            return {k: str(about.get(k, "")) for k in ("title", "caption", "scenario")}
+        text = getattr(image, "text", {}) or {}
+        return {"title": text.get("Title", ""), "caption": text.get("Description", ""),
+                "scenario": text.get("Source", "")}
+
+
+def _folder_scenario(folder: Path, root: Path) -> str:
+    """A figure that names no scenario belongs to its folder's: the ``scenario`` of the nearest
+    summary up to the page's folder, else the folder's name."""
+    for d in (folder, *folder.parents):
+        for name in ("summary.json", "flywheel.json"):
+            f = d / name
+            if f.is_file():
+                try:
+                    data = json.loads(f.read_text())
+                except ValueError:
+                    continue
+                if isinstance(data, dict) and isinstance(data.get("scenario"), str):
+                    return data["scenario"]
+        if d == root:
+            break
+    return folder.name if folder != root else ""
+
+
+def _describe(group: Group) -> None:
+    """The group's title, citation and the paper's figures, from its data file."""
+    from ..dynamics.well import load_well
+    from ..scenario import load_scenario
+
+    for load in (load_scenario, load_well):
+        try:
+            data = load(group.name)
+        except Exception:  # noqa: BLE001 - not a packaged data file of this kind: try the next
+            continue
+        raw = getattr(data, "data", {}) or {}
+        group.title = getattr(data, "title", "") or raw.get("title", "")
+        group.citation = raw.get("citation", "")
+        group.paper_figures = dict(raw.get("paper_figures", {}))
+        return
+
+
+_CITES = re.compile(r"Figs?\.\s*(\d+)[a-z]?(?:\s*-\s*(\d+))?")
+
+
+def reproduces(figure: Figure, paper_figures: dict) -> list[str]:
+    """The paper's figures this one cites in its title or caption ("Fig. 6", "Figs. 5-6"), each with
+    the paper's title for it, where the scenario file gives one."""
+    out = []
+    for m in _CITES.finditer(f"{figure.title} {figure.caption}"):
+        first, last = int(m.group(1)), int(m.group(2) or m.group(1))
+        for n in range(first, min(last, first + 12) + 1):
+            key = f"Fig. {n}"
+            if key in paper_figures and key not in [o.split(":")[0] for o in out]:
+                out.append(f"{key}: {paper_figures[key]}")
+    return out
+
+
+def collect(root: Path, skip: set[Path]) -> dict[str, Group]:
+    """The figures under ``root`` by data file, and the published-figure tables of the studies'
+    summaries. A figure that names no data file belongs to the figures beside it that do, else to
+    its folder's summary, else to its folder."""
+    found = []
+    for path in sorted(p for p in root.rglob("*") if p.suffix.lower() in IMAGES and p.is_file()):
+        if any(s in path.resolve().parents for s in skip) or path.name.startswith("."):
+            continue
+        found.append((path, figure_info(path)))
+    by_folder = {}
+    for path, info in found:
+        if info["scenario"]:
+            by_folder.setdefault(path.parent, info["scenario"])
+    groups: dict[str, Group] = {}
+    for path, info in found:
+        scenario = (info["scenario"] or by_folder.get(path.parent) or _folder_scenario(path.parent, root)
+                    or "other")
+        group = groups.setdefault(scenario, Group(scenario))
+        group.figures.append(Figure(path.relative_to(root), info["title"], info["caption"], scenario))
+    for summary in sorted(root.rglob("summary.json")):
+        if any(s in summary.resolve().parents for s in skip):
+            continue
+        try:
+            data = json.loads(summary.read_text())
+        except ValueError:
+            continue
+        if isinstance(data, dict) and isinstance(data.get("reference"), dict):
+            name = (data.get("scenario") or by_folder.get(summary.parent) or _folder_scenario(summary.parent, root)
+                    or "other")
+            groups.setdefault(name, Group(name)).references.append((summary.parent.relative_to(root), data["reference"]))
+    for g in groups.values():
+        _describe(g)
+    return groups
+
+
+def _paper_rows(checks: dict, group: str) -> list[dict]:
+    """The published numbers the harness checked on the FMUs of ``group``'s data file, one row per
+    number (the FMUs it was checked on named in the row)."""
+    fmus = {f["name"]: Path(f["data"]).stem for f in checks.get("fmus", [])}
+    rows: dict[str, dict] = {}
+    for c in checks.get("checks", []):
+        if not c.get("verdict"):
+            continue
+        fmu, build, _, number = (c["name"].split(".", 3) + ["", "", "", ""])[:4]
+        if fmus.get(fmu) != group:
+            continue
+        row = rows.setdefault(number, {**c, "number": number, "builds": []})
+        row["builds"].append(f"{fmu} {build}")
+    return list(rows.values())
+
+
+def _g(x) -> str:
+    return f"{x:.6g}" if isinstance(x, (int, float)) else html.escape(str(x))
+
+
+def _group_html(g: Group, checks: dict) -> str:
+    parts = [f'<h2 id="{html.escape(g.name)}">{html.escape(g.title or g.name)}</h2>']
+    if g.citation:
+        parts.append(f'<p class="note">Source: {html.escape(g.citation)}. Data file: <code>{html.escape(g.name)}</code>.</p>')
+    rows = _paper_rows(checks, g.name)
+    if rows:
+        parts.append("<h3>The paper's numbers beside ours</h3><table><tr><th>number</th><th>verdict</th>"
+                     "<th>crankfmu</th><th>published</th><th>tolerance</th><th>where in the paper, and why</th>"
+                     "<th>checked on</th></tr>")
+        for r in rows:
+            unit = "" if r.get("unit") in ("", "1", None) else f" {r['unit']}"
+            ours = "-" if r.get("skipped") else f"{_g(r['measured'])}{html.escape(unit)}"
+            verdict = str(r["verdict"]).split()[0]
+            parts.append(f'<tr><td>{html.escape(r["number"])}</td><td class="verdict-{html.escape(verdict)}">'
+                         f'{html.escape(r["verdict"])}</td><td>{ours}</td><td>{html.escape(r["published"])}</td>'
+                         f'<td>{html.escape(str(r["tolerance"]))}</td><td>{html.escape(r.get("note", ""))}</td>'
+                         f'<td>{html.escape(", ".join(r["builds"]))}</td></tr>')
+        parts.append("</table>")
+    for folder, table in g.references:
+        parts.append(f"<h3>Published figures beside ours (<code>{html.escape(str(folder))}/summary.json</code>)</h3>"
+                     "<table><tr><th>quantity</th><th>crankfmu</th><th>published</th><th>difference</th></tr>")
+        for name, r in table.items():
+            parts.append(f"<tr><td>{html.escape(name)}</td><td>{_g(r.get('crankfmu'))}</td><td>{_g(r.get('published'))}</td>"
+                         f"<td>{100 * r.get('relative', float('nan')):+.2f} %</td></tr>")
+        parts.append("</table>")
+    for f in g.figures:
+        src = html.escape(f.path.as_posix())
+        alt = html.escape(f.title or f.path.name)
+        cites = reproduces(f, g.paper_figures)
+        caption = html.escape(f.caption or f.title or f.path.name)
+        more = "".join(f"<br>Reproduces the paper's {html.escape(c)}." for c in cites)
+        parts.append(f'<figure><a href="{src}"><img src="{src}" alt="{alt}"></a>'
+                     f"<figcaption><code>{src}</code>: {caption}{more}</figcaption></figure>")
+    return "\n".join(parts)
+
+
+def write_page(root, validation=None, out=None) -> Path:
+    """Write ``root/index.html`` (or ``out``): every figure under ``root`` by data file, and the
+    harness's report in ``validation`` (a folder with ``checks.json`` and ``report.html``)."""
+    root = Path(root)
+    if not root.is_dir():
+        raise CrankfmuError(f"no results folder at {root}: run make demo (or a study with --out {root}) first")
+    out = Path(out) if out is not None else root / "index.html"
+    validation = Path(validation) if validation is not None else None
+    checks: dict = {}
+    if validation is not None:
+        if not (validation / "checks.json").is_file():
+            raise CrankfmuError(f"--validation {validation}: no checks.json there (crankfmu validate --out "
+                                f"{validation} writes it)")
+        checks = json.loads((validation / "checks.json").read_text())
+    skip = {validation.resolve()} if validation is not None else set()     # the report's own plots
+    groups = collect(root, skip)
+    order = [n for n in ORDER if n in groups] + sorted(n for n in groups if n not in ORDER)
+    count = sum(len(g.figures) for g in groups.values())
+    body = ["<h1>crankfmu results</h1>",
+            f'<p class="note">Written {time.strftime("%Y-%m-%d %H:%M")} from <code>{html.escape(str(root))}</code>: '
+            f"{count} figures and animations from {len(groups)} data files. Each figure says what it shows and which "
+            "of the paper's figures it reproduces; click one for its full size.</p>"]
+    if checks:
+        report = Path(os.path.relpath(validation / "report.html", out.parent)).as_posix()
+        body.append(f'<p><strong>Validation: {html.escape(checks.get("summary", ""))}</strong> on '
+                    f'{len(checks.get("fmus", []))} FMUs ({"the --quick subset" if checks.get("quick") else "full"}). '
+                    f'<a href="{html.escape(report)}">The validation report</a> shows every FMU against the in-process '
+                    "reference, the closed forms and the papers.</p>")
+    body.append("<nav><ul>" + "".join(f'<li><a href="#{html.escape(n)}">{html.escape(groups[n].title or n)}</a> '
+                                        f"({len(groups[n].figures)})</li>" for n in order)
+                + ('<li><a href="#validation">Validation</a></li>' if checks else "") + "</ul></nav>")
+    body += [_group_html(groups[n], checks) for n in order]
+    if checks:
+        body.append('<h2 id="validation">Validation</h2><table><tr><th>FMU</th><th>build</th><th>kind</th>'
+                    "<th>interfaces</th><th>data file</th><th>passed</th><th>failed</th><th>skipped</th></tr>")
+        body += [f"<tr><td>{html.escape(f['name'])}.fmu</td><td>{html.escape(f['build'])}</td><td>{html.escape(f['kind'])}</td>"
+                 f"<td>{html.escape(', '.join(f['interfaces']))}</td><td><code>{html.escape(f['data'])}</code></td>"
+                 f"<td>{f['passed']}</td><td>{f['failed']}</td><td>{f['skipped']}</td></tr>" for f in checks["fmus"]]
+        body.append(f'</table><p><a href="{html.escape(report)}">The whole validation report</a>; made with '
+                    f'{html.escape("; ".join(checks.get("versions", [])))}.</p>')
+    write_text(out, page("crankfmu results", "\n".join(body)).decode())
+    return out
