@@ -547,7 +547,7 @@ def cmd_well(args) -> int:
     torque_png(stroke, parts, study.api_rod_torque(cw, stroke, parts), out, title, well.name)
     if not args.no_animation:
         bar = ProgressBar(args.frames, "animation")
-        animation_gif(cw, stroke, out, frames=args.frames, progress=bar)
+        animation_gif(cw, stroke, out, frames=args.frames, progress=bar, scenario=well.name)
         bar.close()
     f = result["field_units"]
     print(f"{well.name}: steady after {len(strokes)} strokes at {result['strokes_per_minute']:.3f} strokes/min "

@@ -67,7 +67,7 @@ def animate(scenario, out, result_dir=None, trace=None, frames: int = 120, fps: 
                          "caption": f"{scenario.title}, moving" + (f" as the run in {Path(result_dir).name or result_dir} "
                                                                     "turns it" if result_dir else " at constant crank speed")
                                     + ".", "scenario": scenario.name}
-                _write_gif(fig, frame, count, partial, fps, progress, json.dumps(about))
+                write_gif(fig, frame, count, partial, fps, progress, json.dumps(about))
             else:
                 from matplotlib.animation import FFMpegWriter, FuncAnimation
 
@@ -81,7 +81,9 @@ def animate(scenario, out, result_dir=None, trace=None, frames: int = 120, fps: 
     return out
 
 
-def _write_gif(fig, frame, count, out: Path, fps: int, progress, comment: str = ""):
+def write_gif(fig, frame, count, out: Path, fps: int, progress, comment: str = ""):
+    """``count`` frames of ``fig`` (``frame(i)`` moves its animated artists to frame i) as a GIF at
+    ``out``, with ``comment`` (what it shows, for a page's caption) in the file."""
     """Blit each frame over the still background and write the frames with Pillow."""
     from PIL import Image
 

@@ -3,6 +3,7 @@ gearbox torque over the crank angle with its parts, and the unit moving while it
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -70,10 +71,10 @@ def torque_png(stroke, parts: dict, api_rod, out: Path, title: str, scenario: st
     return path
 
 
-def animation_gif(cw, stroke, out: Path, frames: int = 60, fps: int = 15, progress=None) -> Path:
+def animation_gif(cw, stroke, out: Path, frames: int = 60, fps: int = 15, progress=None, scenario: str = "") -> Path:
     """The unit's links (crank, pitman, beam, horsehead, rod) and its surface card being drawn."""
     plt = pyplot()
-    from matplotlib.animation import PillowWriter
+    from .animate import write_gif
 
     definition_points = ("O", "W", "E", "S", "H")
     index = np.linspace(0, len(stroke["t"]) - 1, frames).astype(int)
@@ -82,7 +83,7 @@ def animation_gif(cw, stroke, out: Path, frames: int = 60, fps: int = 15, progre
     xy = {p: (kin.point(p)[0], kin.point(p)[1]) for p in definition_points}
     v = cw.scenario.values
     surface, _ = _positions(stroke)
-    fig, (ax, card) = plt.subplots(1, 2, figsize=(10, 4.5), gridspec_kw={"width_ratios": [1.2, 1]})
+    fig, (ax, card) = plt.subplots(1, 2, figsize=(10, 4.5), dpi=96, gridspec_kw={"width_ratios": [1.2, 1]})
     xs = np.concatenate([xy[p][0] for p in definition_points])
     ys = np.concatenate([xy[p][1] for p in definition_points])
     rod_x = v["I_dist"] + v["arm_A"]
@@ -105,23 +106,25 @@ def animation_gif(cw, stroke, out: Path, frames: int = 60, fps: int = 15, progre
     card.grid(alpha=0.3)
     fig.tight_layout()
     path = Path(out) / "well.gif"
-    writer = PillowWriter(fps=fps)
+    for artist in (crank, pitman, beam, head, rod, drawn, dot):
+        artist.set_animated(True)
+
+    def frame(k):
+        O, W, E, S, H = ((xy[p][0][k], xy[p][1][k]) for p in definition_points)
+        crank.set_data([O[0], W[0]], [O[1], W[1]])
+        pitman.set_data([W[0], E[0]], [W[1], E[1]])
+        beam.set_data([E[0], S[0], H[0]], [E[1], S[1], H[1]])
+        theta = math.atan2(H[1] - S[1], H[0] - S[0])
+        arc = np.linspace(theta - 0.35, theta + 0.35, 20)
+        head.set_data(S[0] + v["arm_A"] * np.cos(arc), S[1] + v["arm_A"] * np.sin(arc))
+        rod.set_data([rod_x, rod_x], [S[1] + v["arm_A"] * math.sin(theta) - 0.05, -v["G_crank"]])
+        upto = index[k] + 1
+        drawn.set_data(surface[:upto], stroke["F"][:upto] * KN)
+        dot.set_data([surface[upto - 1]], [stroke["F"][upto - 1] * KN])
+
+    about = {"title": f"{cw.scenario.title}: one steady stroke", "scenario": scenario,
+             "caption": "The pumping unit through one steady stroke, its surface card drawn as the polished rod moves."}
     with replacing(path) as partial:
-        with writer.saving(fig, str(partial), dpi=80):
-            for k in range(frames):
-                O, W, E, S, H = ((xy[p][0][k], xy[p][1][k]) for p in definition_points)
-                crank.set_data([O[0], W[0]], [O[1], W[1]])
-                pitman.set_data([W[0], E[0]], [W[1], E[1]])
-                beam.set_data([E[0], S[0], H[0]], [E[1], S[1], H[1]])
-                theta = math.atan2(H[1] - S[1], H[0] - S[0])
-                arc = np.linspace(theta - 0.35, theta + 0.35, 20)
-                head.set_data(S[0] + v["arm_A"] * np.cos(arc), S[1] + v["arm_A"] * np.sin(arc))
-                rod.set_data([rod_x, rod_x], [S[1] + v["arm_A"] * math.sin(theta) - 0.05, -v["G_crank"]])
-                upto = index[k] + 1
-                drawn.set_data(surface[:upto], stroke["F"][:upto] * KN)
-                dot.set_data([surface[upto - 1]], [stroke["F"][upto - 1] * KN])
-                writer.grab_frame()
-                if progress:
-                    progress(k + 1)
+        write_gif(fig, frame, frames, partial, fps, progress, json.dumps(about))
     plt.close(fig)
     return path
