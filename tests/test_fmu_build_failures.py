@@ -22,7 +22,7 @@ STAGES = {
     "reference_result": "the reference run of the default experiment",
     "complete_model_description": "completing the modelDescription",
     "documentation.scenario_documentation": "the documentation",
-    "pythonfmu_binaries": "writing the FMU",
+    "pythonfmu_binaries": "finding pythonfmu's platform binaries",
     "cross_check_options": "writing the cross-check files",
 }
 

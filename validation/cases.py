@@ -79,7 +79,7 @@ def load_cases(scenario_name: str) -> CaseFile:
     path = CASES_DIR / f"{scenario_name}.toml"
     if not path.is_file():
         return CaseFile([], [], False)
-    data = tomllib.loads(path.read_text())
+    data = tomllib.loads(path.read_text(encoding="utf-8"))
     return CaseFile([float(g) for g in data.get("gravity", [0.0])],
                     [HardCase.from_dict(c, str(path)) for c in data.get("case", [])],
                     bool(data.get("work_precision", False)))

@@ -26,7 +26,7 @@ def replacing(path):
 
 def write_text(path, text: str) -> Path:
     with replacing(path) as temporary:
-        Path(temporary).write_text(text)
+        Path(temporary).write_text(text, encoding="utf-8")
     return Path(path)
 
 

@@ -68,7 +68,7 @@ def locate(path: str | None, message: str) -> str:
     found in the file's text; the file alone when the message names nothing findable."""
     if not path or not Path(path).is_file():
         return ""
-    lines = Path(path).read_text().splitlines()
+    lines = Path(path).read_text(encoding="utf-8").splitlines()
     patterns = []
     m = re.search(r"line (\d+)", message)
     if m:                                        # tomllib's own position

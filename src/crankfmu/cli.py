@@ -540,7 +540,7 @@ def cmd_well(args) -> int:
     result["strokes_run"] = len(strokes)
     result["card_change_last_stroke"] = study.card_change(strokes[-2], stroke) if len(strokes) > 1 else None
     with replacing(out / "summary.json") as partial:
-        partial.write_text(json.dumps(result, indent=2) + "\n")
+        partial.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
     parts = study.torque_parts(cw, stroke)
     title = f"{well.title}\n{60 / stroke.period:.2f} strokes/min, stroke {len(strokes)} (steady)"
     cards_png(stroke, cw.string.design, out, title, well.name)

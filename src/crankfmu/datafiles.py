@@ -26,17 +26,17 @@ def read_toml(name_or_path, folder, kind: str, not_found=DefinitionError) -> tup
     DefinitionError with the file and the line."""
     path = Path(name_or_path)
     if path.suffix == ".toml" and path.exists():
-        text, where, origin = path.read_text(), str(path), str(path)
+        text, where, origin = path.read_text(encoding="utf-8"), str(path), str(path)
         if tomllib is None and path.with_suffix(".json").exists():     # a user's file inside an FMU
-            return json.loads(path.with_suffix(".json").read_text()), where, origin
+            return json.loads(path.with_suffix(".json").read_text(encoding="utf-8")), where, origin
     else:
         res = folder / f"{name_or_path}.toml"
         if not res.is_file():
             raise not_found(f"unknown {kind} {str(name_or_path)!r}: give a packaged name "
                             f"({', '.join(packaged(folder))}) or the path of a .toml {kind} file")
-        text, where, origin = res.read_text(), f"{kind} {name_or_path}", str(res)
+        text, where, origin = res.read_text(encoding="utf-8"), f"{kind} {name_or_path}", str(res)
         if tomllib is None:
-            return json.loads((folder / f"{name_or_path}.json").read_text()), where, origin
+            return json.loads((folder / f"{name_or_path}.json").read_text(encoding="utf-8")), where, origin
     if tomllib is None:
         raise DefinitionError(f"{where}: reading a .toml file needs Python 3.11 or newer")
     return _parsed(text, where), where, origin

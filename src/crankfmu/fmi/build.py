@@ -93,9 +93,9 @@ def copy_runtime(dest: Path, files: dict | None = None, data=()):
     shutil.copy2(library, dest / "native" / native.library_name(sys.platform))
     for path, text in (files or {}).items():
         (dest / path).parent.mkdir(parents=True, exist_ok=True)
-        (dest / path).write_text(text)
+        (dest / path).write_text(text, encoding="utf-8")
     for toml in dest.rglob("*.toml"):
-        toml.with_suffix(".json").write_text(json.dumps(tomllib.loads(toml.read_text())))
+        toml.with_suffix(".json").write_text(json.dumps(tomllib.loads(toml.read_text(encoding="utf-8"))), encoding="utf-8")
 
 
 def pack(folder: Path) -> Path:
@@ -265,11 +265,11 @@ def _user_files(scenario, path) -> tuple[str, dict]:
     """A user's scenario (and its mechanism file, when referenced by path) as files of the FMU's
     package under ``user/``: the core loads ``user/<scenario>.toml`` and the mechanism beside it."""
     files = {}
-    text = Path(path).read_text()
+    text = Path(path).read_text(encoding="utf-8")
     mechanism = str(scenario.mechanism_name)
     if mechanism.endswith(".toml"):
         definition_path = Path(scenario.mechanism_source())
-        files[f"user/{definition_path.name}"] = definition_path.read_text()
+        files[f"user/{definition_path.name}"] = definition_path.read_text(encoding="utf-8")
         text, count = re.subn(r'^(\s*mechanism\s*=\s*)(["\']).*?\2', lambda m: f'{m.group(1)}"{definition_path.name}"',
                               text, count=1, flags=re.M)
         if count != 1:
@@ -472,7 +472,7 @@ def slave_script(name: str, source: Source, digest: str) -> str:
     from string import Template
 
     module, cls = source.core.split(":")
-    template = Template((HERE / "slave_script.py.in").read_text())
+    template = Template((HERE / "slave_script.py.in").read_text(encoding="utf-8"))
     return template.substitute(NAME=name, SOURCE=source.load, CORE_MODULE=module, CORE_CLASS=cls,
                                DESCRIPTION=repr(source.title), DIGEST=digest)
 
@@ -546,7 +546,7 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
         with stage(name, "packing the package"):
             archive = pack(private)
             with zipfile.ZipFile(archive) as packed:
-                script.write_text(slave_script(name, source, packed.comment.decode()))
+                script.write_text(slave_script(name, source, packed.comment.decode()), encoding="utf-8")
         sys.path.insert(0, str(private.parent))
         sys.path.insert(0, str(script_dir))
         try:
@@ -565,6 +565,8 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
             shim = compile_shim(name, Path(tmp) / f"{name}.so")
         with stage(name, "the reference run of the default experiment"):
             reference = source.reference() if source.reference else None
+        with stage(name, "finding pythonfmu's platform binaries"):
+            platform_binaries = pythonfmu_binaries()
         binary = f"binaries/linux64/{name}.so"
         partial = written.enter_context(replacing(out))
         with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zout:
@@ -577,10 +579,10 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
                         data = complete_model_description(data, slave_units, slave_parameters, source)
                     with stage(name, "the documentation"):
                         docs = source.documentation(name, data, slave_parameters, reference, build="python",
-                                                    platforms=sorted(pythonfmu_binaries()))
+                                                    platforms=sorted(platform_binaries))
                 zout.writestr(item, data)
             with stage(name, "writing the FMU"):
-                for platform, library in pythonfmu_binaries().items():
+                for platform, library in platform_binaries.items():
                     inner = f"{name}_pythonfmu.so" if platform == "linux64" else f"{name}{library.suffix}"
                     zout.write(library, f"binaries/{platform}/{inner}")
                 zout.write(shim, binary)
@@ -592,8 +594,8 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
                     zout.writestr(f"{LS_REF}/{name}_out.csv", reference)
         if reference is not None:
             with stage(name, "writing the cross-check files"):
-                Path(written.enter_context(replacing(dest / f"{name}_ref.csv"))).write_text(reference)
-                Path(written.enter_context(replacing(dest / f"{name}_ref.opt"))).write_text(cross_check_options(source))
+                Path(written.enter_context(replacing(dest / f"{name}_ref.csv"))).write_text(reference, encoding="utf-8")
+                Path(written.enter_context(replacing(dest / f"{name}_ref.opt"))).write_text(cross_check_options(source), encoding="utf-8")
     return out
 
 

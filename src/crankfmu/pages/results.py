@@ -71,7 +71,7 @@ def _folder_scenario(folder: Path, root: Path) -> str:
             f = d / name
             if f.is_file():
                 try:
-                    data = json.loads(f.read_text())
+                    data = json.loads(f.read_text(encoding="utf-8"))
                 except ValueError:
                     continue
                 if isinstance(data, dict) and isinstance(data.get("scenario"), str):
@@ -137,7 +137,7 @@ def collect(root: Path, skip: set[Path]) -> dict[str, Group]:
         if any(s in summary.resolve().parents for s in skip):
             continue
         try:
-            data = json.loads(summary.read_text())
+            data = json.loads(summary.read_text(encoding="utf-8"))
         except ValueError:
             continue
         if isinstance(data, dict) and isinstance(data.get("reference"), dict):
@@ -218,7 +218,7 @@ def write_page(root, validation=None, out=None) -> Path:
         if not (validation / "checks.json").is_file():
             raise CrankfmuError(f"--validation {validation}: no checks.json there (crankfmu validate --out "
                                 f"{validation} writes it)")
-        checks = json.loads((validation / "checks.json").read_text())
+        checks = json.loads((validation / "checks.json").read_text(encoding="utf-8"))
     skip = {validation.resolve()} if validation is not None else set()     # the report's own plots
     groups = collect(root, skip)
     order = [n for n in ORDER if n in groups] + sorted(n for n in groups if n not in ORDER)
