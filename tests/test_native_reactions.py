@@ -8,7 +8,6 @@ Model Exchange, with slider forces (seed 001) and with a port's input (the guide
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -17,11 +16,12 @@ import pytest
 import crankfmu
 from crankfmu.cli import main
 from crankfmu.dynamics.reactions import joint_reactions, reaction_arrays, reaction_outputs
+from switches import away_from_switches
 
 HERE = Path(__file__).resolve().parent
 PRESS = HERE / "data" / "user" / "togglepress_scenario.toml"
 #: the reactions' terms are tabulated to 1e-8 of each term's largest magnitude
-#: (fmi.native_build.REACTION_TOLERANCE); a reaction sums a few terms times the state's weights,
+#: (fmi.slave.REACTION_TOLERANCE); a reaction sums a few terms times the state's weights,
 #: so 1e-8 of the mechanism's largest reaction bounds it with margin (measured 1.3e-10 on seed 001)
 BOUND = 1e-8
 
@@ -38,17 +38,6 @@ def fmus(tmp_path_factory):
 
 
 ROOT_NATIVE = HERE.parent / "build" / "fmus" / "native"
-
-
-def away_from_switches(reduced, phi1, margin=1e-6):
-    """Samples not within ``margin`` rad of a switched load's switch angle: there the load is
-    set-valued (the kernel's schedule takes the next interval's value, the Newton-Euler solve at
-    zero slider speed takes 0)."""
-    switch, _ = reduced.slider_schedule()
-    if not len(switch):
-        return np.ones(phi1.size, dtype=bool)
-    gap = np.abs((np.mod(phi1, 2 * math.pi)[:, None] - switch[None, :] + math.pi) % (2 * math.pi) - math.pi)
-    return np.all(gap > margin, axis=1)
 
 
 @pytest.mark.parametrize("scenario, ram_F", [("seed001", None), (str(PRESS), -500.0)])

@@ -36,8 +36,9 @@ ME_ENERGY_TOLERANCE = 1e-7
 #: 8.8e-7 at 1e-12: not an integration error)
 ME_ALGEBRAIC_TOLERANCE = 1e-5
 #: the native FMU against the Python one of the same file, both in Co-Simulation: one C kernel
-#: steps both; the native FMU's [[outputs]] and reactions come from tables checked to 1e-11 and
-#: 1e-8 (fmi.native_build.REACTION_TOLERANCE) of each term's scale
+#: steps both, and both read their [[outputs]] and reactions from the same tables (checked to 1e-11
+#: and 1e-8, fmi.slave.REACTION_TOLERANCE, of each term's scale) by the same C rules; the bars
+#: leave room for the native tables' decimal text
 NATIVE_PYTHON_TOLERANCE = {"contract": 1e-9, "quantity": 1e-9, "reaction": 1e-7}
 LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
 INTERFACE_TAG = {"CoSimulation": "cs", "ModelExchange": "me"}

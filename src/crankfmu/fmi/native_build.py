@@ -55,9 +55,6 @@ INITIAL = ("phi1_start", "omega1_start")
 WIN64_CC = "x86_64-w64-mingw32-gcc"
 #: the Model Exchange states: the kernel's y (phi1, omega1, W_motor, W_load, W_ext)
 N_STATES = N_Y
-#: the joint reactions' tables: relative to each term's largest magnitude (outputs read on demand,
-#: not integrated: 1e-8 keeps the FMU a few MB)
-REACTION_TOLERANCE = 1e-8
 #: event indicators: the kernel's event slots (crank_modes.h: the motor kink, its sliding mode,
 #: the two ends of the switch interval, omega1 = 0)
 N_EVENT_INDICATORS = layout()["N_SLOTS"]
@@ -78,21 +75,12 @@ def _c_doubles(values) -> str:
 def native_tables(scenario):
     """(the reduced model's table, the [[outputs]] and ports' table or None, the joint reactions'
     table or None): every table a native FMU of ``scenario`` carries, built and checked as the
-    build does. ``crankfmu check`` builds them too, so it refuses exactly what the build would."""
-    from ..dynamics.tabulated import table_of, tabulate_quantities, tabulate_reactions
-    from ..integrators.fast import TABLE_TOLERANCE
-    from .slave import output_quantities, reaction_variables
+    Python FMU builds them at initialisation (fmi.slave.build_design). ``crankfmu check`` builds
+    them too, so it refuses exactly what the build would."""
+    from .slave import build_design
 
-    model = scenario.build()
-    definition = scenario.mechanism_definition()
-    table = table_of(model.reduced, TABLE_TOLERANCE)
-    quantities = output_quantities(scenario)       # [[outputs]], then the ports' s, v, a
-    quantity_table = (tabulate_quantities(model.mechanism, quantities, definition, TABLE_TOLERANCE)
-                      if quantities else None)
-    # the joint reactions: their terms tabulated (read on demand, so a looser tolerance than the
-    # movement equation's keeps the FMU small); the kernel supplies the terms' weights
-    reaction_table = tabulate_reactions(model.reduced, REACTION_TOLERANCE) if reaction_variables(scenario) else None
-    return table, quantity_table, reaction_table
+    design = build_design(scenario, dict(scenario.values))
+    return design.table, design.quantity_table, design.reaction_table
 
 
 class NativeModel:
@@ -352,8 +340,8 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
         for folder, names in ((NATIVE, KERNEL_SOURCES), (SHELL, SHELL_SOURCES)):
             for n in names:
                 shutil.copy2(folder / n, src / n)
-        (src / "model_config.h").write_text(model.config_h())
-        (src / "model_data.c").write_text(model.data_c())
+        (src / "model_config.h").write_text(model.config_h(), encoding="utf-8")
+        (src / "model_data.c").write_text(model.data_c(), encoding="utf-8")
         sources = sorted(p.name for p in src.iterdir())
         with stage(fmu, "compiling the linux64 binary"):
             compile_binary("gcc", src, Path(tmp) / f"{fmu}.so", windows=False)
@@ -383,6 +371,6 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
                 z.writestr(f"{NATIVE_USER_FILES}/{path}", text)
             z.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=fmu))
             z.writestr(f"{LS_REF}/{fmu}_out.csv", reference)
-        Path(written.enter_context(replacing(dest / f"{fmu}_ref.csv"))).write_text(reference)
-        Path(written.enter_context(replacing(dest / f"{fmu}_ref.opt"))).write_text(cross_check_options(source))
+        Path(written.enter_context(replacing(dest / f"{fmu}_ref.csv"))).write_text(reference, encoding="utf-8")
+        Path(written.enter_context(replacing(dest / f"{fmu}_ref.opt"))).write_text(cross_check_options(source), encoding="utf-8")
     return out

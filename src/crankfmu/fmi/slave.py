@@ -4,15 +4,17 @@
 mass and load parameters) on a pythonfmu ``Fmi2Slave`` and implements its life cycle. The slave
 scripts (generated from ``slave_script.py.in`` beside this file) are thin: ``class FourBar(Fmi2Slave)``
 delegating to ``FmuCore``. A scenario's ``[[outputs]]`` (slider position, arm speed, ...) become
-extra outputs, computed from the analytic transfer functions only when the host reads them; so do
-each port's s, v, a (dynamics.ports), whose input (ram_F, arm_M) is held over a step.
+extra outputs, and so do each port's s, v, a (dynamics.ports), whose input (ram_F, arm_M) is held
+over a step, and the joint reactions: each kind is computed on the host's first read after a step,
+from the design's tables by the C kernel's rules (``ck_quantity_values``, ``ck_reaction_values``),
+the tables and rules the native FMU compiles in.
 
 Inside ``fmi2DoStep`` the movement equation is integrated by the fast path: the reduced model is
 tabulated once at initialisation (dynamics.tabulated, its error bound checked against the contour
 engine) and the C Dormand-Prince kernel (crankfmu.native) steps it with rtol honoured and every switch
 located (the motor line's kink, the slider forces' switch angles and reversals). A whole
-``fmi2DoStep`` is one call into the kernel; the outputs are one array the getters read, and the
-link-level kinematics are computed only when a host reads a mechanism-specific output.
+``fmi2DoStep`` is one call into the kernel; the outputs are one array the getters read; no
+link-level kinematics are computed while stepping or reading.
 Communication points inside a step are served from the dense output, so the trajectory does not
 depend on the communication step. A tunable parameter or the input ``tau_ext`` that changed since
 the last step restarts the stepper at the communication point, so the change takes effect from
@@ -25,15 +27,16 @@ The life cycle, the refusals and the guards that keep Python exceptions away fro
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from ..contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS, Variable
 from ..dynamics import MotorLine
 from ..dynamics import modes
-from ..dynamics.tabulated import table_of
+from ..dynamics.tabulated import table_of, tabulate_quantities, tabulate_reactions
 from ..integrators.fast import TABLE_TOLERANCE, FastStepper
-from ..native import ROW_FIELDS
+from ..native import ROW_FIELDS, QuantityReads, ReactionReads
 from ..parameters import Parameter
 from ..scenario import load_scenario
 from .core import Declared, SlaveCore
@@ -46,12 +49,15 @@ from .core import Declared, SlaveCore
 #: while stepping
 _DESIGNS: dict = {}
 _DESIGNS_KEPT = 8
+#: the joint reactions' terms are tabulated to this (relative to each term's scale): read on demand,
+#: they need not meet the movement equation's 1e-11
+REACTION_TOLERANCE = 1e-8
 #: what the tables do not depend on: the motor line and the start values (set on the stepper)
 NOT_TABULATED = (*MOTOR, "phi1_start", "omega1_start")
 
 
-def build_design(scenario, values: dict):
-    """(model, table) of the scenario with these parameter values, built once per process.
+def build_design(scenario, values: dict) -> "Design":
+    """The model and every table of the scenario with these parameter values, built once per process.
 
     The model's motor line and start state are those of the first design built with these
     tables: take them from ``values``, not from the model."""
@@ -59,12 +65,36 @@ def build_design(scenario, values: dict):
     if key in _DESIGNS:
         _DESIGNS[key] = _DESIGNS.pop(key)           # most recent last
         return _DESIGNS[key]
-    model = scenario.with_params(**values).build()
-    design = (model, table_of(model.reduced, TABLE_TOLERANCE))
+    built = scenario.with_params(**values)
+    model = built.build()
+    design = Design(model, table_of(model.reduced, TABLE_TOLERANCE), *output_tables(built, model))
     _DESIGNS[key] = design
     while len(_DESIGNS) > _DESIGNS_KEPT:
         del _DESIGNS[next(iter(_DESIGNS))]
     return design
+
+
+class Design(NamedTuple):
+    """A design's model and the tables every FMU of it runs on: the reduced model's (the stepper's),
+    its [[outputs]] and ports' s, v, a (or None), its joint reactions' (or None)."""
+    model: object
+    table: object
+    quantity_table: object
+    reaction_table: object
+
+
+def output_tables(scenario, model) -> tuple:
+    """(the quantities' table or None, the joint reactions' table or None) of a design: what a host
+    reads besides the state, tabulated as the native FMU compiles them in and the Python FMU reads
+    them (the kernel's ck_quantity_values and ck_reaction_values), so the two FMUs share one rule
+    and the Python FMU's read costs a few multiply-adds, not a Newton-Euler solve."""
+    quantities = output_quantities(scenario, model.reduced.ports)
+    quantity_table = (tabulate_quantities(model.mechanism, quantities, scenario.mechanism_definition(), TABLE_TOLERANCE)
+                      if quantities else None)
+    # the joint reactions: their terms tabulated (read on demand, so a looser tolerance than the
+    # movement equation's keeps the native FMU small); the kernel supplies the terms' weights
+    reaction_table = tabulate_reactions(model.reduced, REACTION_TOLERANCE) if reaction_variables(scenario) else None
+    return quantity_table, reaction_table
 
 
 def output_quantities(scenario, ports=None) -> list:
@@ -126,35 +156,33 @@ class Lazy:
 
 def lazy_outputs(core, motion):
     """The outputs a mechanism core computes only when a host reads them: the quantities (its
-    [[outputs]] and the ports' s, v, a) and the joint reactions (Newton-Euler, the ports' inputs
-    among the loads), both from one call of the analytic kinematics at the state ``motion()``
-    gives, (phi1, omega1, epsilon1). ``core`` has ``model``, ``quantities``, ``port_inputs``,
-    ``values`` and ``scenario``. Returns (the caches to clear after each step, the getters)."""
-    from ..dynamics.reactions import joint_reactions, reaction_values
-    from ..mechanisms.quantities import evaluate_all
-
-    kinematics = Lazy(lambda: core.model.mechanism.kinematics(np.array([float(motion()[0])])))
+    [[outputs]] and the ports' s, v, a) and the joint reactions, each kind all at once on the first
+    read after a step, from the design's tables by the kernel's rules (``core.reads``: a
+    QuantityReads and a ReactionReads, or None) at the state ``motion()`` gives, (phi1, omega1,
+    epsilon1), and the core's time. Returns (the caches to clear after each step, the getters)."""
 
     def quantities():
-        _, omega1, epsilon1 = motion()
-        return {k: float(v[0]) for k, v in
-                evaluate_all(core.quantities, kinematics(), float(omega1), float(epsilon1)).items()}
+        return core.reads[0].values(*motion()).tolist()
 
     def reactions():
         phi1, omega1, epsilon1 = motion()
-        ports, inputs = core.model.reduced.ports, [core.values[n] for n in core.port_inputs]
-        extra = (lambda kin: [f for port, u in zip(ports, inputs) for f in port.applied(kin, u)]) if ports else None
-        return reaction_values(joint_reactions(core.model.reduced, np.array([float(phi1)]), float(omega1),
-                                               float(epsilon1), extra=extra, kin=kinematics()))
+        return core.reads[1].values(core.time, float(phi1), float(omega1), float(epsilon1)).tolist()
 
-    caches = (kinematics, Lazy(quantities), Lazy(reactions))
+    caches = (Lazy(quantities), Lazy(reactions))
 
-    def getter(cache, name):
-        return lambda: cache()[name] if core.model is not None else 0.0
+    def getter(cache, k):
+        return lambda: cache()[k] if core.model is not None else 0.0
 
-    getters = {q.name: getter(caches[1], q.name) for q in core.quantities}
-    getters.update({v.name: getter(caches[2], v.name) for v in reaction_variables(core.scenario)})
+    getters = {q.name: getter(caches[0], k) for k, q in enumerate(core.quantities)}
+    getters.update({v.name: getter(caches[1], k) for k, v in enumerate(reaction_variables(core.scenario))})
     return caches, getters
+
+
+def output_reads(design: Design, quantities, stepper) -> tuple:
+    """(QuantityReads or None, ReactionReads or None): the kernel's readers of a design's output
+    tables for an FMU's stepper."""
+    return (QuantityReads(design.quantity_table, quantities) if design.quantity_table is not None else None,
+            ReactionReads(design.reaction_table, stepper) if design.reaction_table is not None else None)
 
 
 class RowOutputs:
@@ -213,6 +241,7 @@ class FmuCore(RowOutputs, SlaveCore):
         self.row = np.zeros(len(ROW_FIELDS))       # the kernel's output row at the current time
         self.model = None
         self.stepper: FastStepper | None = None
+        self.reads = (None, None)        # the output tables' readers (output_reads), once initialised
         self.quantities = output_quantities(self.scenario)
         self.port_inputs = [p.input_name for p in self.scenario.ports]
         # [[outputs]], the ports' s, v, a and the joint reactions: on a host's first read after a step
@@ -227,7 +256,8 @@ class FmuCore(RowOutputs, SlaveCore):
     # ------------------------------------------------------------------ model hooks
     def initialise(self):
         v = self.values
-        self.model, table = build_design(self.scenario, {n: v[n] for n in self.scenario.parameters})
+        design = build_design(self.scenario, {n: v[n] for n in self.scenario.parameters})
+        self.model, table = design.model, design.table
         self.quantities = output_quantities(self.scenario, self.model.reduced.ports)
         if table.error_bound > table.tolerance:
             self.log(f"the reduced model is tabulated to {table.error_bound:.2g} relative, not "
@@ -237,6 +267,7 @@ class FmuCore(RowOutputs, SlaveCore):
         self.stepper = FastStepper(table, self._motor(), self.model.reduced.J_flywheel, v["rtol"], v[TAU_EXT.name],
                                    row=self.row)
         self.stepper.set_port_inputs([v[n] for n in self.port_inputs])
+        self.reads = output_reads(design, self.quantities, self.stepper)
         self.stepper.start(self.time, y0)
         self._clear()
 

@@ -24,7 +24,8 @@ from ..integrators.fast import SpeedStepper
 from ..native import SPEED_ROW_FIELDS
 from ..parameters import Parameter
 from .core import Declared, SlaveCore
-from .slave import RowOutputs, build_design, fmu_scenario, lazy_outputs, output_quantities, reaction_variables
+from .slave import (RowOutputs, build_design, fmu_scenario, lazy_outputs, output_quantities, output_reads,
+                    reaction_variables)
 
 (OMEGA1,) = SPEED_INPUTS
 #: parameters the speed-causal FMU does not have: the motor line (the drive is outside) and the
@@ -56,6 +57,7 @@ class SpeedCore(RowOutputs, SlaveCore):
         self.port_inputs = [p.input_name for p in self.scenario.ports]
         self.model = None
         self.stepper: SpeedStepper | None = None
+        self.reads = (None, None)        # the output tables' readers (output_reads), once initialised
         self.row = np.zeros(len(SPEED_ROW_FIELDS))       # the kernel's output row at the current time
         self.lazy, getters = lazy_outputs(self, self._motion)
         getters.update({v.name: self._getter(v.name) for v in SPEED_OUTPUTS})
@@ -66,9 +68,11 @@ class SpeedCore(RowOutputs, SlaveCore):
     def initialise(self):
         values = {**self.scenario.values, **{n: self.values[n] for n in self.scenario.parameters
                                              if n in self.values}}
-        self.model, table = build_design(self.scenario, values)
+        design = build_design(self.scenario, values)
+        self.model = design.model
         self.quantities = output_quantities(self.scenario, self.model.reduced.ports)
-        self.stepper = SpeedStepper(table, self.model.reduced.J_flywheel, row=self.row)
+        self.stepper = SpeedStepper(design.table, self.model.reduced.J_flywheel, row=self.row)
+        self.reads = output_reads(design, self.quantities, self.stepper)
         self.stepper.set_port_inputs(self._ports(), t_input=self.time)
         self.stepper.start(self.time, self.values["phi1_start"], self.values[OMEGA1.name])
         self._clear()

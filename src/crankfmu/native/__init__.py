@@ -90,6 +90,10 @@ def _load() -> ctypes.CDLL:
         "ck_steady_batch": (None, [D, ctypes.c_int, ctypes.c_double, D, ctypes.c_double, ctypes.c_int, T, D]),
         "ck_tableau": (ctypes.c_int, [D, ctypes.c_int]),
         "ck_rule": (ctypes.c_double, [ctypes.c_int, D]),
+        "ck_quantity_values": (None, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int, D, D, ctypes.c_double,
+                                      ctypes.c_double, ctypes.c_double, D, D]),
+        "ck_reaction_values": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, ctypes.c_int, D, ctypes.c_double,
+                                              ctypes.c_double, ctypes.c_double, ctypes.c_double, T, D, D, D]),
         "ck_interval_of_rule": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_double, ctypes.c_double, D]),
         "ck_next_interval_rule": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int]),
     }
@@ -261,3 +265,48 @@ def steady_batch(params, phi_start, omega_guess, rtol_shoot, max_turns, tables: 
     omega_guess = np.ascontiguousarray(omega_guess, dtype=float)
     LIBRARY.ck_steady_batch(_d(params), params.shape[0], phi_start, _d(omega_guess), rtol_shoot, int(max_turns),
                             tables.pointer, _d(out))
+
+
+class QuantityReads:
+    """A scenario's [[outputs]] and its ports' s, v, a from their table (dynamics.tabulated.
+    QuantityTable) by the kernel's ck_quantity_values, the native FMU's rule: ``values(phi1,
+    omega1, epsilon1)`` fills and returns one array, in ``quantities``' order."""
+
+    def __init__(self, table, quantities):
+        self.coefficients = np.ascontiguousarray(table.coefficients, dtype=float)
+        self.winding = np.ascontiguousarray(table.winding, dtype=float)
+        self.coordinate = np.ascontiguousarray([table.coordinates.index(q.of) for q in quantities], dtype=np.intc)
+        self.order = np.ascontiguousarray([q.order for q in quantities], dtype=np.intc)
+        self.scratch = np.zeros(self.coefficients.shape[0])
+        self.out = np.zeros(len(quantities))
+        self._call = LIBRARY.ck_quantity_values
+        self._args = (_d(self.coefficients), len(table.coordinates), self.coefficients.shape[1], _d(self.winding),
+                      len(quantities), self.coordinate.ctypes.data, self.order.ctypes.data)
+        self._into = (_d(self.scratch), _d(self.out))
+
+    def values(self, phi1: float, omega1: float, epsilon1: float) -> np.ndarray:
+        self._call(*self._args, phi1, omega1, epsilon1, *self._into)
+        return self.out
+
+
+class ReactionReads:
+    """The joint reactions from their table (dynamics.tabulated.ReactionTable) by the kernel's
+    ck_reaction_values, the native FMU's rule: the tabulated terms at phi1 times the weights of the
+    stepper's mode and inputs at t (``stepper``: its state S, parameters P and tables)."""
+
+    def __init__(self, table, stepper):
+        self.coefficients = np.ascontiguousarray(table.coefficients, dtype=float)
+        n_reactions = self.coefficients.shape[0] // table.n_terms
+        self.scratch = np.zeros(n_reactions * table.n_terms + table.n_terms)
+        self.out = np.zeros(n_reactions)
+        self._call = LIBRARY.ck_reaction_values
+        self._args = (_d(self.coefficients), n_reactions, table.n_terms, self.coefficients.shape[1],
+                      _d(stepper.state))
+        self._rest = (stepper.tables.pointer, _d(stepper.P), _d(self.scratch), _d(self.out))
+        self._arrays = (stepper.state, stepper.P, stepper.tables)        # kept alive while in use
+
+    def values(self, t: float, phi1: float, omega1: float, epsilon1: float) -> np.ndarray:
+        if self._call(*self._args, t, phi1, omega1, epsilon1, *self._rest) != 0:
+            raise CrankfmuError("the joint reactions' table does not match the kernel's tables (its terms "
+                                "are not the kernel's weights)")
+        return self.out

@@ -143,6 +143,34 @@ int ck_reaction_weights(const double* S, double t, double omega, double epsilon,
     return n;
 }
 
+void ck_quantity_values(const double* coefficients, int n_coordinates, int n, const double* winding,
+                        int n_quantities, const int* coordinate, const int* order, double phi, double omega,
+                        double epsilon, double* scratch, double* out)
+{
+    periodic_cubics(coefficients, 3 * n_coordinates, n, phi, scratch);
+    for (int k = 0; k < n_quantities; k++) {
+        int c = coordinate[k];
+        double q = scratch[3 * c] + winding[c] * phi, dq = scratch[3 * c + 1], ddq = scratch[3 * c + 2];
+        out[k] = order[k] == 0 ? q : (order[k] == 1 ? dq * omega : ddq * omega * omega + dq * epsilon);
+    }
+}
+
+int ck_reaction_values(const double* coefficients, int n_reactions, int n_terms, int n, const double* S, double t,
+                       double phi, double omega, double epsilon, const CkTables* T, const double* P, double* scratch,
+                       double* out)
+{
+    double* weights = scratch + (size_t)n_reactions * n_terms;
+    if (ck_reaction_weights(S, t, omega, epsilon, T, P, weights) != n_terms) return -1;
+    periodic_cubics(coefficients, n_reactions * n_terms, n, phi, scratch);
+    for (int r = 0; r < n_reactions; r++) {
+        const double* terms = scratch + (size_t)r * n_terms;
+        double value = 0.0;
+        for (int j = 0; j < n_terms; j++) value += weights[j] * terms[j];
+        out[r] = value;
+    }
+    return 0;
+}
+
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
  * torque at time t */
 static void coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,

@@ -102,6 +102,23 @@ CK_API void ck_periodic_cubics(const double* coefficients, int n_functions, int 
 CK_API int ck_reaction_weights(const double* S, double t, double omega, double epsilon, const CkTables* tables,
                                const double* P, double* out);
 
+/* the outputs a host reads besides the state, from their tables, as every FMU computes them (the
+ * native FMU's shell and the Python FMU through ctypes): one home for the two rules.
+ * Quantities ([[outputs]], the ports' s, v, a; dynamics/tabulated.py, QuantityTable): each of the
+ * n_coordinates coordinates tabulated as q - winding phi1, q', q'' (3 n_coordinates cubics on n
+ * intervals); quantity k reads coordinate[k] and is of order[k]: q (0), q' omega1 (1) or
+ * q'' omega1^2 + q' epsilon1 (2), as mechanisms/quantities.py states them. scratch: 3 n_coordinates. */
+CK_API void ck_quantity_values(const double* coefficients, int n_coordinates, int n, const double* winding,
+                               int n_quantities, const int* coordinate, const int* order, double phi, double omega,
+                               double epsilon, double* scratch, double* out);
+/* Joint reactions (ReactionTable): each of n_reactions components is the sum of its n_terms
+ * tabulated terms at phi times ck_reaction_weights' values at t (Newton-Euler's linear
+ * combination). scratch: n_reactions n_terms + n_terms. Returns 0, or -1 when the table's
+ * n_terms is not the kernel's count of weights for these tables. */
+CK_API int ck_reaction_values(const double* coefficients, int n_reactions, int n_terms, int n, const double* S,
+                              double t, double phi, double omega, double epsilon, const CkTables* tables,
+                              const double* P, double* scratch, double* out);
+
 CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
 CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,
                       double* row);

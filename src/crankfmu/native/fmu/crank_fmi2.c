@@ -422,17 +422,15 @@ fmi2Status fmi2CancelStep(fmi2Component c) { return fail((Instance*)c, "%s", "fm
 
 /* what one fmi2GetReal call evaluates once for all the variables it reads */
 typedef struct {
-    double quantities[3 * N_QUANTITY_COORDINATES + 1];
+    double quantities[N_QUANTITIES + 1], quantity_scratch[3 * N_QUANTITY_COORDINATES + 1];
     int have_quantities;
-    double reactions[N_REACTIONS * REACTION_TERMS + 1];
-    double weights[REACTION_TERMS + 1];
+    double reactions[N_REACTIONS + 1], reaction_scratch[N_REACTIONS * REACTION_TERMS + REACTION_TERMS + 1];
     int have_reactions;
 } Reads;
 
-/* the outputs of the instance's output row: the contract's, the scenario's [[outputs]] (from their
- * tabulated transfer functions: value q, velocity q' omega1, acceleration q'' omega1^2 +
- * q' epsilon1, as mechanisms/quantities.py states them), the joint reactions (their tabulated
- * terms at phi1 times the state's weights: Newton-Euler's linear combination) and the states'
+/* the outputs of the instance's output row: the contract's, the scenario's [[outputs]] and the
+ * joint reactions (all of each kind at once, from their tables, by the kernel's
+ * ck_quantity_values and ck_reaction_values: the rules the Python FMU runs too) and the states'
  * derivatives */
 static double output_value(const Instance* in, int vr, Reads* reads)
 {
@@ -440,16 +438,12 @@ static double output_value(const Instance* in, int vr, Reads* reads)
     const Variable* v = &VARIABLES[vr];
     if (v->kind == KIND_REACTION) {
         if (!reads->have_reactions) {
-            ck_periodic_cubics(REACTION_COEFFICIENTS, N_REACTIONS * REACTION_TERMS, REACTION_INTERVALS,
-                               row[ROW_PHI1], reads->reactions);
-            ck_reaction_weights(in->now.S, in->now.time, row[ROW_OMEGA1], row[ROW_EPSILON1], &in->tables,
-                                in->now.P, reads->weights);
+            ck_reaction_values(REACTION_COEFFICIENTS, N_REACTIONS, REACTION_TERMS, REACTION_INTERVALS, in->now.S,
+                               in->now.time, row[ROW_PHI1], row[ROW_OMEGA1], row[ROW_EPSILON1], &in->tables,
+                               in->now.P, reads->reaction_scratch, reads->reactions);
             reads->have_reactions = 1;
         }
-        const double* terms = reads->reactions + (size_t)(vr - VR_FIRST_REACTION) * REACTION_TERMS;
-        double value = 0.0;
-        for (int j = 0; j < REACTION_TERMS; j++) value += reads->weights[j] * terms[j];
-        return value;
+        return reads->reactions[vr - VR_FIRST_REACTION];
     }
     if (v->kind == KIND_DERIVATIVE) {
         double omega = row[ROW_OMEGA1];
@@ -462,18 +456,13 @@ static double output_value(const Instance* in, int vr, Reads* reads)
         }
     }
     if (v->kind == KIND_QUANTITY) {
-        double phi = row[ROW_PHI1], omega = row[ROW_OMEGA1];
-        double* quantities = reads->quantities;
-        if (!reads->have_quantities) {       /* all functions at once: one interval search per call */
-            ck_periodic_cubics(QUANTITY_COEFFICIENTS, QUANTITY_FUNCTIONS, QUANTITY_INTERVALS, phi, quantities);
+        if (!reads->have_quantities) {
+            ck_quantity_values(QUANTITY_COEFFICIENTS, N_QUANTITY_COORDINATES, QUANTITY_INTERVALS, QUANTITY_WINDING,
+                               N_QUANTITIES, QUANTITY_COORDINATE, QUANTITY_ORDER, row[ROW_PHI1], row[ROW_OMEGA1],
+                               row[ROW_EPSILON1], reads->quantity_scratch, reads->quantities);
             reads->have_quantities = 1;
         }
-        int k = vr - VR_FIRST_QUANTITY, c = QUANTITY_COORDINATE[k];
-        double q = quantities[3 * c] + QUANTITY_WINDING[c] * phi, dq = quantities[3 * c + 1];
-        double ddq = quantities[3 * c + 2];
-        if (QUANTITY_ORDER[k] == 0) return q;
-        if (QUANTITY_ORDER[k] == 1) return dq * omega;
-        return ddq * omega * omega + dq * row[ROW_EPSILON1];
+        return reads->quantities[vr - VR_FIRST_QUANTITY];
     }
     if (vr == VR_E_KIN) return ck_kinetic_energy(row[ROW_J_RED], row[ROW_OMEGA1]);
     return row[OUTPUT_ROW[vr]];
