@@ -76,6 +76,7 @@ def results(tmp_path_factory):
     run("kinematics", "seed002", "--at", "30", "--out", str(root / "seed002"))
     run("animate", "seed001", "--frames", "4", "--out", str(root / "seed001" / "mechanism.gif"))
     run("equilibrium", "seed001", "--omega", "15", "--out", str(root / "seed001"))
+    run("sweep", "seed004", "--param", "e=0.31:0.45:2", "--param", "l1=0.15:0.29:2", "--out", str(root / "seed004"))
     fmu = ROOT / "build" / "fmus" / "SliderCrank.fmu"
     if not fmu.exists():
         run("fmu", "seed002", "--out", str(root.parent / "fmus"))
@@ -90,7 +91,7 @@ def test_every_figure_is_on_the_page_with_its_caption(results):
     page = html.unescape((results / "index.html").read_text())
     figures = sorted(p.relative_to(results).as_posix() for p in results.rglob("*")
                      if p.suffix in (".png", ".gif") and "validation" not in p.parts)
-    assert len(figures) == 9          # 1 drawing, 5 kinematics, 1 animation, 2 equilibrium
+    assert len(figures) == 17         # 1 drawing, 5 kinematics, 1 animation, 2 equilibrium, 8 sweep families
     for f in figures:
         assert f'<img src="{f}"' in page, f
     # each figure says what it is: the equilibrium figure's caption comes from its PNG
@@ -98,6 +99,7 @@ def test_every_figure_is_on_the_page_with_its_caption(results):
     # and which of the paper's figures it reproduces, with the paper's title from the scenario file
     assert "Reproduces the paper's Fig. 2: The equilibrium moment over a kinematic cycle at omega1 = 15" in page
     assert "Reproduces the paper's Fig. 6: Point B motion graph obtained in MathCad" in page
+    assert "Reproduces the paper's Fig. 9: The acceleration a5 when l1 varies between 0.15 m and 0.3 m" in page
     # the groups are cited by authors and title
     assert "Malcoci" in page and "Classical and Modern Kinematic Analysis" in page
 
@@ -110,6 +112,15 @@ def test_the_papers_numbers_stand_beside_ours(results):
     assert "The paper's numbers beside ours" in page
     for c in published:
         assert f"<td>{c['published']}</td>" in page
+
+
+def test_the_papers_claims_stand_beside_the_sweep(results):
+    claims = json.loads((results / "seed004" / "claims.json").read_text())
+    assert claims
+    page = html.unescape((results / "index.html").read_text())
+    assert "The paper's claims about its sweeps, checked" in page
+    for c in claims:
+        assert f"<td>{c['claim']}</td><td>{c['quantity']}</td><td>{c['peaks_hold_in']} of {c['families']} families" in page
 
 
 def test_results_page_loads_in_chromium_with_every_image_and_link(results, tmp_path):

@@ -45,6 +45,7 @@ class Group:
     paper_figures: dict = field(default_factory=dict)
     figures: list = field(default_factory=list)
     references: list = field(default_factory=list)      # (folder, the summary's reference table)
+    claims: list = field(default_factory=list)          # (folder, a sweep's claims.json: the paper's claims checked)
 
 
 def figure_info(path: Path) -> dict:
@@ -144,6 +145,15 @@ def collect(root: Path, skip: set[Path]) -> dict[str, Group]:
             name = (data.get("scenario") or by_folder.get(summary.parent) or _folder_scenario(summary.parent, root)
                     or "other")
             groups.setdefault(name, Group(name)).references.append((summary.parent.relative_to(root), data["reference"]))
+    for claims in sorted(root.rglob("claims.json")):
+        if any(s in claims.resolve().parents for s in skip):
+            continue
+        try:
+            data = json.loads(claims.read_text(encoding="utf-8"))
+        except ValueError:
+            continue
+        name = by_folder.get(claims.parent) or _folder_scenario(claims.parent, root) or "other"
+        groups.setdefault(name, Group(name)).claims.append((claims.parent.relative_to(root), data))
     for g in groups.values():
         _describe(g)
     return groups
@@ -193,6 +203,16 @@ def _group_html(g: Group, checks: dict) -> str:
         for name, r in table.items():
             parts.append(f"<tr><td>{html.escape(name)}</td><td>{_g(r.get('crankfmu'))}</td><td>{_g(r.get('published'))}</td>"
                          f"<td>{100 * r.get('relative', float('nan')):+.2f} %</td></tr>")
+        parts.append("</table>")
+    for folder, claims in g.claims:
+        parts.append(f"<h3>The paper's claims about its sweeps, checked (<code>{html.escape(str(folder))}/claims.json</code>)"
+                     "</h3><table><tr><th>claim</th><th>quantity</th><th>the peak grows as claimed, in</th>"
+                     "<th>share of the cycle where |quantity| grows as claimed (least, mean over the families)</th></tr>")
+        for c in claims:
+            parts.append(f"<tr><td>{html.escape(str(c.get('claim', '')))}</td><td>{html.escape(str(c.get('quantity', '')))}</td>"
+                         f"<td>{c.get('peaks_hold_in')} of {c.get('families')} families</td>"
+                         f"<td>{100 * c.get('share_of_cycle_min', float('nan')):.0f} %, "
+                         f"{100 * c.get('share_of_cycle_mean', float('nan')):.0f} %</td></tr>")
         parts.append("</table>")
     for f in g.figures:
         src = html.escape(f.path.as_posix())
