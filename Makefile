@@ -75,6 +75,9 @@ fmu-native-a: $(STAMP)
 
 fmu-native-b: $(STAMP)
 	@for s in seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
+	@$(BIN)/crankfmu fmu dc_pi --drive --native --out build/fmus/native
+	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --native --out build/fmus/native
+	@$(BIN)/crankfmu fmu die_cushion --cushion --native --out build/fmus/native
 
 # the main job: every FMU, the papers' studies and the pumping well (two lines of work on the two
 # cores), the harness's --quick subset on every FMU, and a summary of what was made

@@ -27,7 +27,7 @@ setup(
     cmdclass={"build_ext": PlainLibrary},
     ext_modules=[Extension(
         "crankfmu.native.crank_kernel",
-        sources=["src/crankfmu/native/crank_kernel.c"],
+        sources=[f"src/crankfmu/native/{name}" for name in native["C_FILES"]],
         depends=[f"src/crankfmu/native/{name}" for name in native["SOURCES"]],
         extra_compile_args=[f for f in native["CFLAGS"] if f != "-fPIC"],
         define_macros=[("CK_SOURCE_DIGEST", f'"{native["digest"]()}"')],

@@ -214,7 +214,7 @@ def test_the_win64_speed_dll_runs_under_wine(fourbar_speed, tmp_path):
     start) matches the linux64 binary to 1e-12 of each output's largest value."""
     import fmpy
 
-    from test_fmu_native import run_win64_under_wine
+    from wine import run_win64_under_wine
 
     fmu = fourbar_speed / "FourBarSpeed.fmu"
     fields = ("phi1", "tau_drive", "M_load", "J_red", "W_drive", "W_load")

@@ -100,3 +100,20 @@ def cycles(time, phi, omega) -> list[dict]:
         out.append({"cycle": k, "t_start": t0, "t_end": t1, "omega1_min": lo, "omega1_max": hi,
                     "omega1_mean": mean, "delta": (hi - lo) / mean})
     return out
+
+
+def compare_builds(native, python, checks, native_run, python_run, tolerance_of) -> dict:
+    """A native FMU against the Python FMU of the same data file on the same run: every output the
+    Python FMU declares, the native one must declare too and match to ``tolerance_of(name)``
+    (tolerance, group) of the output's scale."""
+    prefix = f"{native.name}.native_vs_python"
+    rows = []
+    for name in python.outputs:
+        if name not in native.outputs:
+            checks.holds(f"{prefix}.{name}_declared_by_both", False, note="the native FMU does not declare it")
+            continue
+        tol, group = tolerance_of(name)
+        r = relative_error(native_run[name], python_run[name])
+        checks.at_most(f"{prefix}.{name}_rel_difference", r, tol)
+        rows.append({"output": name, "rel": r, "tol": tol, "group": group})
+    return {"rows": rows}

@@ -8,7 +8,8 @@
   k (s - s_seat - L_free) + c v at the inputs of the step;
 * the rod string: hanging at rest its load is the string's buoyant weight; a stroke of 600 s carries
   Wrf + Fo while the plunger rises and Wrf while it falls (the quasi-static closed form), and
-  its every output equals the in-process string stepped with the same motion.
+  its every output equals the in-process string stepped with the same motion;
+* a native component FMU against the Python FMU of the same file, on the same case.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import math
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .compare import max_abs_error, relative_error
+from .compare import compare_builds, max_abs_error, relative_error
 from .fmu_runner import input_signal
 from .report import plot_outputs
 from .reference import ReferenceRun
@@ -62,7 +63,18 @@ def _entry(fmu, run, ref_values, rows, what, out, tag) -> dict:
     plot = plot_outputs(run, ref, [r["output"] for r in rows], {r["output"]: r["tol"] for r in rows},
                         out / f"{fmu.name}_{fmu.kind.build}_{tag}.png", f"{fmu.title}: {what}")
     return {"interface": "CoSimulation", "span": float(run.time[-1]), "step": float(run.time[1] - run.time[0]),
-            "fmu_wall": run.wall, "ref_wall": 0.0, "rows": rows, "plot": plot.name, "what": what}
+            "fmu_wall": run.wall, "ref_wall": 0.0, "rows": rows, "plot": plot.name, "what": what, "run": run}
+
+
+#: a component's native FMU against its Python FMU: both step the components' C physics
+#: (crank_components.c), so they differ by nothing but how a host's doubles travel
+NATIVE_PYTHON_TOLERANCE = 1e-12
+
+
+def check_native_against_python(native, python, checks, native_run, python_run) -> dict:
+    """The two builds of one component file on the same case: every output they share."""
+    return compare_builds(native, python, checks, native_run, python_run,
+                          lambda name: (NATIVE_PYTHON_TOLERANCE, "component"))
 
 
 def check_drive(fmu, checks, out, quick: bool) -> dict:

@@ -148,10 +148,15 @@ def _native_against_python(by_build, checks):
         n_section.setdefault("extra_checks", []).append(item)
         return
     n_before = len(checks.items)
-    from crankfmu.scenario import load_scenario
+    if native.kind.kind == "scenario":
+        from crankfmu.scenario import load_scenario
 
-    from .mechanism import check_native_against_python
-    result = check_native_against_python(native, python, load_scenario(native.scenario_source), checks, n_run, p_run)
+        from .mechanism import check_native_against_python
+        result = check_native_against_python(native, python, load_scenario(native.scenario_source), checks, n_run,
+                                             p_run)
+    else:
+        from .components import check_native_against_python
+        result = check_native_against_python(native, python, checks, n_run, p_run)
     n_section["native_vs_python"] = result
     n_section.setdefault("extra_checks", []).extend(checks.items[n_before:])
 

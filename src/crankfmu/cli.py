@@ -298,20 +298,21 @@ def cmd_check(args) -> int:
 
 
 def cmd_fmu(args) -> int:
-    if args.native:
-        if args.drive:
-            raise CrankfmuError("--native builds a scenario's FMU; Drive.fmu is a Python FMU")
-        from .fmi.native_build import build_native
-
-        path = build_native(args.source, Path(args.out), args.name, causality=args.causality)
-        print(f"built {path}")
-        return 0
-    from .fmi.build import build
-
     if args.drive + args.cushion + args.well > 1:
         raise CrankfmuError("--drive, --cushion and --well: give one (what kind of file SCENARIO is)")
     kind = "drive" if args.drive else "cushion" if args.cushion else "well" if args.well else "scenario"
-    path = build(kind, args.source, Path(args.out), args.name, args.causality)
+    if args.native and kind != "scenario":
+        from .fmi.native_components import build_native_component
+
+        path = build_native_component(kind, args.source, Path(args.out), args.name, args.causality)
+    elif args.native:
+        from .fmi.native_build import build_native
+
+        path = build_native(args.source, Path(args.out), args.name, causality=args.causality)
+    else:
+        from .fmi.build import build
+
+        path = build(kind, args.source, Path(args.out), args.name, args.causality)
     print(f"built {path}")
     return 0
 

@@ -2,7 +2,9 @@
 
 Inputs: the ram's coordinate ``s`` and velocity ``v`` along its axis (a press's ram_s, ram_v);
 output: the force ``F`` on the ram along that axis (to the press's ram_F). No state: after each
-step (and at initialisation) F is the cushion's law at the inputs as the host has set them.
+step (and at initialisation) F is the cushion's law at the inputs as the host has set them, by
+the components' C (crank_components.c, which the native DieCushion.fmu compiles in);
+dynamics.cushion states the same law in Python, the reference the tests compare with.
 """
 
 from __future__ import annotations
@@ -10,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..contract import CUSHION_OUTPUTS
-from ..dynamics.cushion import cushion_force, load_cushion
+from ..dynamics.cushion import load_cushion
+from ..native import cushion_force
 from .core import Declared, SlaveCore
 
 
@@ -26,7 +29,8 @@ class CushionCore(SlaveCore):
         self.attach()
 
     def _update_outputs(self):
-        self.out[0] = cushion_force(self.values, self.values["s"], self.values["v"])
+        v = self.values
+        self.out[0] = cushion_force(v["k"], v["c"], v["L_free"], v["s_seat"], v["s"], v["v"])
 
     def initialise(self):
         self._update_outputs()

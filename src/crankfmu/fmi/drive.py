@@ -5,7 +5,9 @@ Inputs: the crank speed ``omega`` and the set-point ``omega_set``; outputs: the 
 ``tau``, the armature current ``i``, the armature voltage ``u`` and the motor's electrical power
 ``P_el`` = u i. Each fmi2DoStep advances the drive's state by the exact solution with the inputs
 held at their values (the co-simulation's zero-order hold), so the drive adds no error of its own:
-a coupled run's error is the coupling's alone.
+a coupled run's error is the coupling's alone. The step is the components' C
+(crank_components.c, through native.DriveSteps), the one the native Drive.fmu compiles in;
+dynamics.drive.DcDrive states the same model in Python, the reference the tests compare with.
 
 DriveSpeed.fmu carries the rotor and flywheel (J_drive) and outputs the crank speed ``omega``
 from the torque the mechanism takes, ``tau_load`` (a speed-causal mechanism FMU's tau_drive), with
@@ -17,7 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..contract import DRIVE_OUTPUTS as OUTPUTS, DRIVE_SPEED_OUTPUTS
-from ..dynamics.drive import load_drive
+from ..dynamics.drive import DRIVE_CONSTANTS, load_drive
+from ..native import DriveSteps
 from .core import Declared, SlaveCore
 
 
@@ -61,14 +64,17 @@ class DriveCore(SlaveCore):
         u = self.drive.voltage(x, omega, self.values["omega_set"])
         self.out[:] = self.output_row(omega, self.drive.torque(i), i, u)
 
+    def _drive(self) -> DriveSteps:
+        return DriveSteps([self.values[k] for k in DRIVE_CONSTANTS])
+
     def initialise(self):
-        self.drive = self.file.drive(self.values)
+        self.drive = self._drive()
         self.state[:] = self.start_state()
         self._update_outputs()
 
     def advance(self, target: float):
         if self.pending & {"Kp", "Ki"}:
-            self.drive = self.file.drive(self.values)
+            self.drive = self._drive()
         self.state[:] = self.step(target - self.time)
         self._update_outputs()
 
@@ -82,7 +88,7 @@ class DriveCore(SlaveCore):
         return self.drive is not None
 
     def restore_model_state(self, state):
-        self.drive = self.file.drive(self.values)
+        self.drive = self._drive()
         self.state[:] = state
         self._update_outputs()
 

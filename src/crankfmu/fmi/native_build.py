@@ -39,13 +39,13 @@ from ..atomic import replacing
 from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
 from ..errors import CrankfmuError
 from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
-from ..native.sources import CFLAGS, HERE as NATIVE, SOURCES as KERNEL_SOURCES
+from ..native.sources import CFLAGS, HERE as NATIVE, KERNEL as KERNEL_SOURCES
 from .build import (LS_REF, LS_REF_MANIFEST, NATIVE_USER_FILES, cross_check_options, preflight, stage,
                     vendor_annotations)
 from .speed import NOT_DECLARED
 
 SHELL = NATIVE / "fmu"
-SHELL_SOURCES = ("crank_fmi2.c", "crank_fmi2_model.h")
+SHELL_SOURCES = ("crank_fmi2.c", "crank_fmi2_model.h", "fmi2_messages.c", "fmi2_messages.h")
 #: the parameters the tables do not depend on, in the shell's value-reference order
 TUNABLE = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel", "phi1_start", "omega1_start", "rtol")
 #: speed causality's tunables, in the shell's order (the motor line is outside, omega1 is the input)
@@ -228,17 +228,13 @@ class NativeModel:
                 if name.endswith(".c"):
                     ET.SubElement(files, "File", name=name)
         derivatives = self.derivatives()
-        used = sorted({si.fmi_name(u) for u in [v.unit for v in self.outputs] + [self.input.unit] +
+        used = sorted({u for u in [v.unit for v in self.outputs] + [self.input.unit] +
                        [p.input_unit for p in self.ports] +
                        [p.unit for p in (*self.tunable, *self.fixed)] + self.quantity_units +
                        [v.unit for v in self.reactions] +
                        [unit for _, unit in derivatives] if u != "1"})
-        unit_defs = ET.SubElement(root, "UnitDefinitions")
-        for unit in used:
-            ET.SubElement(ET.SubElement(unit_defs, "Unit", name=unit), "BaseUnit",
-                          {k: str(v) for k, v in si.base_units(unit).items()})
-        ET.SubElement(root, "DefaultExperiment", startTime=repr(exp.start_time), stopTime=repr(exp.stop_time),
-                      tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
+        unit_definitions(root, used)
+        default_experiment(root, exp)
         root.append(vendor_annotations(self.source, "native"))
         variables = ET.SubElement(root, "ModelVariables")
         vr = -1
@@ -294,6 +290,20 @@ class NativeModel:
         return {p.name: p for p in (*self.tunable, *self.fixed)}
 
 
+def unit_definitions(root: ET.Element, units) -> None:
+    """<UnitDefinitions>: each unit of ``units`` (crankfmu's names; "1" has none) with its SI base units."""
+    element = ET.SubElement(root, "UnitDefinitions")
+    for unit in sorted({si.fmi_name(u) for u in units if u != "1"}):
+        ET.SubElement(ET.SubElement(element, "Unit", name=unit), "BaseUnit",
+                      {k: str(v) for k, v in si.base_units(unit).items()})
+
+
+def default_experiment(root: ET.Element, exp) -> None:
+    """<DefaultExperiment> from a data file's [experiment] (parameters.Experiment)."""
+    ET.SubElement(root, "DefaultExperiment", startTime=repr(exp.start_time), stopTime=repr(exp.stop_time),
+                  tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
+
+
 def build_description(identifier: str, sources: list[str]) -> str:
     files = "\n".join(f'      <SourceFile name="{name}"/>' for name in sources if name.endswith(".c"))
     return (f'<?xml version="1.0" encoding="UTF-8"?>\n<fmiBuildDescription fmiVersion="3.0">\n'
@@ -321,41 +331,38 @@ def compile_binary(compiler: str, folder: Path, out: Path, windows: bool):
         raise CrankfmuError(f"compiling the native FMU with {compiler} failed: {done.stderr.strip()}")
 
 
-def build_native(data_name: str, dest: Path, name: str | None = None, win64: bool | None = None,
-                 causality: str | None = None) -> Path:
-    """The native FMU of a scenario (a packaged name or a user's file) in ``dest``. ``win64``: also
-    the Windows binary (default: where x86_64-w64-mingw32-gcc is installed). ``causality``:
-    "torque" or "speed" (default: the file's [crank] causality), as for the Python FMU."""
-    source = preflight("scenario", data_name, name, causality)
+def package_native(source, dest: Path, copied, generated: dict, describe, parameters: dict, win64: bool | None,
+                   reference: str | None, extra: dict, about: dict, written: ExitStack) -> Path:
+    """Compile and write a native FMU (a mechanism's or a component's) into ``dest``: the sources
+    ``copied`` ((folder, names) pairs) and ``generated`` (name -> text) compiled for linux64 and,
+    where MinGW-w64 is installed (``win64`` None) or asked for, win64; the modelDescription
+    ``describe(sources)`` gives; the documentation (its ``about``: the tables' error bound); the
+    ``extra`` files (path in the FMU -> text). The FMU replaces ``dest/<identifier>.fmu`` when
+    ``written`` closes without an error."""
     fmu = source.fmu
-    with stage(fmu, "tabulating the model"):
-        model = NativeModel(source, data_name, source.causality)
     if win64 is None:
         win64 = shutil.which(WIN64_CC) is not None
     dest.mkdir(parents=True, exist_ok=True)
     out = dest / f"{fmu}.fmu"
-    with tempfile.TemporaryDirectory() as tmp, ExitStack() as written:
+    with tempfile.TemporaryDirectory() as tmp:
         src = Path(tmp) / "sources"
         src.mkdir()
-        for folder, names in ((NATIVE, KERNEL_SOURCES), (SHELL, SHELL_SOURCES)):
+        for folder, names in copied:
             for n in names:
                 shutil.copy2(folder / n, src / n)
-        (src / "model_config.h").write_text(model.config_h(), encoding="utf-8")
-        (src / "model_data.c").write_text(model.data_c(), encoding="utf-8")
+        for n, text in generated.items():
+            (src / n).write_text(text, encoding="utf-8")
         sources = sorted(p.name for p in src.iterdir())
         with stage(fmu, "compiling the linux64 binary"):
             compile_binary("gcc", src, Path(tmp) / f"{fmu}.so", windows=False)
         if win64:
             with stage(fmu, "compiling the win64 binary"):
                 compile_binary(WIN64_CC, src, Path(tmp) / f"{fmu}.dll", windows=True)
-        with stage(fmu, "the reference run of the default experiment"):
-            reference = source.reference()
         with stage(fmu, "the modelDescription"):
-            md = model.model_description(sources)
+            md = describe(sources)
         with stage(fmu, "the documentation"):
-            docs = source.documentation(fmu, md, model.parameters(), reference, build="native",
-                                        platforms=["linux64"] + (["win64"] if win64 else []),
-                                        table_error=model.table.error_bound)
+            docs = source.documentation(fmu, md, parameters, reference, build="native",
+                                        platforms=["linux64"] + (["win64"] if win64 else []), **about)
         partial = written.enter_context(replacing(out))
         with stage(fmu, "writing the FMU"), zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", md)
@@ -365,12 +372,30 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
             for n in sources:
                 z.write(src / n, f"sources/{n}")
             z.writestr("sources/buildDescription.xml", build_description(fmu, sources))
-            for path, content in docs.items():
+            for path, content in {**docs, **extra}.items():
                 z.writestr(path, content)
-            for path, text in source.files.items():      # a user's scenario and mechanism files
-                z.writestr(f"{NATIVE_USER_FILES}/{path}", text)
-            z.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=fmu))
-            z.writestr(f"{LS_REF}/{fmu}_out.csv", reference)
+    return out
+
+
+def build_native(data_name: str, dest: Path, name: str | None = None, win64: bool | None = None,
+                 causality: str | None = None) -> Path:
+    """The native FMU of a scenario (a packaged name or a user's file) in ``dest``. ``win64``: also
+    the Windows binary (default: where x86_64-w64-mingw32-gcc is installed). ``causality``:
+    "torque" or "speed" (default: the file's [crank] causality), as for the Python FMU."""
+    source = preflight("scenario", data_name, name, causality)
+    fmu = source.fmu
+    with stage(fmu, "tabulating the model"):
+        model = NativeModel(source, data_name, source.causality)
+    with stage(fmu, "the reference run of the default experiment"):
+        reference = source.reference()
+    extra = {**{f"{NATIVE_USER_FILES}/{path}": text for path, text in source.files.items()},   # a user's files
+             f"{LS_REF}/fmi-ls-manifest.xml": LS_REF_MANIFEST.format(name=fmu), f"{LS_REF}/{fmu}_out.csv": reference}
+    with ExitStack() as written:
+        out = package_native(source, dest, ((NATIVE, KERNEL_SOURCES), (SHELL, SHELL_SOURCES)),
+                             {"model_config.h": model.config_h(), "model_data.c": model.data_c()},
+                             model.model_description, model.parameters(), win64, reference, extra,
+                             {"table_error": model.table.error_bound}, written)
         Path(written.enter_context(replacing(dest / f"{fmu}_ref.csv"))).write_text(reference, encoding="utf-8")
-        Path(written.enter_context(replacing(dest / f"{fmu}_ref.opt"))).write_text(cross_check_options(source), encoding="utf-8")
+        Path(written.enter_context(replacing(dest / f"{fmu}_ref.opt"))).write_text(cross_check_options(source),
+                                                                                   encoding="utf-8")
     return out

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CrankfmuError
-from .sources import CFLAGS, HERE, digest, library_name
+from .sources import C_FILES, CFLAGS, HERE, digest, library_name
 
 DIGEST = digest()
 
@@ -57,7 +57,7 @@ def _compile_into_cache() -> Path:
     def build(partial: Path):
         partial.mkdir(parents=True, exist_ok=True)
         done = subprocess.run([compiler, *CFLAGS, f'-DCK_SOURCE_DIGEST="{DIGEST}"', "-shared", "-o",
-                               str(partial / library.name), str(HERE / "crank_kernel.c"), "-lm"],
+                               str(partial / library.name), *(str(HERE / n) for n in C_FILES), "-lm"],
                               capture_output=True, text=True)
         if done.returncode != 0:
             raise CrankfmuError(f"compiling crankfmu's C kernel failed: {done.stderr.strip()}")
@@ -90,6 +90,14 @@ def _load() -> ctypes.CDLL:
         "ck_steady_batch": (None, [D, ctypes.c_int, ctypes.c_double, D, ctypes.c_double, ctypes.c_int, T, D]),
         "ck_tableau": (ctypes.c_int, [D, ctypes.c_int]),
         "ck_rule": (ctypes.c_double, [ctypes.c_int, D]),
+        "cc_drive_voltage": (ctypes.c_double, [D, ctypes.c_double, ctypes.c_double, ctypes.c_double]),
+        "cc_drive_torque": (ctypes.c_double, [D, ctypes.c_double]),
+        "cc_drive_step": (None, [D, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                                 ctypes.c_double, D]),
+        "cc_drive_step_with_rotor": (None, [D, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                                            ctypes.c_double, ctypes.c_double, ctypes.c_double, D]),
+        "cc_expm4": (None, [D, D]),
+        "cc_cushion_force": (ctypes.c_double, [ctypes.c_double] * 6),
         "ck_quantity_values": (None, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int, D, D, ctypes.c_double,
                                       ctypes.c_double, ctypes.c_double, D, D]),
         "ck_reaction_values": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, ctypes.c_int, D, ctypes.c_double,
@@ -310,3 +318,43 @@ class ReactionReads:
             raise CrankfmuError("the joint reactions' table does not match the kernel's tables (its terms "
                                 "are not the kernel's weights)")
         return self.out
+
+
+class DriveSteps:
+    """The DC drive's exact steps by the components' C (crank_components.h), for Drive.fmu and
+    DriveSpeed.fmu: ``constants`` in dynamics.drive.DRIVE_CONSTANTS' order (R, L, k_t, n_gear, Kp,
+    Ki). dynamics.drive.DcDrive states the same model in Python: the reference a test compares with."""
+
+    def __init__(self, constants):
+        self.constants = np.ascontiguousarray(constants, dtype=float)
+        assert self.constants.shape == (6,)
+        self.out = np.zeros(3)
+        self._c, self._out = _d(self.constants), _d(self.out)
+
+    def voltage(self, x, omega, omega_set) -> float:
+        return LIBRARY.cc_drive_voltage(self._c, x, omega, omega_set)
+
+    def torque(self, i) -> float:
+        return LIBRARY.cc_drive_torque(self._c, i)
+
+    def step(self, i, x, omega, omega_set, h) -> tuple[float, float]:
+        LIBRARY.cc_drive_step(self._c, i, x, omega, omega_set, h, self._out)
+        return float(self.out[0]), float(self.out[1])
+
+    def step_with_rotor(self, i, x, omega, omega_set, tau_load, J_drive, h) -> tuple[float, float, float]:
+        LIBRARY.cc_drive_step_with_rotor(self._c, i, x, omega, omega_set, tau_load, J_drive, h, self._out)
+        return float(self.out[0]), float(self.out[1]), float(self.out[2])
+
+
+def expm4(M) -> np.ndarray:
+    """exp(M) of a 4 x 4 matrix by the components' C (the drive's speed-causal step uses it)."""
+    M = np.ascontiguousarray(M, dtype=float)
+    assert M.shape == (4, 4)
+    out = np.zeros((4, 4))
+    LIBRARY.cc_expm4(_d(M), _d(out))
+    return out
+
+
+def cushion_force(k: float, c: float, L_free: float, s_seat: float, s: float, v: float) -> float:
+    """The die cushion's force on the ram along its axis (N), by the components' C."""
+    return LIBRARY.cc_cushion_force(k, c, L_free, s_seat, s, v)

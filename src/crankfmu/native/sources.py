@@ -6,7 +6,12 @@ import hashlib
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-SOURCES = ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h")
+#: the mechanism's kernel, and the components' physics (the drive, the cushion)
+KERNEL = ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h")
+COMPONENTS = ("crank_components.c", "crank_components.h")
+SOURCES = KERNEL + COMPONENTS
+#: the C files the library is compiled from (the mechanism's kernel and the components' physics)
+C_FILES = tuple(name for name in SOURCES if name.endswith(".c"))
 #: how the library is compiled, by setup.py and by the fallback: C99, no FMA contraction (the
 #: numbers do not depend on the CPU the library was compiled for)
 CFLAGS = ["-std=c99", "-O2", "-ffp-contract=off", "-fPIC"]

@@ -27,6 +27,7 @@
 #include "crank_fmi2_model.h"
 #include "crank_kernel.h"
 #include "fmi2Functions.h"
+#include "fmi2_messages.h"
 
 enum { INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED, FAILED };
 
@@ -60,47 +61,13 @@ typedef struct {
 
 static void logf_(const Instance* in, fmi2Status status, const char* category, const char* format, ...)
 {
-    if (!in || !in->cb.logger) return;
-    if (status < fmi2Warning && !in->logging_on) return;     /* warnings and errors: always */
-    char text[1024], escaped[2048];
+    if (!in) return;
+    char text[1024];
     va_list args;
     va_start(args, format);
     vsnprintf(text, sizeof text, format, args);
     va_end(args);
-    /* the message is the text itself, its '%' doubled: a host that formats it (as FMI says)
-     * prints the text, and one that does not (a Python callback cannot read varargs) reads it */
-    size_t k = 0;
-    for (const char* p = text; *p && k + 2 < sizeof escaped; p++) {
-        if (*p == '%') escaped[k++] = '%';
-        escaped[k++] = *p;
-    }
-    escaped[k] = '\0';
-    in->cb.logger(in->cb.componentEnvironment, in->name, status, category, escaped);
-}
-
-/* A number in a message as its user wrote it, as Python's repr writes it (the CLI's and the
- * Python FMU's messages): the fewest significant digits that read back as the same double (0.1, not
- * 0.10000000000000001; 1e-11, not 9.9999999999999994e-12), in fixed notation from 1e-4 up to
- * 1e16 with at least one decimal (2.0, 100.0), else in exponent notation (1e-11, 1e+300). */
-typedef struct { char text[48]; } Number;
-static Number shortest(double x)
-{
-    Number n;
-    if (!isfinite(x)) {
-        snprintf(n.text, sizeof n.text, "%s", x != x ? "nan" : (x > 0 ? "inf" : "-inf"));
-        return n;
-    }
-    int digits = 1;
-    for (; digits < 17; digits++) {
-        snprintf(n.text, sizeof n.text, "%.*e", digits - 1, x);
-        if (strtod(n.text, NULL) == x) break;
-    }
-    snprintf(n.text, sizeof n.text, "%.*e", digits - 1, x);
-    int exponent = atoi(strchr(n.text, 'e') + 1);
-    if (x != 0.0 && (exponent < -4 || exponent >= 16)) return n;          /* 1e-11, 1e+300 */
-    int decimals = digits - 1 - exponent;
-    snprintf(n.text, sizeof n.text, "%.*f", decimals > 1 ? decimals : 1, x);
-    return n;
+    fmu_log(&in->cb, in->name, in->logging_on, status, category, "%s", text);
 }
 
 static fmi2Status fail(Instance* in, const char* format, const char* detail)

@@ -1,0 +1,30 @@
+/* What a native component FMU's generated data (component_data.c, `crankfmu fmu ... --native`)
+ * gives the shell (component_fmi2.c) and the component's model (component_models.c). */
+#ifndef COMPONENT_FMI2_H
+#define COMPONENT_FMI2_H
+
+#include "component_config.h"      /* generated: MODEL_IDENTIFIER, MODEL_GUID, COMPONENT_*, N_VARIABLES, VR_* */
+
+enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED };
+
+typedef struct {
+    const char* name;
+    int kind;
+    double start;
+    double min, max;               /* -inf, inf where unbounded */
+    int min_inclusive, max_inclusive;
+    const char* unit;
+    const char* range_text;        /* as the data file states it: "(0, inf) Ohm" */
+    const char* description;
+} Variable;
+
+extern const Variable VARIABLES[N_VARIABLES];
+
+/* the component's model (component_models.c): its state, started from the values, stepped by h s
+ * with the inputs held, and the outputs written into the values */
+enum { MAX_STATE = 4 };
+void model_start(const double* values, double* state);
+void model_step(const double* values, double* state, double h);
+void model_outputs(double* values, const double* state);
+
+#endif

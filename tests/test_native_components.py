@@ -1,0 +1,215 @@
+"""The native component FMUs (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu built with --native) and the
+components' physics in C (crank_components.c) that both builds step.
+
+- the C physics against dynamics.drive.DcDrive and dynamics.cushion, the Python statements of the
+  same models (the independent reference): the drive's exact steps, the 4 x 4 matrix exponential
+  against numerics.expm, the cushion's law;
+- each native FMU against the Python FMU of the same file on the same inputs: they step the same C,
+  so they agree to rounding (1e-12 of each output's scale);
+- what a host sees: the same variables as the Python FMU, fmpy's validation clean, refusals with
+  fmi2Error and the message whatever loggingOn says, the FMU state (get, set, serialize) bit for
+  bit, a binary that links only the C library, and the win64 DLL under wine matching linux64."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from crankfmu.cli import main
+from crankfmu.dynamics.cushion import cushion_force as python_cushion_force
+from crankfmu.dynamics.drive import DRIVE_CONSTANTS, load_drive
+from crankfmu.native import DriveSteps, cushion_force, expm4
+from crankfmu.numerics import expm
+
+ROOT = Path(__file__).resolve().parents[1]
+BUILDS = {"Drive": ["dc_pi", "--drive"], "DriveSpeed": ["dc_pi", "--drive", "--causality", "speed"],
+          "DieCushion": ["die_cushion", "--cushion"]}
+#: a changing input on each (a crank speed, a load torque, a ram moving)
+INPUTS = {"Drive": ("omega",), "DriveSpeed": ("tau_load",), "DieCushion": ("s", "v")}
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    """{name: (native FMU, Python FMU)}, built from the packaged files."""
+    out = tmp_path_factory.mktemp("components")
+    built = {}
+    for name, args in BUILDS.items():
+        assert main(["fmu", *args, "--native", "--out", str(out / "native")]) == 0
+        assert main(["fmu", *args, "--out", str(out / "python")]) == 0
+        built[name] = (out / "native" / f"{name}.fmu", out / "python" / f"{name}.fmu")
+    return built
+
+
+# ------------------------------------------------------------------------------------------------
+# the C physics against the Python reference
+
+def test_drive_steps_in_c_equal_the_python_drive():
+    file = load_drive("dc_pi")
+    values = {n: p.value for n, p in file.parameters.items()}
+    python, c = file.drive(values), DriveSteps([values[k] for k in DRIVE_CONSTANTS])
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        i, x, omega, omega_set, tau = rng.normal(0, [5, 1, 20, 20, 40])
+        h = 10 ** rng.uniform(-5, -1)
+        assert c.step(i, x, omega, omega_set, h) == pytest.approx(python.step(i, x, omega, omega_set, h), rel=1e-13,
+                                                                 abs=1e-13)
+        # the speed-causal step is a 4 x 4 matrix exponential in both, by the same series in another
+        # summation order: they agree to a few units of 1e-12 of the state's scale
+        a = python.step_with_rotor(i, x, omega, omega_set, tau, 1.0, h)
+        scale = max(abs(v) for v in (i, x, omega, *a))
+        assert np.max(np.abs(np.subtract(c.step_with_rotor(i, x, omega, omega_set, tau, 1.0, h), a))) <= 1e-11 * scale
+        assert c.voltage(x, omega, omega_set) == pytest.approx(python.voltage(x, omega, omega_set), rel=1e-15)
+        assert c.torque(i) == pytest.approx(python.torque(i), rel=1e-15)
+
+
+def test_matrix_exponential_in_c_equals_numerics_expm():
+    rng = np.random.default_rng(3)
+    for scale in (1e-6, 1e-2, 1.0, 30.0, 300.0):
+        M = rng.normal(size=(4, 4)) * scale
+        reference = expm(M)
+        assert np.max(np.abs(expm4(M) - reference)) <= 1e-12 * np.max(np.abs(reference))
+    assert np.array_equal(expm4(np.zeros((4, 4))), np.eye(4))
+
+
+def test_cushion_law_in_c_equals_the_data_files_law():
+    values = {"k": 2e4, "c": 150.0, "L_free": 0.2, "s_seat": -0.3}
+    for s, v in ((-0.05, 0.3), (-0.1, -1.0), (0.4, 0.0)):
+        assert cushion_force(*values.values(), s, v) == python_cushion_force(values, s, v)
+
+
+# ------------------------------------------------------------------------------------------------
+# the native FMUs against the Python ones, and what a host sees
+
+def _signal(names, stop=2.0):
+    t = np.linspace(0.0, stop, 41)
+    sig = np.zeros(t.size, dtype=[("time", float)] + [(n, float) for n in names])
+    sig["time"] = t
+    for k, n in enumerate(names):
+        sig[n] = 12.0 * np.sin((3.0 + k) * t) + 2.0 if n != "s" else -0.1 - 0.05 * np.sin(3.0 * t)
+    return sig
+
+
+@pytest.mark.parametrize("name", list(BUILDS))
+def test_native_equals_python_on_the_same_inputs(fmus, name):
+    import fmpy
+
+    native, python = fmus[name]
+    signal = _signal(INPUTS[name])
+    a = fmpy.simulate_fmu(str(native), input=signal, output_interval=1e-3, stop_time=2.0)
+    b = fmpy.simulate_fmu(str(python), input=signal, output_interval=1e-3, stop_time=2.0)
+    assert a.dtype.names == b.dtype.names
+    for column in a.dtype.names[1:]:
+        scale = max(np.max(np.abs(b[column])), 1e-300)
+        assert np.max(np.abs(a[column] - b[column])) <= 1e-12 * scale, column
+
+
+@pytest.mark.parametrize("name", list(BUILDS))
+def test_native_declares_what_the_python_fmu_declares(fmus, name):
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    native, python = fmus[name]
+    assert validate_fmu(str(native)) == []
+    a, b = read_model_description(str(native)), read_model_description(str(python))
+    assert a.modelExchange is None and a.coSimulation.canSerializeFMUstate
+    declared = lambda md: [(v.name, v.causality, v.variability, v.unit, v.start, v.min, v.max)  # noqa: E731
+                           for v in md.modelVariables]
+    assert declared(a) == declared(b)
+    assert (a.defaultExperiment.stopTime, a.defaultExperiment.stepSize) == (b.defaultExperiment.stopTime,
+                                                                            b.defaultExperiment.stepSize)
+    with zipfile.ZipFile(native) as z:
+        names = set(z.namelist())
+        page = z.read("documentation/index.html").decode()
+    assert {"sources/component_fmi2.c", "sources/crank_components.c", "sources/buildDescription.xml"} <= names
+    assert "native: C" in page and "<math" in page
+
+
+def test_the_binary_links_only_the_c_library(fmus, tmp_path):
+    native, _ = fmus["DriveSpeed"]
+    with zipfile.ZipFile(native) as z:
+        z.extractall(tmp_path)
+    linked = subprocess.run(["ldd", str(tmp_path / "binaries" / "linux64" / "DriveSpeed.so")], capture_output=True,
+                            text=True).stdout
+    libraries = {line.split()[0] for line in linked.splitlines() if line.strip()}
+    assert libraries <= {"linux-vdso.so.1", "libm.so.6", "libc.so.6", "/lib64/ld-linux-x86-64.so.2"}, libraries
+
+
+def test_refusals_are_loud_with_logging_off_and_the_state_round_trips(fmus, tmp_path):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import FMU2Slave
+
+    from fuzz_host import callbacks
+
+    native, _ = fmus["Drive"]
+    md = read_model_description(str(native))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    messages = []
+    keep = callbacks(lambda env, name, status, category, message: messages.append(message.decode()))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(native), str(tmp_path / "x")), modelIdentifier="Drive")
+    fmu.instantiate(loggingOn=False, callbacks=keep[0])
+    for name, value, expected in (("R", -1.0, r"parameter R = -1\.0 is out of range: valid range \(0, inf\) Ohm"),
+                                  ("Kp", float("nan"), r"parameter Kp = nan is out of range"),
+                                  ("omega", float("inf"), r"input omega = inf must be finite"),
+                                  ("tau", 1.0, r"tau is an output of this FMU: it cannot be set")):
+        with pytest.raises(FMICallException):
+            fmu.setReal([vr[name]], [value])
+        assert re.search(expected, messages[-1]), messages[-1]
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    with pytest.raises(FMICallException):              # R has no valid value yet
+        fmu.exitInitializationMode()
+    assert re.search(r"cannot initialise: no valid value set for omega, R, Kp", messages[-1]), messages[-1]
+    fmu.reset()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.setReal([vr["omega"]], [15.0])
+    fmu.exitInitializationMode()
+    with pytest.raises(FMICallException):
+        fmu.setReal([vr["R"]], [3.0])
+    assert "R is a fixed parameter" in messages[-1]
+    fmu.setReal([vr["Kp"]], [6.0])                     # tunable: accepted between steps
+    with pytest.raises(FMICallException):
+        fmu.doStep(currentCommunicationPoint=0.5, communicationStepSize=1e-3)
+    assert "is not this FMU's time 0.0 s" in messages[-1]
+    fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+    state = fmu.getFMUstate()
+    serialized = fmu.serializeFMUstate(state)
+    outputs = [vr[n] for n in ("tau", "i", "u", "P_el")]
+    for k in range(1, 101):
+        fmu.doStep(currentCommunicationPoint=k * 1e-3, communicationStepSize=1e-3)
+    first = fmu.getReal(outputs)
+    fmu.setFMUstate(fmu.deSerializeFMUstate(serialized))
+    for k in range(1, 101):
+        fmu.doStep(currentCommunicationPoint=k * 1e-3, communicationStepSize=1e-3)
+    assert fmu.getReal(outputs) == first
+    with pytest.raises(FMICallException):
+        fmu.deSerializeFMUstate(bytes(len(serialized)))
+    assert "not a state of this FMU" in messages[-1]
+    fmu.freeFMUstate(state)
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+@pytest.mark.parametrize("name", ["DriveSpeed", "DieCushion"])
+def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(fmus, name, tmp_path):
+    """The win64 DLL under wine matches the linux64 binary over the default experiment to 1e-12 of
+    each output's scale (the two C libraries' exp may differ in the last bits)."""
+    import fmpy
+    from wine import run_win64_under_wine
+
+    native, _ = fmus[name]
+    with zipfile.ZipFile(native) as z:
+        assert f"binaries/win64/{name}.dll" in z.namelist(), "make test installs MinGW-w64"
+    fields = [v.name for v in fmpy.read_model_description(str(native)).modelVariables if v.causality == "output"]
+    remote = run_win64_under_wine(native, tmp_path, fields)
+    local = fmpy.simulate_fmu(str(native), output_interval=1e-3)
+    assert np.array_equal(remote[0], local["time"])
+    for k, field in enumerate(fields, start=1):
+        scale = max(np.max(np.abs(local[field])), 1e-300)
+        assert np.max(np.abs(remote[k] - local[field])) <= 1e-12 * scale, field
