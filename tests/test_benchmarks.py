@@ -1,5 +1,6 @@
 """The benchmark scripts run and report (no timing is asserted: the machines are shared)."""
 
+import json
 import re
 import sys
 from pathlib import Path
@@ -45,8 +46,13 @@ def test_speed_benchmark_prints_the_table_and_every_target_with_its_measure(fmu_
     # issue 28, where `make fmu` built both speed-causal FourBar FMUs: the native one beside the
     # Python one, the same kernel step, so the same tau_drive to the bit
     speed_fmus = (Path(fmu_path).parent / "FourBarSpeed.fmu").exists() and (native.parent / "FourBarSpeed.fmu").exists()
+    # issue 38: FourBar.fmu, Python and native, with every variable read at every step (fmpy, ecos)
     judged = out.count("| MET |") + out.count("| NOT MET |")
-    assert judged == 5 + speed_fmus and out.count("| not measured |") == 2
+    assert judged == 5 + speed_fmus + 2 and out.count("| not measured |") == 2
+    assert re.search(r"FourBar.fmu \(Python\) in the ecos master, every variable read at every 1 ms step: "
+                     r"real-time factor >= 10 .* \| [\d.]+ \([\d.]+ s wall\); through fmpy [\d.]+ us/step \|", out)
+    data = json.loads((tmp_path / "speed.json").read_text())
+    assert {"python", "native"} <= data["every_output"].keys()
     if speed_fmus:
         assert re.search(r"native FourBarSpeed.fmu per 1 ms step .* ratio [\d.]+; tau_drive differs by 0.0e\+00 N.m \| MET",
                          out)
@@ -54,9 +60,6 @@ def test_speed_benchmark_prints_the_table_and_every_target_with_its_measure(fmu_
     assert "hand-written right-hand side" in out
     limit = re.search(r"the C RK4 limit: ([\d.]+) ms at (\S+) rad/s", out)      # measured, at the target error
     assert limit and float(limit.group(2)) <= 1e-8
-    import json
-
-    data = json.loads((tmp_path / "speed.json").read_text())
     fast = [r for r in data["rows"] if r["family"].startswith("crankfmu fast") and r["setting"] == "rtol 1e-11"]
     # the C kernel at its default tolerance: within the 1e-8 rad/s target
     assert len(fast) == 1

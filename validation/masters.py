@@ -76,17 +76,19 @@ def ecos_command() -> Path:
 
 
 def run(master: str, path, stop_time: float, step: float, variables: list[str],
-        start_values: dict | None = None, parameter_set: str | None = None, instance: str = "fmu") -> MasterRun:
+        start_values: dict | None = None, parameter_set: str | None = None, instance: str = "fmu",
+        env: dict | None = None) -> MasterRun:
     """Run ``master`` on the FMU or SSP at ``path`` from 0 to ``stop_time`` at communication step
-    ``step``, recording ``variables`` (for an SSP: "instance.variable")."""
+    ``step``, recording ``variables`` (for an SSP: "instance.variable"). ``env``: the master
+    process's whole environment (default: this process's), e.g. a bare one with an empty HOME."""
     path = str(Path(path).resolve())
     if master == "ecos":
-        return _run_ecos_cli(path, stop_time, step, variables, parameter_set)
+        return _run_ecos_cli(path, stop_time, step, variables, parameter_set, env)
     job = {"master": master, "path": path, "stop_time": stop_time, "step": step, "variables": variables,
            "start_values": start_values or {}, "parameter_set": parameter_set, "instance": instance}
     cmd = [sys.executable, "-m", "crankfmu.validation.masters", json.dumps(job)]
     try:
-        done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT)
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT, env=env)
     except subprocess.TimeoutExpired:
         return MasterRun(master, path, error=f"no answer within {TIME_LIMIT} s", returncode=-1)
     out = done.stdout + done.stderr
@@ -99,7 +101,7 @@ def run(master: str, path, stop_time: float, step: float, variables: list[str],
                      done.returncode, out, data.get("error"))
 
 
-def _run_ecos_cli(path, stop_time, step, variables, parameter_set) -> MasterRun:
+def _run_ecos_cli(path, stop_time, step, variables, parameter_set, env=None) -> MasterRun:
     with tempfile.TemporaryDirectory() as tmp:
         # ecos passes an FMU's messages on at its debug level only
         cmd = [str(ecos_command()), "simulate", "--path", path, "--stopTime", repr(stop_time),
@@ -107,7 +109,7 @@ def _run_ecos_cli(path, stop_time, step, variables, parameter_set) -> MasterRun:
         if parameter_set:
             cmd += ["--parameterSet", parameter_set]
         try:
-            done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT, cwd=tmp)
+            done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT, cwd=tmp, env=env)
         except subprocess.TimeoutExpired:
             return MasterRun("ecos", path, error=f"no answer within {TIME_LIMIT} s", returncode=-1)
         out = done.stdout + done.stderr

@@ -484,8 +484,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("ssp", help="FourBarDrive.ssp (FourBar.fmu driven by Drive.fmu: DC motor, PI speed control) "
                                     "and FourBarDriveSpeed.ssp (the same in speed causality), for third-party masters")
-    p.add_argument("--fmus", default="build/fmus", help="folder with the FMUs (make fmu)")
+    p.add_argument("--fmus", default=None, help="folder with the FMUs (make fmu; default build/fmus, or "
+                                                "build/fmus/native with --native)")
     p.add_argument("--out", required=True)
+    p.add_argument("--native", action="store_true",
+                   help="native FMUs only (no Python on the host): each must be built for the values the SSP sets")
     p.add_argument("--system", action="append", choices=("FourBarDrive", "FourBarDriveSpeed", "PressCushion", "PumpingWell", "well"),
                    help="which SSP (default: FourBarDrive and FourBarDriveSpeed; PressCushion needs TogglePress.fmu, "
                         "built from tests/data/user/togglepress_scenario.toml, and DieCushion.fmu; PumpingWell, or well: PumpJack.fmu "
@@ -572,9 +575,10 @@ def cmd_well(args) -> int:
 def cmd_ssp(args) -> int:
     from .fmi.ssp import write_ssp
 
+    fmus = Path(args.fmus or ("build/fmus/native" if args.native else "build/fmus"))
     for system in args.system or ("FourBarDrive", "FourBarDriveSpeed"):
         system = "PumpingWell" if system == "well" else system
-        path = write_ssp(Path(args.fmus), Path(args.out), system=system)
+        path = write_ssp(fmus, Path(args.out), system=system, native=args.native)
         print(f"wrote {path}")
     return 0
 

@@ -179,19 +179,61 @@ def _ssd(system: System, sets: dict, stop_time: float, step: float) -> str:
 '''
 
 
+def built_values(fmu: Path) -> tuple[str, dict[str, float]]:
+    """(the FMU's build as its VendorAnnotations say: "native", "python" or "" for an FMU crankfmu did
+    not build, {parameter: the value it was built for} for each parameter fixed at build time: a
+    native mechanism FMU's geometry, masses, loads and gravity, declared with min = max = start)."""
+    from xml.etree import ElementTree as ET
+
+    with zipfile.ZipFile(fmu) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    tool = root.find("VendorAnnotations/Tool[@name='crankfmu']")
+    build = next((element.get("build", "") for element in tool), "") if tool is not None else ""
+    fixed = {}
+    for sv in root.find("ModelVariables"):
+        real = sv.find("Real")
+        if (sv.get("causality") == "parameter" and real is not None and real.get("start") is not None
+                and real.get("min") == real.get("max") == real.get("start")):
+            fixed[sv.get("name")] = float(real.get("start"))
+    return build, fixed
+
+
+def _check_native(spec: System, fmus: Path, sets: dict):
+    """Every component native, and no parameter set to another value than its FMU was built for:
+    one CrankfmuError naming each problem."""
+    problems = []
+    for comp, stem in spec.sources.items():
+        build, fixed = built_values(fmus / f"{stem}.fmu")
+        if build != "native":
+            problems.append(f"{stem}.fmu in {fmus} is not a native FMU (its build: {build or 'not crankfmu'})")
+            continue
+        for name, value in sets["coupled"].get(comp, {}).items():
+            if name in fixed and value != fixed[name]:
+                problems.append(f"{comp}.{name} = {value!r} in the SSP, but the native {stem}.fmu was built for "
+                                f"{fixed[name]!r} (a native mechanism FMU's geometry, masses and loads are fixed when it "
+                                "is built: build it from a scenario file with these values)")
+    if problems:
+        raise CrankfmuError(f"{spec.name}.ssp cannot be made of native FMUs: " + "; ".join(problems))
+
+
 def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float = 1e-3,
-              system: str = "FourBarDrive") -> Path:
-    """``out``/SYSTEM.ssp from the FMUs in ``fmus`` (``make fmu`` builds them)."""
+              system: str = "FourBarDrive", native: bool = False) -> Path:
+    """``out``/SYSTEM.ssp from the FMUs in ``fmus`` (``make fmu`` builds them). ``native``: every
+    FMU must be native (no Python on the host), and built for the values the SSP sets."""
     if system not in SYSTEMS:
         raise CrankfmuError(f"unknown system {system!r}: one of {', '.join(SYSTEMS)}")
     spec = SYSTEMS[system]
     fmus, out = Path(fmus), Path(out)
     for stem in spec.sources.values():
         if not (fmus / f"{stem}.fmu").is_file():
-            raise CrankfmuError(f"no {stem}.fmu in {fmus}: run `make fmu` first")
+            what = (" (RodString.fmu has no native build yet)" if native and stem == "RodString" else
+                    f": build it with `crankfmu fmu ... --native --out {fmus}`" if native else ": run `make fmu` first")
+            raise CrankfmuError(f"no {stem}.fmu in {fmus}{what}")
     if stop_time is None:
         stop_time = spec.stop_time
     sets = parameter_sets(spec)
+    if native:
+        _check_native(spec, fmus, sets)
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"{system}.ssp"
     with replacing(path) as partial, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
