@@ -216,9 +216,17 @@ class RopeMotion:
         s, ds = np.append(s, s[0]), np.append(ds, ds[0])
         self.s = CubicHermiteSpline(phi, s, ds, extrapolate="periodic")
         self.ds = self.s.derivative()
+        # the same cubics as plain floats: the coupled model asks for a position twice per string
+        # step, where scipy's call costs ten times the arithmetic
+        self._h = 2 * math.pi / n
+        self._cubics = [tuple(float(c) for c in self.s.c[:, i]) for i in range(n)]
 
     def position(self, phi: float) -> float:
-        return float(self.s(phi % (2 * math.pi)))
+        x = phi % (2 * math.pi)
+        i = min(int(x / self._h), len(self._cubics) - 1)
+        c3, c2, c1, c0 = self._cubics[i]
+        u = x - self.s.x[i]
+        return ((c3 * u + c2) * u + c1) * u + c0
 
     def velocity(self, phi: float, omega: float) -> float:
         return float(self.ds(phi % (2 * math.pi))) * omega

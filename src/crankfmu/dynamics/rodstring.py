@@ -1,6 +1,10 @@
 """The sucker-rod string: Gibbs' damped wave equation for a tapered string of rods, the pump at
 its bottom, and buoyancy; one discretisation shared by RodString.fmu and the in-process well.
 
+The steps with a valve pump run in C (crank_components.c, ``cc_string_step``), what RodString.fmu
+and the in-process well use; this module's numpy step is the same scheme in the same order, kept
+as their reference (tests/test_rodstring_c.py) and for the linear foot.
+
 The equation (Gibbs 1963; Everitt & Jennings 1992) for the rods' displacement u(x, t), downward
 positive, x the depth from the polished rod:
 
@@ -338,6 +342,7 @@ class RodString:
     work: float = 0.0
     damping_loss: float = 0.0
     energy_start: float = 0.0
+    in_c: bool = True               # step by the components' C (a valve pump); False: this module's numpy
     _last_u: np.ndarray = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -351,6 +356,16 @@ class RodString:
         self._c = c
         self.u = np.zeros_like(self.grid.x)
         self.v = np.zeros_like(self.grid.x)
+        # the C steps (crank_components.c) for a valve pump, what RodString.fmu and the in-process
+        # well run; this module's numpy step stays as their reference (and for the linear foot)
+        self._kernel = None
+        if self.in_c and isinstance(self.pump, ValvePump):
+            from ..native import StringSteps
+
+            g = self.grid
+            self._kernel = StringSteps(g.mass, g.weight, g.stiffness, c,
+                                       (self.pump.Fo, self.pump.friction, self.pump.fillage))
+            self._x = np.zeros(11)
 
     # ---------------------------------------------------------------- set-up
     def hang(self, t: float, top: float, pump_force: float = 0.0):
@@ -381,9 +396,27 @@ class RodString:
         return self.stored_energy(self._last_u) if self._last_u is not None else self.energy_start
 
     # ---------------------------------------------------------------- stepping
+    def _to_kernel(self):
+        p, x = self.pump, self._x
+        x[:] = (self.t, self.load, self.work, self.damping_loss, p.motion, p.u_top, p.u_bottom, p.hydraulic,
+                p.friction_loss, p.stop_loss, p._gas)
+        if self._last_u is None:
+            self._last_u = np.zeros_like(self.u)
+
+    def _from_kernel(self):
+        p, x = self.pump, self._x.tolist()
+        self.t, self.load, self.work, self.damping_loss = x[0], x[1], x[2], x[3]
+        p.motion, p.u_top, p.u_bottom, p.hydraulic, p.friction_loss, p.stop_loss = int(x[4]), *x[5:10]
+        p._gas = bool(x[10])
+
     def advance(self, top_end: float, h: float):
         """A communication step of h s: as many equal internal steps as keep the Courant number at
         or below the design's, the polished rod moving linearly from where it is to ``top_end``."""
+        if self._kernel is not None:
+            self._to_kernel()
+            self._kernel.advance(self.u, self.v, self._last_u, self._x, float(top_end), float(h), self.grid.dt_max)
+            self._from_kernel()
+            return
         n = max(1, math.ceil(h / self.grid.dt_max - 1e-9))
         start = float(self.u[0])
         for k in range(1, n + 1):
@@ -392,6 +425,11 @@ class RodString:
     def step(self, top_next: float, dt: float | None = None):
         """One step of length dt (default self.dt): the polished rod moves to ``top_next``."""
         dt = self.dt if dt is None else dt
+        if self._kernel is not None:
+            self._to_kernel()
+            self._kernel.step(self.u, self.v, self._last_u, self._x, float(top_next), float(dt))
+            self._from_kernel()
+            return
         g, u, v, c = self.grid, self.u, self.v, self._c
         T = g.stiffness * (u[1:] - u[:-1])
         f = g.weight.copy()
@@ -445,8 +483,15 @@ class RodString:
 
     def restore(self, s):
         (self.t, u, v, last, self.load, self.work, self.damping_loss, self.energy_start, pump) = s
-        self.u, self.v = np.array(u), np.array(v)
-        self._last_u = None if last is None else np.array(last)
+        # into the arrays in use where they fit (the C steps keep their addresses), else new ones
+        for name, value in (("u", u), ("v", v), ("_last_u", last)):
+            here = getattr(self, name)
+            if value is None:
+                setattr(self, name, None)
+            elif here is not None and here.shape == np.shape(value):
+                here[:] = value
+            else:
+                setattr(self, name, np.array(value, dtype=float))
         self.pump.restore(pump)
 
 

@@ -153,7 +153,7 @@ class FastStepper:
     def start(self, t: float, y) -> np.ndarray:
         """Initialise at (t, y) and return the output row there."""
         self.state[:] = 0.0
-        kernel.begin(self.state, float(t), np.asarray(y, dtype=float), self.tables, self.P, self.row)
+        self.bound.begin(float(t), np.ascontiguousarray(y, dtype=float))
         return self.row
 
     def restart(self, t: float):

@@ -98,6 +98,10 @@ def _load() -> ctypes.CDLL:
                                             ctypes.c_double, ctypes.c_double, ctypes.c_double, D]),
         "cc_expm4": (None, [D, D]),
         "cc_cushion_force": (ctypes.c_double, [ctypes.c_double] * 6),
+        "cc_string_step": (None, [ctypes.c_int, D, D, D, ctypes.c_double, D, D, D, D, D, ctypes.c_double,
+                                  ctypes.c_double, D]),
+        "cc_string_advance": (None, [ctypes.c_int, D, D, D, ctypes.c_double, D, D, D, D, D, ctypes.c_double,
+                                     ctypes.c_double, ctypes.c_double, D]),
         "ck_quantity_values": (None, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int, D, D, ctypes.c_double,
                                       ctypes.c_double, ctypes.c_double, D, D]),
         "ck_reaction_values": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, ctypes.c_int, D, ctypes.c_double,
@@ -220,10 +224,6 @@ class Tables:
         self.pointer = ctypes.addressof(self.struct)
 
 
-def begin(S, t, y, tables: Tables, P, row):
-    LIBRARY.ck_begin(_d(S), t, _d(np.ascontiguousarray(y, dtype=float)), tables.pointer, _d(P), _d(row))
-
-
 class Bound:
     """The arrays of one stepper (state, parameters, output row) and its tables, their addresses
     taken once: an FMU's step is one call with no conversion of its arrays."""
@@ -235,6 +235,10 @@ class Bound:
 
     def advance(self, t_target: float, t_limit: float) -> int:
         return self._advance(self.S, t_target, t_limit, self.tables, self.P, self.row)
+
+    def begin(self, t: float, y: np.ndarray):
+        """ck_begin at (t, y) with the bound arrays (y: a float64 array of the kernel's N_Y)."""
+        LIBRARY.ck_begin(self.S, t, _d(y), self.tables, self.P, self.row)
 
     def speed_begin(self, t: float, phi1: float, omega1: float):
         LIBRARY.ck_speed_begin(self.S, t, phi1, omega1, self.tables, self.P, self.row)
@@ -358,3 +362,41 @@ def expm4(M) -> np.ndarray:
 def cushion_force(k: float, c: float, L_free: float, s_seat: float, s: float, v: float) -> float:
     """The die cushion's force on the ram along its axis (N), by the components' C."""
     return LIBRARY.cc_cushion_force(k, c, L_free, s_seat, s, v)
+
+
+#: the rod string's scalars (crank_components.h's CS_*), in order
+STRING_SCALARS = ("t", "load", "work", "damping_loss", "motion", "u_top", "u_bottom", "hydraulic", "friction_loss",
+                  "stop_loss", "gas")
+
+
+class StringSteps:
+    """The rod string's explicit central-difference steps with its valve pump, by the components' C
+    (cc_string_step, cc_string_advance): the grid's node masses and weights and segment
+    stiffnesses, Gibbs' damping ``c`` and the pump's (Fo, friction, fillage). The state arrays and
+    the scalars (STRING_SCALARS' order) are the caller's, changed in place."""
+
+    def __init__(self, mass, weight, stiffness, c: float, pump):
+        self.arrays = tuple(np.ascontiguousarray(a, dtype=float) for a in (mass, weight, stiffness, pump))
+        self.n = self.arrays[0].shape[0]
+        self.scratch = np.zeros(self.n)
+        self._fixed = (self.n, *(_d(a) for a in self.arrays[:3]), float(c), _d(self.arrays[3]))
+        self._scratch = _d(self.scratch)
+        self._bound, self._addresses = (), ()
+        self._step, self._advance = LIBRARY.cc_string_step, LIBRARY.cc_string_advance
+
+    def _state(self, u, v, last_u, x) -> tuple:
+        """The state arrays' addresses, taken again only when the caller gives other arrays (an
+        address costs about a microsecond, a string step a few)."""
+        bound = self._bound
+        if len(bound) != 4 or bound[0] is not u or bound[1] is not v or bound[2] is not last_u or bound[3] is not x:
+            if u.shape != (self.n,) or v.shape != (self.n,) or last_u.shape != (self.n,) or x.shape != (11,):
+                raise CrankfmuError(f"the rod string's state must be {self.n} nodes and 11 scalars")
+            self._bound = (u, v, last_u, x)          # kept alive while their addresses are in use
+            self._addresses = (_d(u), _d(v), _d(last_u), _d(x))
+        return self._addresses
+
+    def step(self, u, v, last_u, x, top_next: float, dt: float):
+        self._step(*self._fixed, *self._state(u, v, last_u, x), top_next, dt, self._scratch)
+
+    def advance(self, u, v, last_u, x, top_end: float, h: float, dt_max: float):
+        self._advance(*self._fixed, *self._state(u, v, last_u, x), top_end, h, dt_max, self._scratch)

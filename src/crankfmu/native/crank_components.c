@@ -89,3 +89,82 @@ double cc_cushion_force(double k, double c, double L_free, double s_seat, double
 {
     return -(k * ((s - s_seat) - L_free) + c * v);
 }
+
+/* the pump's motion: up (the travelling valve closed, the plunger lifting the fluid), down, at rest */
+enum { PUMP_DOWN = -1, PUMP_REST = 0, PUMP_UP = 1 };
+
+void cc_string_step(int n, const double* mass, const double* weight, const double* stiffness, double c,
+                    const double* pump, double* u, double* v, double* last_u, double* x, double top_next,
+                    double dt, double* v_new)
+{
+    double Fo = pump[0], friction = pump[1], fillage = pump[2];
+    double scale = 1.0 / (1.0 + c * dt / 2), keep = (1.0 - c * dt / 2) * scale;
+    /* each node: its weight and the tensions of the segments above (up) and below (down) */
+    for (int j = 0; j < n; j++) {
+        double f = weight[j];
+        if (j < n - 1) f += stiffness[j] * (u[j + 1] - u[j]);
+        if (j > 0) f -= stiffness[j - 1] * (u[j] - u[j - 1]);
+        v_new[j] = keep * v[j] + dt * scale / mass[j] * f;
+    }
+    /* the pump: the force P on the plunger in its law, the plunger's velocity with it (exact) */
+    double b = dt * scale / mass[n - 1], u_pump = u[n - 1], v_free = v_new[n - 1];
+    int gas = !(fillage >= 1.0 || isnan(x[CS_U_TOP]) || isnan(x[CS_U_BOTTOM])) &&
+              u_pump < x[CS_U_TOP] + (1.0 - fillage) * (x[CS_U_BOTTOM] - x[CS_U_TOP]);
+    double p_hi = Fo + friction, p_lo = (gas ? Fo : 0.0) - friction, p_rest = -v_free / b, P;
+    int motion;
+    if (p_rest > p_hi) {
+        P = p_hi;
+        motion = PUMP_UP;
+    } else if (p_rest < p_lo) {
+        P = p_lo;
+        motion = PUMP_DOWN;
+    } else {
+        P = p_rest;
+        motion = PUMP_REST;
+    }
+    int before = (int)x[CS_MOTION];
+    if (motion == PUMP_UP && before != PUMP_UP) x[CS_U_BOTTOM] = u_pump;
+    else if (motion != PUMP_UP && before == PUMP_UP) x[CS_U_TOP] = u_pump;
+    x[CS_MOTION] = motion;
+    x[CS_GAS] = gas;
+    v_new[n - 1] = v_free + b * P;
+    v_new[0] = (top_next - u[0]) / dt;
+    /* the polished rod: segment 0's tension, the top half-segment's weight, inertia and drag */
+    double mid0 = (v_new[0] + v[0]) / 2;
+    double load = stiffness[0] * (u[1] - u[0]) + weight[0] - mass[0] * ((v_new[0] - v[0]) / dt + c * mid0);
+    x[CS_LOAD] = load;
+    x[CS_WORK] -= load * (dt * mid0);
+    double kinetic = 0.0;
+    for (int j = 0; j < n; j++) {
+        double mid = (v_new[j] + v[j]) / 2;
+        kinetic += mass[j] * (mid * mid);
+    }
+    x[CS_DAMPING] += c * dt * kinetic;
+    double travel = dt * ((v_new[n - 1] + v[n - 1]) / 2);
+    if (motion == PUMP_REST) {
+        x[CS_STOPS] -= P * travel;
+    } else {
+        double fluid = (motion == PUMP_UP || gas) ? Fo : 0.0;
+        x[CS_HYDRAULIC] -= fluid * travel;
+        x[CS_FRICTION] -= (P - fluid) * travel;
+    }
+    for (int j = 0; j < n; j++) {
+        last_u[j] = u[j];
+        u[j] = u[j] + dt * v_new[j];
+        v[j] = v_new[j];
+    }
+    u[0] = top_next;
+    x[CS_T] += dt;
+}
+
+void cc_string_advance(int n, const double* mass, const double* weight, const double* stiffness, double c,
+                       const double* pump, double* u, double* v, double* last_u, double* x, double top_end,
+                       double h, double dt_max, double* scratch)
+{
+    double steps = ceil(h / dt_max - 1e-9);
+    int count = steps < 1.0 ? 1 : (int)steps;
+    double start = u[0];
+    for (int k = 1; k <= count; k++)
+        cc_string_step(n, mass, weight, stiffness, c, pump, u, v, last_u, x, start + (top_end - start) * k / count,
+                       h / count, scratch);
+}

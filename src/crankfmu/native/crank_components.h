@@ -1,7 +1,8 @@
 /* The components' physics, written once: the DC drive's exact step (dynamics/drive.py states the
- * same model, the independent reference its tests compare with) and the die cushion's law. The
- * Python FMUs (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu) call these through the kernel library;
- * the native component FMUs compile them in (fmu/component_fmi2.c). */
+ * same model, the independent reference its tests compare with), the die cushion's law and the
+ * rod string's steps with its valve pump (dynamics/rodstring.py: the reference). The Python FMUs
+ * (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu, RodString.fmu) and the in-process well call these
+ * through the kernel library; the native component FMUs compile them in (fmu/component_fmi2.c). */
 #ifndef CRANK_COMPONENTS_H
 #define CRANK_COMPONENTS_H
 
@@ -29,5 +30,23 @@ CK_API void cc_expm4(const double* M, double* out);
 /* the force on a press ram along its axis from a linear cushion (N): -(k (d - L_free) + c v),
  * d = s - s_seat; the tension law of a data file's spring_damper */
 CK_API double cc_cushion_force(double k, double c, double L_free, double s_seat, double s, double v);
+
+/* The sucker-rod string (dynamics/rodstring.py states the same scheme: its reference): n nodes, 0
+ * the polished rod, n - 1 the plunger; per node its mass (kg) and buoyant weight (N, downward), per
+ * segment its stiffness E A / dx (N/m); Gibbs' damping c (1/s); the pump (Fo, friction, fillage).
+ * The state: positions u at t (m, downward), velocities v half a step before, the positions a step
+ * before (last_u), and the scalars x (CS_*). One explicit central-difference step of dt with the
+ * polished rod moved to top_next, the pump's set-valued force solved exactly, the polished rod's
+ * work, the damping loss and the pump's work (hydraulic, friction, stops) accumulated. scratch: n. */
+enum { CS_T, CS_LOAD, CS_WORK, CS_DAMPING, CS_MOTION, CS_U_TOP, CS_U_BOTTOM, CS_HYDRAULIC, CS_FRICTION, CS_STOPS,
+       CS_GAS, CS_SIZE };
+CK_API void cc_string_step(int n, const double* mass, const double* weight, const double* stiffness, double c,
+                           const double* pump, double* u, double* v, double* last_u, double* x, double top_next,
+                           double dt, double* scratch);
+/* a communication step of h s: as many equal steps as keep each at or below dt_max, the polished
+ * rod moving linearly from where it is to top_end */
+CK_API void cc_string_advance(int n, const double* mass, const double* weight, const double* stiffness, double c,
+                              const double* pump, double* u, double* v, double* last_u, double* x, double top_end,
+                              double h, double dt_max, double* scratch);
 
 #endif
