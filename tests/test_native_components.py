@@ -1,5 +1,5 @@
-"""The native component FMUs (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu built with --native) and the
-components' physics in C (crank_components.c) that both builds step.
+"""The native component FMUs (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu, RodString.fmu built with
+--native) and the components' physics in C (crank_components.c) that both builds step.
 
 - the C physics against dynamics.drive.DcDrive and dynamics.cushion, the Python statements of the
   same models (the independent reference): the drive's exact steps, the 4 x 4 matrix exponential
@@ -28,9 +28,9 @@ from crankfmu.numerics import expm
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILDS = {"Drive": ["dc_pi", "--drive"], "DriveSpeed": ["dc_pi", "--drive", "--causality", "speed"],
-          "DieCushion": ["die_cushion", "--cushion"]}
-#: a changing input on each (a crank speed, a load torque, a ram moving)
-INPUTS = {"Drive": ("omega",), "DriveSpeed": ("tau_load",), "DieCushion": ("s", "v")}
+          "DieCushion": ["die_cushion", "--cushion"], "RodString": ["rp11l_guo", "--well"]}
+#: a changing input on each (a crank speed, a load torque, a ram moving, a polished rod stroking)
+INPUTS = {"Drive": ("omega",), "DriveSpeed": ("tau_load",), "DieCushion": ("s", "v"), "RodString": ("s", "v")}
 
 
 @pytest.fixture(scope="module")
@@ -43,6 +43,23 @@ def fmus(tmp_path_factory):
         assert main(["fmu", *args, "--out", str(out / "python")]) == 0
         built[name] = (out / "native" / f"{name}.fmu", out / "python" / f"{name}.fmu")
     return built
+
+
+def logged_instance(fmu_path: Path, folder: Path):
+    """(an FMU2Slave instantiated with logging off, its value references by name, the messages it
+    logs, what keeps its callbacks alive): how a host that shows only what an FMU logs sees it."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    from fuzz_host import callbacks
+
+    md = read_model_description(str(fmu_path))
+    messages = []
+    keep = callbacks(lambda env, name, status, category, message: messages.append(message.decode()))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu_path), str(folder)),
+                    modelIdentifier=md.coSimulation.modelIdentifier)
+    fmu.instantiate(loggingOn=False, callbacks=keep[0])
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}, messages, keep
 
 
 # ------------------------------------------------------------------------------------------------
@@ -85,10 +102,15 @@ def test_cushion_law_in_c_equals_the_data_files_law():
 # ------------------------------------------------------------------------------------------------
 # the native FMUs against the Python ones, and what a host sees
 
-def _signal(names, stop=2.0):
-    t = np.linspace(0.0, stop, 41)
+def _signal(name, stop=2.0):
+    t = np.linspace(0.0, stop, 401)
+    names = INPUTS[name]
     sig = np.zeros(t.size, dtype=[("time", float)] + [(n, float) for n in names])
     sig["time"] = t
+    if name == "RodString":               # a polished rod stroking 2 m at 9.5 strokes/min
+        w = 2 * np.pi / 6.3
+        sig["s"], sig["v"] = 1.0 - np.cos(w * t), w * np.sin(w * t)
+        return sig
     for k, n in enumerate(names):
         sig[n] = 12.0 * np.sin((3.0 + k) * t) + 2.0 if n != "s" else -0.1 - 0.05 * np.sin(3.0 * t)
     return sig
@@ -99,9 +121,10 @@ def test_native_equals_python_on_the_same_inputs(fmus, name):
     import fmpy
 
     native, python = fmus[name]
-    signal = _signal(INPUTS[name])
-    a = fmpy.simulate_fmu(str(native), input=signal, output_interval=1e-3, stop_time=2.0)
-    b = fmpy.simulate_fmu(str(python), input=signal, output_interval=1e-3, stop_time=2.0)
+    stop = 10.0 if name == "RodString" else 2.0
+    signal = _signal(name, stop)
+    a = fmpy.simulate_fmu(str(native), input=signal, output_interval=1e-3, stop_time=stop)
+    b = fmpy.simulate_fmu(str(python), input=signal, output_interval=1e-3, stop_time=stop)
     assert a.dtype.names == b.dtype.names
     for column in a.dtype.names[1:]:
         scale = max(np.max(np.abs(b[column])), 1e-300)
@@ -140,19 +163,9 @@ def test_the_binary_links_only_the_c_library(fmus, tmp_path):
 
 
 def test_refusals_are_loud_with_logging_off_and_the_state_round_trips(fmus, tmp_path):
-    from fmpy import extract, read_model_description
     from fmpy.fmi1 import FMICallException
-    from fmpy.fmi2 import FMU2Slave
 
-    from fuzz_host import callbacks
-
-    native, _ = fmus["Drive"]
-    md = read_model_description(str(native))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    messages = []
-    keep = callbacks(lambda env, name, status, category, message: messages.append(message.decode()))
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(native), str(tmp_path / "x")), modelIdentifier="Drive")
-    fmu.instantiate(loggingOn=False, callbacks=keep[0])
+    fmu, vr, messages, keep = logged_instance(fmus["Drive"][0], tmp_path / "x")
     for name, value, expected in (("R", -1.0, r"parameter R = -1\.0 is out of range: valid range \(0, inf\) Ohm"),
                                   ("Kp", float("nan"), r"parameter Kp = nan is out of range"),
                                   ("omega", float("inf"), r"input omega = inf must be finite"),
@@ -196,7 +209,7 @@ def test_refusals_are_loud_with_logging_off_and_the_state_round_trips(fmus, tmp_
     fmu.freeInstance()
 
 
-@pytest.mark.parametrize("name", ["DriveSpeed", "DieCushion"])
+@pytest.mark.parametrize("name", ["DriveSpeed", "DieCushion", "RodString"])
 def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(fmus, name, tmp_path):
     """The win64 DLL under wine matches the linux64 binary over the default experiment to 1e-12 of
     each output's scale (the two C libraries' exp may differ in the last bits)."""
@@ -213,3 +226,73 @@ def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(fmus, name, tmp_pat
     for k, field in enumerate(fields, start=1):
         scale = max(np.max(np.abs(local[field])), 1e-300)
         assert np.max(np.abs(remote[k] - local[field])) <= 1e-12 * scale, field
+
+
+def test_the_rod_string_refuses_an_unbounded_step_and_its_state_round_trips(fmus, tmp_path):
+    """taper1_E = 1e300 would make the internal steps unbounded: refused at initialisation with
+    the value and its valid range (as the Python design says it), logging off; a valid string
+    hung and stepped, then its state (node arrays included) serialized and restored, continues bit
+    for bit; the instance is reset and initialised again with good values."""
+    from fmpy.fmi1 import FMICallException
+
+    fmu, vr, messages, keep = logged_instance(fmus["RodString"][0], tmp_path / "x")
+    with pytest.raises(FMICallException):
+        fmu.setReal([vr["courant"]], [1.5])
+    assert re.search(r"parameter courant = 1\.5 is out of range: valid range \(0, 1\]", messages[-1]), messages[-1]
+    fmu.setReal([vr["courant"]], [1.0])
+    fmu.setReal([vr["taper1_E"]], [1e300])
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    with pytest.raises(FMICallException):
+        fmu.exitInitializationMode()
+    assert re.search(r"cannot initialise: courant = 1\.0 and taper 1 E = 1e\+300 Pa .* taper 1 E must be at most "
+                     r"[\d.e+]+ Pa \(valid range \(0, ", messages[-1]), messages[-1]
+    fmu.reset()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    outputs = [vr[n] for n in ("F", "u_pump", "F_pump", "W_polished", "W_hydraulic")]
+    for k in range(50):
+        fmu.setReal([vr["s"], vr["v"]], [0.01 * k, 0.5])
+        fmu.doStep(currentCommunicationPoint=k * 0.02, communicationStepSize=0.02)
+    serialized = fmu.serializeFMUstate(fmu.getFMUstate())
+    for k in range(50, 100):
+        fmu.setReal([vr["s"], vr["v"]], [0.01 * k, 0.5])
+        fmu.doStep(currentCommunicationPoint=k * 0.02, communicationStepSize=0.02)
+    first = fmu.getReal(outputs)
+    fmu.setFMUstate(fmu.deSerializeFMUstate(serialized))
+    for k in range(50, 100):
+        fmu.setReal([vr["s"], vr["v"]], [0.01 * k, 0.5])
+        fmu.doStep(currentCommunicationPoint=k * 0.02, communicationStepSize=0.02)
+    assert fmu.getReal(outputs) == first
+    assert np.all(np.isfinite(first)) and first[0] > 0
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+def test_the_string_grid_in_c_equals_the_python_design():
+    """The grid the native RodString.fmu builds at initialisation (cc_string_grid) against
+    dynamics.rodstring's grid and design: the same node masses, weights and stiffnesses, Gibbs' c,
+    the fluid load, dt_max and Wrf, to the bit."""
+    import ctypes
+
+    from crankfmu.dynamics.rodstring import grid
+    from crankfmu.dynamics.well import STRING_KEYS, TAPER_KEYS, load_well
+    from crankfmu.native import LIBRARY
+
+    well = load_well("rp11l_guo")
+    for changes in ({}, {"segment": 3.7, "damping": 0.3, "fillage": 0.6, "p_tubing": 1e5}):
+        values = {**well.values, **changes}
+        design = well.design(values)
+        tapers = np.array([[values[f"taper{i}_{k}"] for k in TAPER_KEYS] for i in range(1, well.n_tapers + 1)]).ravel()
+        d = np.array([values[k] for k in STRING_KEYS])
+        why = ctypes.create_string_buffer(512)
+        n = LIBRARY.cc_string_nodes(well.n_tapers, tapers.ctypes.data, d.ctypes.data, why, 512)
+        g = grid(design)
+        assert n == g.mass.size, why.value
+        mass, weight, stiffness, out = np.zeros(n), np.zeros(n), np.zeros(n - 1), np.zeros(4)
+        LIBRARY.cc_string_grid(well.n_tapers, tapers.ctypes.data, d.ctypes.data, mass.ctypes.data,
+                               weight.ctypes.data, stiffness.ctypes.data, out.ctypes.data)
+        assert np.array_equal(mass, g.mass) and np.array_equal(weight, g.weight)
+        assert np.array_equal(stiffness, g.stiffness)
+        assert tuple(out) == (design.damping_coefficient, design.fluid_load, g.dt_max, design.buoyant_weight)

@@ -5,8 +5,8 @@ an empty HOME (env -i), against the same SSP made of the Python FMUs.
 Both builds step the same C (the mechanism's kernel on the same tables, the drive's exact step), so
 at each communication step they agree to rounding: 1e-9 of the run's scale in libcosim, which
 hands over every double; ecos writes its CSV with 6 decimals, so there the bar is that rounding.
-An SSP that sets a native FMU's fixed value, or needs a component that has no native build yet,
-is refused with one line naming each problem."""
+An SSP that sets a native FMU's fixed value (PressCushion.ssp, PumpingWell.ssp: the well's own
+unit), or holds a Python FMU, is refused with one line naming each problem."""
 
 from __future__ import annotations
 
@@ -105,16 +105,17 @@ def test_an_ssp_the_native_fmus_cannot_make_is_refused_in_one_line(folders, tmp_
                            str(tmp_path / "out"), "--system", "FourBarDrive"], capture_output=True, text=True)
     assert done.returncode != 0 and done.stderr.count("\n") == 1
     assert "Drive.fmu" in done.stderr and "is not a native FMU (its build: python)" in done.stderr
-    # the rod string has no native build yet
-    unit = ROOT / "build" / "fmus" / "native" / "PumpJack.fmu"
-    if unit.is_file():
-        shutil.copy2(unit, mixed / unit.name)
-    else:
-        assert main(["fmu", "pumpjack", "--native", "--out", str(mixed)]) == 0
+    # the well's unit: its geometry and counterweights are the well file's, not the pump jack's
+    for name, args in (("PumpJack", ["pumpjack"]), ("RodString", ["rp11l_guo", "--well"])):
+        built = ROOT / "build" / "fmus" / "native" / f"{name}.fmu"
+        if built.is_file():
+            shutil.copy2(built, mixed / built.name)
+        else:
+            assert main(["fmu", *args, "--native", "--out", str(mixed)]) == 0
     done = subprocess.run([sys.executable, "-m", "crankfmu", "ssp", "--native", "--fmus", str(mixed), "--out",
                            str(tmp_path / "out"), "--system", "PumpingWell"], capture_output=True, text=True)
     assert done.returncode != 0 and done.stderr.count("\n") == 1
-    assert "no RodString.fmu" in done.stderr and "has no native build yet" in done.stderr
+    assert "the SSP sets PumpJack.arm_A = 2.8321 (built for 1.8288)" in done.stderr and "PumpJack.crank_R = 0.944 (built for 0.6096)" in done.stderr, done.stderr
     assert not (tmp_path / "out").exists()
 
 
@@ -126,7 +127,7 @@ def test_a_value_the_native_fmu_was_not_built_for_is_refused(tmp_path):
     press = ROOT / "tests" / "data" / "user" / "togglepress_scenario.toml"
     assert main(["fmu", str(press), "--native", "--out", str(tmp_path)]) == 0
     assert main(["fmu", "die_cushion", "--cushion", "--native", "--out", str(tmp_path)]) == 0
-    with pytest.raises(CrankfmuError, match=r"Press\.k_cushion = 0\.0 in the SSP, but the native TogglePress\.fmu "
-                                            r"was built for 20000\.0.*Press\.c_cushion"):
+    with pytest.raises(CrankfmuError, match=r"the SSP sets Press\.k_cushion = 0\.0 \(built for 20000\.0\), "
+                                            r"Press\.c_cushion = 0\.0 \(built for 150\.0\)"):
         write_ssp(tmp_path, tmp_path / "out", system="PressCushion", native=True)
     assert SYSTEMS["PressCushion"].sources["Cushion"] == "DieCushion"

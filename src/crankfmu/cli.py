@@ -468,8 +468,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cushion", action="store_true",
                    help="SCENARIO is a cushion file (DieCushion.fmu: elements/die_cushion.toml)")
     p.add_argument("--native", action="store_true",
-                   help="a native FMU (C, linux64 and win64 binaries, no Python needed on the host); its geometry, "
-                        "masses and loads are fixed at build time")
+                   help="a native FMU (C, linux64 and win64 binaries, no Python needed on the host); a mechanism's "
+                        "geometry, masses and loads are fixed at build time, a component's parameters are all settable")
     p.add_argument("--causality", choices=("torque", "speed"), default=None,
                    help="what the crank takes: a torque (tau_ext, the default) or the speed omega1 (the FMU then "
                         "outputs tau_drive, the torque the drive must apply); default: the file's [crank] causality")

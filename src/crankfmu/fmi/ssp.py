@@ -207,11 +207,11 @@ def _check_native(spec: System, fmus: Path, sets: dict):
         if build != "native":
             problems.append(f"{stem}.fmu in {fmus} is not a native FMU (its build: {build or 'not crankfmu'})")
             continue
-        for name, value in sets["coupled"].get(comp, {}).items():
-            if name in fixed and value != fixed[name]:
-                problems.append(f"{comp}.{name} = {value!r} in the SSP, but the native {stem}.fmu was built for "
-                                f"{fixed[name]!r} (a native mechanism FMU's geometry, masses and loads are fixed when it "
-                                "is built: build it from a scenario file with these values)")
+        other = [f"{comp}.{name} = {value!r} (built for {fixed[name]!r})"
+                 for name, value in sets["coupled"].get(comp, {}).items() if name in fixed and value != fixed[name]]
+        if other:
+            problems.append(f"the SSP sets {', '.join(other)}, but a native mechanism FMU's geometry, masses and "
+                            f"loads are fixed when it is built: build {stem}.fmu from a scenario file with these values")
     if problems:
         raise CrankfmuError(f"{spec.name}.ssp cannot be made of native FMUs: " + "; ".join(problems))
 
@@ -226,8 +226,7 @@ def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float
     fmus, out = Path(fmus), Path(out)
     for stem in spec.sources.values():
         if not (fmus / f"{stem}.fmu").is_file():
-            what = (" (RodString.fmu has no native build yet)" if native and stem == "RodString" else
-                    f": build it with `crankfmu fmu ... --native --out {fmus}`" if native else ": run `make fmu` first")
+            what = f": build it with `crankfmu fmu ... --native --out {fmus}`" if native else ": run `make fmu` first"
             raise CrankfmuError(f"no {stem}.fmu in {fmus}{what}")
     if stop_time is None:
         stop_time = spec.stop_time

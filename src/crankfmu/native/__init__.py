@@ -102,6 +102,8 @@ def _load() -> ctypes.CDLL:
                                   ctypes.c_double, D]),
         "cc_string_advance": (None, [ctypes.c_int, D, D, D, ctypes.c_double, D, D, D, D, D, ctypes.c_double,
                                      ctypes.c_double, ctypes.c_double, D]),
+        "cc_string_nodes": (ctypes.c_int, [ctypes.c_int, D, D, ctypes.c_char_p, ctypes.c_int]),
+        "cc_string_grid": (None, [ctypes.c_int, D, D, D, D, D, D]),
         "ck_quantity_values": (None, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int, D, D, ctypes.c_double,
                                       ctypes.c_double, ctypes.c_double, D, D]),
         "ck_reaction_values": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, ctypes.c_int, D, ctypes.c_double,

@@ -1,8 +1,13 @@
 /* The components' physics (crank_components.h). */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "crank_components.h"
+#include "crank_numbers.h"
+
+/* pi as Python's math.pi (C99 names no PI) */
+static const double PI = 3.141592653589793;
 
 double cc_drive_voltage(const double* d, double x, double omega, double omega_set)
 {
@@ -167,4 +172,127 @@ void cc_string_advance(int n, const double* mass, const double* weight, const do
     for (int k = 1; k <= count; k++)
         cc_string_step(n, mass, weight, stiffness, c, pump, u, v, last_u, x, start + (top_end - start) * k / count,
                        h / count, scratch);
+}
+
+/* ------------------------------------------------------------------------ the string's design */
+static int segments(double length, double segment)
+{
+    double n = ceil(length / segment - 1e-9);
+    return n < 1.0 ? 1 : (n > 2.0 * CC_MAX_SEGMENTS ? 2 * CC_MAX_SEGMENTS + 1 : (int)n);
+}
+
+static double taper_area(const double* t) { return PI * (t[1] * t[1]) / 4; }
+static double wave_speed(const double* t) { return sqrt(t[2] * taper_area(t) / t[3]); }
+
+int cc_string_nodes(int n_tapers, const double* tapers, const double* d, char* why, int why_size)
+{
+    double depth = 0.0;
+    long total = 0;
+    for (int i = 0; i < n_tapers; i++) {
+        depth += tapers[4 * i];
+        total += segments(tapers[4 * i], d[CD_SEGMENT]);
+    }
+    if (total > CC_MAX_SEGMENTS) {
+        snprintf(why, (size_t)why_size, "segment = %s m cuts the %.6g m string into %ld segments, more than %d: "
+                 "valid range [%.4g, inf) m with these tapers", shortest(d[CD_SEGMENT]).text, depth, total, CC_MAX_SEGMENTS,
+                 depth / CC_MAX_SEGMENTS);
+        return 0;
+    }
+    for (int i = 0; i < n_tapers; i++) {
+        const double* t = tapers + 4 * i;
+        double dx = t[0] / segments(t[0], d[CD_SEGMENT]), a = wave_speed(t);
+        double dt = d[CD_COURANT] * dx / a;
+        if (!(dt >= CC_MIN_STEP)) {
+            double E_max = t[3] * pow(d[CD_COURANT] * dx / CC_MIN_STEP, 2) / taper_area(t);
+            double courant_min = CC_MIN_STEP * a / dx;
+            char also[160] = "";
+            if (courant_min <= 1.0)
+                snprintf(also, sizeof also, ", or courant at least %.4g (valid range [%.4g, 1])", courant_min,
+                         courant_min);
+            snprintf(why, (size_t)why_size, "courant = %s and taper %d E = %s Pa (wave speed %.3g m/s over "
+                     "%.4g m segments) make the string's internal step %.3g s, below %g s, and a second's steps "
+                     "would not end: with the other values as given, taper %d E must be at most %.4g Pa (valid "
+                     "range (0, %.4g])%s", shortest(d[CD_COURANT]).text, i + 1, shortest(t[2]).text, a, dx, dt,
+                     CC_MIN_STEP, i + 1, E_max, E_max,
+                     also);
+            return 0;
+        }
+    }
+    double p_discharge = d[CD_P_TUBING] + d[CD_RHO_FLUID] * d[CD_G] * depth;
+    double above = depth - d[CD_FLUID_LEVEL];
+    double p_intake = d[CD_P_CASING] + d[CD_RHO_FLUID] * d[CD_G] * (above > 0.0 ? above : 0.0);
+    double Fo = (p_discharge - p_intake) * (PI * (d[CD_PLUNGER_DIAMETER] * d[CD_PLUNGER_DIAMETER]) / 4);
+    if (Fo < 0) {
+        snprintf(why, (size_t)why_size, "the fluid load is negative (%g N): the intake pressure exceeds the discharge "
+                 "pressure", Fo);
+        return 0;
+    }
+    return (int)total + 1;
+}
+
+void cc_string_grid(int n_tapers, const double* tapers, const double* d, double* mass, double* weight,
+                    double* stiffness, double* out)
+{
+    double buoyancy = 1.0 - d[CD_RHO_FLUID] / d[CD_RHO_STEEL];
+    double depth = 0.0, travel = 0.0, dt_max = INFINITY, weight_in_air = 0.0;
+    int n_nodes = 1;
+    for (int i = 0; i < n_tapers; i++) n_nodes += segments(tapers[4 * i], d[CD_SEGMENT]);
+    for (int j = 0; j < n_nodes; j++) mass[j] = weight[j] = 0.0;
+    int seg = 0;
+    for (int i = 0; i < n_tapers; i++) {
+        const double* t = tapers + 4 * i;
+        int n = segments(t[0], d[CD_SEGMENT]);
+        double dx = t[0] / n, a = wave_speed(t);
+        for (int k = 0; k < n; k++, seg++) {
+            double m = t[3] * dx, w = t[3] * dx * d[CD_G] * buoyancy;
+            mass[seg] += m / 2;            /* the node above the segment, then the one below */
+            weight[seg] += w / 2;
+            stiffness[seg] = t[2] * taper_area(t) / dx;
+        }
+        double dt = d[CD_COURANT] * dx / a;
+        if (dt < dt_max) dt_max = dt;
+        depth += t[0];
+        travel += t[0] / a;
+        weight_in_air += t[3] * t[0];
+    }
+    /* the nodes below each segment get the other halves, in the reference's order */
+    seg = 0;
+    for (int i = 0; i < n_tapers; i++) {
+        const double* t = tapers + 4 * i;
+        int n = segments(t[0], d[CD_SEGMENT]);
+        double dx = t[0] / n;
+        for (int k = 0; k < n; k++, seg++) {
+            mass[seg + 1] += t[3] * dx / 2;
+            weight[seg + 1] += t[3] * dx * d[CD_G] * buoyancy / 2;
+        }
+    }
+    double p_discharge = d[CD_P_TUBING] + d[CD_RHO_FLUID] * d[CD_G] * depth;
+    double above = depth - d[CD_FLUID_LEVEL];
+    double p_intake = d[CD_P_CASING] + d[CD_RHO_FLUID] * d[CD_G] * (above > 0.0 ? above : 0.0);
+    out[0] = PI * d[CD_DAMPING] * (depth / travel) / (2 * depth);
+    out[1] = (p_discharge - p_intake) * (PI * (d[CD_PLUNGER_DIAMETER] * d[CD_PLUNGER_DIAMETER]) / 4);
+    out[2] = dt_max;
+    out[3] = weight_in_air * d[CD_G] * buoyancy;
+}
+
+void cc_string_hang(int n, const double* weight, const double* stiffness, double t, double top, double* u,
+                    double* v, double* x)
+{
+    /* the weight below each node, from the bottom up; segment j carries the nodes below it */
+    double below = weight[n - 1];
+    u[0] = top;
+    double* tension = v;                 /* v holds the tensions until the positions are summed */
+    for (int j = n - 2; j >= 0; j--) {
+        tension[j] = below + 0.0;
+        below += weight[j];
+    }
+    double sum = 0.0;
+    for (int j = 0; j < n - 1; j++) {
+        sum += tension[j] / stiffness[j];
+        u[j + 1] = top + sum;
+    }
+    x[CS_LOAD] = tension[0] + weight[0];
+    for (int j = 0; j < n; j++) v[j] = 0.0;
+    x[CS_T] = t;
+    x[CS_WORK] = x[CS_DAMPING] = 0.0;
 }

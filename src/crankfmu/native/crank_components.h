@@ -49,4 +49,22 @@ CK_API void cc_string_advance(int n, const double* mass, const double* weight, c
                               const double* pump, double* u, double* v, double* last_u, double* x, double top_end,
                               double h, double dt_max, double* scratch);
 
+/* The string's design (dynamics/rodstring.py's StringDesign and grid, the reference): its tapers,
+ * top first, each (length m, diameter m, E Pa, mass per length kg/m), and its values in
+ * CS_DESIGN order. cc_string_nodes: the grid's node count, or 0 with the reason in why (a value
+ * that makes a step unbounded, a negative fluid load), as the Python design's check says it. */
+enum { CD_RHO_FLUID, CD_RHO_STEEL, CD_PLUNGER_DIAMETER, CD_FLUID_LEVEL, CD_P_TUBING, CD_P_CASING, CD_DAMPING,
+       CD_FRICTION, CD_FILLAGE, CD_G, CD_SEGMENT, CD_COURANT, CD_SIZE };
+#define CC_MAX_SEGMENTS 100000
+#define CC_MIN_STEP 1e-6
+CK_API int cc_string_nodes(int n_tapers, const double* tapers, const double* design, char* why, int why_size);
+/* the grid: node masses and buoyant weights (n), segment stiffnesses (n - 1), and out = (Gibbs' c
+ * 1/s, the fluid load Fo N, the largest stable step dt_max s, the buoyant weight Wrf N) */
+CK_API void cc_string_grid(int n_tapers, const double* tapers, const double* design, double* mass, double* weight,
+                           double* stiffness, double* out);
+/* at rest at time t in static equilibrium hanging from the polished rod at top (the pump holding
+ * nothing): u, v and the scalars x (the load; works and the pump's state from zero) */
+CK_API void cc_string_hang(int n, const double* weight, const double* stiffness, double t, double top, double* u,
+                           double* v, double* x);
+
 #endif

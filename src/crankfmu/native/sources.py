@@ -7,7 +7,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 #: the mechanism's kernel, and the components' physics (the drive, the cushion)
-KERNEL = ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h")
+KERNEL = ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h", "crank_numbers.c", "crank_numbers.h")
 COMPONENTS = ("crank_components.c", "crank_components.h")
 SOURCES = KERNEL + COMPONENTS
 #: the C files the library is compiled from (the mechanism's kernel and the components' physics)

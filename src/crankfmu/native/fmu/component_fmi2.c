@@ -8,9 +8,10 @@
  * whatever loggingOn says and the call returns fmi2Error; a value out of its range, not finite, or
  * a fixed parameter set after initialisation is refused with the parameter, the value and its
  * valid range; a step at a time that is not the FMU's own is refused. An instance that failed
- * refuses further steps until it is reset. The whole instance state is one struct: the FMU state
- * is a copy of it and serializes as its bytes behind a tag. Nothing allocates after
- * fmi2Instantiate except for an FMU state. */
+ * refuses further steps until it is reset. The instance state is one struct and the model's state
+ * array (its size known at initialisation: a rod string's grid follows its tapers): the FMU state
+ * is a copy of both and serializes as their bytes behind a tag. Nothing allocates after
+ * fmi2Instantiate except the model's state at initialisation and an FMU state. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -26,10 +27,11 @@ static const char* PHASE[] = {"instantiated", "initialization mode", "stepping",
 
 typedef struct {
     double values[N_VARIABLES];
-    double state[MAX_STATE];
     double time;
     int phase;
     int refused[N_VARIABLES];      /* a refused value: initialisation and steps fail until it is set well */
+    int n_state;                   /* the model's state: 0 before initialisation */
+    double* state;
 } Snapshot;
 
 typedef struct {
@@ -64,6 +66,7 @@ static fmi2Status error(Instance* in, const char* format, ...)
 
 static void start_values(Instance* in)
 {
+    free(in->now.state);
     memset(&in->now, 0, sizeof in->now);
     for (int i = 0; i < N_VARIABLES; i++) in->now.values[i] = VARIABLES[i].start;
     in->now.time = DEFAULT_START_TIME;
@@ -101,7 +104,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     return in;
 }
 
-void fmi2FreeInstance(fmi2Component c) { free(c); }
+void fmi2FreeInstance(fmi2Component c)
+{
+    if (!c) return;
+    free(((Instance*)c)->now.state);
+    free(c);
+}
 
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
                                const fmi2String categories[])
@@ -158,8 +166,6 @@ static int outputs_finite(const Instance* in)
 {
     for (int i = 0; i < N_VARIABLES; i++)
         if (VARIABLES[i].kind == KIND_OUTPUT && !isfinite(in->now.values[i])) return 0;
-    for (int k = 0; k < MAX_STATE; k++)
-        if (!isfinite(in->now.state[k])) return 0;
     return 1;
 }
 
@@ -178,7 +184,20 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
         return error(in, "cannot initialise: no valid value set for %s (each was refused with its valid range; "
                      "set a valid value, or reset)", names);
     }
-    model_start(in->now.values, in->now.state);
+    char why[1024] = "";
+    int size = model_state_size(in->now.values, why, (int)sizeof why);
+    if (size <= 0) {
+        in->now.phase = FAILED;
+        return error(in, "cannot initialise: %s", why);
+    }
+    free(in->now.state);
+    in->now.state = (double*)calloc((size_t)size, sizeof(double));
+    if (!in->now.state) {
+        in->now.phase = FAILED;
+        return error(in, "cannot initialise: no memory for the model's %d values", size);
+    }
+    in->now.n_state = size;
+    model_start(in->now.values, in->now.time, in->now.state);
     model_outputs(in->now.values, in->now.state);
     if (!outputs_finite(in)) {
         in->now.phase = FAILED;
@@ -235,11 +254,9 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     int r = first_refused(in);
     if (r >= 0) return error(in, "fmi2DoStep: cannot step: %s has no valid value (valid range %s)", VARIABLES[r].name,
                              VARIABLES[r].range_text);
-    Snapshot before = in->now;
     model_step(in->now.values, in->now.state, target - in->now.time);
     model_outputs(in->now.values, in->now.state);
     if (!outputs_finite(in)) {
-        in->now = before;
         in->now.phase = FAILED;
         return error(in, "step from t = %s s gave non-finite values: check the inputs and parameters",
                      shortest(currentCommunicationPoint).text);
@@ -372,15 +389,33 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 }
 
 /* ---------------------------------------------------------------------------- FMU state */
-static const char STATE_TAG[16] = "crankfmu-comp-01";
+static const char STATE_TAG[16] = "crankfmu-comp-02";
+
+/* a snapshot's copy into *to (its state array reallocated to the size), 0 when out of memory */
+static int copy_snapshot(Snapshot* to, const Snapshot* from)
+{
+    double* state = to->state;
+    if (to->n_state != from->n_state) {
+        free(state);
+        state = from->n_state ? (double*)malloc((size_t)from->n_state * sizeof(double)) : NULL;
+        if (from->n_state && !state) {
+            to->state = NULL;
+            to->n_state = 0;
+            return 0;
+        }
+    }
+    *to = *from;
+    to->state = state;
+    if (from->n_state) memcpy(state, from->state, (size_t)from->n_state * sizeof(double));
+    return 1;
+}
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate* state)
 {
     Instance* in = (Instance*)c;
     if (!in || !state) return fmi2Error;
-    Snapshot* copy = *state ? (Snapshot*)*state : (Snapshot*)malloc(sizeof(Snapshot));
-    if (!copy) return error(in, "%s", "fmi2GetFMUstate: out of memory");
-    *copy = in->now;
+    Snapshot* copy = *state ? (Snapshot*)*state : (Snapshot*)calloc(1, sizeof(Snapshot));
+    if (!copy || !copy_snapshot(copy, &in->now)) return error(in, "%s", "fmi2GetFMUstate: out of memory");
     *state = copy;
     return fmi2OK;
 }
@@ -390,25 +425,34 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
     Instance* in = (Instance*)c;
     if (!in) return fmi2Error;
     if (!state) return error(in, "%s", "fmi2SetFMUstate: no state");
-    in->now = *(const Snapshot*)state;
+    if (!copy_snapshot(&in->now, (const Snapshot*)state)) {
+        start_values(in);
+        return error(in, "%s", "fmi2SetFMUstate: out of memory (the instance is reset)");
+    }
     return fmi2OK;
 }
 
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* state)
 {
     if (!c) return fmi2Error;
-    if (state) {
+    if (state && *state) {
+        free(((Snapshot*)*state)->state);
         free(*state);
         *state = NULL;
     }
     return fmi2OK;
 }
 
+static size_t serialized_size(const Snapshot* s)
+{
+    return sizeof STATE_TAG + sizeof(Snapshot) + (size_t)s->n_state * sizeof(double);
+}
+
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t* size)
 {
-    (void)state;
     if (!c || !size) return fmi2Error;
-    *size = sizeof STATE_TAG + sizeof(Snapshot);
+    if (!state) return error((Instance*)c, "%s", "fmi2SerializedFMUstateSize: no state");
+    *size = serialized_size((const Snapshot*)state);
     return fmi2OK;
 }
 
@@ -416,11 +460,15 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte b
 {
     Instance* in = (Instance*)c;
     if (!in) return fmi2Error;
-    if (!state || !bytes || size < sizeof STATE_TAG + sizeof(Snapshot))
+    const Snapshot* s = (const Snapshot*)state;
+    if (!s || !bytes || size < serialized_size(s))
         return error(in, "%s", "fmi2SerializeFMUstate: no state, or the buffer is smaller than "
                                "fmi2SerializedFMUstateSize");
+    Snapshot head = *s;
+    head.state = NULL;
     memcpy(bytes, STATE_TAG, sizeof STATE_TAG);
-    memcpy(bytes + sizeof STATE_TAG, state, sizeof(Snapshot));
+    memcpy(bytes + sizeof STATE_TAG, &head, sizeof head);
+    if (s->n_state) memcpy(bytes + sizeof STATE_TAG + sizeof head, s->state, (size_t)s->n_state * sizeof(double));
     return fmi2OK;
 }
 
@@ -428,15 +476,28 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size
 {
     Instance* in = (Instance*)c;
     if (!in || !state) return fmi2Error;
-    if (!bytes || size != sizeof STATE_TAG + sizeof(Snapshot) || memcmp(bytes, STATE_TAG, sizeof STATE_TAG) != 0)
+    Snapshot head;
+    if (!bytes || size < sizeof STATE_TAG + sizeof head || memcmp(bytes, STATE_TAG, sizeof STATE_TAG) != 0)
         return error(in, "fmi2DeSerializeFMUstate: these %u bytes are not a state of this FMU", (unsigned)size);
-    Snapshot* copy = *state ? (Snapshot*)*state : (Snapshot*)malloc(sizeof(Snapshot));
+    memcpy(&head, bytes + sizeof STATE_TAG, sizeof head);
+    head.state = NULL;
+    if (head.phase < INSTANTIATED || head.phase > FAILED || head.n_state < 0 || size != serialized_size(&head))
+        return error(in, "fmi2DeSerializeFMUstate: these %u bytes are not a state of this FMU", (unsigned)size);
+    Snapshot* copy = *state ? (Snapshot*)*state : (Snapshot*)calloc(1, sizeof(Snapshot));
     if (!copy) return error(in, "%s", "fmi2DeSerializeFMUstate: out of memory");
-    memcpy(copy, bytes + sizeof STATE_TAG, sizeof(Snapshot));
-    if (copy->phase < INSTANTIATED || copy->phase > FAILED) {
-        if (!*state) free(copy);
-        return error(in, "%s", "fmi2DeSerializeFMUstate: the state's phase is not one of this FMU's");
+    double* keep = copy->state;
+    int keep_n = copy->n_state;
+    if (keep_n != head.n_state) {
+        free(keep);
+        keep = head.n_state ? (double*)malloc((size_t)head.n_state * sizeof(double)) : NULL;
+        if (head.n_state && !keep) {
+            if (!*state) free(copy);
+            return error(in, "%s", "fmi2DeSerializeFMUstate: out of memory");
+        }
     }
+    *copy = head;
+    copy->state = keep;
+    if (head.n_state) memcpy(keep, bytes + sizeof STATE_TAG + sizeof head, (size_t)head.n_state * sizeof(double));
     *state = copy;
     return fmi2OK;
 }

@@ -20,10 +20,12 @@ typedef struct {
 
 extern const Variable VARIABLES[N_VARIABLES];
 
-/* the component's model (component_models.c): its state, started from the values, stepped by h s
- * with the inputs held, and the outputs written into the values */
-enum { MAX_STATE = 4 };
-void model_start(const double* values, double* state);
+/* the component's model (component_models.c): the size of its state for the values set (a rod
+ * string's grid follows its tapers), or 0 with the reason in why when the values make no model;
+ * its state started at time t from the values; stepped by h s with the inputs held; and its
+ * outputs written into the values */
+int model_state_size(const double* values, char* why, int why_size);
+void model_start(const double* values, double t, double* state);
 void model_step(const double* values, double* state, double h);
 void model_outputs(double* values, const double* state);
 

@@ -27,24 +27,3 @@ void fmu_log(const fmi2CallbackFunctions* cb, fmi2String instance, int logging_o
     escaped[k] = '\0';
     cb->logger(cb->componentEnvironment, instance, status, category, escaped);
 }
-
-Number shortest(double x)
-{
-    Number n;
-    if (!isfinite(x)) {
-        snprintf(n.text, sizeof n.text, "%s", x != x ? "nan" : (x > 0 ? "inf" : "-inf"));
-        return n;
-    }
-    int digits = 1;
-    for (; digits < 17; digits++) {
-        snprintf(n.text, sizeof n.text, "%.*e", digits - 1, x);
-        if (strtod(n.text, NULL) == x) break;
-    }
-    snprintf(n.text, sizeof n.text, "%.*e", digits - 1, x);
-    int exponent = atoi(strchr(n.text, 'e') + 1);
-    if (x != 0.0 && (exponent < -4 || exponent >= 16)) return n;          /* 1e-11, 1e+300 */
-    int decimals = digits - 1 - exponent;
-    snprintf(n.text, sizeof n.text, "%.*f", decimals > 1 ? decimals : 1, x);
-    return n;
-}
-
