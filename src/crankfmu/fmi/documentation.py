@@ -111,7 +111,9 @@ def what_it_is(model_description: bytes, about: dict) -> str:
     interfaces = [t for t in ("CoSimulation", "ModelExchange") if root.find(t) is not None]
     native = about.get("build") == "native"
     rows = [
-        ("build", "native: C, the model tabulated at build time, stepped by crankfmu's C kernel" if native
+        ("build", ("native: C, the model tabulated at build time, stepped by crankfmu's C kernel"
+                   if "table_error" in about else "native: C, the component's model compiled in "
+                   "(crank_components.c, the C its Python FMU runs too)") if native
          else "Python: pythonfmu runs crankfmu's model in the host's Python"),
         ("FMI", f"{root.get('fmiVersion')}, {' and '.join(interfaces).replace('CoSimulation', 'Co-Simulation').replace('ModelExchange', 'Model Exchange')}"),
         ("platforms", ", ".join(about.get("platforms", [])) or "-"),
