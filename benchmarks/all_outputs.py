@@ -29,28 +29,22 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def fmpy_per_step(fmu_path: Path, step: float, stop: float, repeats: int) -> float:
     """Median seconds per step through fmpy, every Real variable read after each step."""
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
+    from fmpy import read_model_description
 
-    md = read_model_description(str(fmu_path))
+    from fmu_step import initialised
+
+    reals = [v.valueReference for v in read_model_description(str(fmu_path)).modelVariables if v.type == "Real"]
+    times = []
     with tempfile.TemporaryDirectory() as tmp:
-        unzipped = extract(str(fmu_path), unzipdir=tmp)
-        vrs = [v.valueReference for v in md.modelVariables if v.type == "Real"]
-        times = []
-        for _ in range(repeats):
-            fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
-                            instanceName="bench")
-            fmu.instantiate()
-            fmu.setupExperiment(startTime=0.0)
-            fmu.enterInitializationMode()
-            fmu.exitInitializationMode()
+        for k in range(repeats):
+            fmu, _ = initialised(fmu_path, str(Path(tmp) / str(k)))
             n = int(round(stop / step))
             t = 0.0
             started = time.perf_counter()
             for _ in range(n):
                 fmu.doStep(t, step)
                 t += step
-                fmu.getReal(vrs)
+                fmu.getReal(reals)
             times.append((time.perf_counter() - started) / n)
             fmu.terminate()
             fmu.freeInstance()

@@ -184,8 +184,8 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
             fmu += "Speed"
         source = Source(kind, scenario.name, fmu, title, scenario.experiment, core,
                         {v.name: v.initial for v in outputs}, groups, lambda: reference(scenario),
-                        lambda f, md, params, ref, **about: documentation.scenario_documentation(f, scenario, md, params, ref,
-                                                                                            **about),
+                        lambda f, md, params, ref, **about: documentation.scenario_documentation(
+                            f, scenario, md, params, ref, speed=causality == "speed", **about),
                         lambda: core_module.declared(scenario), load=scenario.name, causality=causality)
         if _is_path(name):
             source.load, source.files = _user_files(scenario, name)

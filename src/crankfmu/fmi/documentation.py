@@ -235,12 +235,12 @@ the instance stays usable (set a good value, or reset it).</p>"""
 
 
 def scenario_documentation(name: str, scenario, model_description: bytes, parameters: dict,
-                           reference_csv: str | None, **about) -> dict[str, bytes]:
+                           reference_csv: str | None, speed: bool = False, **about) -> dict[str, bytes]:
     """documentation/ files of a mechanism FMU: index.html, mechanism.png, default_experiment.png.
-    ``about``: ``build`` ("python" or "native"), ``platforms``, and a native FMU's ``table_error``."""
+    ``speed``: the FMU is speed-causal. ``about``: ``build`` ("python" or "native"), ``platforms``,
+    and a native FMU's ``table_error``."""
     definition = scenario.mechanism_definition()
     native = about.get("build") == "native"
-    speed = "tau_drive" in model_description.decode(errors="replace")
     files = {"documentation/mechanism.png": mechanism_png(scenario)}
     contours = "\n".join(f'<div class="equation">{math(text + " == 0")}<p class="note">contour '
                          f"{html.escape(cname)}</p></div>" for cname, text in definition.contour_sources)

@@ -115,6 +115,18 @@ def reproduces(figure: Figure, paper_figures: dict) -> list[str]:
     return out
 
 
+def _json_files(root: Path, name: str, skip: set[Path]):
+    """(folder, its parsed ``name``) for each such file under ``root`` outside ``skip``; a file that
+    is not JSON is passed over (a study still writing it)."""
+    for path in sorted(root.rglob(name)):
+        if any(s in path.resolve().parents for s in skip):
+            continue
+        try:
+            yield path.parent, json.loads(path.read_text(encoding="utf-8"))
+        except ValueError:
+            continue
+
+
 def collect(root: Path, skip: set[Path]) -> dict[str, Group]:
     """The figures under ``root`` by data file, and the published-figure tables of the studies'
     summaries. A figure that names no data file belongs to the figures beside it that do, else to
@@ -134,26 +146,16 @@ def collect(root: Path, skip: set[Path]) -> dict[str, Group]:
                     or "other")
         group = groups.setdefault(scenario, Group(scenario))
         group.figures.append(Figure(path.relative_to(root), info["title"], info["caption"], scenario))
-    for summary in sorted(root.rglob("summary.json")):
-        if any(s in summary.resolve().parents for s in skip):
-            continue
-        try:
-            data = json.loads(summary.read_text(encoding="utf-8"))
-        except ValueError:
-            continue
+    def group_of_folder(folder: Path, data) -> Group:
+        name = ((data.get("scenario") if isinstance(data, dict) else None) or by_folder.get(folder)
+                or _folder_scenario(folder, root) or "other")
+        return groups.setdefault(name, Group(name))
+
+    for folder, data in _json_files(root, "summary.json", skip):
         if isinstance(data, dict) and isinstance(data.get("reference"), dict):
-            name = (data.get("scenario") or by_folder.get(summary.parent) or _folder_scenario(summary.parent, root)
-                    or "other")
-            groups.setdefault(name, Group(name)).references.append((summary.parent.relative_to(root), data["reference"]))
-    for claims in sorted(root.rglob("claims.json")):
-        if any(s in claims.resolve().parents for s in skip):
-            continue
-        try:
-            data = json.loads(claims.read_text(encoding="utf-8"))
-        except ValueError:
-            continue
-        name = by_folder.get(claims.parent) or _folder_scenario(claims.parent, root) or "other"
-        groups.setdefault(name, Group(name)).claims.append((claims.parent.relative_to(root), data))
+            group_of_folder(folder, data).references.append((folder.relative_to(root), data["reference"]))
+    for folder, data in _json_files(root, "claims.json", skip):
+        group_of_folder(folder, None).claims.append((folder.relative_to(root), data))
     for g in groups.values():
         _describe(g)
     return groups
