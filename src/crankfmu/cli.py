@@ -502,6 +502,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-strokes", type=int, default=40, help="give up on steady state after this many strokes")
     p.add_argument("--frames", type=int, default=60, help="frames of the animation")
     p.add_argument("--no-animation", action="store_true")
+    p.add_argument("--reference-loop", action="store_true",
+                   help="step the unit and the string in Python (crankfmu.well.CoupledWell.step), the reference the C "
+                        "loop is tested against: the same numbers, about five times slower")
     p.set_defaults(func=cmd_well)
 
     p = sub.add_parser("page", help="the results page: FOLDER/index.html shows every figure and animation under "
@@ -532,11 +535,12 @@ def cmd_well(args) -> int:
     import json
 
     from .atomic import replacing
+    from .pictures.together import both
     from .pictures.well import animation_gif, cards_png, torque_png
     from .progress import ProgressBar
     from .studies import well as study
 
-    well, cw, strokes = study.run(args.well, max_strokes=args.max_strokes)
+    well, cw, strokes = study.run(args.well, max_strokes=args.max_strokes, in_c=not args.reference_loop)
     stroke = strokes[-1]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -547,12 +551,21 @@ def cmd_well(args) -> int:
         partial.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
     parts = study.torque_parts(cw, stroke)
     title = f"{well.title}\n{60 / stroke.period:.2f} strokes/min, stroke {len(strokes)} (steady)"
-    cards_png(stroke, cw.string.design, out, title, well.name)
-    torque_png(stroke, parts, study.api_rod_torque(cw, stroke, parts), out, title, well.name)
-    if not args.no_animation:
+    api = study.api_rod_torque(cw, stroke, parts)
+
+    def figures():
+        cards_png(stroke, cw.string.design, out, title, well.name)
+        torque_png(stroke, parts, api, out, title, well.name)
+
+    def animation():
         bar = ProgressBar(args.frames, "animation")
         animation_gif(cw, stroke, out, frames=args.frames, progress=bar, scenario=well.name)
         bar.close()
+
+    if args.no_animation:
+        figures()
+    else:
+        both(figures, animation)                 # on two cores at once
     f = result["field_units"]
     print(f"{well.name}: steady after {len(strokes)} strokes at {result['strokes_per_minute']:.3f} strokes/min "
           f"(the last two cards differ by {result['card_change_last_stroke']:.1e} of the peak load)")

@@ -34,7 +34,8 @@ from .dynamics.rodstring import RodString, StringDesign
 from .dynamics.tabulated import table_of
 from .dynamics.well import WellFile
 from .errors import DefinitionError
-from .integrators.fast import TABLE_TOLERANCE, FastStepper
+from .numerics import bracketed_roots
+from .integrators.fast import TABLE_TOLERANCE, FastStepper, refused
 
 #: the unit scenario's data-file rod loads, replaced by the string on the rope port
 ROD_LOADS_OFF = {"W_rods": 0.0, "W_rods_buoyant": 0.0, "W_fluid": 0.0}
@@ -101,7 +102,7 @@ def motor_line(rated_power: float, rated_slip: float, omega_sync: float) -> Moto
 
 
 def unit_scenario(well: WellFile, design: StringDesign | None = None, m_cw: float | None = None,
-                  progress: bool = False):
+                  progress: bool = False, in_c: bool = True):
     """The unit's scenario for this well: its [unit.parameters], the data-file rod loads off, the
     counterweights (``m_cw`` in kg, or from the [unit] counterbalance: balanced by runs of the
     well, ``balanced_counterweight``, or the counterweights of a counterbalance effect), and the
@@ -130,7 +131,7 @@ def unit_scenario(well: WellFile, design: StringDesign | None = None, m_cw: floa
     if m_cw is None:
         spec = counterbalance_spec(well)
         if spec == "balanced":
-            m_cw = balanced_counterweight(well, scenario, design, progress=progress)
+            m_cw = balanced_counterweight(well, scenario, design, progress=progress, in_c=in_c)
         else:
             m_cw = counterweight_mass(scenario, rp11l_counterbalance(design) if spec == "rp11l" else spec)
     return scenario.with_params(m_cw=m_cw)
@@ -146,11 +147,15 @@ def target_speed(well: WellFile) -> float:
 # ------------------------------------------------------------------------------- one model
 class CoupledWell:
     """The unit and the string as one model (module docstring). ``step()`` advances one string
-    step; ``t``, ``y`` (the unit's state), ``row`` (the kernel's output row) and ``load_end`` (the
-    polished rod load) are the state after it."""
+    step, ``run_until`` many (in C unless ``in_c`` is False: crank_well.c states step() again, and
+    tests/test_well_c.py holds the two equal to the bit); ``t``, ``y`` (the unit's state), ``row``
+    (the kernel's output row) and ``load_end`` (the polished rod load) are the state after it."""
 
-    def __init__(self, scenario, design: StringDesign, dt: float | None = None, rtol: float = 1e-10):
+    def __init__(self, scenario, design: StringDesign, dt: float | None = None, rtol: float = 1e-10,
+                 in_c: bool = True):
         self.scenario = scenario
+        self.in_c = in_c                 # run_until steps in C (crank_well.c); False: step() here, its reference
+        self._c_steps = self._c_bound = None
         self.model = scenario.build()
         self.port = rope_port(scenario)
         self.i_port = [p.name for p in scenario.ports].index(PORT)
@@ -159,7 +164,7 @@ class CoupledWell:
         table = table_of(self.model.reduced, TABLE_TOLERANCE)
         self.motor = MotorLine(v["A"], v["B"], v["A_low"], v["B_low"], v["omega_switch"])
         self.stepper = FastStepper(table, self.motor, self.model.reduced.J_flywheel, rtol)
-        self.rope = RopeMotion(self.model, self.port)
+        self.rope = RopeMotion.of(scenario, self.model, self.port)
         self.string = RodString(design, dt=dt or 0.0)
         self.dt = self.string.dt
         self.t = 0.0
@@ -202,10 +207,65 @@ class CoupledWell:
         self.load_end = load_b
         self.t = t + dt
 
+    def run_until(self, phi_stop: float, record: bool = False) -> np.ndarray | None:
+        """Steps until the crank angle reaches ``phi_stop`` (rad); with ``record``, the samples after
+        each step (rows of FIELDS)."""
+        if not self.in_c:
+            rows = []
+            while self.y[0] < phi_stop:
+                self.step()
+                if record:
+                    rows.append(_sample(self))
+            return np.array(rows, dtype=float).reshape(-1, len(FIELDS)) if record else None
+        steps = self._bind_c()
+        chunks, capacity = [], 4096
+        while True:
+            samples = np.empty((capacity, len(FIELDS))) if record else None
+            k, self.t, self.load_end, status = steps.run(self.t, self.load_end, phi_stop, capacity, samples)
+            if record:
+                chunks.append(samples[:k])
+            if status or k < capacity:
+                break
+        self.string.from_kernel()
+        self.row = self.stepper.row.copy()
+        if status:
+            refused(status, self.stepper.state)
+        return np.concatenate(chunks) if record else None
+
+    def _bind_c(self):
+        """The C steps on this model's arrays (bound again when step() has replaced one)."""
+        u, v, last_u, x = self.string.to_kernel()
+        arrays = (self.y, u, v, last_u, x)
+        if self._c_bound is None or any(a is not b for a, b in zip(arrays, self._c_bound)):
+            if not (self.y.dtype == np.float64 and self.y.flags.c_contiguous):
+                self.y = np.array(self.y, dtype=float)
+                arrays = (self.y, *arrays[1:])
+            self._c_steps = kernel.WellSteps(self.stepper, self.y, self.i_port, self.n_ports, self.rope.breakpoints,
+                                             self.rope.cubic_array, self.rope.h, self.string.kernel, self.string.c,
+                                             u, v, last_u, x, self.dt)
+            self._c_bound = arrays
+        return self._c_steps
+
 
 class RopeMotion:
     """The rope port's coordinate s(phi1) (m) and s'(phi1), as periodic cubics on 4096 angles from
     the mechanism's kinematics: the one model asks for it every string step."""
+
+    #: by the unit's geometry and port: the balancing runs change the counterweights only
+    _CACHE: dict = {}
+
+    @classmethod
+    def of(cls, scenario, model, port) -> "RopeMotion":
+        """The rope's motion of this unit, shared by units of the same geometry."""
+        # everything but the masses and the loads moves the rope, or may
+        still = set(scenario.mechanism_definition().mass_parameters) | set(scenario.load_parameters())
+        key = (str(scenario.mechanism_name), repr(port),
+               tuple(sorted((name, value) for name, value in scenario.values.items() if name not in still)))
+        if key not in cls._CACHE:
+            if len(cls._CACHE) > 64:
+                cls._CACHE.clear()
+            cls._CACHE[key] = cls(model, port)
+        return cls._CACHE[key]
 
     def __init__(self, model, port, n: int = 4096):
         from scipy.interpolate import CubicHermiteSpline
@@ -218,12 +278,15 @@ class RopeMotion:
         self.ds = self.s.derivative()
         # the same cubics as plain floats: the coupled model asks for a position twice per string
         # step, where scipy's call costs ten times the arithmetic
-        self._h = 2 * math.pi / n
+        self.h = 2 * math.pi / n
         self._cubics = [tuple(float(c) for c in self.s.c[:, i]) for i in range(n)]
+        # the same as arrays for the C steps (crank_well.c): breakpoints, and (c3, c2, c1, c0) per interval
+        self.breakpoints = np.ascontiguousarray(self.s.x[:-1], dtype=float)
+        self.cubic_array = np.ascontiguousarray(self.s.c.T, dtype=float)
 
     def position(self, phi: float) -> float:
         x = phi % (2 * math.pi)
-        i = min(int(x / self._h), len(self._cubics) - 1)
+        i = min(int(x / self.h), len(self._cubics) - 1)
         c3, c2, c1, c0 = self._cubics[i]
         u = x - self.s.x[i]
         return ((c3 * u + c2) * u + c1) * u + c0
@@ -266,13 +329,13 @@ def _sample(cw: CoupledWell) -> list[float]:
 
 def bottom_angle(cw: CoupledWell) -> float:
     """The crank angle (rad, in [0, 2 pi)) of the polished rod's lowest point."""
-    from scipy.optimize import brentq
-
     phi = np.linspace(0.0, 2 * math.pi, 3601)[:-1]
     i = int(np.argmax(cw.rope.s(phi)))
     # refine on the cubic: s'(phi) = 0 near phi[i]
-    a, b = phi[i] - 2 * math.pi / 3600, phi[i] + 2 * math.pi / 3600
-    return brentq(lambda p: cw.rope.velocity(p, 1.0), a, b) % (2 * math.pi)
+    ends = np.array([phi[i] - 2 * math.pi / 3600, phi[i] + 2 * math.pi / 3600])
+    rate = lambda p: cw.rope.ds(np.mod(p, 2 * math.pi))  # noqa: E731
+    fa, fb = rate(ends)
+    return float(bracketed_roots(rate, ends[:1], ends[1:], [fa], [fb])[0]) % (2 * math.pi)
 
 
 def card_change(a: Stroke, b: Stroke) -> float:
@@ -285,32 +348,29 @@ def card_change(a: Stroke, b: Stroke) -> float:
 
 
 def run_to_steady(well: WellFile, scenario, design: StringDesign, max_strokes: int = 40, tolerance: float = 5e-4,
-                  dt: float | None = None, bar=None):
+                  dt: float | None = None, bar=None, in_c: bool = True):
     """(the coupled model, its strokes) run to steady state. Each stroke is cut at the bottom of
     the polished rod's travel.
     - the sheave: the motor line's synchronous speed is corrected after each stroke until the
       mean crank speed is the well file's strokes/min (to 5e-4), then held;
     - steady state: strokes are run until two successive surface cards agree to ``tolerance`` of
       the peak load at every crank angle, or ``max_strokes``."""
-    cw = CoupledWell(scenario, design, dt=dt)
+    cw = CoupledWell(scenario, design, dt=dt, in_c=in_c)
     target = target_speed(well)
     slope = cw.motor.B
     omega_sync = cw.motor.A / slope
     phi_b = bottom_angle(cw)
     # run to the first bottom of stroke
     next_bottom = phi_b + 2 * math.pi * math.ceil((cw.y[0] - phi_b) / (2 * math.pi) + 1e-9)
-    while cw.y[0] < next_bottom:
-        cw.step()
+    cw.run_until(next_bottom)
     strokes: list[Stroke] = []
-    samples = [_sample(cw)]
+    last = np.array([_sample(cw)])
     tuned = False
     while len(strokes) < max_strokes:
         next_bottom += 2 * math.pi
-        while cw.y[0] < next_bottom:
-            cw.step()
-            samples.append(_sample(cw))
-        stroke = Stroke({k: np.array(col) for k, col in zip(FIELDS, zip(*samples))})
-        samples = [samples[-1]]
+        samples = np.concatenate([last, cw.run_until(next_bottom, record=True)])
+        stroke = Stroke({k: samples[:, i].copy() for i, k in enumerate(FIELDS)})
+        last = samples[-1:]
         strokes.append(stroke)
         if bar:
             bar(len(strokes))
@@ -355,7 +415,7 @@ _BALANCED: dict = {}
 
 
 def balanced_counterweight(well: WellFile, scenario, design: StringDesign, tolerance: float = 1e-3,
-                           max_runs: int = 8, progress: bool = False) -> float:
+                           max_runs: int = 8, progress: bool = False, in_c: bool = True) -> float:
     """m_cw (kg) for which the unit is balanced: the peak net gearbox torque of the upstroke
     equals the downstroke's, at steady state. This is the balance RP 11L's peak torque assumes
     and the one a crew sets in the field, moving the counterweights until the motor's peaks on
@@ -366,11 +426,9 @@ def balanced_counterweight(well: WellFile, scenario, design: StringDesign, toler
     m_cw that equalises the two peaks with the rest of that stroke held is found by bisection, and
     the next run takes it; it stops when the two peaks agree to ``tolerance`` of the peak. Each
     run starts from RP 11L's CBE's counterweights only the first time."""
-    key = (repr(sorted(scenario.values.items())), repr(design))
+    key = (repr(sorted(scenario.values.items())), repr(design), in_c)
     if key in _BALANCED:
         return _BALANCED[key]
-    from scipy.optimize import brentq
-
     from .progress import ProgressBar
 
     m = counterweight_mass(scenario, rp11l_counterbalance(design))
@@ -378,7 +436,7 @@ def balanced_counterweight(well: WellFile, scenario, design: StringDesign, toler
     reduced = [scenario.with_params(m_cw=mass).build().reduced for mass in (0.0, 1.0)]
     bar = ProgressBar(max_runs, f"well {well.name}: balancing the counterweights") if progress else None
     for run in range(max_runs):
-        cw, strokes = run_to_steady(well, scenario.with_params(m_cw=m), design)
+        cw, strokes = run_to_steady(well, scenario.with_params(m_cw=m), design, in_c=in_c)
         stroke = strokes[-1]
         net, up = gearbox_torque(cw, stroke), stroke_halves(stroke)
         if bar:
@@ -390,11 +448,12 @@ def balanced_counterweight(well: WellFile, scenario, design: StringDesign, toler
         # Q; the net torque carries -Q)
         phi = np.mod(stroke["phi1"], 2 * math.pi)
         per_kg = -(reduced[1].coefficients(phi)[2] - reduced[0].coefficients(phi)[2])
-        try:
-            m += brentq(lambda dm: _peak_gap(net + dm * per_kg, up), -m, m)
-        except ValueError:
+        gaps = lambda dms: np.array([_peak_gap(net + dm * per_kg, up) for dm in dms])  # noqa: E731
+        at_ends = gaps([-m, m])
+        if at_ends[0] * at_ends[1] > 0:
             raise DefinitionError(f"{well.where}: no counterweight between 0 and {2 * m:g} kg balances the unit's "
-                                  "peak torques; give [unit] counterbalance as a number (N)") from None
+                                  "peak torques; give [unit] counterbalance as a number (N)")
+        m += float(bracketed_roots(gaps, [-m], [m], at_ends[:1], at_ends[1:], xtol=1e-12)[0])
     else:
         raise DefinitionError(f"{well.where}: the counterweights did not balance in {max_runs} runs (peak gap "
                               f"{gap:g} N.m); give [unit] counterbalance as a number (N)")

@@ -396,14 +396,27 @@ class RodString:
         return self.stored_energy(self._last_u) if self._last_u is not None else self.energy_start
 
     # ---------------------------------------------------------------- stepping
-    def _to_kernel(self):
+    @property
+    def kernel(self):
+        """The C steps (native.StringSteps), or None when this string steps in numpy."""
+        return self._kernel
+
+    @property
+    def c(self) -> float:
+        """Gibbs' damping coefficient (1/s)."""
+        return self._c
+
+    def to_kernel(self):
+        """The state as the C steps take it: (u, v, last_u, the scalars x), the scalars written from
+        this object's fields; the C changes them in place, ``from_kernel`` reads them back."""
         p, x = self.pump, self._x
         x[:] = (self.t, self.load, self.work, self.damping_loss, p.motion, p.u_top, p.u_bottom, p.hydraulic,
                 p.friction_loss, p.stop_loss, p._gas)
         if self._last_u is None:
             self._last_u = np.zeros_like(self.u)
+        return self.u, self.v, self._last_u, x
 
-    def _from_kernel(self):
+    def from_kernel(self):
         p, x = self.pump, self._x.tolist()
         self.t, self.load, self.work, self.damping_loss = x[0], x[1], x[2], x[3]
         p.motion, p.u_top, p.u_bottom, p.hydraulic, p.friction_loss, p.stop_loss = int(x[4]), *x[5:10]
@@ -413,9 +426,9 @@ class RodString:
         """A communication step of h s: as many equal internal steps as keep the Courant number at
         or below the design's, the polished rod moving linearly from where it is to ``top_end``."""
         if self._kernel is not None:
-            self._to_kernel()
+            self.to_kernel()
             self._kernel.advance(self.u, self.v, self._last_u, self._x, float(top_end), float(h), self.grid.dt_max)
-            self._from_kernel()
+            self.from_kernel()
             return
         n = max(1, math.ceil(h / self.grid.dt_max - 1e-9))
         start = float(self.u[0])
@@ -426,9 +439,9 @@ class RodString:
         """One step of length dt (default self.dt): the polished rod moves to ``top_next``."""
         dt = self.dt if dt is None else dt
         if self._kernel is not None:
-            self._to_kernel()
+            self.to_kernel()
             self._kernel.step(self.u, self.v, self._last_u, self._x, float(top_next), float(dt))
-            self._from_kernel()
+            self.from_kernel()
             return
         g, u, v, c = self.grid, self.u, self.v, self._c
         T = g.stiffness * (u[1:] - u[:-1])

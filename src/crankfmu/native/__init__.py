@@ -1,4 +1,5 @@
-"""The C kernel (crank_kernel.c, crank_kernel.h, crank_modes.h, crank_tableau.h) and its binding.
+"""The C kernel (crank_kernel.c, crank_kernel.h, crank_modes.h, crank_tableau.h), the components'
+physics (crank_components.c) and the coupled well (crank_well.c), and their binding.
 
 The C files are the kernel's one home: the fast path (``integrators.fast``), the batch of steady
 cycles, the pythonfmu FMUs (through this ctypes binding) and the native FMU (compiled in with its
@@ -110,6 +111,8 @@ def _load() -> ctypes.CDLL:
                                               ctypes.c_double, ctypes.c_double, ctypes.c_double, T, D, D, D]),
         "ck_interval_of_rule": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_double, ctypes.c_double, D]),
         "ck_next_interval_rule": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int]),
+        "cw_rope_position": (ctypes.c_double, [D, ctypes.c_double]),
+        "cw_run": (ctypes.c_int, [D, D, ctypes.c_double, ctypes.c_int, D, I]),
     }
     for name, (restype, argtypes) in signatures.items():
         function = getattr(lib, name)
@@ -402,3 +405,58 @@ class StringSteps:
 
     def advance(self, u, v, last_u, x, top_end: float, h: float, dt_max: float):
         self._advance(*self._fixed, *self._state(u, v, last_u, x), top_end, h, dt_max, self._scratch)
+
+
+class _Well(ctypes.Structure):
+    """crank_well.h's CwWell."""
+    _fields_ = [("S", ctypes.c_void_p), ("tables", ctypes.c_void_p), ("P", ctypes.c_void_p), ("row", ctypes.c_void_p),
+                ("y", ctypes.c_void_p), ("i_port", ctypes.c_int), ("n_ports", ctypes.c_int),
+                ("rope_x", ctypes.c_void_p), ("rope_cubics", ctypes.c_void_p), ("n_rope", ctypes.c_int),
+                ("rope_h", ctypes.c_double), ("n", ctypes.c_int), ("mass", ctypes.c_void_p),
+                ("weight", ctypes.c_void_p), ("stiffness", ctypes.c_void_p), ("c", ctypes.c_double),
+                ("pump", ctypes.c_void_p), ("u", ctypes.c_void_p), ("v", ctypes.c_void_p), ("last_u", ctypes.c_void_p),
+                ("x", ctypes.c_void_p), ("dt", ctypes.c_double), ("scratch", ctypes.c_void_p)]
+
+
+#: a coupled well's sample after each step (crank_well.h's CW_SAMPLE_SIZE, crankfmu.well.FIELDS)
+WELL_SAMPLE_SIZE = 14
+
+
+class WellSteps:
+    """The pumping well as one model stepped in C (crank_well.c): ``stepper`` the unit's
+    FastStepper (its state, tables, parameters and row), ``y`` the unit's state, the rope's cubics
+    (``rope_x`` breakpoints, ``rope_cubics`` (n, 4): c3, c2, c1, c0, intervals of ``rope_h``), the
+    string's StringSteps and its state arrays (u, v, last_u, x), all changed in place."""
+
+    def __init__(self, stepper, y, i_port: int, n_ports: int, rope_x, rope_cubics, rope_h: float,
+                 string: StringSteps, c: float, u, v, last_u, x, dt: float):
+        rope_x, rope_cubics = (np.ascontiguousarray(a, dtype=float) for a in (rope_x, rope_cubics))
+        for array in (y, u, v, last_u, x):
+            assert array.dtype == np.float64 and array.flags.c_contiguous
+        n = string.n
+        self.scratch = np.zeros(4 * n + len(STRING_SCALARS))
+        self.clock = np.zeros(2)
+        # kept alive while their addresses are in use
+        self.arrays = (stepper.state, stepper.tables, stepper.P, stepper.row, y, rope_x, rope_cubics, string,
+                       u, v, last_u, x, self.scratch)
+        mass, weight, stiffness, pump = string.arrays
+        self.struct = _Well(_d(stepper.state), stepper.tables.pointer, _d(stepper.P), _d(stepper.row), _d(y), i_port,
+                            n_ports, _d(rope_x), _d(rope_cubics), rope_cubics.shape[0], rope_h, n, _d(mass),
+                            _d(weight), _d(stiffness), c, _d(pump), _d(u), _d(v), _d(last_u), _d(x), dt,
+                            _d(self.scratch))
+        self.pointer = ctypes.addressof(self.struct)
+
+    def rope_position(self, phi: float) -> float:
+        return LIBRARY.cw_rope_position(self.pointer, phi)
+
+    def run(self, t: float, load: float, phi_stop: float, max_steps: int, samples=None):
+        """Steps from (t, the polished rod load there) until the crank angle reaches ``phi_stop`` or
+        ``max_steps`` steps, one sample row each into ``samples`` (max_steps x WELL_SAMPLE_SIZE, or
+        None). Returns (steps taken, t, load, the kernel's status: 0, or its refusal)."""
+        self.clock[:] = (t, load)
+        status = ctypes.c_int(0)
+        if samples is not None:
+            assert samples.shape == (max_steps, WELL_SAMPLE_SIZE) and samples.flags.c_contiguous
+        k = LIBRARY.cw_run(self.pointer, _d(self.clock), phi_stop, max_steps,
+                           None if samples is None else _d(samples), ctypes.byref(status))
+        return k, float(self.clock[0]), float(self.clock[1]), status.value

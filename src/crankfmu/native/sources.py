@@ -6,11 +6,13 @@ import hashlib
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-#: the mechanism's kernel, and the components' physics (the drive, the cushion)
+#: the mechanism's kernel, and the components' physics (the drive, the cushion, the rod string)
 KERNEL = ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h", "crank_numbers.c", "crank_numbers.h")
 COMPONENTS = ("crank_components.c", "crank_components.h")
-SOURCES = KERNEL + COMPONENTS
-#: the C files the library is compiled from (the mechanism's kernel and the components' physics)
+#: the pumping well as one model: the kernel and the string's steps coupled (crankfmu well runs it)
+WELL = ("crank_well.c", "crank_well.h")
+SOURCES = KERNEL + COMPONENTS + WELL
+#: the C files the library is compiled from (the mechanism's kernel, the components' physics, the well)
 C_FILES = tuple(name for name in SOURCES if name.endswith(".c"))
 #: how the library is compiled, by setup.py and by the fallback: C99, no FMA contraction (the
 #: numbers do not depend on the CPU the library was compiled for)

@@ -38,14 +38,17 @@ __all__ = ["run", "card_change", "torque_parts", "api_rod_torque", "summary", "c
 LB, INCH, IN_LB, HP = 4.4482216152605, 0.0254, 0.1129848290276167, 745.69987158227
 
 
-def run(well_name, max_strokes: int = 40, tolerance: float = 5e-4, dt: float | None = None, progress=True):
+def run(well_name, max_strokes: int = 40, tolerance: float = 5e-4, dt: float | None = None, progress=True,
+        in_c: bool = True):
     """(well file, coupled model, the strokes run): the well's unit (its counterweights balanced
-    first if the file asks for it) and string run to steady state (crankfmu.well.run_to_steady)."""
+    first if the file asks for it) and string run to steady state (crankfmu.well.run_to_steady);
+    ``in_c`` False: every step by the Python reference (CoupledWell.step), the same numbers."""
     well = load_well(well_name)
     design = well.design()
-    scenario = unit_scenario(well, design=design, progress=progress)
+    scenario = unit_scenario(well, design=design, progress=progress, in_c=in_c)
     bar = ProgressBar(max_strokes, f"well {well.name}: strokes") if progress else None
-    cw, strokes = run_to_steady(well, scenario, design, max_strokes=max_strokes, tolerance=tolerance, dt=dt, bar=bar)
+    cw, strokes = run_to_steady(well, scenario, design, max_strokes=max_strokes, tolerance=tolerance, dt=dt, bar=bar,
+                                in_c=in_c)
     if bar:
         bar.close()
     return well, cw, strokes
