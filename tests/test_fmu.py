@@ -320,3 +320,26 @@ def test_time_domain_cases_in_the_fmu(fmu_path, scenario, params):
     assert np.max(np.abs(r["omega1"] - ref)) < 1e-6 * np.max(np.abs(ref))
     if "A_low" in params:
         assert r["omega1"].min() < 0.0 < r["omega1"].max()     # it did reverse
+
+
+def test_outputs_read_in_initialisation_mode_are_those_of_the_values_set_there(unzipped):
+    """A master reads outputs in initialisation mode after setting parameters (its initial values'
+    fixed point): FourBar.fmu answers with the model at those values, built once and kept by
+    fmi2ExitInitializationMode when nothing changed since; a geometry it would refuse leaves them
+    as they were, and the refusal comes at fmi2ExitInitializationMode with its message."""
+    a = Instance(unzipped)
+    a.fmu.setupExperiment(startTime=0.0)
+    a.fmu.enterInitializationMode()
+    a.set("omega1_start", 3.25)
+    a.set("phi1_start", 0.5)
+    assert (a.get("omega1"), a.get("phi1")) == (3.25, 0.5)
+    J = a.get("J_red")
+    start = {v.name: v.start for v in a.md.modelVariables}
+    a.set("J_flywheel", 7.0)
+    assert a.get("J_red") == pytest.approx(J - float(start["J_flywheel"]) + 7.0, rel=1e-12)
+    a.set("l1", 5.0)                   # does not assemble: the outputs stay, the refusal comes at the exit
+    assert a.get("omega1") == 3.25
+    with pytest.raises(Exception):
+        a.fmu.exitInitializationMode()
+    assert any("cannot be assembled" in message for _, message in a.logs)
+    a.free()

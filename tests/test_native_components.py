@@ -296,3 +296,40 @@ def test_the_string_grid_in_c_equals_the_python_design():
         assert np.array_equal(mass, g.mass) and np.array_equal(weight, g.weight)
         assert np.array_equal(stiffness, g.stiffness)
         assert tuple(out) == (design.damping_coefficient, design.fluid_load, g.dt_max, design.buoyant_weight)
+
+
+#: an input set in initialisation mode and the output that follows it there, with the value set
+INITIAL_READS = {"DriveSpeed": ("omega_start", 7.5, "omega"), "DieCushion": ("s", -0.11, "F"),
+                 "RodString": ("s", 0.4, "u_pump")}
+
+
+@pytest.mark.parametrize("name", list(INITIAL_READS))
+def test_outputs_read_in_initialisation_mode_follow_the_values_set_there(fmus, name, tmp_path):
+    """A master reads outputs in initialisation mode after setting inputs and parameters (ecos and
+    libcosim do, for the initial values of the SSP's connections): both builds answer with the
+    model at the values set now, the values fmi2ExitInitializationMode then starts from, not the
+    start values' (a native DriveSpeed.fmu read 0 rad/s there, a Python DieCushion.fmu the force at
+    s = 0, each a different first step in a master)."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    variable, value, output = INITIAL_READS[name]
+    seen = []
+    for path in fmus[name]:
+        md = read_model_description(str(path))
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path), str(tmp_path / path.parent.name)),
+                        modelIdentifier=md.coSimulation.modelIdentifier)
+        fmu.instantiate(loggingOn=False)
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        before = fmu.getReal([vr[output]])[0]
+        fmu.setReal([vr[variable]], [value])
+        during = fmu.getReal([vr[output]])[0]
+        fmu.exitInitializationMode()
+        after = fmu.getReal([vr[output]])[0]
+        fmu.terminate()
+        fmu.freeInstance()
+        assert during == after and during != before, (path, before, during, after)
+        seen.append(during)
+    assert seen[0] == pytest.approx(seen[1], rel=1e-12)

@@ -301,6 +301,10 @@ def cmd_fmu(args) -> int:
     if args.drive + args.cushion + args.well > 1:
         raise CrankfmuError("--drive, --cushion and --well: give one (what kind of file SCENARIO is)")
     kind = "drive" if args.drive else "cushion" if args.cushion else "well" if args.well else "scenario"
+    values = _parse_sets(args.set)
+    if values and not (args.native and kind == "scenario"):
+        raise CrankfmuError("--set: a native mechanism FMU's values only (--native with a scenario); every parameter "
+                            f"of a{' native' if args.native else ' Python'} {kind} FMU is set by its host")
     if args.native and kind != "scenario":
         from .fmi.native_components import build_native_component
 
@@ -308,7 +312,7 @@ def cmd_fmu(args) -> int:
     elif args.native:
         from .fmi.native_build import build_native
 
-        path = build_native(args.source, Path(args.out), args.name, causality=args.causality)
+        path = build_native(args.source, Path(args.out), args.name, causality=args.causality, values=values)
     else:
         from .fmi.build import build
 
@@ -470,6 +474,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--native", action="store_true",
                    help="a native FMU (C, linux64 and win64 binaries, no Python needed on the host); a mechanism's "
                         "geometry, masses and loads are fixed at build time, a component's parameters are all settable")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="with --native and a scenario: a parameter's value the FMU is built for (SI units, "
+                        "repeatable); its geometry, masses, loads and gravity are fixed in a native FMU's tables")
     p.add_argument("--causality", choices=("torque", "speed"), default=None,
                    help="what the crank takes: a torque (tau_ext, the default) or the speed omega1 (the FMU then "
                         "outputs tau_drive, the torque the drive must apply); default: the file's [crank] causality")

@@ -17,18 +17,8 @@
 #include <time.h>
 
 #include "fmi2Functions.h"
+#include "host_logger.h"
 
-static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
-                   fmi2String category, fmi2String message, ...)
-{
-    va_list ap;
-    (void)env;
-    va_start(ap, message);
-    printf("log [%s] status=%d category=%s: ", name, (int)status, category ? category : "");
-    vprintf(message, ap);
-    printf("\n");
-    va_end(ap);
-}
 
 #define LOAD(f)                                                                  \
     f##TYPE* f = (f##TYPE*)dlsym(lib, #f);                                       \

@@ -157,17 +157,20 @@ class Source:
     files: dict = field(default_factory=dict)   # a user's data files: path in the package -> text
     data: tuple = ()                # the packaged data files it reads: paths in the package
     causality: str = "torque"       # at the crank (a scenario) or the shaft (a drive): "torque" or "speed"
+    scenario: object = None         # a scenario's Scenario, its --set values applied
 
 
-def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str | None = None) -> Source:
+def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str | None = None,
+              values: dict | None = None) -> Source:
     """What to build: a packaged data file by name, or a user's scenario file by path (its
     mechanism file, when given by path, travels with it). ``causality`` ("torque" or "speed")
     overrides the scenario's [crank] causality; a speed-causal FMU of a torque-causal file is
-    named with "Speed" appended unless ``fmu_name`` is given."""
+    named with "Speed" appended unless ``fmu_name`` is given. ``values``: a scenario's parameters
+    set to other values than its file's (each range-checked; a native FMU is built for them)."""
     if kind == "scenario":
         from ..scenario import CAUSALITIES, load_scenario
 
-        scenario = load_scenario(name)
+        scenario = load_scenario(name).with_params(**(values or {}))
         if causality is not None and causality not in CAUSALITIES:
             raise CrankfmuError(f"--causality must be one of {', '.join(CAUSALITIES)}, got {causality!r}")
         own = scenario.causality
@@ -186,7 +189,8 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
                         {v.name: v.initial for v in outputs}, groups, lambda: reference(scenario),
                         lambda f, md, params, ref, **about: documentation.scenario_documentation(
                             f, scenario, md, params, ref, speed=causality == "speed", **about),
-                        lambda: core_module.declared(scenario), load=scenario.name, causality=causality)
+                        lambda: core_module.declared(scenario), load=scenario.name, causality=causality,
+                        scenario=scenario)
         if _is_path(name):
             source.load, source.files = _user_files(scenario, name)
         else:
@@ -477,12 +481,13 @@ def slave_script(name: str, source: Source, digest: str) -> str:
                                DESCRIPTION=repr(source.title), DIGEST=digest)
 
 
-def preflight(kind: str, data_name: str, name: str | None = None, causality: str | None = None) -> Source:
+def preflight(kind: str, data_name: str, name: str | None = None, causality: str | None = None,
+              values: dict | None = None) -> Source:
     """Everything the build would refuse in the files, before anything is built: the model
     identifier, each variable's name (a C identifier, declared once), its unit (``units``), its
     start inside its own range, and the DefaultExperiment. ``crankfmu check`` runs the same.
     Returns the Source; raises CrankfmuError listing every problem found."""
-    source = source_of(kind, data_name, name, causality)
+    source = source_of(kind, data_name, name, causality, values)
     declared = source.variables()
     problems = []
     seen: dict[str, str] = {}

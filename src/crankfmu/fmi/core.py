@@ -94,6 +94,7 @@ class SlaveCore:
         self.pending: set[str] = set()                # tunable parameters and inputs changed since the last step
         self.units: dict[str, str] = {}
         self.outputs: set[int] = set()
+        self._initialised_for = None                  # the values initialise() last succeeded for
 
     # ------------------------------------------------------------------ declaring variables
     def declare(self, declared: "Declared", getters: dict):
@@ -213,6 +214,8 @@ class SlaveCore:
         return var
 
     def get_real(self, vrs):
+        if self.phase == INITIALIZATION:
+            self._initial_outputs()
         if self.phase != REFUSED:           # the hot path: hosts read outputs after every step
             getters = self._getters
             try:
@@ -321,18 +324,41 @@ class SlaveCore:
         if not self._out_of_order("fmi2EnterInitializationMode", (INSTANTIATED,)):
             self.phase = INITIALIZATION
 
+    def _values_key(self) -> str:
+        return repr(sorted(self.values.items()))
+
+    def _initial_outputs(self):
+        """Outputs read in initialisation mode are those of the values as set now. A master reads
+        them there (its initial values' fixed point: a press's ram_s to a cushion's s, the cushion's
+        F back) before fmi2ExitInitializationMode, so the model is initialised for those values
+        when they change; a design that would be refused leaves the outputs as they were, and
+        fmi2ExitInitializationMode refuses it with its message."""
+        key = self._values_key()
+        if self.errors or key == self._initialised_for:
+            return
+        try:
+            self.initialise()
+        except CrankfmuError:
+            self._initialised_for = None
+            return
+        self._initialised_for = key
+
     def exit_initialization_mode(self):
-        """Build the model from the values now set; refuse a design that cannot work."""
+        """Build the model from the values now set (unless a read in initialisation mode has built it
+        for the same values); refuse a design that cannot work."""
         if self._out_of_order("fmi2ExitInitializationMode", (INITIALIZATION,)):
             return
         if self.errors:
             self._fail("cannot initialise: " + "; ".join(self.errors.values()))
             return
         try:
-            self.initialise()
+            if self._initialised_for != self._values_key():
+                self.initialise()
         except CrankfmuError as exc:
             self._fail(str(exc))     # the message names the parameters involved
             return
+        finally:
+            self._initialised_for = None
         if not all_finite(self.outputs_now()):
             self._fail(f"the initial state is not finite ({self.outputs_text()}): check the parameters")
             return

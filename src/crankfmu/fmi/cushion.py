@@ -2,7 +2,9 @@
 
 Inputs: the ram's coordinate ``s`` and velocity ``v`` along its axis (a press's ram_s, ram_v);
 output: the force ``F`` on the ram along that axis (to the press's ram_F). No state: after each
-step (and at initialisation) F is the cushion's law at the inputs as the host has set them, by
+step F is the cushion's law at the inputs as the host had set them for it, and in initialisation
+mode at the inputs as set now (a master sets s and v from the press and reads F there, before the
+first step: fmi.core.SlaveCore._initial_outputs), by
 the components' C (crank_components.c, which the native DieCushion.fmu compiles in);
 dynamics.cushion states the same law in Python, the reference the tests compare with.
 """
@@ -34,6 +36,7 @@ class CushionCore(SlaveCore):
 
     def initialise(self):
         self._update_outputs()
+
 
     def advance(self, target: float):
         self._update_outputs()

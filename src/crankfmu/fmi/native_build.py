@@ -30,6 +30,7 @@ import subprocess
 import tempfile
 import zipfile
 from contextlib import ExitStack
+from dataclasses import replace
 from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
@@ -94,7 +95,7 @@ class NativeModel:
 
         self.source = source
         self.speed = causality == "speed"
-        self.scenario = load_scenario(scenario_name)
+        self.scenario = source.scenario if source.scenario is not None else load_scenario(scenario_name)
         self.table, self.quantity_table, self.reaction_table = native_tables(self.scenario)
         definition = self.scenario.mechanism_definition()
         self.quantities = output_quantities(self.scenario)
@@ -105,7 +106,8 @@ class NativeModel:
             n_sliders = self.table.forces.shape[2] if self.table.forces.ndim == 3 else 0
             assert self.reaction_table.n_terms == len(REACTION_TERMS) + n_sliders + len(self.ports)
             assert self.reaction_table.names == tuple(v.name for v in self.reactions)
-        params = dict(self.scenario.parameters)
+        # the file's parameters at the values it is built for (its --set overrides)
+        params = {n: replace(p, value=self.scenario.values[n]) for n, p in self.scenario.parameters.items()}
         params["rtol"] = Parameter("rtol", self.scenario.experiment.tolerance, "1",
                                    "relative tolerance of the FMU's integrator (Dormand-Prince 5(4), the C kernel)",
                                    min=0.0, min_inclusive=False, tunable=True)
@@ -122,8 +124,8 @@ class NativeModel:
         # its step has no error control to tune (the line's integral is exact, the works quadratures)
         undeclared = (*NOT_DECLARED, "rtol") if self.speed else ()
         self.fixed = [p for n, p in params.items() if n not in (*tunable, *undeclared)]
-        self.rebuild = (f"crankfmu fmu {scenario_name} --native{' --causality speed' if self.speed else ''} --out DIR "
-                        "(after changing the value in the scenario file)")
+        self.rebuild = (f"crankfmu fmu {scenario_name} --native{' --causality speed' if self.speed else ''} "
+                        "--set NAME=VALUE --out DIR")
         text = repr((self.source.fmu, causality, [float(x) for x in self.table.coefficients.ravel()[:64]],
                      [(p.name, p.value) for p in (*self.tunable, *self.fixed)], [q.name for q in self.quantities],
                      [v.name for v in self.reactions]))
@@ -378,11 +380,12 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
 
 
 def build_native(data_name: str, dest: Path, name: str | None = None, win64: bool | None = None,
-                 causality: str | None = None) -> Path:
+                 causality: str | None = None, values: dict | None = None) -> Path:
     """The native FMU of a scenario (a packaged name or a user's file) in ``dest``. ``win64``: also
     the Windows binary (default: where x86_64-w64-mingw32-gcc is installed). ``causality``:
-    "torque" or "speed" (default: the file's [crank] causality), as for the Python FMU."""
-    source = preflight("scenario", data_name, name, causality)
+    "torque" or "speed" (default: the file's [crank] causality), as for the Python FMU. ``values``:
+    parameters to build it for other than the file's (``crankfmu fmu --native --set``)."""
+    source = preflight("scenario", data_name, name, causality, values)
     fmu = source.fmu
     with stage(fmu, "tabulating the model"):
         model = NativeModel(source, data_name, source.causality)

@@ -183,12 +183,8 @@ def built_values(fmu: Path) -> tuple[str, dict[str, float]]:
     """(the FMU's build as its VendorAnnotations say: "native", "python" or "" for an FMU crankfmu did
     not build, {parameter: the value it was built for} for each parameter fixed at build time: a
     native mechanism FMU's geometry, masses, loads and gravity, declared with min = max = start)."""
-    from xml.etree import ElementTree as ET
-
-    with zipfile.ZipFile(fmu) as z:
-        root = ET.fromstring(z.read("modelDescription.xml"))
-    tool = root.find("VendorAnnotations/Tool[@name='crankfmu']")
-    build = next((element.get("build", "") for element in tool), "") if tool is not None else ""
+    root = _model_description(fmu)
+    build = built_from(fmu).get("build", "")
     fixed = {}
     for sv in root.find("ModelVariables"):
         real = sv.find("Real")
@@ -198,28 +194,71 @@ def built_values(fmu: Path) -> tuple[str, dict[str, float]]:
     return build, fixed
 
 
-def _check_native(spec: System, fmus: Path, sets: dict):
-    """Every component native, and no parameter set to another value than its FMU was built for:
-    one CrankfmuError naming each problem."""
-    problems = []
+def _model_description(fmu: Path):
+    from xml.etree import ElementTree as ET
+
+    with zipfile.ZipFile(fmu) as z:
+        return ET.fromstring(z.read("modelDescription.xml"))
+
+
+def built_from(fmu: Path) -> dict[str, str]:
+    """What crankfmu built the FMU from, as its VendorAnnotations say (build.vendor_annotations):
+    kind ("scenario", "drive", ...), name, build, and a user's file and the causality where given;
+    {} for an FMU crankfmu did not build."""
+    tool = _model_description(fmu).find("VendorAnnotations/Tool[@name='crankfmu']")
+    element = next(iter(tool), None) if tool is not None else None
+    return {} if element is None else {"kind": element.tag.lower(), **element.attrib}
+
+
+def _build_for(fmu: Path, stem: str, values: dict[str, float], where: Path) -> Path:
+    """The native mechanism FMU ``fmu`` built again for ``values``, from the data files it was built
+    from: a packaged scenario by name, or the user's files the FMU carries."""
+    from .build import NATIVE_USER_FILES
+    from .native_build import build_native
+
+    about = built_from(fmu)
+    source = about["name"]
+    if about.get("file"):
+        with zipfile.ZipFile(fmu) as z:
+            for member in z.namelist():
+                if member.startswith(NATIVE_USER_FILES + "/"):
+                    z.extract(member, where / "files")
+        source = str(where / "files" / NATIVE_USER_FILES / about["file"])
+    return build_native(source, where, name=stem, causality=about.get("causality"), values=values)
+
+
+def _native_components(spec: System, fmus: Path, sets: dict, where: Path) -> dict[str, Path]:
+    """{FMU stem: the native FMU the SSP takes}: the folder's, or, where the SSP sets a native
+    mechanism FMU's fixed values (its tables' geometry, masses, loads) to others, that FMU built
+    again for the SSP's values in ``where``. A Python FMU, or one crankfmu did not build, is refused:
+    one CrankfmuError naming each."""
+    problems, others = [], {}
     for comp, stem in spec.sources.items():
         build, fixed = built_values(fmus / f"{stem}.fmu")
         if build != "native":
             problems.append(f"{stem}.fmu in {fmus} is not a native FMU (its build: {build or 'not crankfmu'})")
             continue
-        other = [f"{comp}.{name} = {value!r} (built for {fixed[name]!r})"
-                 for name, value in sets["coupled"].get(comp, {}).items() if name in fixed and value != fixed[name]]
-        if other:
-            problems.append(f"the SSP sets {', '.join(other)}, but a native mechanism FMU's geometry, masses and "
-                            f"loads are fixed when it is built: build {stem}.fmu from a scenario file with these values")
+        values = sets["coupled"].get(comp, {})
+        others[comp] = {name: value for name, value in values.items() if name in fixed and value != fixed[name]}
     if problems:
         raise CrankfmuError(f"{spec.name}.ssp cannot be made of native FMUs: " + "; ".join(problems))
+    chosen = {}
+    for comp, stem in spec.sources.items():
+        chosen[stem] = fmus / f"{stem}.fmu"
+        if others[comp]:
+            print(f"{spec.name}.ssp: building {stem}.fmu for the values the SSP sets ("
+                  + ", ".join(f"{name} = {value!r}" for name, value in sorted(others[comp].items())) + ")")
+            chosen[stem] = _build_for(chosen[stem], stem, sets["coupled"][comp], where)
+    return chosen
 
 
 def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float = 1e-3,
               system: str = "FourBarDrive", native: bool = False) -> Path:
     """``out``/SYSTEM.ssp from the FMUs in ``fmus`` (``make fmu`` builds them). ``native``: every
-    FMU must be native (no Python on the host), and built for the values the SSP sets."""
+    FMU must be native (no Python on the host); a native mechanism FMU built for other values than
+    the SSP sets is built again for them, into the SSP only (``fmus`` is left as it is)."""
+    import tempfile
+
     if system not in SYSTEMS:
         raise CrankfmuError(f"unknown system {system!r}: one of {', '.join(SYSTEMS)}")
     spec = SYSTEMS[system]
@@ -231,17 +270,18 @@ def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float
     if stop_time is None:
         stop_time = spec.stop_time
     sets = parameter_sets(spec)
-    if native:
-        _check_native(spec, fmus, sets)
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / f"{system}.ssp"
-    with replacing(path) as partial, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd", _ssd(spec, sets, stop_time, step))
-        for name, per_component in sets.items():
-            for comp, values in per_component.items():
-                z.writestr(f"ssv/{name}_{comp}.ssv", _ssv(name, values))
-        for stem in spec.sources.values():
-            z.write(fmus / f"{stem}.fmu", f"resources/{stem}.fmu")
+    with tempfile.TemporaryDirectory(prefix="crankfmu-ssp-") as tmp:
+        paths = (_native_components(spec, fmus, sets, Path(tmp)) if native
+                 else {stem: fmus / f"{stem}.fmu" for stem in spec.sources.values()})
+        out.mkdir(parents=True, exist_ok=True)
+        path = out / f"{system}.ssp"
+        with replacing(path) as partial, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("SystemStructure.ssd", _ssd(spec, sets, stop_time, step))
+            for name, per_component in sets.items():
+                for comp, values in per_component.items():
+                    z.writestr(f"ssv/{name}_{comp}.ssv", _ssv(name, values))
+            for stem, fmu in paths.items():
+                z.write(fmu, f"resources/{stem}.fmu")
     return path
 
 

@@ -39,6 +39,7 @@ typedef struct {
     fmi2CallbackFunctions cb;
     char name[128];
     int logging_on;
+    int stale;                     /* in initialisation mode: a value was set since the outputs were computed */
 } Instance;
 
 static void logf_(const Instance* in, fmi2Status status, const char* format, ...)
@@ -152,7 +153,30 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c)
     if (!in) return fmi2Error;
     if (out_of_order(in, "fmi2EnterInitializationMode", INSTANTIATED)) return fmi2Error;
     in->now.phase = INITIALIZATION;
+    in->stale = 1;
     return fmi2OK;
+}
+
+/* the model started at the values now set, its outputs computed: 0, or -1 with the reason in why */
+static int start_model(Instance* in, char* why, int why_size)
+{
+    int size = model_state_size(in->now.values, why, why_size);
+    if (size <= 0) return -1;
+    if (size != in->now.n_state) {
+        free(in->now.state);
+        in->now.n_state = 0;
+        in->now.state = (double*)calloc((size_t)size, sizeof(double));
+        if (!in->now.state) {
+            snprintf(why, (size_t)why_size, "no memory for the model's %d values", size);
+            return -1;
+        }
+        in->now.n_state = size;
+    } else {
+        memset(in->now.state, 0, sizeof(double) * (size_t)size);
+    }
+    model_start(in->now.values, in->now.time, in->now.state);
+    model_outputs(in->now.values, in->now.state);
+    return 0;
 }
 
 static int first_refused(const Instance* in)
@@ -185,20 +209,11 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
                      "set a valid value, or reset)", names);
     }
     char why[1024] = "";
-    int size = model_state_size(in->now.values, why, (int)sizeof why);
-    if (size <= 0) {
+    if (start_model(in, why, (int)sizeof why) != 0) {
         in->now.phase = FAILED;
         return error(in, "cannot initialise: %s", why);
     }
-    free(in->now.state);
-    in->now.state = (double*)calloc((size_t)size, sizeof(double));
-    if (!in->now.state) {
-        in->now.phase = FAILED;
-        return error(in, "cannot initialise: no memory for the model's %d values", size);
-    }
-    in->now.n_state = size;
-    model_start(in->now.values, in->now.time, in->now.state);
-    model_outputs(in->now.values, in->now.state);
+    in->stale = 0;
     if (!outputs_finite(in)) {
         in->now.phase = FAILED;
         return error(in, "%s", "the initial state is not finite: check the parameters");
@@ -283,6 +298,13 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     Instance* in = (Instance*)c;
     if (!in) return fmi2Error;
     if (nvr > 0 && (!vr || !value)) return error(in, "%s", "fmi2GetReal: null arrays");
+    /* outputs read in initialisation mode are those of the values set now: a master reads them
+     * there (its initial values' fixed point) before fmi2ExitInitializationMode. A model that
+     * cannot start leaves them as they were; fmi2ExitInitializationMode refuses it with the reason */
+    if (in->now.phase == INITIALIZATION && in->stale && first_refused(in) < 0) {
+        char why[1024] = "";
+        if (start_model(in, why, (int)sizeof why) == 0) in->stale = 0;
+    }
     fmi2Status status = fmi2OK;
     for (size_t k = 0; k < nvr; k++) {
         if (bad_reference(in, vr[k], "fmi2GetReal")) {
@@ -338,9 +360,10 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         }
         in->now.refused[vr[k]] = 0;
         in->now.values[vr[k]] = x;
+        if (in->now.phase == INITIALIZATION) in->stale = 1;
     }
-    /* the outputs are those of the last step (or of the initialisation), as the Python FMU's: a
-     * value set now enters the next step */
+    /* stepping, the outputs are those of the last step (or of the initialisation), as the Python
+     * FMU's: a value set now enters the next step */
     return status;
 }
 
@@ -429,6 +452,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
         start_values(in);
         return error(in, "%s", "fmi2SetFMUstate: out of memory (the instance is reset)");
     }
+    in->stale = in->now.phase == INITIALIZATION;
     return fmi2OK;
 }
 
