@@ -23,7 +23,9 @@ the time goes (seed 000, the seven-link seed 001, the shaper seed 003); FourBar.
 through fmpy against a do-nothing FMU's, and its reset + initialisation of a changed design; the
 first run on a fresh machine (the CLI and the FMU; not with --quick); and issue 38's: FourBar.fmu,
 Python and native, with every variable read at every 1 ms step, through fmpy and in the ecos
-master (``all_outputs.py``). Writes speed.md and speed.json in --out (default build/bench).
+master (``all_outputs.py``); and issue 39's (``well.py``): RodString.fmu's step, native against
+Python, and `crankfmu well rp11l_guo` end to end against the code the issue started from. Writes
+speed.md and speed.json in --out (default build/bench).
 """
 
 from __future__ import annotations
@@ -125,7 +127,7 @@ def main(argv=None) -> int:
     for method in PEERS:
         for rtol in peer_rtols:
             jobs.append((f"solve_ivp {method}", rtol))
-    bar = ProgressBar(len(jobs) + 6, label="speed benchmark")
+    bar = ProgressBar(len(jobs) + 7, label="speed benchmark")
     peer_eq = python_rhs_equation(model, table)
     for i, (family, rtol) in enumerate(jobs):
         bar(i)
@@ -228,6 +230,12 @@ def main(argv=None) -> int:
     imports = end_to_end.import_time()
     first = {} if args.quick else end_to_end.first_runs(Path(args.fmu) if Path(args.fmu).exists() else None)
     bar(len(jobs) + 6)
+    # the pumping well (issue 39): RodString.fmu's step, native against Python; crankfmu well end to end
+    import well as well_bench
+
+    wells = well_bench.measure(Path(args.native).parent / "RodString.fmu", Path(args.fmu).parent / "RodString.fmu",
+                               args.quick)
+    bar(len(jobs) + 7)
     bar.close()
 
     # ------------------------------------------------------------------ report
@@ -331,6 +339,9 @@ def main(argv=None) -> int:
     lines += ["", "## Targets (issue 17)", "", "| target | measured | met |", "|---|---|---|"]
     lines += [f"| {t} | {m} | {'MET' if ok else ('NOT MET' if ok is not None else 'not measured')} |"
               for t, m, ok in targets17]
+    lines += ["", "## Targets (issue 39)", "", "| target | measured | met |", "|---|---|---|"]
+    lines += [f"| {t} | {m} | {'MET' if ok else ('NOT MET' if ok is not None else 'reported')} |"
+              for t, m, ok in well_bench.targets(wells)]
     text = "\n".join(lines) + "\n"
     print(text)
     (out / "speed.md").write_text(text)
@@ -339,7 +350,7 @@ def main(argv=None) -> int:
                                                 "end_to_end_ms": {n: {k: 1e3 * v for k, v in b.items() if isinstance(v, float)}
                                                                   for n, b in breakdowns.items()},
                                                 "imports_s": imports, "first_run_s": first, "c_rk4_limit": c_limit,
-                                                "every_output": every,
+                                                "every_output": every, "well": wells,
                                                 "targets_issue_17": [{"target": t, "measured": m, "met": ok}
                                                                      for t, m, ok in targets17],
                                                 "targets": [{"target": t, "measured": m, "met": ok}
