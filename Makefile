@@ -48,6 +48,11 @@ $(DEV_STAMP): $(STAMP)
 	@# the ecos C++ master (ecospy wheel) links Debian's libtbb12
 	@ldconfig -p | grep -q 'libtbb.so.12' || { apt-get update -qq && apt-get install -y -qq libtbb12; } \
 	  || echo "make: could not install libtbb12 (apt-get, as root): the ecos master's checks will fail"
+	@# the FMI 3.0 FMUs' aarch64-linux binaries: Debian's cross compiler, and qemu-user to run them in the tests
+	@command -v aarch64-linux-gnu-gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc-aarch64-linux-gnu; } \
+	  || echo "make: could not install gcc-aarch64-linux-gnu (apt-get, as root): FMI 3.0 FMUs get no aarch64-linux binary"
+	@command -v qemu-aarch64 >/dev/null || { apt-get update -qq && apt-get install -y -qq qemu-user; } \
+	  || echo "make: could not install qemu-user (apt-get, as root): the aarch64-linux checks will fail"
 	@# the pages (the results page, the FMUs' documentation) are checked in a real browser: headless Chromium
 	@command -v chromium >/dev/null || { apt-get update -qq && apt-get install -y -qq chromium; } \
 	  || echo "make: could not install chromium (apt-get, as root): the pages' browser tests will fail"
@@ -72,9 +77,11 @@ fmu-python: $(STAMP)
 fmu-native-a: $(STAMP)
 	@for s in seed000 seed001 seed002; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
 	@$(BIN)/crankfmu fmu seed000 --native --causality speed --out build/fmus/native
+	@for s in seed000 seed001 seed002; do $(BIN)/crankfmu fmu $$s --native --fmi-version 3 --out build/fmus/native3 || exit 1; done
 
 fmu-native-b: $(STAMP)
 	@for s in seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
+	@for s in seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --fmi-version 3 --out build/fmus/native3 || exit 1; done
 	@$(BIN)/crankfmu fmu dc_pi --drive --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu die_cushion --cushion --native --out build/fmus/native
@@ -89,7 +96,7 @@ demo: fmu
 	@$(BIN)/crankfmu page $(OUT) --validation $(OUT)/validation > /dev/null
 	@echo
 	@echo "make demo: done."
-	@echo "  built    $$(ls build/fmus/*.fmu | wc -l) Python FMUs in build/fmus/, $$(ls build/fmus/native/*.fmu | wc -l) native FMUs in build/fmus/native/"
+	@echo "  built    $$(ls build/fmus/*.fmu | wc -l) Python FMUs in build/fmus/, $$(ls build/fmus/native/*.fmu | wc -l) native FMUs in build/fmus/native/, $$(ls build/fmus/native3/*.fmu | wc -l) FMI 3.0 ones in build/fmus/native3/"
 	@echo "  checked  $$(tail -2 $(OUT)/validation.log | head -1) (the harness's --quick subset; make validate runs all)"
 	@echo "  look at  $(OUT)/index.html: every figure and animation of the papers' studies and the pumping well,"
 	@echo "           the published numbers beside ours, and the validation report"

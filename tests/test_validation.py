@@ -205,7 +205,8 @@ def test_an_fmu_crankfmu_did_not_build_is_listed_not_validated(tmp_path, capsys)
 
 def test_every_kind_of_fmu_is_planned(tmp_path):
     """make fmu's FMUs, native ones included, each land in a group of its data file: the Python and
-    the native FMU of one scenario together (they share reference runs), every kind recognised."""
+    the native FMUs (FMI 2.0 and 3.0) of one scenario together (they share reference runs), every
+    kind recognised."""
     from pathlib import Path
 
     from crankfmu.validation.fmu_runner import kind_of
@@ -220,7 +221,10 @@ def test_every_kind_of_fmu_is_planned(tmp_path):
             ("scenario", "native", "speed"), ("drive", "python", "torque"), ("drive", "python", "speed"),
             ("cushion", "python", "torque"), ("well", "python", "torque")} <= kinds
     fourbar = next(g for g in groups if any(p.endswith("native/FourBar.fmu") for p in g))
-    assert sorted(Path(p).parent.name for p in fourbar) == ["fmus", "native"]
+    fmi3 = Path("build/fmus/native3/FourBar.fmu").is_file()
+    assert sorted(Path(p).parent.name for p in fourbar) == ["fmus", "native"] + (["native3"] if fmi3 else [])
+    if fmi3:
+        assert ("scenario", "native-fmi3", "torque") in kinds
 
 
 def test_published_numbers_carry_their_verdict():

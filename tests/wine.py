@@ -32,7 +32,7 @@ def wine_prefix(tmp_path: Path) -> tuple[str, dict]:
             pytest.fail("wine64 is missing: `make` installs Debian's wine64")
         pytest.skip("wine64 is not installed (make installs it)")
     for folder in ("home", "tmp"):
-        (tmp_path / folder).mkdir(exist_ok=True)
+        (tmp_path / folder).mkdir(parents=True, exist_ok=True)
     env = {**os.environ, "HOME": str(tmp_path / "home"), "WINEPREFIX": str(tmp_path / "home" / ".wine"),
            "WINEDEBUG": "-all", "TMPDIR": str(tmp_path / "tmp"),
            "PATH": f"{Path(wine).parent}{os.pathsep}{os.environ.get('PATH', '')}"}

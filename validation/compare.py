@@ -106,7 +106,7 @@ def compare_builds(native, python, checks, native_run, python_run, tolerance_of)
     """A native FMU against the Python FMU of the same data file on the same run: every output the
     Python FMU declares, the native one must declare too and match to ``tolerance_of(name)``
     (tolerance, group) of the output's scale."""
-    prefix = f"{native.name}.native_vs_python"
+    prefix = f"{native.name}.{native.kind.build}_vs_python"
     rows = []
     for name in python.outputs:
         if name not in native.outputs:

@@ -20,6 +20,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from crankfmu.errors import CrankfmuError
+from crankfmu.fmi.build import crankfmu_annotation
 from crankfmu.progress import ProgressBar
 
 
@@ -75,14 +76,16 @@ def kind_of(path) -> FmuKind | None:
     """The FMU's kind, or None for an FMU crankfmu did not build (no crankfmu VendorAnnotation)."""
     with zipfile.ZipFile(path) as z:
         root = ET.fromstring(z.read("modelDescription.xml"))
-    tool = root.find("VendorAnnotations/Tool[@name='crankfmu']")
+    tool = crankfmu_annotation(root)
     if tool is None or not len(tool):
         return None
     node = tool[0]
     interfaces = tuple(tag for tag in ("CoSimulation", "ModelExchange") if root.find(tag) is not None)
     native = node.get("build") == "native" or "native" in (root.get("generationTool") or "")
-    return FmuKind(node.tag.lower(), node.get("name") or "", node.get("causality") or "torque",
-                   "native" if native else "python", interfaces, node.get("file"))
+    # a native FMI 3.0 FMU is a build of its own beside the FMI 2.0 one: its checks are named apart
+    build = ("native-fmi3" if root.get("fmiVersion", "").startswith("3") else "native") if native else "python"
+    return FmuKind(node.tag.lower(), node.get("name") or "", node.get("causality") or "torque", build, interfaces,
+                   node.get("file"))
 
 
 def scenario_of(path) -> str | None:
@@ -124,7 +127,7 @@ class FmuUnderTest:
 
     @property
     def native(self) -> bool:
-        return self.kind.build == "native"
+        return self.kind.build.startswith("native")
 
     @property
     def title(self) -> str:
@@ -166,7 +169,10 @@ class FmuUnderTest:
 
         log: list[str] = []
 
-        def logger(component, instance_name, status, category, message):
+        def logger(*args):
+            # FMI 2.0's logger (component, instance, status, category, message) or FMI 3.0's
+            # logMessage (environment, status, category, message): the message is last in both
+            message = args[-1]
             log.append(message.decode(errors="replace") if isinstance(message, bytes) else str(message))
 
         start_values = dict(start_values or {})

@@ -100,8 +100,9 @@ def run_group(paths: list[str], out: str, quick: bool) -> dict:
             section["wall"] = time.perf_counter() - started
             section["n_before"], section["n_end"] = n_before, len(checks.items)
             sections.append(section)
-        if {"python", "native"} <= by_build.keys():
-            _native_against_python(by_build, checks)
+        for build in by_build:
+            if build.startswith("native") and "python" in by_build:
+                _native_against_python(by_build[build], by_build["python"], checks)
         _work_precision(fmus, sections, checks, out, quick)
     finally:
         for fmu in fmus:
@@ -138,13 +139,13 @@ def _validate_one(fmu, checks, out, quick) -> dict:
     return check(fmu, checks, out, quick)
 
 
-def _native_against_python(by_build, checks):
-    """The native FMU of a data file against its Python FMU, on their Co-Simulation runs."""
-    (native, n_section), (python, p_section) = by_build["native"], by_build["python"]
+def _native_against_python(native_build, python_build, checks):
+    """A native FMU of a data file (FMI 2.0 or 3.0) against its Python FMU, on their Co-Simulation runs."""
+    (native, n_section), (python, p_section) = native_build, python_build
     n_run = next((d.get("run") for d in n_section.get("default", []) if d.get("interface") == "CoSimulation"), None)
     p_run = next((d.get("run") for d in p_section.get("default", []) if d.get("interface") == "CoSimulation"), None)
     if n_run is None or p_run is None or n_run.time.shape != p_run.time.shape:
-        item = checks.skip(f"{native.name}.native_vs_python", "one of the two default runs did not complete")
+        item = checks.skip(f"{native.name}.{native.kind.build}_vs_python", "one of the two default runs did not complete")
         n_section.setdefault("extra_checks", []).append(item)
         return
     n_before = len(checks.items)

@@ -25,20 +25,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "host_library.h"
 #ifdef _WIN32
-#include <windows.h>
 #define BINARIES "win64"
-#define SUFFIX ".dll"
-typedef HMODULE Library;
-static Library open_library(const char* path) { return LoadLibraryA(path); }
-static void* symbol(Library lib, const char* name) { return (void*)GetProcAddress(lib, name); }
 #else
-#include <dlfcn.h>
 #define BINARIES "linux64"
-#define SUFFIX ".so"
-typedef void* Library;
-static Library open_library(const char* path) { return dlopen(path, RTLD_NOW | RTLD_LOCAL); }
-static void* symbol(Library lib, const char* name) { return dlsym(lib, name); }
 #endif
 
 #include "fmi2Functions.h"

@@ -302,6 +302,24 @@ def vendor_annotations(source: Source, build: str) -> ET.Element:
     return vendor
 
 
+#: FMI 3.0's place for a tool's annotations: <Annotations><Annotation type=...>
+FMI3_ANNOTATION = "org.crankfmu"
+
+
+def fmi3_annotations(source: Source, build: str) -> ET.Element:
+    """vendor_annotations as FMI 3.0 writes them: <Annotations><Annotation type="org.crankfmu"><Scenario .../>."""
+    annotations = ET.Element("Annotations")
+    ET.SubElement(annotations, "Annotation", type=FMI3_ANNOTATION).extend(list(vendor_annotations(source, build).find("Tool")))
+    return annotations
+
+
+def crankfmu_annotation(root: ET.Element) -> ET.Element | None:
+    """The element holding what crankfmu built an FMU from (Scenario, Drive, ...) in an FMI 2.0 or 3.0
+    modelDescription's root, or None for an FMU crankfmu did not build."""
+    tool = root.find("VendorAnnotations/Tool[@name='crankfmu']")
+    return tool if tool is not None else root.find(f"Annotations/Annotation[@type='{FMI3_ANNOTATION}']")
+
+
 def complete_model_description(xml_bytes: bytes, units: dict[str, str], parameters: dict, source: Source) -> bytes:
     """pythonfmu's modelDescription with units, parameter ranges (min/max where a bound exists),
     UnitDefinitions, DefaultExperiment, the data file's name and InitialUnknowns."""

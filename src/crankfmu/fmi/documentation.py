@@ -98,7 +98,20 @@ def _equations(rows) -> str:
 
 
 def _variables(model_description: bytes):
+    """(the variable's element, an element with its start, min, max and unit) of each variable of an
+    FMI 2.0 or 3.0 modelDescription (3.0: the unit from the variable or its declared type)."""
     root = ET.fromstring(model_description)
+    if root.get("fmiVersion", "").startswith("3"):
+        types = {t.get("name"): t.get("unit") for t in root.iter("Float64Type")}
+        for v in root.find("ModelVariables"):
+            if v.get("causality") in ("independent", "local"):
+                continue
+            real = ET.Element("Real", {k: v.get(k) for k in ("start", "min", "max") if v.get(k) is not None})
+            unit = v.get("unit") or types.get(v.get("declaredType"))
+            if unit:
+                real.set("unit", unit)
+            yield v, real
+        return
     for sv in root.find("ModelVariables"):
         real = sv.find("Real")
         yield sv, (real if real is not None else ET.Element("Real"))

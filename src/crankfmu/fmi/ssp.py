@@ -202,10 +202,12 @@ def _model_description(fmu: Path):
 
 
 def built_from(fmu: Path) -> dict[str, str]:
-    """What crankfmu built the FMU from, as its VendorAnnotations say (build.vendor_annotations):
+    """What crankfmu built the FMU from, as its annotations say (build.vendor_annotations, and FMI 3.0's):
     kind ("scenario", "drive", ...), name, build, and a user's file and the causality where given;
     {} for an FMU crankfmu did not build."""
-    tool = _model_description(fmu).find("VendorAnnotations/Tool[@name='crankfmu']")
+    from .build import crankfmu_annotation
+
+    tool = crankfmu_annotation(_model_description(fmu))
     element = next(iter(tool), None) if tool is not None else None
     return {} if element is None else {"kind": element.tag.lower(), **element.attrib}
 

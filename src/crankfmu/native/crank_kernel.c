@@ -606,6 +606,23 @@ int ck_advance(double* S, double t_target, double t_limit, const CkTables* T, co
     return 0;
 }
 
+int ck_advance_to_switch(double* S, double t_target, double t_limit, const CkTables* T, const double* P, double* row,
+                         double* t_switch)
+{
+    Scratch w;
+    while (S[CK_T] < t_target) {
+        int slot = step(S, t_limit, T, P, &w);
+        if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return slot;
+        if (slot >= 0) {
+            *t_switch = S[CK_T];
+            checked_output_row(S, fmin(S[CK_T], t_target), T, P, row);
+            return 1;
+        }
+    }
+    checked_output_row(S, t_target, T, P, row);
+    return 0;
+}
+
 int ck_run_chunk(double* S, double t_end, const double* times, int n_times, int* i_out, double* rows,
                  double* step_store, int store_capacity, int* n_store, double* events_out, int event_capacity,
                  int* n_events, double* modes, int mode_capacity, int* n_modes, const CkTables* T, const double* P)

@@ -122,6 +122,12 @@ CK_API int ck_reaction_values(const double* coefficients, int n_reactions, int n
 CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
 CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,
                       double* row);
+/* ck_advance, stopping at the first switch it locates (a host that handles events: FMI 3's event
+ * mode and early return): returns 1 with *t_switch the switch's time, where the kernel's last step
+ * ends and the mode has changed, the output row at the earlier of it and t_target; 0 when t_target
+ * was reached with no switch on the way; or ck_advance's refusal */
+CK_API int ck_advance_to_switch(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,
+                                double* row, double* t_switch);
 CK_API void ck_dense(const double* S, double t, double* out);
 CK_API int ck_run_chunk(double* S, double t_end, const double* times, int n_times, int* i_out, double* rows,
                         double* step_store, int store_capacity, int* n_store, double* events, int event_capacity,

@@ -1,9 +1,9 @@
-/* What the FMI shell (crank_fmi2.c) knows of the model it wraps: the contract's variables at fixed
- * value references, and the data `crankfmu fmu --native` generates for one scenario
- * (model_config.h: its identifier, GUID, counts and rebuild command; model_data.c: its tables and
- * the table of every variable). */
-#ifndef CRANK_FMI2_MODEL_H
-#define CRANK_FMI2_MODEL_H
+/* The native mechanism FMU's variables (crank_model.c, behind the FMI 2.0 and 3.0 shells): the
+ * contract's variables at fixed value references, and the data `crankfmu fmu --native` generates
+ * for one scenario (model_config.h: its identifier, GUID, counts and rebuild command;
+ * model_data.c: its tables and the table of every variable). */
+#ifndef CRANK_VARIABLES_H
+#define CRANK_VARIABLES_H
 
 #include "crank_kernel.h"
 #include "model_config.h"

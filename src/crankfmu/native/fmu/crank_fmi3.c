@@ -1,0 +1,620 @@
+/* The native mechanism FMU's FMI 3.0 shell, Co-Simulation and Model Exchange: each call translated
+ * into the model's (crank_model.h), as the FMI 2.0 shell does; every error is logged whatever
+ * loggingOn says and the call returns fmi3Error.
+ *
+ * Value references: the model's variables (crank_variables.h), then, for Model Exchange, one
+ * variable per event indicator (the kernel's event slots) and last the independent variable time.
+ * Co-Simulation: with eventModeUsed, a switch located in a step is the host's event (the step
+ * ends there when earlyReturnAllowed, else at its end, eventHandlingNeeded set either way); with
+ * earlyReturnAllowed only, the step returns at each switch (earlyReturn, lastSuccessfulTime);
+ * with neither, every switch is handled inside the step, as in FMI 2.0 (the same values). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crank_model.h"
+#include "fmi3Functions.h"
+
+#define VR_FIRST_INDICATOR N_VARIABLES
+#define VR_TIME (N_VARIABLES + CK_N_SLOTS)
+
+typedef struct {
+    Model model;
+    char name[128];
+    int logging_on;
+    int event_mode_used, early_return_allowed;
+    int in_event_mode;             /* Co-Simulation: between fmi3EnterEventMode and fmi3EnterStepMode */
+    fmi3InstanceEnvironment environment;
+    fmi3LogMessageCallback log_message;
+} Instance;
+
+static void log_to_host(void* host, int kind, const char* message)
+{
+    const Instance* in = (const Instance*)host;
+    if (!in->log_message) return;
+    if (kind == CM_LOG_OK && !in->logging_on) return;          /* warnings and errors: always */
+    in->log_message(in->environment, kind == CM_LOG_ERROR ? fmi3Error : kind == CM_LOG_WARNING ? fmi3Warning : fmi3OK,
+                    kind == CM_LOG_ERROR ? "logStatusError" : kind == CM_LOG_WARNING ? "logStatusWarning" : "logEvents",
+                    message);
+}
+
+static fmi3Status status_of(int result) { return result == CM_OK ? fmi3OK : fmi3Error; }
+
+#define MODEL(c) (&((Instance*)(c))->model)
+
+static Instance* instantiate(fmi3String instanceName, fmi3String instantiationToken, fmi3Boolean loggingOn,
+                             fmi3InstanceEnvironment environment, fmi3LogMessageCallback logMessage, int model_exchange)
+{
+    Instance probe;
+    memset(&probe, 0, sizeof probe);
+    snprintf(probe.name, sizeof probe.name, "%s", instanceName ? instanceName : "?");
+    probe.environment = environment;
+    probe.log_message = logMessage;
+    probe.model.log = log_to_host;
+    probe.model.host = &probe;
+    if (CAUSALITY_SPEED && model_exchange) {
+        cm_fail(&probe.model, "%s", "fmi3InstantiateModelExchange: this FMU is Co-Simulation only: in speed causality "
+                "tau_drive needs omega1's derivative, which a Model Exchange host cannot pass");
+        return NULL;
+    }
+    if (!instantiationToken || strcmp(instantiationToken, MODEL_GUID) != 0) {
+        cm_fail(&probe.model, "the instantiation token %s is not this FMU's (" MODEL_GUID ")",
+                instantiationToken ? instantiationToken : "(null)");
+        return NULL;
+    }
+    Instance* in = (Instance*)calloc(1, sizeof(Instance));
+    if (!in) {
+        cm_fail(&probe.model, "%s", "out of memory for the instance");
+        return NULL;
+    }
+    memcpy(in->name, probe.name, sizeof in->name);
+    in->environment = environment;
+    in->log_message = logMessage;
+    in->logging_on = loggingOn;
+    cm_init(&in->model, model_exchange, log_to_host, in);
+    return in;
+}
+
+const char* fmi3GetVersion(void) { return fmi3Version; }
+
+fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, size_t nCategories,
+                               const fmi3String categories[])
+{
+    (void)nCategories;
+    (void)categories;
+    if (!instance) return fmi3Error;
+    ((Instance*)instance)->logging_on = loggingOn;
+    return fmi3OK;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
+                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment, fmi3LogMessageCallback logMessage)
+{
+    (void)resourcePath;
+    (void)visible;
+    return instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 1);
+}
+
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
+                                         fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                         fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
+                                         const fmi3ValueReference requiredIntermediateVariables[],
+                                         size_t nRequiredIntermediateVariables,
+                                         fmi3InstanceEnvironment instanceEnvironment,
+                                         fmi3LogMessageCallback logMessage,
+                                         fmi3IntermediateUpdateCallback intermediateUpdate)
+{
+    (void)resourcePath;
+    (void)visible;
+    (void)requiredIntermediateVariables;
+    (void)nRequiredIntermediateVariables;
+    (void)intermediateUpdate;
+    Instance* in = instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 0);
+    if (in) {
+        in->event_mode_used = eventModeUsed;
+        in->early_return_allowed = earlyReturnAllowed;
+    }
+    return in;
+}
+
+fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
+                                               fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                               fmi3InstanceEnvironment instanceEnvironment,
+                                               fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
+                                               fmi3LockPreemptionCallback lockPreemption,
+                                               fmi3UnlockPreemptionCallback unlockPreemption)
+{
+    (void)instantiationToken, (void)resourcePath, (void)visible, (void)loggingOn, (void)clockUpdate;
+    (void)lockPreemption, (void)unlockPreemption;
+    if (logMessage)
+        logMessage(instanceEnvironment, fmi3Error, "logStatusError",
+                   "fmi3InstantiateScheduledExecution: this FMU offers Model Exchange and Co-Simulation only");
+    (void)instanceName;
+    return NULL;
+}
+
+void fmi3FreeInstance(fmi3Instance instance) { free(instance); }
+
+fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined, fmi3Float64 tolerance,
+                                       fmi3Float64 startTime, fmi3Boolean stopTimeDefined, fmi3Float64 stopTime)
+{
+    (void)toleranceDefined;
+    (void)tolerance;
+    if (!instance) return fmi3Error;
+    if (cm_setup(MODEL(instance), "fmi3EnterInitializationMode", startTime, stopTimeDefined, stopTime) != CM_OK)
+        return fmi3Error;
+    return status_of(cm_enter_initialization(MODEL(instance), "fmi3EnterInitializationMode"));
+}
+
+fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
+{
+    if (!instance) return fmi3Error;
+    Instance* in = (Instance*)instance;
+    if (cm_exit_initialization(&in->model, "fmi3ExitInitializationMode") != CM_OK) return fmi3Error;
+    /* Co-Simulation with event mode: the host's event update comes first, then fmi3EnterStepMode */
+    in->in_event_mode = !in->model.model_exchange && in->event_mode_used;
+    return fmi3OK;
+}
+
+fmi3Status fmi3EnterEventMode(fmi3Instance instance)
+{
+    if (!instance) return fmi3Error;
+    Instance* in = (Instance*)instance;
+    if (in->model.model_exchange) return status_of(cm_me_ready(&in->model, "fmi3EnterEventMode", 0));
+    if (!in->event_mode_used)
+        return status_of(cm_fail(&in->model, "%s", "fmi3EnterEventMode: the host instantiated without eventModeUsed"));
+    if (in->model.now.phase != CM_STEPPING)
+        return status_of(cm_fail(&in->model, "%s", "fmi3EnterEventMode: allowed in step mode only"));
+    in->in_event_mode = 1;
+    return fmi3OK;
+}
+
+fmi3Status fmi3EnterStepMode(fmi3Instance instance)
+{
+    if (!instance) return fmi3Error;
+    Instance* in = (Instance*)instance;
+    if (in->model.model_exchange) return status_of(cm_fail(&in->model, "%s", "fmi3EnterStepMode: Co-Simulation only"));
+    if (in->model.now.phase != CM_STEPPING)
+        return status_of(cm_fail(&in->model, "%s", "fmi3EnterStepMode: the model is not initialised"));
+    in->in_event_mode = 0;
+    return fmi3OK;
+}
+
+fmi3Status fmi3Terminate(fmi3Instance instance)
+{
+    if (!instance) return fmi3Error;
+    cm_terminate(MODEL(instance));
+    return fmi3OK;
+}
+
+fmi3Status fmi3Reset(fmi3Instance instance)
+{
+    if (!instance) return fmi3Error;
+    cm_reset(MODEL(instance));
+    ((Instance*)instance)->in_event_mode = 0;
+    return fmi3OK;
+}
+
+/* ------------------------------------------------------------------------------ variables */
+
+fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                          fmi3Float64 values[], size_t nValues)
+{
+    if (!instance) return fmi3Error;
+    Model* m = MODEL(instance);
+    if (nValues != nValueReferences)
+        return status_of(cm_fail(m, "fmi3GetFloat64: %u values for %u value references (every variable is a scalar)",
+                                 (unsigned)nValues, (unsigned)nValueReferences));
+    if (nValueReferences > 0 && (!valueReferences || !values)) return status_of(cm_fail(m, "%s", "fmi3GetFloat64: null arrays"));
+    for (size_t i = 0; i < nValueReferences; i++) {
+        fmi3ValueReference vr = valueReferences[i];
+        if (vr < N_VARIABLES) {
+            if (cm_get(m, "fmi3GetFloat64", &vr, 1, &values[i]) != CM_OK) return fmi3Error;
+        } else if (vr == VR_TIME) {
+            values[i] = m->now.time;
+        } else if (vr < VR_TIME && m->model_exchange && m->now.phase != CM_INSTANTIATED) {
+            double z[CK_N_SLOTS];
+            if (cm_me_get_indicators(m, "fmi3GetFloat64", z, CK_N_SLOTS) != CM_OK) return fmi3Error;
+            values[i] = z[vr - VR_FIRST_INDICATOR];
+        } else if (vr < VR_TIME) {
+            values[i] = 0.0;                 /* an event indicator before the model exists, or Co-Simulation */
+        } else {
+            return status_of(cm_fail(m, "fmi3GetFloat64: no variable has value reference %u", (unsigned)vr));
+        }
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                          const fmi3Float64 values[], size_t nValues)
+{
+    if (!instance) return fmi3Error;
+    Model* m = MODEL(instance);
+    if (nValues != nValueReferences)
+        return status_of(cm_fail(m, "fmi3SetFloat64: %u values for %u value references (every variable is a scalar)",
+                                 (unsigned)nValues, (unsigned)nValueReferences));
+    for (size_t i = 0; i < nValueReferences; i++)
+        if (valueReferences && valueReferences[i] >= N_VARIABLES)
+            return status_of(cm_fail(m, "fmi3SetFloat64: value reference %u is %s", (unsigned)valueReferences[i],
+                                     valueReferences[i] < VR_TIME ? "an event indicator: it cannot be set"
+                                     : valueReferences[i] == VR_TIME ? "the time: it cannot be set"
+                                                                     : "no variable's"));
+    return status_of(cm_set(m, "fmi3SetFloat64", valueReferences, nValueReferences, values));
+}
+
+#define NO_SUCH_GET(Type, type)                                                                                   \
+    fmi3Status fmi3Get##Type(fmi3Instance instance, const fmi3ValueReference valueReferences[],                   \
+                             size_t nValueReferences, type values[], size_t nValues)                              \
+    {                                                                                                            \
+        (void)valueReferences, (void)values, (void)nValues;                                                      \
+        if (!instance) return fmi3Error;                                                                         \
+        return nValueReferences == 0 ? fmi3OK                                                                    \
+                                     : status_of(cm_fail(MODEL(instance), "%s", "fmi3Get" #Type ": this FMU has no such variables")); \
+    }
+#define NO_SUCH_SET(Type, type)                                                                                   \
+    fmi3Status fmi3Set##Type(fmi3Instance instance, const fmi3ValueReference valueReferences[],                   \
+                             size_t nValueReferences, const type values[], size_t nValues)                        \
+    {                                                                                                            \
+        (void)valueReferences, (void)values, (void)nValues;                                                      \
+        if (!instance) return fmi3Error;                                                                         \
+        return nValueReferences == 0 ? fmi3OK                                                                    \
+                                     : status_of(cm_fail(MODEL(instance), "%s", "fmi3Set" #Type ": this FMU has no such variables")); \
+    }
+#define NO_SUCH(Type, type) NO_SUCH_GET(Type, type) NO_SUCH_SET(Type, type)
+NO_SUCH(Float32, fmi3Float32)
+NO_SUCH(Int8, fmi3Int8)
+NO_SUCH(UInt8, fmi3UInt8)
+NO_SUCH(Int16, fmi3Int16)
+NO_SUCH(UInt16, fmi3UInt16)
+NO_SUCH(Int32, fmi3Int32)
+NO_SUCH(UInt32, fmi3UInt32)
+NO_SUCH(Int64, fmi3Int64)
+NO_SUCH(UInt64, fmi3UInt64)
+NO_SUCH(Boolean, fmi3Boolean)
+NO_SUCH(String, fmi3String)
+
+fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         size_t valueSizes[], fmi3Binary values[], size_t nValues)
+{
+    (void)valueReferences, (void)valueSizes, (void)values, (void)nValues;
+    if (!instance) return fmi3Error;
+    return nValueReferences == 0 ? fmi3OK : status_of(cm_fail(MODEL(instance), "%s", "fmi3GetBinary: this FMU has no such variables"));
+}
+
+fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         const size_t valueSizes[], const fmi3Binary values[], size_t nValues)
+{
+    (void)valueReferences, (void)valueSizes, (void)values, (void)nValues;
+    if (!instance) return fmi3Error;
+    return nValueReferences == 0 ? fmi3OK : status_of(cm_fail(MODEL(instance), "%s", "fmi3SetBinary: this FMU has no such variables"));
+}
+
+fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        fmi3Clock values[])
+{
+    (void)valueReferences, (void)values;
+    if (!instance) return fmi3Error;
+    return nValueReferences == 0 ? fmi3OK : status_of(cm_fail(MODEL(instance), "%s", "fmi3GetClock: this FMU has no clocks"));
+}
+
+fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        const fmi3Clock values[])
+{
+    (void)valueReferences, (void)values;
+    if (!instance) return fmi3Error;
+    return nValueReferences == 0 ? fmi3OK : status_of(cm_fail(MODEL(instance), "%s", "fmi3SetClock: this FMU has no clocks"));
+}
+
+/* ------------------------------------------------------------------------------ not provided */
+
+static fmi3Status not_provided(fmi3Instance instance, const char* what)
+{
+    if (!instance) return fmi3Error;
+    return status_of(cm_fail(MODEL(instance), "%s: not provided by this FMU", what));
+}
+
+fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance instance, fmi3ValueReference valueReference,
+                                               size_t* nDependencies)
+{
+    (void)valueReference, (void)nDependencies;
+    return not_provided(instance, "fmi3GetNumberOfVariableDependencies");
+}
+
+fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference dependent,
+                                       size_t elementIndicesOfDependent[], fmi3ValueReference independents[],
+                                       size_t elementIndicesOfIndependents[], fmi3DependencyKind dependencyKinds[],
+                                       size_t nDependencies)
+{
+    (void)dependent, (void)elementIndicesOfDependent, (void)independents, (void)elementIndicesOfIndependents;
+    (void)dependencyKinds, (void)nDependencies;
+    return not_provided(instance, "fmi3GetVariableDependencies");
+}
+
+fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                        const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                        size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity)
+{
+    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed, (void)sensitivity;
+    (void)nSensitivity;
+    return not_provided(instance, "fmi3GetDirectionalDerivative");
+}
+
+fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                    const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                    size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity)
+{
+    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed, (void)sensitivity;
+    (void)nSensitivity;
+    return not_provided(instance, "fmi3GetAdjointDerivative");
+}
+
+fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) { return not_provided(instance, "fmi3EnterConfigurationMode"); }
+fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) { return not_provided(instance, "fmi3ExitConfigurationMode"); }
+
+fmi3Status fmi3GetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                  size_t nValueReferences, fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[])
+{
+    (void)valueReferences, (void)nValueReferences, (void)intervals, (void)qualifiers;
+    return not_provided(instance, "fmi3GetIntervalDecimal");
+}
+
+fmi3Status fmi3GetIntervalFraction(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                   size_t nValueReferences, fmi3UInt64 counters[], fmi3UInt64 resolutions[],
+                                   fmi3IntervalQualifier qualifiers[])
+{
+    (void)valueReferences, (void)nValueReferences, (void)counters, (void)resolutions, (void)qualifiers;
+    return not_provided(instance, "fmi3GetIntervalFraction");
+}
+
+fmi3Status fmi3GetShiftDecimal(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                               size_t nValueReferences, fmi3Float64 shifts[])
+{
+    (void)valueReferences, (void)nValueReferences, (void)shifts;
+    return not_provided(instance, "fmi3GetShiftDecimal");
+}
+
+fmi3Status fmi3GetShiftFraction(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                size_t nValueReferences, fmi3UInt64 counters[], fmi3UInt64 resolutions[])
+{
+    (void)valueReferences, (void)nValueReferences, (void)counters, (void)resolutions;
+    return not_provided(instance, "fmi3GetShiftFraction");
+}
+
+fmi3Status fmi3SetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                  size_t nValueReferences, const fmi3Float64 intervals[])
+{
+    (void)valueReferences, (void)nValueReferences, (void)intervals;
+    return not_provided(instance, "fmi3SetIntervalDecimal");
+}
+
+fmi3Status fmi3SetIntervalFraction(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                   size_t nValueReferences, const fmi3UInt64 counters[],
+                                   const fmi3UInt64 resolutions[])
+{
+    (void)valueReferences, (void)nValueReferences, (void)counters, (void)resolutions;
+    return not_provided(instance, "fmi3SetIntervalFraction");
+}
+
+fmi3Status fmi3SetShiftDecimal(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                               size_t nValueReferences, const fmi3Float64 shifts[])
+{
+    (void)valueReferences, (void)nValueReferences, (void)shifts;
+    return not_provided(instance, "fmi3SetShiftDecimal");
+}
+
+fmi3Status fmi3SetShiftFraction(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                size_t nValueReferences, const fmi3UInt64 counters[], const fmi3UInt64 resolutions[])
+{
+    (void)valueReferences, (void)nValueReferences, (void)counters, (void)resolutions;
+    return not_provided(instance, "fmi3SetShiftFraction");
+}
+
+fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance) { return not_provided(instance, "fmi3EvaluateDiscreteStates"); }
+
+fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clockReference,
+                                      fmi3Float64 activationTime)
+{
+    (void)clockReference, (void)activationTime;
+    return not_provided(instance, "fmi3ActivateModelPartition");
+}
+
+fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                    size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[],
+                                    size_t nValues)
+{
+    (void)valueReferences, (void)nValueReferences, (void)orders, (void)values, (void)nValues;
+    return not_provided(instance, "fmi3GetOutputDerivatives");
+}
+
+/* ------------------------------------------------------------------------------ FMU state */
+
+fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState* FMUState)
+{
+    if (!instance || !FMUState) return fmi3Error;
+    Snapshot* s = (Snapshot*)(*FMUState ? *FMUState : malloc(sizeof(Snapshot)));
+    if (!s) return status_of(cm_fail(MODEL(instance), "%s", "fmi3GetFMUState: out of memory"));
+    *s = MODEL(instance)->now;
+    *FMUState = s;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState)
+{
+    if (!instance) return fmi3Error;
+    if (!FMUState) return status_of(cm_fail(MODEL(instance), "%s", "fmi3SetFMUState: no state"));
+    MODEL(instance)->now = *(const Snapshot*)FMUState;
+    return fmi3OK;
+}
+
+fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState* FMUState)
+{
+    if (!instance || !FMUState) return fmi3Error;
+    free(*FMUState);
+    *FMUState = NULL;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUState, size_t* size)
+{
+    (void)FMUState;
+    if (!instance || !size) return fmi3Error;
+    *size = cm_serialized_size();
+    return fmi3OK;
+}
+
+fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState FMUState, fmi3Byte serializedState[], size_t size)
+{
+    if (!instance || !FMUState || !serializedState) return fmi3Error;
+    if (size < cm_serialized_size())
+        return status_of(cm_fail(MODEL(instance), "%s", "fmi3SerializeFMUState: the buffer is too small"));
+    cm_serialize((const Snapshot*)FMUState, serializedState);
+    return fmi3OK;
+}
+
+fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3Byte serializedState[], size_t size,
+                                   fmi3FMUState* FMUState)
+{
+    if (!instance || !serializedState || !FMUState) return fmi3Error;
+    Snapshot read;
+    if (cm_deserialize(MODEL(instance), "fmi3DeserializeFMUState", serializedState, size, &read) != CM_OK)
+        return fmi3Error;
+    Snapshot* s = (Snapshot*)(*FMUState ? *FMUState : malloc(sizeof(Snapshot)));
+    if (!s) return status_of(cm_fail(MODEL(instance), "%s", "fmi3DeserializeFMUState: out of memory"));
+    *s = read;
+    *FMUState = s;
+    return fmi3OK;
+}
+
+/* ------------------------------------------------------------------------------ Co-Simulation */
+
+fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint, fmi3Float64 communicationStepSize,
+                      fmi3Boolean noSetFMUStatePriorToCurrentPoint, fmi3Boolean* eventHandlingNeeded,
+                      fmi3Boolean* terminateSimulation, fmi3Boolean* earlyReturn, fmi3Float64* lastSuccessfulTime)
+{
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (!instance) return fmi3Error;
+    Instance* in = (Instance*)instance;
+    if (!eventHandlingNeeded || !terminateSimulation || !earlyReturn || !lastSuccessfulTime)
+        return status_of(cm_fail(&in->model, "%s", "fmi3DoStep: null arguments"));
+    *eventHandlingNeeded = *terminateSimulation = *earlyReturn = fmi3False;
+    *lastSuccessfulTime = in->model.now.time;
+    if (in->in_event_mode) return status_of(cm_fail(&in->model, "%s", "fmi3DoStep in event mode: fmi3EnterStepMode first"));
+    int switches = in->early_return_allowed ? CM_SWITCHES_STOP
+                   : in->event_mode_used    ? CM_SWITCHES_REPORT
+                                            : CM_SWITCHES_INSIDE;
+    double t_end;
+    int stopped;
+    int result = cm_do_step(&in->model, "fmi3DoStep", currentCommunicationPoint, communicationStepSize, switches, &t_end,
+                            &stopped);
+    *lastSuccessfulTime = in->model.now.time;
+    if (result != CM_OK) return fmi3Error;
+    *earlyReturn = switches == CM_SWITCHES_STOP && stopped && t_end < currentCommunicationPoint + communicationStepSize;
+    *eventHandlingNeeded = in->event_mode_used && stopped;
+    return fmi3OK;
+}
+
+/* ------------------------------------------------------------------------------ events, both interfaces */
+
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean* discreteStatesNeedUpdate,
+                                    fmi3Boolean* terminateSimulation, fmi3Boolean* nominalsOfContinuousStatesChanged,
+                                    fmi3Boolean* valuesOfContinuousStatesChanged, fmi3Boolean* nextEventTimeDefined,
+                                    fmi3Float64* nextEventTime)
+{
+    if (!instance) return fmi3Error;
+    Instance* in = (Instance*)instance;
+    if (!discreteStatesNeedUpdate || !terminateSimulation || !nominalsOfContinuousStatesChanged ||
+        !valuesOfContinuousStatesChanged || !nextEventTimeDefined || !nextEventTime)
+        return status_of(cm_fail(&in->model, "%s", "fmi3UpdateDiscreteStates: null arguments"));
+    int changed = 0;
+    if (in->model.model_exchange) {
+        if (cm_me_update(&in->model, "fmi3UpdateDiscreteStates", &changed) != CM_OK) return fmi3Error;
+    } else if (!in->in_event_mode) {
+        return status_of(cm_fail(&in->model, "%s", "fmi3UpdateDiscreteStates: Co-Simulation in event mode only"));
+    }
+    /* Co-Simulation: the kernel changed the mode where it located the switch; inputs set in event
+     * mode take effect from the next step, as any input does */
+    *discreteStatesNeedUpdate = fmi3False;
+    *terminateSimulation = fmi3False;
+    *nominalsOfContinuousStatesChanged = fmi3False;
+    *valuesOfContinuousStatesChanged = changed ? fmi3True : fmi3False;
+    *nextEventTimeDefined = fmi3False;
+    *nextEventTime = 0.0;
+    return fmi3OK;
+}
+
+/* ------------------------------------------------------------------------------ Model Exchange */
+
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
+{
+    return instance ? status_of(cm_me_ready(MODEL(instance), "fmi3EnterContinuousTimeMode", 0)) : fmi3Error;
+}
+
+fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi3Boolean* enterEventMode, fmi3Boolean* terminateSimulation)
+{
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (!instance) return fmi3Error;
+    if (cm_me_ready(MODEL(instance), "fmi3CompletedIntegratorStep", 0) != CM_OK) return fmi3Error;
+    if (!enterEventMode || !terminateSimulation)
+        return status_of(cm_fail(MODEL(instance), "%s", "fmi3CompletedIntegratorStep: null arguments"));
+    *enterEventMode = fmi3False;       /* every event is a state event, found by the indicators */
+    *terminateSimulation = fmi3False;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
+{
+    return instance ? status_of(cm_me_set_time(MODEL(instance), "fmi3SetTime", time)) : fmi3Error;
+}
+
+fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 continuousStates[],
+                                   size_t nContinuousStates)
+{
+    return instance ? status_of(cm_me_set_states(MODEL(instance), "fmi3SetContinuousStates", continuousStates,
+                                                 nContinuousStates))
+                    : fmi3Error;
+}
+
+fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 derivatives[], size_t nContinuousStates)
+{
+    return instance ? status_of(cm_me_get_derivatives(MODEL(instance), "fmi3GetContinuousStateDerivatives", derivatives,
+                                                      nContinuousStates))
+                    : fmi3Error;
+}
+
+fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[], size_t nEventIndicators)
+{
+    return instance ? status_of(cm_me_get_indicators(MODEL(instance), "fmi3GetEventIndicators", eventIndicators,
+                                                     nEventIndicators))
+                    : fmi3Error;
+}
+
+fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[], size_t nContinuousStates)
+{
+    return instance ? status_of(cm_me_get_states(MODEL(instance), "fmi3GetContinuousStates", continuousStates,
+                                                 nContinuousStates))
+                    : fmi3Error;
+}
+
+fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[], size_t nContinuousStates)
+{
+    return instance ? status_of(cm_me_get_nominals(MODEL(instance), "fmi3GetNominalsOfContinuousStates", nominals,
+                                                   nContinuousStates))
+                    : fmi3Error;
+}
+
+fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t* nEventIndicators)
+{
+    if (!instance || !nEventIndicators) return fmi3Error;
+    *nEventIndicators = MODEL(instance)->model_exchange ? CK_N_SLOTS : 0;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t* nContinuousStates)
+{
+    if (!instance || !nContinuousStates) return fmi3Error;
+    *nContinuousStates = MODEL(instance)->model_exchange ? N_STATES : 0;
+    return fmi3OK;
+}

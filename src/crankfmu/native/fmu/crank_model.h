@@ -1,0 +1,102 @@
+/* The native mechanism FMU's model, whatever FMI version fronts it: its variables' values, the
+ * kernel's state and parameters, initialisation, Co-Simulation steps (with or without a stop at
+ * each located switch), the Model Exchange calls, and the FMU state as bytes. The FMI 2.0 shell
+ * (crank_fmi2.c) and the FMI 3.0 shell (crank_fmi3.c) are thin translations of their calls into
+ * these; what a host is told is said here, once, with the calling function's name.
+ *
+ * Every function that can refuse returns CM_OK or CM_ERROR; a refusal is logged through the
+ * model's logger (the shell's: whatever loggingOn says) with the reason, and a model whose step
+ * failed refuses further steps (CM_FAILED). */
+#ifndef CRANK_MODEL_H
+#define CRANK_MODEL_H
+
+#include <stddef.h>
+
+#include "crank_kernel.h"
+#include "crank_variables.h"
+
+enum { CM_OK = 0, CM_ERROR = 1 };
+enum { CM_INSTANTIATED, CM_INITIALIZATION, CM_STEPPING, CM_TERMINATED, CM_FAILED };
+/* what a message is: the shells map these to their status values */
+enum { CM_LOG_OK, CM_LOG_WARNING, CM_LOG_ERROR };
+
+typedef struct {
+    double S[CK_STATE_SIZE];       /* the kernel's whole state */
+    double P[CK_PARAM_SIZE];       /* the kernel's parameters */
+    double row[CK_OUT_SIZE];       /* the outputs at the current time */
+    double values[N_VARIABLES];    /* every variable's value (outputs are read from row) */
+    double time;
+    double t_limit;                /* the stop time: steps may run to it, communication points come
+                                      from the dense output (the trajectory does not depend on the
+                                      communication step) */
+    double event_ahead;            /* a switch the kernel located past the last communication point
+                                      (its last step ends there), or -INFINITY: a step that stops at
+                                      switches stops there */
+    int phase;
+    int pending;                   /* a tunable or the input changed: restart at the next step
+                                      (Model Exchange: at the next event update) */
+    double dydt[N_STATES];         /* Model Exchange: the derivatives at the current state */
+    double input_rate[N_INPUTS];   /* Co-Simulation: each input's first derivative (1/s), from
+                                      fmi2SetRealInputDerivatives; 0 (held) once the input is set */
+    int rate_given[N_INPUTS];      /* whether the host gave it since it last set the input (speed
+                                      causality: else omega1's slope is a backward difference) */
+} Snapshot;
+
+typedef void (*CmLogger)(void* host, int kind, const char* message);
+
+typedef struct {
+    Snapshot now;
+    CkTables tables;
+    int model_exchange;
+    CmLogger log;
+    void* host;                    /* the shell's instance, given back to log */
+} Model;
+
+/* the model at its start values, its tables bound; log(host, ...) says what goes wrong */
+void cm_init(Model* m, int model_exchange, CmLogger log, void* host);
+/* back to the start values (fmi2Reset, fmi3Reset) */
+void cm_reset(Model* m);
+/* a refusal: the message, formatted, to the logger as an error; returns CM_ERROR */
+int cm_fail(const Model* m, const char* format, ...);
+
+int cm_setup(Model* m, const char* call, double start_time, int stop_defined, double stop_time);
+int cm_enter_initialization(Model* m, const char* call);
+int cm_exit_initialization(Model* m, const char* call);
+void cm_terminate(Model* m);
+
+/* Co-Simulation: a step from t (the host's communication point) by h, its switches (the motor's
+ * kink, a slider force's switch angle, the crank coming to rest or leaving it: each located by the
+ * kernel, the mode changed there):
+ * CM_SWITCHES_INSIDE   handled inside the step, which ends at t + h (FMI 2; FMI 3 without event
+ *                      mode and early return);
+ * CM_SWITCHES_STOP     the step ends at the first switch in (t, t + h] (*stopped 1, *t_end its
+ *                      time), else at t + h (FMI 3's early return);
+ * CM_SWITCHES_REPORT   handled inside the step, which ends at t + h; *stopped 1 if one was in it
+ *                      (FMI 3's event mode without early return: the host's event update follows).
+ * The kernel's steps are the same in the three, so are the values at t + h where no stop comes. */
+enum { CM_SWITCHES_INSIDE, CM_SWITCHES_STOP, CM_SWITCHES_REPORT };
+int cm_do_step(Model* m, const char* call, double t, double h, int switches, double* t_end, int* stopped);
+
+/* values by value reference; an output in initialisation mode is what the values set give */
+int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* value);
+int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const double* value);
+/* Co-Simulation: inputs' first derivatives at the current communication point */
+int cm_set_input_derivatives(Model* m, const char* call, const unsigned* vr, size_t n, const int* order,
+                             const double* value);
+
+/* Model Exchange (each refuses a Co-Simulation model, and one outside the phases it allows) */
+int cm_me_ready(Model* m, const char* call, int initialization_too);
+int cm_me_update(Model* m, const char* call, int* states_changed);
+int cm_me_set_time(Model* m, const char* call, double time);
+int cm_me_set_states(Model* m, const char* call, const double* x, size_t n);
+int cm_me_get_states(Model* m, const char* call, double* x, size_t n);
+int cm_me_get_derivatives(Model* m, const char* call, double* dx, size_t n);
+int cm_me_get_indicators(Model* m, const char* call, double* z, size_t n);
+int cm_me_get_nominals(Model* m, const char* call, double* nominals, size_t n);
+
+/* the FMU state as bytes: a tag, then the snapshot (the same machine and build reads it back) */
+size_t cm_serialized_size(void);
+void cm_serialize(const Snapshot* s, unsigned char* bytes);
+int cm_deserialize(const Model* m, const char* call, const unsigned char* bytes, size_t size, Snapshot* s);
+
+#endif

@@ -1,0 +1,242 @@
+"""FMI 3.0 native FMUs (crankfmu fmu SCENARIO --native --fmi-version 3): the model and kernel of
+the FMI 2.0 FMU behind crank_fmi3.c, and what hosts see of it.
+
+- fmpy's validation is clean; the variables are the FMI 2.0 FMU's at the same value references,
+  each of a Float64Type with its SI unit, plus the event indicators and time;
+- Co-Simulation without event mode and early return steps as the FMI 2.0 FMU does: the same
+  outputs, bit for bit (the same kernel calls), and so the in-process reference to 1e-8;
+- with event mode, early return or both (fmpy's master), every value at the communication
+  points is still the FMI 2.0 FMU's, bit for bit: the kernel's steps do not change, only where
+  the FMU returns; each early return is at a switch the kernel located (seed 001: its slider
+  forces' switch angles), where phi1 is on a switch angle of the tables;
+- Model Exchange through fmpy's CVode against the reference to 1e-6;
+- the project's C host (tests/c_host/fmu3_driver.c) runs the x86_64-linux binary under env -i,
+  the x86_64-windows DLL under wine and the aarch64-linux binary under qemu-aarch64: the three
+  agree to 1e-12 (measured: bit for bit) and with the reference to 1e-8;
+- refusals are fmi3Error with the message whatever loggingOn says;
+- terminalsAndIcons: the icon and one terminal per port.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import shutil
+import subprocess
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import numpy as np
+import pytest
+
+import crankfmu
+from crankfmu.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+#: a scenario with many switches (seed 001: slider forces that switch on and off twice a turn)
+SCENARIO, FMU = "seed001", "ThreeLoop"
+STOP, STEP = 2.0, 1e-3
+
+
+def headers() -> Path:
+    import fmpy
+
+    return Path(fmpy.__file__).parent / "c-code"
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    """(the FMI 3.0 FMU, the FMI 2.0 FMU) of seed 001: make fmu's where built, else built here."""
+    out = tmp_path_factory.mktemp("fmi3")
+    found = []
+    for version, folder in (("3", ROOT / "build" / "fmus" / "native3"), ("2", ROOT / "build" / "fmus" / "native")):
+        if (folder / f"{FMU}.fmu").is_file():
+            found.append(folder / f"{FMU}.fmu")
+        else:
+            assert main(["fmu", SCENARIO, "--native", "--fmi-version", version, "--out", str(out / version)]) == 0
+            found.append(out / version / f"{FMU}.fmu")
+    return tuple(found)
+
+
+@pytest.fixture(scope="module")
+def fmi2_run(fmus):
+    import fmpy
+
+    return fmpy.simulate_fmu(str(fmus[1]), stop_time=STOP, output_interval=STEP, output=["omega1", "phi1", "M_load"])
+
+
+@pytest.fixture(scope="module")
+def reference():
+    times = np.round(np.arange(int(round(STOP / STEP)) + 1) * STEP, 12)
+    return crankfmu.simulate(SCENARIO, method="reference", t_end=STOP, output_times=times)
+
+
+def test_fmpy_validates_it_and_its_variables_are_the_fmi2_fmus(fmus):
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    assert validate_fmu(str(fmus[0])) == []
+    md3, md2 = (read_model_description(str(p)) for p in fmus)
+    assert md3.fmiVersion == "3.0" and md3.coSimulation is not None and md3.modelExchange is not None
+    two = {v.name: (v.valueReference, v.causality, v.unit) for v in md2.modelVariables}
+    types = {t.name: t.unit for t in md3.typeDefinitions}
+    for v in md3.modelVariables:
+        if v.name in two:
+            vr, causality, unit = two[v.name]
+            assert (v.valueReference, v.causality) == (vr, causality), v.name
+            assert (v.unit or types.get(v.declaredType.name if v.declaredType else None)) == unit, v.name
+    extra = {v.name for v in md3.modelVariables} - set(two)
+    assert extra == {"time"} | {f"eventIndicator{k}" for k in range(5)}
+    with zipfile.ZipFile(fmus[0]) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+        names = set(z.namelist())
+    assert len(root.findall("ModelStructure/EventIndicator")) == 5
+    assert len(root.findall("ModelStructure/ContinuousStateDerivative")) == 5
+    assert root.find("CoSimulation").get("hasEventMode") == "true"
+    assert root.find("CoSimulation").get("mightReturnEarlyFromDoStep") == "true"
+    assert {f"binaries/{p}/{FMU}{s}" for p, s in (("x86_64-linux", ".so"), ("x86_64-windows", ".dll"))} <= names
+    assert {"terminalsAndIcons/terminalsAndIcons.xml", "terminalsAndIcons/icon.png", "sources/crank_fmi3.c",
+            "sources/crank_model.c", "sources/buildDescription.xml", "documentation/index.html"} <= names
+
+
+def test_co_simulation_without_events_is_the_fmi2_fmu_bit_for_bit(fmus, fmi2_run, reference):
+    import fmpy
+
+    run = fmpy.simulate_fmu(str(fmus[0]), stop_time=STOP, output_interval=STEP, output=["omega1", "phi1", "M_load"])
+    for name in ("omega1", "phi1", "M_load"):
+        np.testing.assert_array_equal(run[name], fmi2_run[name])
+    scale = np.max(np.abs(reference.omega1))
+    assert np.max(np.abs(run["omega1"] - reference.omega1)) <= 1e-8 * scale
+
+
+@pytest.mark.parametrize("event_mode, early_return", [(True, False), (False, True), (True, True)])
+def test_event_mode_and_early_return_keep_every_value_and_stop_at_the_switches(fmus, fmi2_run, event_mode,
+                                                                                early_return):
+    import fmpy
+
+    from crankfmu.dynamics.tabulated import table_of
+    from crankfmu.scenario import load_scenario
+
+    run = fmpy.simulate_fmu(str(fmus[0]), stop_time=STOP, output_interval=STEP, output=["omega1", "phi1"],
+                            use_event_mode=event_mode, early_return_allowed=early_return)
+    t = np.round(run["time"], 9)
+    last = {time: (w, p) for time, w, p in zip(t, run["omega1"], run["phi1"])}
+    on_grid = np.array([last[time][0] for time in np.round(fmi2_run["time"], 9)])
+    np.testing.assert_array_equal(on_grid, fmi2_run["omega1"])
+    stops = sorted(set(t) - set(np.round(fmi2_run["time"], 9)))
+    if not early_return:
+        assert stops == []
+        return
+    # seed 001 switches its slider forces at fixed crank angles: every early return is on one
+    switch_angles = table_of(load_scenario(SCENARIO).build().reduced).switch_angles
+    assert len(stops) >= 2 * int(fmi2_run["phi1"][-1] / (2 * math.pi))
+    for time in stops:
+        phi = math.fmod(last[time][1], 2 * math.pi)
+        assert np.min(np.abs(np.angle(np.exp(1j * (switch_angles - phi))))) < 1e-9, (time, phi)
+
+
+def test_model_exchange_through_cvode_matches_the_reference(fmus, reference):
+    import fmpy
+
+    run = fmpy.simulate_fmu(str(fmus[0]), fmi_type="ModelExchange", stop_time=STOP, output_interval=STEP,
+                            relative_tolerance=1e-10, output=["omega1"])
+    # at the communication points (the others are the events' times, where the reference has no value)
+    last = {time: w for time, w in zip(np.round(run["time"], 9), run["omega1"])}
+    on_grid = np.array([last[time] for time in np.round(reference.time, 9)])
+    scale = np.max(np.abs(reference.omega1))
+    assert np.max(np.abs(on_grid - reference.omega1)) <= 1e-6 * scale
+
+
+def test_a_refusal_is_fmi3_error_with_the_message_with_logging_off(fmus, tmp_path):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi3 import FMU3Slave
+
+    md = read_model_description(str(fmus[0]))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    messages = []
+    fmu = FMU3Slave(guid=md.guid, unzipDirectory=extract(str(fmus[0]), str(tmp_path)),
+                    modelIdentifier=md.coSimulation.modelIdentifier)
+    fmu.instantiate(loggingOn=False, logMessage=lambda env, status, category, message: messages.append(message.decode()))
+    fmu.enterInitializationMode()
+    with pytest.raises(Exception, match="fmi3SetFloat64 failed with status 3"):
+        fmu.setFloat64([vr["J_flywheel"]], [-1.0])
+    assert re.search(r"parameter J_flywheel = -1\.0 is out of range: valid range \[0, inf\) kg\.m2$", messages[-1]), messages
+    with pytest.raises(Exception, match="failed with status 3"):
+        fmu.setFloat64([vr["l1"]], [0.5])
+    assert "this native FMU was built for l1" in messages[-1]
+    fmu.exitInitializationMode()
+    with pytest.raises(Exception, match="fmi3DoStep failed with status 3"):
+        fmu.doStep(1.0, 1e-3)
+    assert "fmi3DoStep at t = 1.0 s, but this instance is at t = 0.0 s" in messages[-1]
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+def test_terminals_and_icon(tmp_path):
+    """PumpJack's rope port as a terminal: its pull flows in, its position, velocity and
+    acceleration are signals, each a variable of the FMU."""
+    assert main(["fmu", "pumpjack", "--native", "--fmi-version", "3", "--out", str(tmp_path)]) == 0
+    with zipfile.ZipFile(tmp_path / "PumpJack.fmu") as z:
+        terminals = ET.fromstring(z.read("terminalsAndIcons/terminalsAndIcons.xml"))
+        names = {v.get("name") for v in ET.fromstring(z.read("modelDescription.xml")).iter("Float64")}
+        assert z.read("terminalsAndIcons/icon.png")[:8] == b"\x89PNG\r\n\x1a\n"
+    (terminal,) = terminals.iter("Terminal")
+    members = {m.get("variableName"): m.get("variableKind") for m in terminal.iter("TerminalMemberVariable")}
+    assert terminal.get("name") == "rod"
+    assert members == {"rod_F": "inflow", "rod_s": "signal", "rod_v": "signal", "rod_a": "signal"}
+    assert set(members) <= names
+
+
+def _rows(text: str) -> np.ndarray:
+    return np.array([[float(x) for x in line[4:].split(",")] for line in text.splitlines() if line.startswith("row ")])
+
+
+def test_the_three_binaries_run_in_the_c_host_and_agree(fmus, reference, tmp_path):
+    """x86_64-linux under env -i, x86_64-windows under wine, aarch64-linux under qemu-aarch64."""
+    from fmpy import read_model_description
+
+    from wine import run_in_session, wine_prefix, windows_path
+
+    md = read_model_description(str(fmus[0]))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    unzipped = tmp_path / "fmu"
+    with zipfile.ZipFile(fmus[0]) as z:
+        z.extractall(unzipped)
+    driver = ROOT / "tests" / "c_host" / "fmu3_driver.c"
+    args = lambda where: [where, FMU, md.guid, str(int(round(STOP / STEP))), repr(STEP), str(vr["omega1"])]  # noqa: E731
+    runs = {}
+    subprocess.run(["gcc", "-std=c99", "-O2", f"-I{headers()}", "-o", str(tmp_path / "linux"), str(driver), "-ldl"],
+                   check=True, capture_output=True)
+    done = subprocess.run(["env", "-i", str(tmp_path / "linux"), *args(str(unzipped))], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout[-2000:]
+    runs["x86_64-linux"] = _rows(done.stdout)
+    on_ci = bool(os.environ.get("CI"))
+    if shutil.which("aarch64-linux-gnu-gcc") and shutil.which("qemu-aarch64"):
+        assert (unzipped / "binaries" / "aarch64-linux" / f"{FMU}.so").is_file()
+        subprocess.run(["aarch64-linux-gnu-gcc", "-std=c99", "-O2", f"-I{headers()}", "-o", str(tmp_path / "arm"),
+                        str(driver), "-ldl"], check=True, capture_output=True)
+        done = subprocess.run(["qemu-aarch64", "-L", "/usr/aarch64-linux-gnu", str(tmp_path / "arm"),
+                               *args(str(unzipped))], capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stdout[-2000:]
+        runs["aarch64-linux"] = _rows(done.stdout)
+    elif on_ci:
+        pytest.fail("aarch64-linux-gnu-gcc or qemu-aarch64 is missing: `make` installs them")
+    if shutil.which("x86_64-w64-mingw32-gcc"):
+        wine, env = wine_prefix(tmp_path / "wine")
+        subprocess.run(["x86_64-w64-mingw32-gcc", "-O2", f"-I{headers()}", "-o", str(tmp_path / "windows.exe"),
+                        str(driver), "-static"], check=True, capture_output=True)
+        code = run_in_session([wine, str(tmp_path / "windows.exe"), *args(windows_path(unzipped))], env,
+                              tmp_path / "wine.log")
+        output = (tmp_path / "wine.log").read_text(errors="replace")
+        assert code == 0, output[-2000:]
+        runs["x86_64-windows"] = _rows(output)
+    elif on_ci:
+        pytest.fail("x86_64-w64-mingw32-gcc is missing: `make` installs it")
+    linux = runs["x86_64-linux"]
+    scale = np.max(np.abs(reference.omega1))
+    assert np.max(np.abs(linux[:, 1] - reference.omega1[1:])) <= 1e-8 * scale
+    for platform, rows in runs.items():
+        assert rows.shape == linux.shape, platform
+        assert np.max(np.abs(rows[:, 1] - linux[:, 1])) <= 1e-12 * scale, platform
