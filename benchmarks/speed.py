@@ -24,8 +24,9 @@ through fmpy against a do-nothing FMU's, and its reset + initialisation of a cha
 first run on a fresh machine (the CLI and the FMU; not with --quick); and issue 38's: FourBar.fmu,
 Python and native, with every variable read at every 1 ms step, through fmpy and in the ecos
 master (``all_outputs.py``); and issue 39's (``well.py``): RodString.fmu's step, native against
-Python, and `crankfmu well rp11l_guo` end to end against the code the issue started from. Writes
-speed.md and speed.json in --out (default build/bench).
+Python, and `crankfmu well rp11l_guo` end to end against the code the issue started from; and issue
+40's (``fmi3_step.py``): the FMI 3.0 FMU's step against the FMI 2.0 one's in the C hosts, and event
+mode's cost on seed 001. Writes speed.md and speed.json in --out (default build/bench).
 """
 
 from __future__ import annotations
@@ -127,7 +128,7 @@ def main(argv=None) -> int:
     for method in PEERS:
         for rtol in peer_rtols:
             jobs.append((f"solve_ivp {method}", rtol))
-    bar = ProgressBar(len(jobs) + 7, label="speed benchmark")
+    bar = ProgressBar(len(jobs) + 8, label="speed benchmark")
     peer_eq = python_rhs_equation(model, table)
     for i, (family, rtol) in enumerate(jobs):
         bar(i)
@@ -236,6 +237,11 @@ def main(argv=None) -> int:
     wells = well_bench.measure(Path(args.native).parent / "RodString.fmu", Path(args.fmu).parent / "RodString.fmu",
                                args.quick)
     bar(len(jobs) + 7)
+    # FMI 3.0 (issue 40): a step against FMI 2.0's in the C hosts; event mode's cost on seed 001
+    import fmi3_step
+
+    fmi3 = fmi3_step.measure(args.quick)
+    bar(len(jobs) + 8)
     bar.close()
 
     # ------------------------------------------------------------------ report
@@ -342,6 +348,9 @@ def main(argv=None) -> int:
     lines += ["", "## Targets (issue 39)", "", "| target | measured | met |", "|---|---|---|"]
     lines += [f"| {t} | {m} | {'MET' if ok else ('NOT MET' if ok is not None else 'reported')} |"
               for t, m, ok in well_bench.targets(wells)]
+    lines += ["", "## Targets (issue 40)", "", "| target | measured | met |", "|---|---|---|"]
+    lines += [f"| {t} | {m} | {'MET' if ok else ('NOT MET' if ok is not None else 'reported')} |"
+              for t, m, ok in fmi3_step.targets(fmi3)]
     text = "\n".join(lines) + "\n"
     print(text)
     (out / "speed.md").write_text(text)
@@ -350,7 +359,7 @@ def main(argv=None) -> int:
                                                 "end_to_end_ms": {n: {k: 1e3 * v for k, v in b.items() if isinstance(v, float)}
                                                                   for n, b in breakdowns.items()},
                                                 "imports_s": imports, "first_run_s": first, "c_rk4_limit": c_limit,
-                                                "every_output": every, "well": wells,
+                                                "every_output": every, "well": wells, "fmi3": fmi3,
                                                 "targets_issue_17": [{"target": t, "measured": m, "met": ok}
                                                                      for t, m, ok in targets17],
                                                 "targets": [{"target": t, "measured": m, "met": ok}

@@ -39,6 +39,7 @@ def test_speed_benchmark_prints_the_table_and_every_target_with_its_measure(fmu_
         assert f"| {family}" in out
     assert out.count("| yes |") + out.count("| NO |") == 4           # the four targets, each judged
     assert "## Targets (issue 39)" in out and "native RodString.fmu per 1 ms step" in out
+    assert "## Targets (issue 40)" in out
     assert re.search(r"`crankfmu well rp11l_guo` end to end, against reference loop, one core \(reported\) \| "
                      r"\d+\.\d+ s vs \d+\.\d+ s", out)
     # issue 17: where simulate()'s time goes, and its five targets (the first runs on a fresh machine

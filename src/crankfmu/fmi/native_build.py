@@ -344,6 +344,33 @@ def build_description(identifier: str, sources: list[str]) -> str:
             f'    </SourceFileSet>\n  </BuildConfiguration>\n</fmiBuildDescription>\n')
 
 
+#: the FMI headers each version's sources carry (from fmpy, BSD-2-Clause): a source build needs nothing else
+FMI_HEADERS = {"2.0": ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
+               "3.0": ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
+
+
+def cmake_lists(identifier: str) -> str:
+    """sources/CMakeLists.txt: the FMU's binary from its sources alone, as compile_binary builds it
+    (C99, no FMA contraction, only the FMI functions exported), on any platform CMake knows:
+    cmake -S sources -B build && cmake --build build."""
+    return f"""# builds {identifier}'s binary from these sources alone: cmake -S sources -B build && cmake --build build
+cmake_minimum_required(VERSION 3.10)
+project({identifier} C)
+file(GLOB SOURCES "${{CMAKE_CURRENT_SOURCE_DIR}}/*.c")
+add_library({identifier} SHARED ${{SOURCES}})
+set_target_properties({identifier} PROPERTIES PREFIX "" C_STANDARD 99 C_VISIBILITY_PRESET hidden)
+target_compile_definitions({identifier} PRIVATE CK_API=)
+target_include_directories({identifier} PRIVATE "${{CMAKE_CURRENT_SOURCE_DIR}}")
+if(CMAKE_C_COMPILER_ID MATCHES "GNU|Clang")
+  # the same numbers on every CPU: no fused multiply-add
+  target_compile_options({identifier} PRIVATE -ffp-contract=off)
+endif()
+if(UNIX)
+  target_link_libraries({identifier} m)
+endif()
+"""
+
+
 def compile_binary(compiler: str, folder: Path, out: Path, windows: bool):
     """The FMU's binary from the sources in ``folder``: C99, libgcc linked statically, nothing beyond
     the C library (and libm on Linux); the FMI headers come with fmpy."""
@@ -387,6 +414,11 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
                 shutil.copy2(folder / n, src / n)
         for n, text in generated.items():
             (src / n).write_text(text, encoding="utf-8")
+        import fmpy
+
+        for n in FMI_HEADERS[fmi_version]:
+            shutil.copy2(Path(fmpy.__file__).parent / "c-code" / n, src / n)
+        (src / "CMakeLists.txt").write_text(cmake_lists(fmu), encoding="utf-8")
         sources = sorted(p.name for p in src.iterdir())
         binaries = {}
         for folder, cc, windows in platforms:
