@@ -278,3 +278,47 @@ def test_the_sources_alone_build_the_binary_with_cmake(fmus, tmp_path):
         assert done.returncode == 0, done.stdout[-2000:]
         outputs.append(_rows(done.stdout))
     np.testing.assert_array_equal(outputs[0], outputs[1])
+
+
+#: make fmu's FMI 3.0 FMUs: (scenario, model identifier)
+PACKAGED = [("seed000", "FourBar"), ("seed001", "ThreeLoop"), ("seed002", "SliderCrank"), ("seed003", "Shaper"),
+            ("seed004", "QuickReturn"), ("pumpjack", "PumpJack")]
+
+
+@pytest.mark.parametrize("scenario, name", PACKAGED)
+def test_every_packaged_fmu_in_every_co_simulation_mode_matches_the_reference(scenario, name):
+    """make fmu's FMI 3.0 FMU of each packaged scenario: fmpy validates it, and in Co-Simulation
+    without events, with event mode, with early return and with both its omega1 at every
+    communication point is the in-process reference's to 1e-8 of its scale."""
+    import fmpy
+    from fmpy.validation import validate_fmu
+
+    path = ROOT / "build" / "fmus" / "native3" / f"{name}.fmu"
+    if not path.is_file():
+        if os.environ.get("CI"):
+            pytest.fail(f"make fmu builds {path}")
+        pytest.skip(f"make fmu builds {path}")
+    assert validate_fmu(str(path)) == []
+    stop = 1.0
+    times = np.round(np.arange(int(round(stop / STEP)) + 1) * STEP, 12)
+    ref = crankfmu.simulate(scenario, method="reference", t_end=stop, output_times=times)
+    scale = np.max(np.abs(ref.omega1))
+    for event_mode, early_return in ((False, False), (True, False), (False, True), (True, True)):
+        run = fmpy.simulate_fmu(str(path), stop_time=stop, output_interval=STEP, output=["omega1"],
+                                use_event_mode=event_mode, early_return_allowed=early_return)
+        last = {t: w for t, w in zip(np.round(run["time"], 9), run["omega1"])}
+        on_grid = np.array([last[t] for t in np.round(times, 9)])
+        assert np.max(np.abs(on_grid - ref.omega1)) <= 1e-8 * scale, (event_mode, early_return)
+
+
+def test_the_ecos_master_runs_it(fmus):
+    """ecospy's ecos command (its FMI 3.0 Co-Simulation, no event mode) runs ThreeLoop.fmu: the
+    FMI 2.0 FMU's values to ecos's 6 decimals."""
+    pytest.importorskip("ecospy")
+    from crankfmu.validation import masters
+
+    three = masters.run("ecos", fmus[0], STOP, STEP, ["omega1"])
+    two = masters.run("ecos", fmus[1], STOP, STEP, ["omega1"])
+    assert not three.error and not two.error, (three.output[-2000:], two.output[-2000:])
+    assert three.time.shape == two.time.shape and len(three.time) >= int(STOP / STEP)
+    assert np.max(np.abs(three["omega1"] - two["omega1"])) <= 1e-6
