@@ -5,7 +5,8 @@
 #   make test   the same set-up plus the test tools (MinGW, wine, the ecos master's libtbb), then
 #               the test suite and the harness's --quick subset
 #   make validate  the full harness on every FMU (build/validation/report.md, about 3 minutes)
-#   make soak   1,800 short FMU host processes (300 per FMU), counting abnormal exits (about 23 min)
+#   make soak   short FMU host processes, 300 per FMU (the Python FMUs and the FMI 3.0 ones), counting
+#               abnormal exits (about 45 min)
 #   make hosts  every third-party master on FourBar.fmu and FourBarDrive.ssp (about 2 min)
 PYTHON ?= python3
 VENV   := .venv
@@ -149,7 +150,7 @@ hosts: $(DEV_STAMP) fmu
 # 1,800 short host processes (300 per FMU: fmpy and the C driver, logging on and off, a refused
 # parameter, a host exiting with the instance alive); exits 1 on any abnormal exit
 soak: $(DEV_STAMP) fmu
-	$(BIN)/python tests/soak.py --per-fmu 300
+	$(BIN)/python tests/soak.py --per-fmu 300 --fmus build/fmus --fmus build/fmus/native3
 
 clean:
 	rm -rf build .pytest_cache

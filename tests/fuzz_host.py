@@ -92,6 +92,91 @@ class Host:
         self.fmu.fmi2FreeInstance(self.fmu.component)
 
 
+class _Fmi2Names:
+    """An FMU3Slave seen through the FMU state calls' FMI 2.0 names, which the groups use."""
+
+    def __init__(self, fmu):
+        self._fmu = fmu
+        self.instanceName = fmu.instanceName
+        self.component = fmu.component
+        self.getFMUstate, self.setFMUstate, self.freeFMUstate = fmu.getFMUState, fmu.setFMUState, fmu.freeFMUState
+        self.serializeFMUstate, self.deSerializeFMUstate = fmu.serializeFMUState, fmu.deserializeFMUState
+
+
+class Host3(Host):
+    """The same host for an FMI 3.0 FMU (fmpy's FMU3Slave): each FMI 2.0 call the groups make is made
+    as its FMI 3.0 counterpart (fmi3EnterInitializationMode takes the experiment's times,
+    fmi3DoStep returns its flags, Float64 for Real), statuses returned, not raised."""
+
+    CALLS = {"SetReal": "SetFloat64", "GetReal": "GetFloat64", "GetInteger": "GetInt32",
+             "DeSerializeFMUstate": "DeserializeFMUState", "SetFMUstate": "SetFMUState"}
+
+    def __init__(self, unzipped, md, logging: bool, name: str = "fuzz"):
+        from fmpy.fmi3 import FMU3Slave
+
+        self.md = md
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.outputs = [v.valueReference for v in md.modelVariables if v.causality == "output"]
+        self.messages: list[tuple[int, str, str]] = []
+        self.logging = logging
+        raw = FMU3Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
+                        instanceName=name)
+
+        def log_message(env, status, category, message):
+            self.messages.append((status, (category or b"").decode(), message.decode(errors="replace")))
+        raw.instantiate(loggingOn=logging, logMessage=log_message)
+        self._raw = raw
+        self.fmu = _Fmi2Names(raw)
+        self.t = 0.0
+
+    def call(self, name, *args):
+        from ctypes import byref
+
+        from fmpy.fmi3 import fmi3Boolean, fmi3Float64
+
+        raw = self._raw
+        if name == "EnterInitializationMode":
+            args = (False, 0.0, 0.0, False, 0.0)
+        elif name == "DoStep":
+            flags = [fmi3Boolean(), fmi3Boolean(), fmi3Boolean(), fmi3Float64()]
+            args = (*args, *(byref(f) for f in flags))
+        elif name in ("SetReal", "GetReal", "GetInteger"):
+            args = (*args, args[1])                 # nValues: every variable is a scalar
+        elif name == "DeSerializeFMUstate":
+            from fmpy.fmi3 import fmi3Byte
+            data, size, handle = args
+            args = ((fmi3Byte * len(data)).from_buffer_copy(data), size, handle)
+        before = len(self.messages)
+        try:
+            status = getattr(raw, "fmi3" + self.CALLS.get(name, name))(raw.component, *args)
+        except FMICallException as exc:
+            status = exc.status
+        return status, self.messages[before:]
+
+    def set_real(self, name_or_vr, value):
+        from fmpy.fmi3 import fmi3Float64, fmi3ValueReference
+        vr = self.vr[name_or_vr] if isinstance(name_or_vr, str) else name_or_vr
+        return self.call("SetReal", (fmi3ValueReference * 1)(vr), 1, (fmi3Float64 * 1)(value))
+
+    def get_real(self, vrs):
+        from fmpy.fmi3 import fmi3Float64, fmi3ValueReference
+        values = (fmi3Float64 * len(vrs))()
+        status, logged = self.call("GetReal", (fmi3ValueReference * len(vrs))(*vrs), len(vrs), values)
+        return status, logged, list(values)
+
+    def start(self):
+        return OK, self.call("EnterInitializationMode")[0]
+
+    def free(self):
+        self._raw.fmi3Terminate(self._raw.component)
+        self._raw.fmi3FreeInstance(self._raw.component)
+
+
+def host_for(unzipped, md, logging: bool, name: str = "fuzz") -> Host:
+    """The host of the FMU's FMI version."""
+    return (Host3 if md.fmiVersion.startswith("3") else Host)(unzipped, md, logging, name)
+
+
 class Report:
     def __init__(self):
         self.problems: list[str] = []
@@ -155,7 +240,7 @@ def parameters_of(md):
 def group_parameters(unzipped, md, logging, report, seed):
     """Every parameter set to each fuzz value: refused at fmi2SetReal or at initialisation, or
     accepted and stepped with finite outputs."""
-    host = Host(unzipped, md, logging)
+    host = host_for(unzipped, md, logging)
     for var in parameters_of(md):
         for value in FUZZ_VALUES:
             what = f"{var.name} = {value!r}"
@@ -204,7 +289,7 @@ def group_designs(unzipped, md, logging, report, seed):
     rng = random.Random(seed)
     for k in range(20):
         design = random_design(md, rng)
-        host = Host(unzipped, md, logging, name=f"design{k}")
+        host = host_for(unzipped, md, logging, name=f"design{k}")
         host.start()
         what = f"design {k} {design}"
         refused = False
@@ -240,7 +325,7 @@ def group_designs(unzipped, md, logging, report, seed):
 
 def group_calls(unzipped, md, logging, report, seed):
     """Bad fmi2DoStep arguments and calls out of order, each on a fresh (reset) instance."""
-    host = Host(unzipped, md, logging)
+    host = host_for(unzipped, md, logging)
     fixed = next(v.name for v in parameters_of(md) if v.variability == "fixed")
     tunable = next(v.name for v in parameters_of(md) if v.variability == "tunable")
     n_vars = len(md.modelVariables)
@@ -306,7 +391,7 @@ def group_cycles(unzipped, md, logging, report, seed):
     first = None
     rss0 = None
     for k in range(200):
-        host = Host(unzipped, md, logging if k % 2 == 0 else not logging, name=f"cycle{k}")
+        host = host_for(unzipped, md, logging if k % 2 == 0 else not logging, name=f"cycle{k}")
         host.start()
         host.call("ExitInitializationMode")
         result = run_steps(host, 5)
@@ -327,12 +412,12 @@ def group_cycles(unzipped, md, logging, report, seed):
 def group_instances(unzipped, md, logging, report, seed):
     """Three instances stepped interleaved equal one alone; state get/set and
     serialize/deserialize continue bit for bit."""
-    alone = Host(unzipped, md, logging, "alone")
+    alone = host_for(unzipped, md, logging, "alone")
     alone.start()
     alone.call("ExitInitializationMode")
     expected = run_steps(alone, 30)
     alone.free()
-    hosts = [Host(unzipped, md, logging, f"i{k}") for k in range(3)]
+    hosts = [host_for(unzipped, md, logging, f"i{k}") for k in range(3)]
     for h in hosts:
         h.start()
         h.call("ExitInitializationMode")
@@ -345,7 +430,7 @@ def group_instances(unzipped, md, logging, report, seed):
             report.problems.append(f"interleaved instance {h.fmu.instanceName} differs from one alone")
         h.free()
 
-    host = Host(unzipped, md, logging, "state")
+    host = host_for(unzipped, md, logging, "state")
     host.start()
     host.call("ExitInitializationMode")
     run_steps(host, 10)
@@ -365,7 +450,7 @@ def group_instances(unzipped, md, logging, report, seed):
     continues_bit_for_bit(host, host.fmu.deSerializeFMUstate(serialized), "fmi2DeSerializeFMUstate")
     host.free()
     # a serialized state in another initialised instance continues the same way
-    other = Host(unzipped, md, logging, "other")
+    other = host_for(unzipped, md, logging, "other")
     other.start()
     other.call("ExitInitializationMode")
     continues_bit_for_bit(other, other.fmu.deSerializeFMUstate(serialized), "a serialized state in another instance")
@@ -373,7 +458,7 @@ def group_instances(unzipped, md, logging, report, seed):
     from ctypes import byref
     from fmpy.fmi2 import fmi2FMUstate
     junk = bytes(serialized[: len(serialized) // 2]) + b"\x00garbage"
-    handle = fmi2FMUstate()
+    handle = fmi2FMUstate()              # a void pointer in either version
     status, logged = other.call("DeSerializeFMUstate", junk, len(junk), byref(handle))
     if status == OK:
         status, logged = other.call("SetFMUstate", handle)

@@ -1,11 +1,11 @@
 """Many short host processes per FMU, counting abnormal exits (``make soak``; a short version runs
 in ``make test`` through tests/test_fmu_soak.py).
 
-    python tests/soak.py [--per-fmu 300] [--fmus build/fmus] [--jobs 2]
+    python tests/soak.py [--per-fmu 300] [--fmus build/fmus ...] [--jobs 2]
 
 Each process loads one FMU, instantiates it, initialises it, takes three 10 ms steps and exits.
 The hosts alternate: fmpy (a Python host) and the C driver of tests/c_host (dlopen(RTLD_LOCAL),
-no Python in the process, an empty environment). The cases cycle through: logging on, logging off,
+no Python in the process, an empty environment), each for the FMU's FMI version (2.0 or 3.0). The cases cycle through: logging on, logging off,
 a refused parameter (-1 for one whose minimum is 0: the host sees fmi2Error) and a host that exits without
 freeing the instance. An exit is abnormal when the process dies by a signal, hangs, exits with a
 status the case does not expect, or prints a C library heap error (``corrupted``, ``double free``).
@@ -61,27 +61,68 @@ fmu.terminate()
 fmu.freeInstance()
 """
 
+#: the same host for an FMI 3.0 FMU (fmpy's FMU3Slave)
+FMPY_HOST3 = r"""
+import sys
+from fmpy import read_model_description, simulate_fmu
+from fmpy.fmi3 import FMU3Slave
+from fmpy.fmi1 import FMICallException
+where, case, refusable = sys.argv[1], sys.argv[2], sys.argv[3]
+for other in sys.argv[4:]:       # another vendor's FMU first, in the same process
+    simulate_fmu(other, stop_time=0.03, output_interval=0.01)
+md = read_model_description(where)
+vr = {v.name: v.valueReference for v in md.modelVariables}
+fmu = FMU3Slave(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
+                instanceName="soak")
+fmu.instantiate(loggingOn=(case == "logging"))
+fmu.enterInitializationMode()
+try:
+    if case == "refused":
+        fmu.setFloat64([vr[refusable]], [-1.0])
+    fmu.exitInitializationMode()
+    t = 0.0
+    for _ in range(3):
+        fmu.doStep(t, 0.01)
+        t += 0.01
+    print("output", fmu.getFloat64([next(v.valueReference for v in md.modelVariables if v.causality == "output")])[0])
+except FMICallException as exc:
+    print("refused:", exc)
+    if case != "refused":
+        sys.exit(1)
+if case == "no-free":
+    sys.exit(0)      # the instance is alive at exit
+fmu.terminate()
+fmu.freeInstance()
+"""
 
-def build_driver(where: Path) -> Path:
+
+def build_driver(where: Path) -> dict[str, Path]:
+    """The C hosts by FMI version: tests/c_host/fmu_driver.c (2) and fmu3_driver.c (3)."""
     import fmpy
 
-    out = where / "fmu_driver"
     headers = Path(fmpy.__file__).parent / "c-code"
-    subprocess.run(["gcc", "-O1", "-Wall", "-Werror", f"-I{headers}", "-o", str(out),
-                    str(ROOT / "tests" / "c_host" / "fmu_driver.c"), "-ldl"], check=True)
-    return out
+    drivers = {}
+    for version, source in (("2", "fmu_driver.c"), ("3", "fmu3_driver.c")):
+        drivers[version] = where / source.removesuffix(".c")
+        subprocess.run(["gcc", "-std=c99" if version == "3" else "-std=gnu99", "-O1", "-Wall", "-Werror",
+                        f"-I{headers}", "-o", str(drivers[version]), str(ROOT / "tests" / "c_host" / source), "-ldl"],
+                       check=True)
+    return drivers
 
 
-def command(host: str, case: str, unzipped: str, md, driver: Path, stock: Path | None = None
+def command(host: str, case: str, unzipped: str, md, drivers: dict, stock: Path | None = None
             ) -> tuple[list[str], set[int]]:
     """The command of one process and the exit statuses that are normal for it (host "fmpy+stock":
     fmpy that runs the stock pythonfmu FMU ``stock`` first)."""
     # a parameter whose declared minimum makes -1 a refusal (J_flywheel in the mechanisms)
     refusable = next(v.name for v in md.modelVariables
                      if v.causality == "parameter" and v.min is not None and float(v.min) >= 0)
+    version = md.fmiVersion[0]
     if host.startswith("fmpy"):
         others = [str(stock)] if host == "fmpy+stock" else []
-        return [sys.executable, "-c", FMPY_HOST, unzipped, case, refusable, *others], {0}
+        return [sys.executable, "-c", FMPY_HOST3 if version == "3" else FMPY_HOST, unzipped, case, refusable,
+                *others], {0}
+    driver = drivers[version]
     vr = {v.name: v.valueReference for v in md.modelVariables}
     env = ["env", "-i", f"FMU_DRIVER_LOGGING={'0' if case == 'quiet' else '1'}",
            f"FMU_DRIVER_NO_FREE={'1' if case == 'no-free' else '0'}"]
@@ -117,7 +158,7 @@ def soak(fmus: list[Path], per_fmu: int, jobs: int = 2, progress=None, stock: Pa
 
     results: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
-        driver = build_driver(Path(tmp))
+        drivers = build_driver(Path(tmp))
         plan = []
         for k, fmu in enumerate(fmus):
             md = read_model_description(str(fmu))
@@ -125,7 +166,8 @@ def soak(fmus: list[Path], per_fmu: int, jobs: int = 2, progress=None, stock: Pa
             for i in range(per_fmu):
                 host = hosts[i % len(hosts)]
                 case = CASES[(i // len(hosts) + k) % len(CASES)]   # offset per FMU: a short soak sees every case
-                plan.append(((fmu.stem, host), case, *command(host, case, unzipped, md, driver, stock)))
+                label = fmu.stem + (" (FMI 3.0)" if md.fmiVersion.startswith("3") else "")
+                plan.append(((label, host), case, *command(host, case, unzipped, md, drivers, stock)))
         done = 0
         with ThreadPoolExecutor(max_workers=jobs) as pool:
             futures = [(key, case, pool.submit(run_one, cmd, normal)) for key, case, cmd, normal in plan]
@@ -148,12 +190,14 @@ def main(argv=None) -> int:
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--per-fmu", type=int, default=300, help="processes per FMU (half fmpy, half C driver)")
-    parser.add_argument("--fmus", default=str(ROOT / "build" / "fmus"), help="folder of the FMUs")
+    parser.add_argument("--fmus", action="append", default=None,
+                        help="a folder of FMUs, repeatable (default: build/fmus, the Python FMUs)")
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args(argv)
-    fmus = sorted(Path(args.fmus).glob("*.fmu"))
+    folders = args.fmus or [str(ROOT / "build" / "fmus")]
+    fmus = sorted(p for folder in folders for p in Path(folder).glob("*.fmu"))
     if not fmus:
-        print(f"no FMU in {args.fmus}: run make fmu", file=sys.stderr)
+        print(f"no FMU in {', '.join(folders)}: run make fmu", file=sys.stderr)
         return 2
     if shutil.which("gcc") is None:
         print("gcc is needed to build the C driver", file=sys.stderr)

@@ -47,3 +47,22 @@ def test_no_host_of_the_native_fmu_exits_abnormally(tmp_path):
     assert sum(r["processes"] for r in results.values()) == 300
     abnormal = {key: (len(r["abnormal"]), r["abnormal"][:3]) for key, r in results.items() if r["abnormal"]}
     assert not abnormal, abnormal
+
+
+def test_no_host_of_the_fmi3_fmu_exits_abnormally():
+    """60 host processes of make fmu's FMI 3.0 FourBar.fmu (issue 40): fmpy's FMU3Slave and the FMI 3.0
+    C host under env -i, with logging on and off, a refused parameter and an exit with the instance
+    alive (make soak runs 300 per FMI 3.0 FMU)."""
+    import os
+    from pathlib import Path
+
+    fmu = Path(__file__).resolve().parents[1] / "build" / "fmus" / "native3" / "FourBar.fmu"
+    if not fmu.is_file():
+        if os.environ.get("CI"):
+            pytest.fail(f"make fmu builds {fmu}")
+        pytest.skip(f"make fmu builds {fmu}")
+    results = soak([fmu], per_fmu=60)
+    assert {host for _, host in results} == {"fmpy", "c-driver"}
+    assert {case for r in results.values() for case in r["cases"]} == {"logging", "quiet", "refused", "no-free"}
+    abnormal = {key: (len(r["abnormal"]), r["abnormal"][:3]) for key, r in results.items() if r["abnormal"]}
+    assert not abnormal, abnormal
