@@ -87,6 +87,10 @@ fmu-native-b: $(STAMP)
 	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu die_cushion --cushion --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu rp11l_guo --well --native --out build/fmus/native
+	@$(BIN)/crankfmu fmu dc_pi --drive --native --fmi-version 3 --out build/fmus/native3
+	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --native --fmi-version 3 --out build/fmus/native3
+	@$(BIN)/crankfmu fmu die_cushion --cushion --native --fmi-version 3 --out build/fmus/native3
+	@$(BIN)/crankfmu fmu rp11l_guo --well --native --fmi-version 3 --out build/fmus/native3
 
 # the main job: every FMU, the papers' studies and the pumping well (two lines of work on the two
 # cores), the harness's --quick subset on every FMU, and a summary of what was made

@@ -348,3 +348,83 @@ def test_speed_causality_in_fmi3(tmp_path):
     assert md.modelExchange is None
     for name in ("tau_drive", "phi1"):
         np.testing.assert_array_equal(runs[0][name], runs[1][name])
+
+
+#: the components' FMI 3.0 FMUs (make fmu's), the inputs each takes in the comparison
+COMPONENTS = {"Drive": ("omega",), "DriveSpeed": ("tau_load",), "DieCushion": ("s", "v"), "RodString": ("s", "v")}
+
+
+@pytest.mark.parametrize("name", list(COMPONENTS))
+def test_each_component_in_fmi3_is_its_fmi2_fmu_bit_for_bit(name):
+    """Drive.fmu, DriveSpeed.fmu, DieCushion.fmu and RodString.fmu in FMI 3.0 (component_fmi3.c on
+    the components' model, component_model.c): fmpy validates each, and on the same inputs over
+    2 s every output equals the FMI 2.0 FMU's, bit for bit."""
+    import fmpy
+    from fmpy.validation import validate_fmu
+
+    paths = [ROOT / "build" / "fmus" / folder / f"{name}.fmu" for folder in ("native3", "native")]
+    if not all(p.is_file() for p in paths):
+        if os.environ.get("CI"):
+            pytest.fail(f"make fmu builds {paths}")
+        pytest.skip(f"make fmu builds {paths}")
+    assert validate_fmu(str(paths[0])) == []
+    md = fmpy.read_model_description(str(paths[0]))
+    assert md.fmiVersion == "3.0" and md.modelExchange is None
+    t = np.linspace(0.0, 2.0, 201)
+    signal = np.zeros(t.size, dtype=[("time", float)] + [(n, float) for n in COMPONENTS[name]])
+    signal["time"] = t
+    for n in COMPONENTS[name]:
+        signal[n] = 0.5 * np.sin(3.0 * t) + (0.2 if n == "s" else 0.0)
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    three, two = (fmpy.simulate_fmu(str(p), stop_time=2.0, output_interval=0.01, input=signal, output=outputs)
+                  for p in paths)
+    for output in outputs:
+        np.testing.assert_array_equal(three[output], two[output])
+
+
+def test_the_rod_strings_three_binaries_agree_in_the_c_host(tmp_path):
+    """RodString.fmu in FMI 3.0: its x86_64-linux, x86_64-windows (wine) and aarch64-linux (qemu)
+    binaries hang the RP 11L string the same way, bit for bit."""
+    from fmpy import read_model_description
+
+    from wine import run_in_session, wine_prefix, windows_path
+
+    path = ROOT / "build" / "fmus" / "native3" / "RodString.fmu"
+    if not path.is_file():
+        if os.environ.get("CI"):
+            pytest.fail(f"make fmu builds {path}")
+        pytest.skip(f"make fmu builds {path}")
+    md = read_model_description(str(path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    with zipfile.ZipFile(path) as z:
+        z.extractall(tmp_path / "fmu")
+    driver = ROOT / "tests" / "c_host" / "fmu3_driver.c"
+    args = lambda where: [where, "RodString", md.guid, "200", "0.005", str(vr["F"]), f"{vr['s']}=0.3"]  # noqa: E731
+    subprocess.run(["gcc", "-std=c99", "-O2", f"-I{headers()}", "-o", str(tmp_path / "linux"), str(driver), "-ldl"],
+                   check=True, capture_output=True)
+    done = subprocess.run(["env", "-i", str(tmp_path / "linux"), *args(str(tmp_path / "fmu"))], capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stdout[-2000:]
+    linux = _rows(done.stdout)
+    assert linux.shape == (200, 2) and np.all(np.isfinite(linux))
+    runs = {}
+    if shutil.which("aarch64-linux-gnu-gcc") and shutil.which("qemu-aarch64"):
+        subprocess.run(["aarch64-linux-gnu-gcc", "-std=c99", "-O2", f"-I{headers()}", "-o", str(tmp_path / "arm"),
+                        str(driver), "-ldl"], check=True, capture_output=True)
+        done = subprocess.run(["qemu-aarch64", "-L", "/usr/aarch64-linux-gnu", str(tmp_path / "arm"),
+                               *args(str(tmp_path / "fmu"))], capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stdout[-2000:]
+        runs["aarch64-linux"] = _rows(done.stdout)
+    if shutil.which("x86_64-w64-mingw32-gcc"):
+        wine, env = wine_prefix(tmp_path / "wine")
+        subprocess.run(["x86_64-w64-mingw32-gcc", "-O2", f"-I{headers()}", "-o", str(tmp_path / "windows.exe"),
+                        str(driver), "-static"], check=True, capture_output=True)
+        code = run_in_session([wine, str(tmp_path / "windows.exe"), *args(windows_path(tmp_path / "fmu"))], env,
+                              tmp_path / "wine.log")
+        output = (tmp_path / "wine.log").read_text(errors="replace")
+        assert code == 0, output[-2000:]
+        runs["x86_64-windows"] = _rows(output)
+    if os.environ.get("CI"):
+        assert set(runs) == {"aarch64-linux", "x86_64-windows"}
+    for platform, rows in runs.items():
+        np.testing.assert_array_equal(rows, linux, err_msg=platform)

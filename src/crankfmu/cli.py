@@ -305,13 +305,13 @@ def cmd_fmu(args) -> int:
     if values and not (args.native and kind == "scenario"):
         raise CrankfmuError("--set: a native mechanism FMU's values only (--native with a scenario); every parameter "
                             f"of a{' native' if args.native else ' Python'} {kind} FMU is set by its host")
-    if args.fmi_version == "3" and not (args.native and kind == "scenario"):
-        raise CrankfmuError("--fmi-version 3: native mechanism FMUs only (--native with a scenario); the Python FMUs "
-                            "(pythonfmu) and the native components are FMI 2.0")
+    if args.fmi_version == "3" and not args.native:
+        raise CrankfmuError("--fmi-version 3: native FMUs only (--native); the Python FMUs (pythonfmu) are FMI 2.0")
     if args.native and kind != "scenario":
         from .fmi.native_components import build_native_component
 
-        path = build_native_component(kind, args.source, Path(args.out), args.name, args.causality)
+        path = build_native_component(kind, args.source, Path(args.out), args.name, args.causality,
+                                      fmi_version=f"{args.fmi_version}.0")
     elif args.native:
         from .fmi.native_build import build_native
 
@@ -479,8 +479,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a native FMU (C, linux64 and win64 binaries, no Python needed on the host); a mechanism's "
                         "geometry, masses and loads are fixed at build time, a component's parameters are all settable")
     p.add_argument("--fmi-version", choices=("2", "3"), default="2",
-                   help="with --native and a scenario: FMI 2.0, or FMI 3.0 (binaries for x86_64 Linux and Windows and "
-                        "aarch64 Linux, event mode and early return, terminals and icon)")
+                   help="with --native: FMI 2.0, or FMI 3.0 (binaries for x86_64 Linux and Windows and aarch64 Linux; "
+                        "a mechanism's with event mode and early return, terminals and icon)")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="with --native and a scenario: a parameter's value the FMU is built for (SI units, "
                         "repeatable); its geometry, masses, loads and gravity are fixed in a native FMU's tables")

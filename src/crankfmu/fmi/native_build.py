@@ -48,7 +48,8 @@ from .speed import NOT_DECLARED
 SHELL = NATIVE / "fmu"
 #: the model behind either FMI shell (crank_model.h), and each version's shell
 MODEL_SOURCES = ("crank_model.c", "crank_model.h", "crank_variables.h")
-SHELL_SOURCES = {"2.0": ("crank_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"), "3.0": ("crank_fmi3.c",)}
+SHELL_SOURCES = {"2.0": ("crank_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
+                 "3.0": ("crank_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}
 #: the parameters the tables do not depend on, in the shell's value-reference order
 TUNABLE = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel", "phi1_start", "omega1_start", "rtol")
 #: speed causality's tunables, in the shell's order (the motor line is outside, omega1 is the input)

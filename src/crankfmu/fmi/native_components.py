@@ -4,11 +4,12 @@ with ``--causality speed``), ``crankfmu fmu die_cushion --cushion --native`` (Di
 
 The same data files, variables (names, order, units, ranges, starts, descriptions), DefaultExperiment
 and documentation as the Python FMU of the file (fmi.build's Source and Declared), but C: one
-shell for every component (native/fmu/component_fmi2.c), the components' models
-(native/fmu/component_models.c) on the components' physics (native/crank_components.c, which the
-Python FMUs call too), and the file's variables generated as data (component_config.h,
-component_data.c). FMI 2.0 Co-Simulation, linux64 and, where Debian's MinGW-w64 is installed,
-win64; each binary links only the platform's C library.
+model for every component (native/fmu/component_model.c) behind an FMI 2.0 or 3.0 shell
+(component_fmi2.c, component_fmi3.c), the components' models (native/fmu/component_models.c) on
+the components' physics (native/crank_components.c, which the Python FMUs call too), and the
+file's variables generated as data (component_config.h, component_data.c). Co-Simulation; FMI
+2.0 for linux64 and, where Debian's MinGW-w64 is installed, win64; FMI 3.0 (``--fmi-version 3``)
+for x86_64 Linux and Windows and aarch64 Linux; each binary links only the platform's C library.
 """
 
 from __future__ import annotations
@@ -30,7 +31,10 @@ PHYSICS_SOURCES = (*COMPONENTS, "crank_numbers.c", "crank_numbers.h")
 from .build import preflight, vendor_annotations
 from .native_build import SHELL, _c_string, default_experiment, package_native, unit_definitions
 
-SHELL_SOURCES = ("component_fmi2.c", "component_fmi2.h", "component_models.c", "fmi2_messages.c", "fmi2_messages.h")
+#: the component's model behind either FMI shell, and each version's shell
+MODEL_SOURCES = ("component_model.c", "component_model.h", "component_variables.h", "component_models.c")
+SHELL_SOURCES = {"2.0": ("component_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
+                 "3.0": ("component_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}
 #: which model of component_models.c a (kind, causality) builds
 MODELS = {("drive", "torque"): "COMPONENT_DRIVE", ("drive", "speed"): "COMPONENT_DRIVE_SPEED",
           ("cushion", "torque"): "COMPONENT_CUSHION", ("well", "torque"): "COMPONENT_ROD_STRING"}
@@ -69,6 +73,26 @@ class ComponentModel:
     def parameters(self) -> dict:
         return {p.name: p for p in (*self.declared.inputs, *self.declared.parameters)}
 
+    def variables(self) -> list:
+        """The variables in value-reference order, as FMI 3.0's description takes them (NativeVariable)."""
+        from .native_build import NativeVariable
+
+        table = []
+        for name, kind, start, lo, hi, _, _, unit, text, description in self.rows:
+            bounds = {"min": repr(float(lo)) if math.isfinite(lo) else None,
+                      "max": repr(float(hi)) if math.isfinite(hi) else None}
+            if kind == "OUTPUT":
+                table.append(NativeVariable(name, unit, description, "output", "continuous", initial="calculated",
+                                            **bounds))
+            elif kind == "INPUT":
+                table.append(NativeVariable(name, unit, description, "input", "continuous", start=repr(float(start)),
+                                            **bounds))
+            else:
+                table.append(NativeVariable(name, unit, f"{description} (valid range {text})".strip(), "parameter",
+                                            "tunable" if kind == "TUNABLE" else "fixed", start=repr(float(start)),
+                                            **bounds))
+        return table
+
     # ------------------------------------------------------------------ generated C
     def _string_layout(self) -> str:
         """A rod string's value references of its tapers' and design's values, in the order of
@@ -99,7 +123,7 @@ class ComponentModel:
             f"    {{{_c_string(n)}, KIND_{kind}, {_c_double(start)}, {_c_double(lo)}, {_c_double(hi)}, {int(lo_in)}, "
             f"{int(hi_in)}, {_c_string(unit)}, {_c_string(text)}, {_c_string(description)}}}"
             for n, kind, start, lo, hi, lo_in, hi_in, unit, text, description in self.rows)
-        return ('#include <math.h>\n\n#include "component_fmi2.h"\n\n'
+        return ('#include <math.h>\n\n#include "component_variables.h"\n\n'
                 f"const Variable VARIABLES[N_VARIABLES] = {{\n{entries}\n}};\n")
 
     # ------------------------------------------------------------------ modelDescription
@@ -154,12 +178,21 @@ class ComponentModel:
 
 
 def build_native_component(kind: str, data_name: str, dest: Path, name: str | None = None,
-                           causality: str | None = None, win64: bool | None = None) -> Path:
-    """The native FMU of a drive file (``kind`` "drive", either causality) or a cushion file
-    ("cushion") in ``dest``, from the same Source the Python FMU is built from."""
+                           causality: str | None = None, win64: bool | None = None, fmi_version: str = "2.0") -> Path:
+    """The native FMU of a drive file (``kind`` "drive", either causality), a cushion file
+    ("cushion") or a well file ("well": the rod string) in ``dest``, from the same Source the
+    Python FMU is built from; FMI ``fmi_version`` "2.0" or "3.0" (the same model behind the
+    other shell)."""
     source = preflight(kind, data_name, name, causality)
     model = ComponentModel(source)
+    describe = model.model_description
+    if fmi_version == "3.0":
+        from . import native_fmi3
+
+        describe = lambda sources: native_fmi3.describe(source, model.guid, source.title, source.experiment,  # noqa: E731
+                                                        model.variables(), model_exchange=False, events=False,
+                                                        indicators=0)
     with ExitStack() as written:
-        return package_native(source, dest, ((NATIVE, PHYSICS_SOURCES), (SHELL, SHELL_SOURCES)),
+        return package_native(source, dest, ((NATIVE, PHYSICS_SOURCES), (SHELL, MODEL_SOURCES + SHELL_SOURCES[fmi_version])),
                               {"component_config.h": model.config_h(), "component_data.c": model.data_c()},
-                              model.model_description, model.parameters(), win64, None, {}, {}, written)
+                              describe, model.parameters(), win64, None, {}, {}, written, fmi_version)

@@ -45,16 +45,25 @@ def type_name(unit: str) -> str:
 def model_description(model: NativeModel, sources: list[str]) -> bytes:
     """modelDescription.xml 3.0 of a native mechanism FMU: the variables of ``model.variables()``
     at the same value references as its FMI 2.0 FMU, the event indicators and time after them."""
-    table = model.variables()
-    root = ET.Element("fmiModelDescription", fmiVersion="3.0", modelName=model.source.fmu,
-                      instantiationToken=model.guid, description=model.scenario.title,
-                      generationTool="crankfmu (native)", variableNamingConvention="structured")
-    common = dict(modelIdentifier=model.source.fmu, canGetAndSetFMUState="true", canSerializeFMUState="true")
-    if not model.speed:
+    return describe(model.source, model.guid, model.scenario.title, model.scenario.experiment, model.variables(),
+                    model_exchange=not model.speed, events=not model.speed,
+                    indicators=0 if model.speed else N_EVENT_INDICATORS, reserved=N_EVENT_INDICATORS)
+
+
+def describe(source, guid: str, title: str, experiment, table: list, model_exchange: bool, events: bool,
+             indicators: int, reserved: int = 0) -> bytes:
+    """modelDescription.xml 3.0 of a native FMU (a mechanism's or a component's): the variables of
+    ``table`` (NativeVariable, in value-reference order), ``indicators`` event indicators (Model
+    Exchange) and time after them, past the ``reserved`` value references the shell keeps for
+    indicators (crank_fmi3.c: always the kernel's slots); Co-Simulation with event mode and early
+    return where ``events`` (a switch the kernel locates)."""
+    root = ET.Element("fmiModelDescription", fmiVersion="3.0", modelName=source.fmu, instantiationToken=guid,
+                      description=title, generationTool="crankfmu (native)", variableNamingConvention="structured")
+    common = dict(modelIdentifier=source.fmu, canGetAndSetFMUState="true", canSerializeFMUState="true")
+    if model_exchange:
         ET.SubElement(root, "ModelExchange", **common, needsCompletedIntegratorStep="false")
     ET.SubElement(root, "CoSimulation", **common, canHandleVariableCommunicationStepSize="true",
-                  hasEventMode="true" if not model.speed else "false",
-                  mightReturnEarlyFromDoStep="true" if not model.speed else "false",
+                  hasEventMode="true" if events else "false", mightReturnEarlyFromDoStep="true" if events else "false",
                   canReturnEarlyAfterIntermediateUpdate="false", providesIntermediateUpdate="false")
     units = sorted({v.unit for v in table} | {"s"})
     unit_definitions(root, [u for u in units if u != "1"])
@@ -64,7 +73,7 @@ def model_description(model: NativeModel, sources: list[str]) -> bytes:
         if unit != "1":
             attributes["unit"] = si.fmi_name(unit)
         ET.SubElement(types, "Float64Type", **attributes)
-    default_experiment(root, model.scenario.experiment)
+    default_experiment(root, experiment)
     variables = ET.SubElement(root, "ModelVariables")
     vr_of = {v.name: vr for vr, v in enumerate(table)}
     for vr, v in enumerate(table):
@@ -74,13 +83,13 @@ def model_description(model: NativeModel, sources: list[str]) -> bytes:
         if v.derivative_of:
             attributes["derivative"] = str(vr_of[v.derivative_of])
         ET.SubElement(variables, "Float64", **attributes)
-    indicators = [] if model.speed else list(range(len(table), len(table) + N_EVENT_INDICATORS))
-    for vr, what in zip(indicators, INDICATORS):
+    indicator_vrs = list(range(len(table), len(table) + indicators))
+    for vr, what in zip(indicator_vrs, INDICATORS):
         ET.SubElement(variables, "Float64", name=f"eventIndicator{vr - len(table)}", valueReference=str(vr),
                       description=f"Model Exchange event indicator: {what}", causality="local",
                       variability="continuous", initial="calculated", declaredType=type_name("1"))
-    # time: after every other variable (crank_fmi3.c's VR_TIME, whether or not the FMU has indicators)
-    ET.SubElement(variables, "Float64", name="time", valueReference=str(len(table) + N_EVENT_INDICATORS),
+    # time: after every other variable (the shells' VR_TIME)
+    ET.SubElement(variables, "Float64", name="time", valueReference=str(len(table) + max(indicators, reserved)),
                   description="simulation time", causality="independent", variability="continuous",
                   declaredType=type_name("s"))
     structure = ET.SubElement(root, "ModelStructure")
@@ -93,9 +102,9 @@ def model_description(model: NativeModel, sources: list[str]) -> bytes:
     for vr, v in enumerate(table):
         if v.causality == "output" or v.derivative_of:
             ET.SubElement(structure, "InitialUnknown", valueReference=str(vr))
-    for vr in indicators:
+    for vr in indicator_vrs:
         ET.SubElement(structure, "EventIndicator", valueReference=str(vr))
-    root.append(fmi3_annotations(model.source, "native"))
+    root.append(fmi3_annotations(source, "native"))
     return parseString(ET.tostring(root, encoding="UTF-8")).toprettyxml(encoding="UTF-8", indent="  ")
 
 

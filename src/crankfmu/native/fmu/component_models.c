@@ -7,7 +7,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "component_fmi2.h"
+#include "component_variables.h"
 #include "crank_components.h"
 
 #if defined(COMPONENT_DRIVE) || defined(COMPONENT_DRIVE_SPEED)

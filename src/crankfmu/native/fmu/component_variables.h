@@ -1,7 +1,8 @@
 /* What a native component FMU's generated data (component_data.c, `crankfmu fmu ... --native`)
- * gives the shell (component_fmi2.c) and the component's model (component_models.c). */
-#ifndef COMPONENT_FMI2_H
-#define COMPONENT_FMI2_H
+ * gives its model (component_model.c, behind the FMI 2.0 and 3.0 shells) and the component's
+ * physics (component_models.c). */
+#ifndef COMPONENT_VARIABLES_H
+#define COMPONENT_VARIABLES_H
 
 #include "component_config.h"      /* generated: MODEL_IDENTIFIER, MODEL_GUID, COMPONENT_*, N_VARIABLES, VR_* */
 
