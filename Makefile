@@ -6,7 +6,7 @@
 #               the test suite and the harness's --quick subset
 #   make validate  the full harness on every FMU (build/validation/report.md, about 3 minutes)
 #   make soak   short FMU host processes, 300 per FMU (the Python FMUs and the FMI 3.0 ones), counting
-#               abnormal exits (about 45 min)
+#               abnormal exits, and 10 minutes of the FMI fuzzer (about 55 min)
 #   make hosts  every third-party master on FourBar.fmu and FourBarDrive.ssp (about 2 min)
 PYTHON ?= python3
 VENV   := .venv
@@ -54,6 +54,9 @@ $(DEV_STAMP): $(STAMP)
 	  || echo "make: could not install gcc-aarch64-linux-gnu (apt-get, as root): FMI 3.0 FMUs get no aarch64-linux binary"
 	@command -v qemu-aarch64 >/dev/null || { apt-get update -qq && apt-get install -y -qq qemu-user; } \
 	  || echo "make: could not install qemu-user (apt-get, as root): the aarch64-linux checks will fail"
+	@# the coverage-guided fuzzer of the native FMU's FMI API: Debian's clang (libFuzzer, sanitizers)
+	@command -v clang >/dev/null || { apt-get update -qq && apt-get install -y -qq clang; } \
+	  || echo "make: could not install clang (apt-get, as root): the FMI fuzzer's test will fail"
 	@# the pages (the results page, the FMUs' documentation) are checked in a real browser: headless Chromium
 	@command -v chromium >/dev/null || { apt-get update -qq && apt-get install -y -qq chromium; } \
 	  || echo "make: could not install chromium (apt-get, as root): the pages' browser tests will fail"
@@ -155,6 +158,7 @@ hosts: $(DEV_STAMP) fmu
 # parameter, a host exiting with the instance alive); exits 1 on any abnormal exit
 soak: $(DEV_STAMP) fmu
 	$(BIN)/python tests/soak.py --per-fmu 300 --fmus build/fmus --fmus build/fmus/native3
+	$(BIN)/python tests/test_fmi_fuzzer.py 600
 
 clean:
 	rm -rf build .pytest_cache

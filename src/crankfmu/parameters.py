@@ -30,7 +30,7 @@ class Parameter:
         # a bound as the file writes it: 0 and 1 (a whole bound without ".0"), 0.45, 1e-11
         lo = "(-inf" if self.min is None else ("[" if self.min_inclusive else "(") + format_value(self.min).removesuffix(".0")
         hi = "inf)" if self.max is None else format_value(self.max).removesuffix(".0") + ("]" if self.max_inclusive else ")")
-        return f"{lo}, {hi} {self.unit}".rstrip()
+        return f"{lo}, {hi} {'' if self.unit == '1' else self.unit}".rstrip()     # a pure number has no unit to say
 
     def check(self, value) -> float:
         try:

@@ -115,9 +115,8 @@ class NativeModel:
 
     def __init__(self, source, scenario_name, causality: str = "torque"):
         from ..dynamics.tabulated import REACTION_TERMS
-        from ..parameters import Parameter
         from ..scenario import load_scenario
-        from .slave import output_quantities, reaction_variables
+        from .slave import output_quantities, reaction_variables, rtol_parameter
 
         self.source = source
         self.speed = causality == "speed"
@@ -134,9 +133,7 @@ class NativeModel:
             assert self.reaction_table.names == tuple(v.name for v in self.reactions)
         # the file's parameters at the values it is built for (its --set overrides)
         params = {n: replace(p, value=self.scenario.values[n]) for n, p in self.scenario.parameters.items()}
-        params["rtol"] = Parameter("rtol", self.scenario.experiment.tolerance, "1",
-                                   "relative tolerance of the FMU's integrator (Dormand-Prince 5(4), the C kernel)",
-                                   min=0.0, min_inclusive=False, tunable=True)
+        params["rtol"] = rtol_parameter(self.scenario.experiment.tolerance, tunable=True)
         missing = [n for n in TUNABLE if n not in params]
         if missing:
             raise CrankfmuError(f"{self.scenario.name}: missing parameter(s) {', '.join(missing)}")

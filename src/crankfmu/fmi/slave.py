@@ -114,6 +114,19 @@ def reaction_variables(scenario) -> list:
     return [Variable(*v) for v in reaction_outputs(definition)] if definition.joints else []
 
 
+#: the FMU's integrator tolerance: below 1e-14 the error control asks for steps near the kernel's
+#: underflow guard, so a step of the host would take unbounded time (rtol = 4e-213 made one
+#: fmi2DoStep of 0.1 s run for hours: found by the FMI fuzzer, tests/fuzz/fmi2_fuzzer.c)
+RTOL_MIN, RTOL_MAX = 1e-14, 0.1
+
+
+def rtol_parameter(tolerance: float, tunable: bool = False) -> Parameter:
+    """The FMUs' parameter rtol, starting at ``tolerance``: fixed in the Python FMU, tunable in the
+    native one (its shell loads it into the kernel at each restart)."""
+    return Parameter("rtol", tolerance, "1", "relative tolerance of the FMU's internal integrator "
+                     "(Dormand-Prince 5(4), the C kernel)", min=RTOL_MIN, max=RTOL_MAX, tunable=tunable)
+
+
 def declared(scenario) -> Declared:
     """The variables of the FMU of ``scenario``: the contract's outputs, the scenario's [[outputs]]
     and its ports' outputs, the inputs tau_ext and one per port, the scenario's parameters and the
@@ -123,9 +136,7 @@ def declared(scenario) -> Declared:
                *reaction_variables(scenario)]
     inputs = [Parameter(TAU_EXT.name, 0.0, TAU_EXT.unit, TAU_EXT.description),
               *(Parameter(p.input_name, 0.0, p.input_unit, p.input_description) for p in scenario.ports)]
-    parameters = [*scenario.parameters.values(), Parameter(
-        "rtol", scenario.experiment.tolerance, "1", min=0.0, min_inclusive=False,
-        description="relative tolerance of the FMU's internal integrator (Dormand-Prince 5(4), the C kernel)")]
+    parameters = [*scenario.parameters.values(), rtol_parameter(scenario.experiment.tolerance)]
     return Declared(outputs, inputs, parameters)
 
 

@@ -112,6 +112,10 @@ def refused(status: int, state) -> None:
     """The kernel's refusal as an error: a step size underflow, or a state it cannot have written."""
     if status == kernel.UNDERFLOW:
         raise SchemeError(f"fast: step size underflow at t = {state[kernel.T]:.9g} s")
+    if status == kernel.TOO_MANY_STEPS:
+        raise SchemeError(f"fast: over 1e7 integration steps in one communication step near t = "
+                          f"{state[kernel.T]:.9g} s: the inputs, their derivatives or the parameters spin the crank "
+                          "beyond any use; take smaller communication steps if they are meant")
     raise SchemeError("fast: the kernel's state holds no mode it can have written (a corrupted FMU state)")
 
 

@@ -164,7 +164,7 @@ assert OUT_SIZE == len(ROW_FIELDS)
 #: the output row in speed causality (ck_speed_*): the same layout, the drive in the motor's place
 SPEED_ROW_FIELDS = tuple({"W_motor": "W_drive", "M_motor": "tau_drive"}.get(n, n) for n in ROW_FIELDS)
 #: what the stepping functions return besides an event slot
-NO_EVENT, UNDERFLOW, BAD_STATE = -1, -2, -3
+NO_EVENT, UNDERFLOW, BAD_STATE, TOO_MANY_STEPS = -1, -2, -3, -5
 
 
 def parameters(motor, J_flywheel: float, tau_ext: float, rtol: float, atol: float,

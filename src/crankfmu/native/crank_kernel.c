@@ -598,7 +598,8 @@ void ck_begin(double* S, double t, const double* y, const CkTables* T, const dou
 int ck_advance(double* S, double t_target, double t_limit, const CkTables* T, const double* P, double* row)
 {
     Scratch w;
-    while (S[CK_T] < t_target) {
+    for (long n = 0; S[CK_T] < t_target; n++) {
+        if (n >= CK_MAX_STEPS_PER_CALL) return CK_TOO_MANY_STEPS;
         int slot = step(S, t_limit, T, P, &w);
         if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return slot;
     }
@@ -610,7 +611,8 @@ int ck_advance_to_switch(double* S, double t_target, double t_limit, const CkTab
                          double* t_switch)
 {
     Scratch w;
-    while (S[CK_T] < t_target) {
+    for (long n = 0; S[CK_T] < t_target; n++) {
+        if (n >= CK_MAX_STEPS_PER_CALL) return CK_TOO_MANY_STEPS;
         int slot = step(S, t_limit, T, P, &w);
         if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return slot;
         if (slot >= 0) {

@@ -51,8 +51,14 @@ enum { CK_SLOPE_SAMPLES = 8, CK_STEADY_SIZE = 7 };
 #define CK_STEADY_STALLS 2.0
 #define CK_STEADY_UNDERFLOW 3.0
 
-/* what the stepping functions return besides an event slot */
-enum { CK_NO_EVENT = -1, CK_UNDERFLOW = -2, CK_BAD_STATE = -3, CK_NO_FIXED_POINT = -4 };
+/* what the stepping functions return besides an event slot; CK_TOO_MANY_STEPS: one call of
+ * ck_advance (an FMU's communication step) would take over CK_MAX_STEPS_PER_CALL steps, which no
+ * sensible input does (a host's torque ramp of 1e10 N.m/s spins the crank at 1e9 rad/s): refused
+ * so that a host's step ends in seconds, not hours */
+enum { CK_NO_EVENT = -1, CK_UNDERFLOW = -2, CK_BAD_STATE = -3, CK_NO_FIXED_POINT = -4, CK_TOO_MANY_STEPS = -5 };
+#ifndef CK_MAX_STEPS_PER_CALL           /* (the FMI fuzzer builds with a smaller one, to reach it often) */
+#define CK_MAX_STEPS_PER_CALL 10000000L
+#endif
 
 /* the largest number of tabulated functions (J, 0.5 J', Q, dQ/domega, one per slider force and
  * one per port) */

@@ -257,7 +257,12 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
             if (switches == CM_SWITCHES_STOP) target = m->now.event_ahead;
             m->now.event_ahead = -INFINITY;
         }
+        long located = 0;
         while (status == 0 && !(*stopped && switches == CM_SWITCHES_STOP)) {
+            if (++located > CK_MAX_STEPS_PER_CALL / 10) {          /* each a kernel step at least */
+                status = CK_TOO_MANY_STEPS;
+                break;
+            }
             double t_switch = target;
             status = ck_advance_to_switch(m->now.S, target, t_limit, &m->tables, m->now.P, m->now.row, &t_switch);
             if (status != 1) break;                       /* at target (0), or refused */
@@ -278,6 +283,10 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
         m->now.phase = CM_FAILED;
         return cm_fail(m, "the integration failed near t = %.9g s (%s)", m->now.S[CK_T],
                        status == CK_UNDERFLOW    ? "step size underflow"
+                       : status == CK_TOO_MANY_STEPS
+                           ? "over 1e7 integration steps in one communication step: the inputs, their derivatives "
+                             "or the parameters spin the crank beyond any use; take smaller communication steps if "
+                             "they are meant"
                        : CAUSALITY_SPEED         ? "non-finite values, or a step of over 1e9 degrees of crank angle"
                        : status == CK_BAD_STATE  ? "a corrupted state"
                                                  : "non-finite outputs");
