@@ -47,16 +47,17 @@ class Host:
         self.outputs = [v.valueReference for v in md.modelVariables if v.causality == "output"]
         self.messages: list[tuple[int, str, str]] = []
         self.logging = logging
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(callbacks=self._callbacks(), loggingOn=logging)
+        self._instantiate(unzipped, md, logging, name)
         self.t = 0.0
 
-    def _callbacks(self):
-        def logger(env, instance, status, category, message):
-            self.messages.append((status, (category or b"").decode(), message.decode(errors="replace")))
-        self._keep = callbacks(logger)
-        return self._keep[0]
+    def _log(self, status, category, message):
+        self.messages.append((status, (category or b"").decode(), message.decode(errors="replace")))
+
+    def _instantiate(self, unzipped, md, logging, name):
+        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped,
+                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        self._keep = callbacks(lambda env, instance, status, category, message: self._log(status, category, message))
+        self.fmu.instantiate(callbacks=self._keep[0], loggingOn=logging)
 
     def call(self, name, *args):
         """(status, messages logged during the call) of a raw FMI call."""
@@ -106,28 +107,20 @@ class _Fmi2Names:
 class Host3(Host):
     """The same host for an FMI 3.0 FMU (fmpy's FMU3Slave): each FMI 2.0 call the groups make is made
     as its FMI 3.0 counterpart (fmi3EnterInitializationMode takes the experiment's times,
-    fmi3DoStep returns its flags, Float64 for Real), statuses returned, not raised."""
+    fmi3DoStep returns its flags, Float64 for Real: the same C types), statuses returned, not raised."""
 
     CALLS = {"SetReal": "SetFloat64", "GetReal": "GetFloat64", "GetInteger": "GetInt32",
              "DeSerializeFMUstate": "DeserializeFMUState", "SetFMUstate": "SetFMUState"}
 
-    def __init__(self, unzipped, md, logging: bool, name: str = "fuzz"):
+    def _instantiate(self, unzipped, md, logging, name):
         from fmpy.fmi3 import FMU3Slave
 
-        self.md = md
-        self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        self.outputs = [v.valueReference for v in md.modelVariables if v.causality == "output"]
-        self.messages: list[tuple[int, str, str]] = []
-        self.logging = logging
         raw = FMU3Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
                         instanceName=name)
-
-        def log_message(env, status, category, message):
-            self.messages.append((status, (category or b"").decode(), message.decode(errors="replace")))
-        raw.instantiate(loggingOn=logging, logMessage=log_message)
+        raw.instantiate(loggingOn=logging, logMessage=lambda env, status, category, message: self._log(status, category,
+                                                                                                        message))
         self._raw = raw
         self.fmu = _Fmi2Names(raw)
-        self.t = 0.0
 
     def call(self, name, *args):
         from ctypes import byref
@@ -152,17 +145,6 @@ class Host3(Host):
         except FMICallException as exc:
             status = exc.status
         return status, self.messages[before:]
-
-    def set_real(self, name_or_vr, value):
-        from fmpy.fmi3 import fmi3Float64, fmi3ValueReference
-        vr = self.vr[name_or_vr] if isinstance(name_or_vr, str) else name_or_vr
-        return self.call("SetReal", (fmi3ValueReference * 1)(vr), 1, (fmi3Float64 * 1)(value))
-
-    def get_real(self, vrs):
-        from fmpy.fmi3 import fmi3Float64, fmi3ValueReference
-        values = (fmi3Float64 * len(vrs))()
-        status, logged = self.call("GetReal", (fmi3ValueReference * len(vrs))(*vrs), len(vrs), values)
-        return status, logged, list(values)
 
     def start(self):
         return OK, self.call("EnterInitializationMode")[0]

@@ -27,30 +27,29 @@ HEAP_ERRORS = ("corrupted", "double free", "free(): invalid", "malloc(): ", "Seg
 CASES = ("logging", "quiet", "refused", "no-free")
 TIME_LIMIT = 120
 
-FMPY_HOST = r"""
+FMPY_HOST_TEMPLATE = r"""
 import sys
 from fmpy import read_model_description, simulate_fmu
-from fmpy.fmi2 import FMU2Slave
+from fmpy.{module} import {slave}
 from fmpy.fmi1 import FMICallException
 where, case, refusable = sys.argv[1], sys.argv[2], sys.argv[3]
 for other in sys.argv[4:]:       # another vendor's FMU first, in the same process
     simulate_fmu(other, stop_time=0.03, output_interval=0.01)
 md = read_model_description(where)
-vr = {v.name: v.valueReference for v in md.modelVariables}
-fmu = FMU2Slave(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
+vr = {{v.name: v.valueReference for v in md.modelVariables}}
+fmu = {slave}(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
                 instanceName="soak")
 fmu.instantiate(loggingOn=(case == "logging"))
-fmu.setupExperiment(startTime=0.0)
-fmu.enterInitializationMode()
+{setup}fmu.enterInitializationMode()
 try:
     if case == "refused":
-        fmu.setReal([vr[refusable]], [-1.0])
+        fmu.{set_real}([vr[refusable]], [-1.0])
     fmu.exitInitializationMode()
     t = 0.0
     for _ in range(3):
         fmu.doStep(t, 0.01)
         t += 0.01
-    print("output", fmu.getReal([next(v.valueReference for v in md.modelVariables if v.causality == "output")])[0])
+    print("output", fmu.{get_real}([next(v.valueReference for v in md.modelVariables if v.causality == "output")])[0])
 except FMICallException as exc:
     print("refused:", exc)
     if case != "refused":
@@ -60,41 +59,11 @@ if case == "no-free":
 fmu.terminate()
 fmu.freeInstance()
 """
-
-#: the same host for an FMI 3.0 FMU (fmpy's FMU3Slave)
-FMPY_HOST3 = r"""
-import sys
-from fmpy import read_model_description, simulate_fmu
-from fmpy.fmi3 import FMU3Slave
-from fmpy.fmi1 import FMICallException
-where, case, refusable = sys.argv[1], sys.argv[2], sys.argv[3]
-for other in sys.argv[4:]:       # another vendor's FMU first, in the same process
-    simulate_fmu(other, stop_time=0.03, output_interval=0.01)
-md = read_model_description(where)
-vr = {v.name: v.valueReference for v in md.modelVariables}
-fmu = FMU3Slave(guid=md.guid, unzipDirectory=where, modelIdentifier=md.coSimulation.modelIdentifier,
-                instanceName="soak")
-fmu.instantiate(loggingOn=(case == "logging"))
-fmu.enterInitializationMode()
-try:
-    if case == "refused":
-        fmu.setFloat64([vr[refusable]], [-1.0])
-    fmu.exitInitializationMode()
-    t = 0.0
-    for _ in range(3):
-        fmu.doStep(t, 0.01)
-        t += 0.01
-    print("output", fmu.getFloat64([next(v.valueReference for v in md.modelVariables if v.causality == "output")])[0])
-except FMICallException as exc:
-    print("refused:", exc)
-    if case != "refused":
-        sys.exit(1)
-if case == "no-free":
-    sys.exit(0)      # the instance is alive at exit
-fmu.terminate()
-fmu.freeInstance()
-"""
-
+#: the host for each FMI version: FMU2Slave (setupExperiment, Real) or FMU3Slave (Float64)
+FMPY_HOSTS = {"2": FMPY_HOST_TEMPLATE.format(module="fmi2", slave="FMU2Slave", setup="fmu.setupExperiment(startTime=0.0)\n",
+                                             set_real="setReal", get_real="getReal"),
+              "3": FMPY_HOST_TEMPLATE.format(module="fmi3", slave="FMU3Slave", setup="", set_real="setFloat64",
+                                             get_real="getFloat64")}
 
 def build_driver(where: Path) -> dict[str, Path]:
     """The C hosts by FMI version: tests/c_host/fmu_driver.c (2) and fmu3_driver.c (3)."""
@@ -120,8 +89,7 @@ def command(host: str, case: str, unzipped: str, md, drivers: dict, stock: Path 
     version = md.fmiVersion[0]
     if host.startswith("fmpy"):
         others = [str(stock)] if host == "fmpy+stock" else []
-        return [sys.executable, "-c", FMPY_HOST3 if version == "3" else FMPY_HOST, unzipped, case, refusable,
-                *others], {0}
+        return [sys.executable, "-c", FMPY_HOSTS[version], unzipped, case, refusable, *others], {0}
     driver = drivers[version]
     vr = {v.name: v.valueReference for v in md.modelVariables}
     env = ["env", "-i", f"FMU_DRIVER_LOGGING={'0' if case == 'quiet' else '1'}",

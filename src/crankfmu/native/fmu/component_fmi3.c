@@ -142,6 +142,9 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
         return status_of(co_fail(c, "fmi3GetFloat64: %u values for %u value references (every variable is a scalar)",
                                  (unsigned)nValues, (unsigned)nValueReferences));
     if (nValueReferences > 0 && (!valueReferences || !values)) return status_of(co_fail(c, "%s", "fmi3GetFloat64: null arrays"));
+    size_t model_only = 0;                     /* the model's variables only: one read */
+    while (model_only < nValueReferences && valueReferences[model_only] < N_VARIABLES) model_only++;
+    if (model_only == nValueReferences) return status_of(co_get(c, "fmi3GetFloat64", valueReferences, nValueReferences, values));
     for (size_t i = 0; i < nValueReferences; i++) {
         if (valueReferences[i] == VR_TIME) {
             values[i] = c->now.time;

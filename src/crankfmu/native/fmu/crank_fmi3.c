@@ -193,6 +193,12 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
         return status_of(cm_fail(m, "fmi3GetFloat64: %u values for %u value references (every variable is a scalar)",
                                  (unsigned)nValues, (unsigned)nValueReferences));
     if (nValueReferences > 0 && (!valueReferences || !values)) return status_of(cm_fail(m, "%s", "fmi3GetFloat64: null arrays"));
+    /* the model's variables only (a host reading its outputs): one read, which computes the
+     * quantities and the joint reactions once for all of them */
+    size_t model_only = 0;
+    while (model_only < nValueReferences && valueReferences[model_only] < N_VARIABLES) model_only++;
+    if (model_only == nValueReferences)
+        return status_of(cm_get(m, "fmi3GetFloat64", valueReferences, nValueReferences, values));
     for (size_t i = 0; i < nValueReferences; i++) {
         fmi3ValueReference vr = valueReferences[i];
         if (vr < N_VARIABLES) {
