@@ -147,6 +147,7 @@ validate: fmu
 
 bench: $(DEV_STAMP) fmu
 	$(BIN)/python benchmarks/speed.py --out build/bench
+	$(BIN)/python benchmarks/c_model.py --json build/bench/c_model.json > build/bench/c_model.md
 
 # the drop-in check: fmpy, the ecos C++ command, ecospy and libcosim on FourBar.fmu and
 # FourBarDrive.ssp (co-simulation error at 10, 1 and 0.1 ms against the coupled model in process)

@@ -170,6 +170,7 @@ class Scenario:
         from .dynamics.ports import parse_ports
         ports = parse_ports(self.data.get("ports", []), definition, self.where, values)
         reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads, ports)
+        reduced.source = (self, values)          # what the C model tabulates it from (table_of)
         # J = J_flywheel + the links' kinetic energy per omega1^2 / 2, a sum of terms >= 0 (masses
         # and inertias were checked >= 0): a flywheel makes it positive at every angle; without
         # one, it is checked on a grid

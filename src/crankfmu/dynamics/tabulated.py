@@ -27,6 +27,7 @@ The motor line (a kink at omega_switch) is evaluated exactly by the integrators.
 from __future__ import annotations
 
 import math
+import os
 import time
 import weakref
 from dataclasses import dataclass
@@ -345,15 +346,43 @@ _TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def table_of(reduced: ReducedModel, tolerance: float = 1e-11) -> ReducedTable:
-    """The table of ``reduced`` to ``tolerance``, built once per model and tolerance.
+    """The table of ``reduced`` to ``tolerance``, built once per model and tolerance: by the C
+    model where the scenario compiles to it (c_table), else by the Python engine (tabulate).
 
     The flywheel is not in it (a parameter of the fast integrators), so designs that differ only
     in the flywheel or the motor share one table.
     """
     tables = _TABLES.setdefault(reduced, {})
     if tolerance not in tables:
-        tables[tolerance] = tabulate(reduced, tolerance)
+        source = getattr(reduced, "source", None)
+        table = c_table(*source, tolerance) if source is not None else None
+        tables[tolerance] = table or tabulate(reduced, tolerance)
     return tables[tolerance]
+
+
+def c_table(scenario, values: dict, tolerance: float = 1e-11) -> ReducedTable | None:
+    """The reduced model's table built by the C model (native/crank_mechanism.c) from the
+    scenario's compiled program at ``values``, with the same constructions and checked bound as
+    :func:`tabulate`; None where the scenario does not compile to it or the C model refuses the
+    values (the Python engine then builds the table, or says why it cannot). With the
+    environment variable CRANKFMU_TABLES=python every table is the Python engine's (the reference
+    path; make bench times a sweep both ways)."""
+    if os.environ.get("CRANKFMU_TABLES") == "python":
+        return None
+    from ..native.mechanism import CModel, MechanismError
+    from .program import compile_scenario, parameter_values
+
+    program = compile_scenario(scenario)
+    if program is None:
+        return None
+    started = time.perf_counter()
+    try:
+        model = CModel(program, parameter_values(program, values))
+        coefficients, switches, forces, error, construction = model.table(tolerance)
+    except MechanismError:
+        return None
+    return ReducedTable(coefficients, switches, forces, error, tolerance, time.perf_counter() - started,
+                        program.column_names, construction, program.n_ports)
 
 
 # ------------------------------------------------------------------------------- joint reactions

@@ -113,6 +113,13 @@ def _load() -> ctypes.CDLL:
         "ck_next_interval_rule": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int]),
         "cw_rope_position": (ctypes.c_double, [D, ctypes.c_double]),
         "cw_run": (ctypes.c_int, [D, D, ctypes.c_double, ctypes.c_int, D, I]),
+        "mm_bind": (ctypes.c_int, [T, T, D, ctypes.c_int]),
+        "mm_prepare": (ctypes.c_int, [T]),
+        "mm_evaluate": (ctypes.c_int, [T, ctypes.c_double]),
+        "mm_engine": (ctypes.c_int, [T, D, ctypes.c_int, D]),
+        "mm_tabulate": (ctypes.c_int, [T, ctypes.c_double, T, T, T, T]),
+        "mm_free": (None, [T]),
+        "mm_release": (None, [T]),
     }
     for name, (restype, argtypes) in signatures.items():
         function = getattr(lib, name)

@@ -11,7 +11,9 @@ KERNEL = ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h"
 COMPONENTS = ("crank_components.c", "crank_components.h")
 #: the pumping well as one model: the kernel and the string's steps coupled (crankfmu well runs it)
 WELL = ("crank_well.c", "crank_well.h")
-SOURCES = KERNEL + COMPONENTS + WELL
+#: the mechanism model: a scenario's compiled program evaluated, checked and tabulated
+MECHANISM = ("crank_mechanism.c", "crank_mechanism.h")
+SOURCES = KERNEL + COMPONENTS + WELL + MECHANISM
 #: the C files the library is compiled from (the mechanism's kernel, the components' physics, the well)
 C_FILES = tuple(name for name in SOURCES if name.endswith(".c"))
 #: how the library is compiled, by setup.py and by the fallback: C99, no FMA contraction (the

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..dynamics import MotorLine
 from ..errors import CrankfmuError
-from ..dynamics.tabulated import table_of
+from ..dynamics.tabulated import c_table, table_of
 from ..integrators.fast import TABLE_TOLERANCE
 from .. import native as kernel
 from ..scenario import load_scenario
@@ -71,10 +71,18 @@ class SteadyBatch:
         self._phi_grid = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)
 
     def _model(self, key):
+        """(initial crank angle rad, table) of a geometry: the C model's table (a few ms), or the
+        Python engine's where the C model does not take the scenario or refuses the values (it
+        then says why, as every other command does)."""
         if key not in self._models:
             try:
-                model = self.scenario.with_params(**dict(key)).build()
-                self._models[key] = (model, table_of(model.reduced, TABLE_TOLERANCE))
+                scenario = self.scenario.with_params(**dict(key))
+                values = scenario.values
+                table = c_table(scenario, values, TABLE_TOLERANCE)
+                if table is None or not (values["J_flywheel"] > 0 or np.min(table.coefficients[0, :, 0]) > 0):
+                    model = scenario.build()
+                    table = table_of(model.reduced, TABLE_TOLERANCE)
+                self._models[key] = (values["phi1_start"], table)
             except CrankfmuError as exc:
                 self._models[key] = exc
         return self._models[key]
@@ -99,7 +107,7 @@ class SteadyBatch:
             if isinstance(built, CrankfmuError):
                 result.failed += [{**designs[i], "reason": str(built)} for i in members]
                 continue
-            model, table = built
+            phi1_start, table = built
             params = np.zeros((len(members), kernel.PARAM_SIZE))
             guesses = np.zeros(len(members))
             for row, i in enumerate(members):
@@ -108,7 +116,7 @@ class SteadyBatch:
                 params[row] = kernel.parameters(motor, v["J_flywheel"], 0.0, self.rtol, self.rtol)
                 guesses[row] = _omega_guess(table, v["J_flywheel"], motor, self._phi_grid)
             out = np.zeros((len(members), kernel.STEADY_SIZE))
-            kernel.steady_batch(params, float(model.y0[0]), guesses, self.shoot_tol, self.max_turns,
+            kernel.steady_batch(params, float(phi1_start), guesses, self.shoot_tol, self.max_turns,
                                 kernel.Tables(*table.arrays()), out)
             for row, i in enumerate(members):
                 status = int(out[row, 6])

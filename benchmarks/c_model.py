@@ -1,0 +1,130 @@
+"""The model in C (issue 38), measured in one run:
+
+    python benchmarks/c_model.py [--quick]
+
+- each packaged scenario's model build and tabulation: the C model (dynamics.tabulated.c_table:
+  bind the compiled program, check the assembly, find the switch angles, tabulate) against the
+  Python engine's (Scenario.build, then tabulated.tabulate) of the same table, median ms;
+- a steady-cycle sweep of seed 000 designs that differ in geometry (l1, l2, l3: every design its
+  own table) on Dask with two workers, designs per second on the C tables against the Python
+  engine's (CRANKFMU_TABLES=python, today's path before the C model), on the same designs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = ("seed000", "seed001", "seed002", "seed003", "seed004", "pumpjack")
+
+
+def median_ms(run, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - started)
+    return 1e3 * statistics.median(times)
+
+
+def tabulation(repeats: int) -> list[dict]:
+    from crankfmu.dynamics.tabulated import c_table, tabulate
+    from crankfmu.scenario import load_scenario
+
+    rows = []
+    for name in SCENARIOS:
+        scenario = load_scenario(name)
+        values = scenario.values
+        python = median_ms(lambda: tabulate(scenario.build().reduced, 1e-11), repeats)
+        table = c_table(scenario, values, 1e-11)
+        c = median_ms(lambda: c_table(scenario, values, 1e-11), repeats)
+        rows.append({"scenario": name, "python_ms": python, "c_ms": c, "ratio": python / c,
+                     "intervals": table.n_intervals, "error": table.error_bound})
+    return rows
+
+
+def sweep(side: int, python_side: int) -> dict:
+    """Designs per second of the steady sweep over (l1, l2, l3) on 2 Dask workers, C tables and
+    Python tables (a smaller grid of the same ranges for the Python engine: its rate per design
+    does not depend on how many there are)."""
+    from crankfmu.scenario import load_scenario
+    from crankfmu.studies.sweep import SweepAxis, run_sweep
+
+    scenario = load_scenario("seed000")
+
+    def run(n, python):
+        axes = [SweepAxis("l1", list(np.linspace(0.18, 0.22, n))), SweepAxis("l2", list(np.linspace(0.48, 0.52, n))),
+                SweepAxis("l3", list(np.linspace(0.53, 0.57, n)))]
+        saved = os.environ.get("CRANKFMU_TABLES")
+        if python:
+            os.environ["CRANKFMU_TABLES"] = "python"
+        try:
+            with tempfile.TemporaryDirectory() as tmp:
+                started = time.perf_counter()
+                result = run_sweep(scenario, axes, Path(tmp), resume=False, study="steady", scheduler="local")
+                wall = time.perf_counter() - started
+        finally:
+            os.environ.pop("CRANKFMU_TABLES", None)
+            if saved is not None:
+                os.environ["CRANKFMU_TABLES"] = saved
+        return {"designs": n ** 3, "failed": len(result.failed), "seconds": wall, "per_second": n ** 3 / wall,
+                "rows": {(r["l1"], r["l2"], r["l3"]): r["delta"] for r in result.rows}}
+
+    c = run(side, False)
+    python = run(python_side, True)
+    c_small = run(python_side, False)
+    # the same designs both ways: the steady cycles agree
+    common = set(python["rows"]) & set(c_small["rows"])
+    worst = max((abs(python["rows"][k] - c_small["rows"][k]) / abs(python["rows"][k]) for k in common), default=0.0)
+    for r in (c, python, c_small):
+        r.pop("rows")
+    return {"c": c, "python": python, "ratio": c["per_second"] / python["per_second"], "delta_agreement": worst,
+            "cores": os.cpu_count()}
+
+
+def measure(quick: bool) -> dict:
+    return {"tabulation": tabulation(5 if quick else 21),
+            "sweep": sweep(8 if quick else 22, 5 if quick else 10)}
+
+
+def report(result: dict) -> list[str]:
+    lines = ["## The model in C (issue 38)", "",
+             "Model build and tabulation at initialisation, median of one run:", "",
+             "| scenario | Python build + tabulation (ms) | C (ms) | ratio | intervals | checked error |",
+             "|---|---|---|---|---|---|"]
+    for r in result["tabulation"]:
+        lines.append(f"| {r['scenario']} | {r['python_ms']:.2f} | {r['c_ms']:.2f} | {r['ratio']:.1f}x | "
+                     f"{r['intervals']} | {r['error']:.1e} |")
+    s = result["sweep"]
+    lines += ["", f"Steady sweep of seed 000 over l1, l2, l3 (every design its own table) on Dask, "
+                  f"{s['cores']} cores: C tables {s['c']['designs']} designs in {s['c']['seconds']:.1f} s "
+                  f"({s['c']['per_second']:.0f}/s); Python tables {s['python']['designs']} designs in "
+                  f"{s['python']['seconds']:.1f} s ({s['python']['per_second']:.0f}/s): **{s['ratio']:.1f}x**. "
+                  f"delta of the same designs agrees to {s['delta_agreement']:.1e} relative.", ""]
+    return lines
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args(argv)
+    result = measure(args.quick)
+    print("\n".join(report(result)))
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(Path(__file__).parent))
+    sys.exit(main())

@@ -1,0 +1,173 @@
+"""The C mechanism model (crank_mechanism.c) from Python: a compiled scenario (dynamics.program)
+bound to parameter values, its engine evaluated and its table built in C.
+
+numpy and ctypes only. ``CModel`` owns one mm_model; ``table()`` gives the kernel's table as
+dynamics.tabulated.ReducedTable does, ``engine(phi1)`` the table's functions at any angles
+(what the tests compare with the Python engine).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import time
+
+import numpy as np
+
+from . import LIBRARY
+
+I, D = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double)
+
+#: crank_mechanism.h's error codes, and what each says (the Python engine's words)
+ERRORS = {
+    -1: "the contour equations have no real solution",
+    -2: "the contour Jacobian is singular (dead point)",
+    -3: "Newton's method did not converge",
+    -4: "Newton's method did not converge from the file's guess",
+    -5: "the continuation lost the assembly",
+    -6: "after one crank turn an unknown does not return to its start (branch change)",
+    -7: "the mechanism passes a dead point (the contour Jacobian's determinant changes sign)",
+    -8: "the mechanism locks at a dead point",
+    -9: "the closed form does not satisfy the contour equations",
+    -10: "a value is negative or not finite",
+    -11: "a rocker load's link does not have two extreme positions per crank turn",
+    -12: "a direction-dependent load's coordinate never changes direction",
+    -13: "the Fourier series of the functions does not converge (a spline of samples is needed)",
+    -14: "out of memory",
+    -15: "too many switch angles",
+}
+
+
+class MMProgram(ctypes.Structure):
+    _fields_ = [("n_registers", ctypes.c_int), ("n_code", ctypes.c_int), ("code", I), ("literals", D),
+                ("n_sections", ctypes.c_int), ("sections", I), ("n_q", ctypes.c_int), ("n_contours", ctypes.c_int),
+                ("n_chains", ctypes.c_int), ("n_terms", ctypes.c_int), ("terms", I),
+                ("n_angles", ctypes.c_int), ("angles", I), ("chain_constants", I),
+                ("angle_column", I), ("closed_form", ctypes.c_int), ("guess", ctypes.c_int), ("phi1", ctypes.c_int),
+                ("kinematics", ctypes.c_int), ("n_points", ctypes.c_int), ("omega1", ctypes.c_int),
+                ("n_rows", ctypes.c_int), ("rows", I), ("n_columns", ctypes.c_int), ("columns", I),
+                ("n_searches", ctypes.c_int), ("searches", I), ("n_checks", ctypes.c_int), ("checks", I),
+                ("min_conditioning", ctypes.c_double)]
+
+
+class MMModel(ctypes.Structure):
+    _fields_ = [("program", ctypes.c_void_p), ("registers", D), ("length_scale", ctypes.c_double),
+                ("turn_start", ctypes.c_double), ("turn", D), ("winding", D), ("have_turn", ctypes.c_int),
+                ("error_angle", ctypes.c_double), ("error_value", ctypes.c_double), ("error_index", ctypes.c_int),
+                ("n_switches", ctypes.c_int), ("switches", ctypes.c_double * 64), ("forces", D),
+                ("worst_conditioning", ctypes.c_double), ("worst_angle", ctypes.c_double), ("scan", D)]
+
+
+class MechanismError(Exception):
+    """The C model refused the values: ``code`` (crank_mechanism.h), where (rad) and which."""
+
+    def __init__(self, code: int, angle: float, index: int, value: float):
+        self.code, self.angle, self.index, self.value = code, angle, index, value
+        super().__init__(f"{ERRORS.get(code, f'error {code}')} (phi1 = {np.degrees(angle) % 360:.3f} deg)")
+
+
+def _ints(a):
+    a = np.ascontiguousarray(a, dtype=np.int32)
+    return a, a.ctypes.data_as(I)
+
+
+def _struct(program, min_conditioning: float) -> tuple:
+    """(mm_program, the arrays it points into) of a compiled program, built once per program."""
+    cached = getattr(program, "_c_struct", None)
+    if cached is not None and cached[0].min_conditioning == min_conditioning:
+        return cached
+    keep = []
+
+    def ints(a):
+        arr, ptr = _ints(a)
+        keep.append(arr)
+        return ptr
+    literals = np.ascontiguousarray(program.literals, dtype=float)
+    keep.append(literals)
+    s = MMProgram()
+    s.n_registers, s.n_code, s.code = program.n_registers, len(program.code), ints(program.code)
+    s.literals = literals.ctypes.data_as(D)
+    s.n_sections, s.sections = len(program.sections), ints(program.sections)
+    s.n_q, s.n_contours, s.n_chains = program.n_q, program.n_contours, program.n_chains
+    s.n_terms, s.terms = len(program.terms), ints(program.terms)
+    s.n_angles, s.angles = len(program.angles), ints(program.angles)
+    s.chain_constants, s.angle_column = ints(program.chain_constants), ints(program.angle_column)
+    s.closed_form, s.guess, s.phi1 = program.closed_form, program.guess, program.phi1
+    s.kinematics, s.n_points, s.omega1 = program.kinematics, program.n_points, program.omega1
+    s.n_rows, s.rows = len(program.rows), ints(program.rows)
+    s.n_columns, s.columns = len(program.columns), ints(program.columns)
+    s.n_searches, s.searches = len(program.searches), ints(program.searches)
+    s.n_checks, s.checks = len(program.checks), ints(program.checks)
+    s.min_conditioning = min_conditioning
+    program._c_struct = (s, keep)
+    return program._c_struct
+
+
+class CModel:
+    """A compiled scenario at parameter values: assembly checked, loads' switch angles found."""
+
+    def __init__(self, program, parameters: np.ndarray, min_conditioning: float | None = None):
+        from ..dynamics.program import MIN_CONDITIONING
+
+        self.program = program
+        lib = LIBRARY
+        s, keep = _struct(program, MIN_CONDITIONING if min_conditioning is None else min_conditioning)
+        self._keep, self._struct, self._lib = keep, s, lib
+        self._model = MMModel()
+        self._parameters = np.ascontiguousarray(parameters, dtype=float)
+        started = time.perf_counter()
+        self._raise(lib.mm_bind(ctypes.byref(self._model), ctypes.byref(s), self._parameters.ctypes.data_as(D),
+                                len(self._parameters)))
+        self._raise(lib.mm_prepare(ctypes.byref(self._model)))
+        self.prepare_time = time.perf_counter() - started
+
+    def _raise(self, status: int):
+        if status:
+            m = self._model
+            raise MechanismError(status, m.error_angle, m.error_index, m.error_value)
+
+    def __del__(self):
+        lib = getattr(self, "_lib", None)
+        if lib is not None:
+            lib.mm_free(ctypes.byref(self._model))
+
+    @property
+    def worst_conditioning(self) -> tuple[float, float]:
+        """(worst conditioning over the turn, crank angle rad where it is)."""
+        return self._model.worst_conditioning, self._model.worst_angle
+
+    def engine(self, phi1) -> np.ndarray:
+        """The table's functions (rows, len(phi1)) at the crank angles."""
+        phi1 = np.ascontiguousarray(np.atleast_1d(phi1), dtype=float)
+        out = np.empty((len(self.program.rows), phi1.size))
+        self._raise(self._lib.mm_engine(ctypes.byref(self._model), phi1.ctypes.data_as(D), phi1.size,
+                                        out.ctypes.data_as(D)))
+        return out
+
+    def registers(self, phi1: float) -> np.ndarray:
+        """Every register after the kinematics and the rows at phi1 (the tests read the positions,
+        transfer functions and points there)."""
+        self._raise(self._lib.mm_evaluate(ctypes.byref(self._model), float(phi1)))
+        return np.ctypeslib.as_array(self._model.registers, (self.program.n_registers,)).copy()
+
+    def schedule(self):
+        """(switch_angles rad, forces N (max(m, 1), 2, columns)), as loads.slider_schedule."""
+        m = self._model
+        n, nc = m.n_switches, len(self.program.columns)
+        switches = np.array(m.switches[:n], dtype=float)
+        forces = np.ctypeslib.as_array(m.forces, (max(n, 1) * 2 * max(nc, 1),))[:max(n, 1) * 2 * nc].copy()
+        return switches, forces.reshape(max(n, 1), 2, nc)
+
+    def table(self, tolerance: float = 1e-11):
+        """(coefficients (rows, m, 4), switch angles, forces, checked error bound, construction):
+        the reduced model's table built in C (dynamics.tabulated.c_table wraps it)."""
+        cubics = ctypes.POINTER(ctypes.c_double)()
+        m, error, n = ctypes.c_int(), ctypes.c_double(), ctypes.c_int()
+        self._raise(self._lib.mm_tabulate(ctypes.byref(self._model), tolerance, ctypes.byref(cubics), ctypes.byref(m),
+                                          ctypes.byref(error), ctypes.byref(n)))
+        rows = len(self.program.rows)
+        try:
+            coefficients = np.ctypeslib.as_array(cubics, (rows * m.value * 4,)).reshape(rows, m.value, 4).copy()
+        finally:
+            self._lib.mm_release(cubics)
+        return (coefficients, *self.schedule(), error.value,
+                f"Fourier series of {n.value} samples, Hermite cubics on {m.value} intervals, in C")

@@ -1,0 +1,181 @@
+"""The C mechanism model (native/crank_mechanism.c, run from dynamics/program.py's compiled
+program) against the Python contour engine, its independent reference, point by point.
+
+Both evaluate the same closed forms and solve the same linear systems, in different orders: they
+agree to rounding, amplified by the contour Jacobian's condition number (the mechanisms here stay
+above a conditioning of 0.05, so 1e3 at most). 1e-11 relative to each function's largest
+magnitude leaves that amplification a margin of ten over the 1e-15 measured, and is still four
+orders below anything a table to 1e-11 could hide.
+"""
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from crankfmu.dynamics.program import compile_scenario, parameter_values
+from crankfmu.dynamics.tabulated import _engine_values, c_table, tabulate
+from crankfmu.errors import AssemblyError
+from crankfmu.native.mechanism import CModel, MechanismError
+from crankfmu.scenario import available_scenarios, load_scenario
+from crankfmu.studies.batch import steady_cycles
+
+USER = Path(__file__).parent / "data" / "user"
+GUIDE = Path(__file__).parents[1] / "docs" / "mechanism-files.md"
+BOUND = 1e-11
+ANGLES = np.linspace(0.0, 2.0 * math.pi, 97)
+
+
+def _guide_scenario(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("guide")
+    for block in re.findall(r"```toml\n(.*?)```", GUIDE.read_text(), re.S):
+        named = re.match(r"# file: (\S+)", block)
+        if named:
+            (folder / named.group(1)).write_text(block)
+    return str(folder / "press_scenario.toml")
+
+
+SCENARIOS = [*available_scenarios(), *sorted(str(p) for p in USER.glob("*_scenario.toml")), "guide"]
+
+
+@pytest.fixture(scope="module")
+def guide(tmp_path_factory):
+    return _guide_scenario(tmp_path_factory)
+
+
+def _scenario(name, guide):
+    return load_scenario(guide if name == "guide" else name)
+
+
+def _perturbed(scenario):
+    """The scenario with its first geometry parameter 2 % longer (or shorter, where longer does not
+    assemble), and every mass 10 % heavier: a design of another geometry."""
+    definition = scenario.mechanism_definition()
+    for factor in (1.02, 0.98):
+        name = definition.geometry_parameters[0]
+        changes = {name: scenario[name] * factor}
+        changes.update({p: scenario[p] * 1.1 for p in definition.mass_parameters if p in scenario.parameters})
+        candidate = scenario.with_params(**changes)
+        try:
+            candidate.build()
+        except AssemblyError:
+            continue
+        return candidate
+    pytest.skip(f"{scenario.name}: no assembling perturbation of {name}")
+
+
+def _relative(got, want, floor=1e-300):
+    """The largest difference relative to the function's largest magnitude (or ``floor``: a point's
+    coordinate that stays zero to rounding is compared on the mechanism's lengths)."""
+    scale = np.maximum(np.max(np.abs(want), axis=-1, keepdims=True), floor)
+    return float(np.max(np.abs(got - want) / scale))
+
+
+@pytest.mark.parametrize("changed", [False, True], ids=["default", "changed-geometry"])
+@pytest.mark.parametrize("name", SCENARIOS, ids=lambda n: Path(n).stem)
+def test_the_c_model_equals_the_python_engine_point_by_point(name, changed, guide):
+    scenario = _scenario(name, guide)
+    if changed:
+        scenario = _perturbed(scenario)
+    program = compile_scenario(scenario)
+    assert program is not None, f"{scenario.name} does not compile to the C model"
+    model = scenario.build()
+    c_model = CModel(program, parameter_values(program, scenario.values))
+    mechanism, reduced = model.mechanism, model.reduced
+
+    # positions, transfer functions and every point's motion, at each angle
+    kin = mechanism.kinematics(ANGLES)
+    registers = np.array([c_model.registers(a) for a in ANGLES]).T
+    base = program.kinematics
+    for j, unknown in enumerate(mechanism.unknown_names):
+        for order, want in enumerate((kin.q[unknown], kin.dq[unknown], kin.ddq[unknown])):
+            got = registers[base + 3 * j + order]
+            assert _relative(got, want, 1e-3 * mechanism.length_scale) < BOUND, (unknown, order)
+    first_point = base + 3 * len(mechanism.unknown_names)
+    for i, point in enumerate(mechanism.point_names):
+        for k, want in enumerate(kin.point(point)):
+            assert _relative(registers[first_point + 6 * i + k], want, 1e-3 * mechanism.length_scale) < BOUND, (point, k)
+
+    # J, 0.5 J', each load column, each port's transfer function
+    viscous = [load for load in reduced.loads if getattr(load, "linear_in_omega1", False)]
+    want = _engine_values(reduced, reduced.sliders, viscous, ANGLES)
+    got = c_model.engine(ANGLES)
+    assert got.shape == want.shape
+    for row, name_ in enumerate(program.row_names):
+        assert _relative(got[row], want[row]) < BOUND, name_
+
+    # the switch angles found by the searches, and the loads' values between them
+    switches, forces = reduced.slider_schedule()
+    c_switches, c_forces = c_model.schedule()
+    assert c_switches.shape == switches.shape
+    assert np.allclose(c_switches, switches, rtol=0, atol=1e-12)
+    assert np.array_equal(c_forces, forces)
+
+    # the assembly check's worst conditioning and where it is
+    assert abs(c_model.worst_conditioning[0] - model.conditioning) < 1e-9
+
+
+@pytest.mark.parametrize("name", ["seed000", "seed001", "seed004", "pumpjack",
+                                  str(USER / "whitworth_scenario.toml")], ids=lambda n: Path(n).stem)
+def test_the_c_table_has_the_python_tables_construction_and_bound(name):
+    """The same refinement (Fourier samples, Hermite intervals) and checked bound, and cubics
+    equal to rounding."""
+    scenario = load_scenario(name)
+    reference = tabulate(scenario.build().reduced, 1e-11)
+    table = c_table(scenario, scenario.values, 1e-11)
+    assert table is not None
+    assert table.n_intervals == reference.n_intervals
+    assert reference.construction.split(",")[0] in table.construction
+    assert table.error_bound <= 1e-11
+    assert abs(table.error_bound - reference.error_bound) < 1e-3 * reference.error_bound
+    x = np.linspace(0.0, 2.0 * math.pi, 2001)
+    assert _relative(table.evaluate(x), reference.evaluate(x)) < BOUND
+    assert np.array_equal(table.forces, reference.forces)
+
+
+def test_a_geometry_that_does_not_assemble_is_refused_by_both():
+    scenario = load_scenario("seed000").with_params(l1=0.3)      # a crank longer than the others allow
+    program = compile_scenario(scenario)
+    with pytest.raises(MechanismError) as refused:
+        CModel(program, parameter_values(program, scenario.values))
+    assert refused.value.code in (-1, -7, -8)
+    assert c_table(scenario, scenario.values) is None
+    with pytest.raises(AssemblyError):
+        scenario.build()
+
+
+def test_a_negative_mass_is_refused_naming_the_value():
+    scenario = load_scenario("seed000")
+    program = compile_scenario(scenario)
+    values = {**scenario.values, "q2": -1.0}
+    with pytest.raises(MechanismError) as refused:
+        CModel(program, parameter_values(program, values))
+    assert refused.value.code == -10
+    assert program.check_names[refused.value.index] == "the mass of link coupler"
+
+
+def test_the_steady_sweep_on_the_c_tables_equals_the_python_tables():
+    """Three geometries of seed000 through SteadyBatch (C tables) and through the Python engine's
+    tables: the same steady cycles to the shooting's tolerance."""
+    designs = [{"l1": 0.08}, {"l1": 0.1, "l3": 0.37}, {"l2": 0.52}]
+    batch = steady_cycles("seed000", designs)
+    assert not batch.failed
+    from crankfmu.studies import batch as module
+
+    python_tables = {}
+
+    def python_table(scenario, values, tolerance):
+        python_tables[scenario.name] = True
+        return None                                    # the Python engine builds every table
+    original = module.c_table
+    module.c_table = python_table
+    try:
+        reference = steady_cycles("seed000", designs)
+    finally:
+        module.c_table = original
+    assert python_tables
+    for got, want in zip(batch.rows, reference.rows):
+        for column in ("omega1_mean", "omega1_min", "omega1_max"):
+            assert got[column] == pytest.approx(want[column], rel=1e-8)
