@@ -68,7 +68,11 @@ def _compile_into_cache() -> Path:
 
 
 def _load() -> ctypes.CDLL:
-    lib = _open(HERE / library_name(sys.platform))
+    # CRANKFMU_NATIVE_LIBRARY: a library compiled otherwise from these sources (the sanitizer test's)
+    chosen = os.environ.get("CRANKFMU_NATIVE_LIBRARY")
+    lib = _open(Path(chosen)) if chosen else _open(HERE / library_name(sys.platform))
+    if chosen and lib is None:
+        raise CrankfmuError(f"CRANKFMU_NATIVE_LIBRARY={chosen} is not a crankfmu kernel of these sources ({DIGEST})")
     if lib is None:
         lib = _open(_compile_into_cache())
     if lib is None:
