@@ -179,3 +179,30 @@ def test_the_steady_sweep_on_the_c_tables_equals_the_python_tables():
     for got, want in zip(batch.rows, reference.rows):
         for column in ("omega1_mean", "omega1_min", "omega1_max"):
             assert got[column] == pytest.approx(want[column], rel=1e-8)
+
+
+@pytest.mark.parametrize("name", ["seed000", "seed001", "pumpjack", str(USER / "whitworth_scenario.toml")],
+                         ids=lambda n: Path(n).stem)
+def test_wild_parameter_values_give_a_table_or_a_refusal_never_a_crash(name):
+    """Random designs (every parameter scaled by 0.9 to 1.1, some NaN, infinite, zero or negative):
+    each gives a finite table within its bound, or MechanismError; the process survives (the
+    sanitized run of this file checks the memory too)."""
+    scenario = load_scenario(name)
+    program = compile_scenario(scenario)
+    base = parameter_values(program, scenario.values)
+    rng = np.random.default_rng(38)
+    special = np.array([np.nan, np.inf, -np.inf, 0.0, -1.0, 1e300, -1e-300])
+    tables = refused = 0
+    for _ in range(40):
+        values = base * np.exp(rng.uniform(np.log(0.9), np.log(1.1), base.size))
+        wild = rng.random(base.size) < 0.05
+        values[wild] = rng.choice(special, int(wild.sum()))
+        try:
+            coefficients, _, forces, error, _ = CModel(program, values).table(1e-11)
+        except MechanismError as exc:
+            assert str(exc)
+            refused += 1
+            continue
+        assert np.all(np.isfinite(coefficients)) and np.all(np.isfinite(forces)) and error <= 1e-8
+        tables += 1
+    assert refused + tables == 40 and tables >= 5 and refused >= 5     # both paths exercised

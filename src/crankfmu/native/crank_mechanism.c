@@ -699,7 +699,17 @@ int mm_engine(mm_model *m, const double *phi1, int n, double *out)
     for (int i = 0; i < n; ++i) {
         int status = mm_evaluate(m, phi1[i]);
         if (status) return status;
-        for (int k = 0; k < p->n_rows; ++k) out[k * n + i] = m->registers[p->rows[k]];
+        for (int k = 0; k < p->n_rows; ++k) {
+            double v = m->registers[p->rows[k]];
+            /* a value a table cannot hold (1e300 too: its cubics would overflow) */
+            if (!(fabs(v) < 1e150)) {
+                m->error_angle = phi1[i];
+                m->error_index = k;
+                m->error_value = v;
+                return MM_NOT_FINITE;
+            }
+            out[k * n + i] = v;
+        }
     }
     return MM_OK;
 }

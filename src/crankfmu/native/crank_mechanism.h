@@ -62,7 +62,8 @@ enum mm_error {
     MM_NO_REVERSAL = -12,     /* a reversal search found none (index: search) */
     MM_NOT_TABULATED = -13,   /* the Fourier series did not converge (a spline of samples is needed) */
     MM_NO_MEMORY = -14,
-    MM_TOO_MANY_SWITCHES = -15
+    MM_TOO_MANY_SWITCHES = -15,
+    MM_NOT_FINITE = -16       /* a function of the table is not finite, or beyond 1e150 (index: its row) */
 };
 
 typedef struct {

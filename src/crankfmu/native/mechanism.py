@@ -34,6 +34,7 @@ ERRORS = {
     -13: "the Fourier series of the functions does not converge (a spline of samples is needed)",
     -14: "out of memory",
     -15: "too many switch angles",
+    -16: "a function of the table is not finite (or beyond 1e150)",
 }
 
 
