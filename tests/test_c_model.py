@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from crankfmu.dynamics.program import compile_scenario, parameter_values
+from crankfmu.dynamics.program import parameter_values
+from crankfmu.dynamics.program_scenario import compile_scenario
 from crankfmu.dynamics.tabulated import _engine_values, c_table, tabulate
 from crankfmu.errors import AssemblyError
 from crankfmu.native.mechanism import CModel, MechanismError
@@ -206,3 +207,34 @@ def test_wild_parameter_values_give_a_table_or_a_refusal_never_a_crash(name):
         assert np.all(np.isfinite(coefficients)) and np.all(np.isfinite(forces)) and error <= 1e-8
         tables += 1
     assert refused + tables == 40 and tables >= 5 and refused >= 5     # both paths exercised
+
+
+@pytest.mark.parametrize("changed", [False, True], ids=["default", "changed-geometry"])
+@pytest.mark.parametrize("name", SCENARIOS, ids=lambda n: Path(n).stem)
+def test_the_c_outputs_and_reaction_tables_equal_the_python_ones(name, changed, guide):
+    """The [[outputs]] and ports' table (q - winding phi1, q', q'': a fully turning link's whole
+    turns counted) and the joint reactions' table (a Newton-Euler solve per term), as the FMUs
+    build them (fmi.slave.build_design): the same intervals, cubics equal to rounding."""
+    from crankfmu.dynamics.tabulated import _evaluate
+    from crankfmu.fmi.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
+    from crankfmu.native.mechanism import QUANTITIES, REACTIONS
+
+    scenario = _scenario(name, guide)
+    if changed:
+        scenario = _perturbed(scenario)
+    design = build_design(scenario, dict(scenario.values))
+    program = compile_scenario(scenario)
+    model = CModel(program, parameter_values(program, scenario.values))
+    x = np.linspace(0.0, 2.0 * math.pi, 1001)
+    for table, want, tolerance in ((QUANTITIES, design.quantity_table, TABLE_TOLERANCE),
+                                   (REACTIONS, design.reaction_table, REACTION_TOLERANCE)):
+        if want is None:
+            assert model.engine(x[:3], table).shape[0] == 0
+            continue
+        coefficients, error, _ = model.cubics(table, tolerance)
+        assert coefficients.shape == want.coefficients.shape
+        assert error <= tolerance
+        assert _relative(_evaluate(coefficients, x), _evaluate(want.coefficients, x)) < BOUND
+        if table == QUANTITIES:
+            assert np.array_equal(model.winding, want.winding)
+            assert tuple(program.coordinate_names) == want.coordinates

@@ -370,7 +370,8 @@ def c_table(scenario, values: dict, tolerance: float = 1e-11) -> ReducedTable | 
     if os.environ.get("CRANKFMU_TABLES") == "python":
         return None
     from ..native.mechanism import CModel, MechanismError
-    from .program import compile_scenario, parameter_values
+    from .program import parameter_values
+    from .program_scenario import compile_scenario
 
     program = compile_scenario(scenario)
     if program is None:

@@ -120,8 +120,9 @@ def _load() -> ctypes.CDLL:
         "mm_bind": (ctypes.c_int, [T, T, D, ctypes.c_int]),
         "mm_prepare": (ctypes.c_int, [T]),
         "mm_evaluate": (ctypes.c_int, [T, ctypes.c_double]),
-        "mm_engine": (ctypes.c_int, [T, D, ctypes.c_int, D]),
-        "mm_tabulate": (ctypes.c_int, [T, ctypes.c_double, T, T, T, T]),
+        "mm_rows": (ctypes.c_int, [T, ctypes.c_int]),
+        "mm_engine": (ctypes.c_int, [T, ctypes.c_int, D, ctypes.c_int, D]),
+        "mm_tabulate": (ctypes.c_int, [T, ctypes.c_int, ctypes.c_double, T, T, T, T]),
         "mm_free": (None, [T]),
         "mm_release": (None, [T]),
     }

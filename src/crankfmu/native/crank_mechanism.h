@@ -31,7 +31,11 @@ enum mm_op {
 /* the program's sections: code ranges run at binding (SETUP), per crank angle (CLOSED: the
  * closed-form positions; ROWS: the table's functions; VALUES: the switched loads' values for a
  * direction of the crank), and the searches' quantities after them */
-enum { MM_SETUP, MM_CLOSED, MM_ROWS, MM_VALUES, MM_FIRST_SEARCH };
+enum { MM_SETUP, MM_CLOSED, MM_ROWS, MM_VALUES, MM_OUTPUTS, MM_REACTIONS, MM_FIRST_SEARCH };
+/* the tables a model gives: the reduced model's (J, 0.5 J', the loads, the ports' transfer
+ * functions), the [[outputs]] and ports' coordinates (q - winding phi1, q', q'' each), the joint
+ * reactions' terms (component-major, dynamics.tabulated.REACTION_TERMS then the columns and ports) */
+enum { MM_TABLE_REDUCED, MM_TABLE_QUANTITIES, MM_TABLE_REACTIONS };
 
 /* a search over the turn (its record: kind, section, aux section, a, b, c, d) */
 enum mm_search {
@@ -100,6 +104,22 @@ typedef struct {
     int n_checks;
     const int *checks;               /* registers that must be finite and >= 0 after SETUP */
     double min_conditioning;
+    /* the [[outputs]] and ports' coordinates: q, q', q'' registers and whether it is an angle */
+    int n_coordinates;
+    const int *coordinates;          /* n_coordinates x 4 */
+    /* the joint reactions (dynamics/reactions.py): links (centre point, mass, inertia, q', q''
+     * registers), the crank's index, joints (prismatic?, point, first link, second link (-1: the
+     * ground), axis register), each term's inertia factors (epsilon1, omega1^2) and the loads each
+     * term applies (term, link, point or -1, fx, fy, moment registers or -1), REACTIONS computing them */
+    int n_links;
+    const int *links;
+    int crank;
+    int n_joints;
+    const int *joints;
+    int n_terms_reaction;
+    const int *term_inertia;
+    int n_applied;
+    const int *applied;
 } mm_program;
 
 #define MM_TURN_POINTS 720
@@ -125,6 +145,9 @@ typedef struct {
     double *forces;                  /* max(n_switches, 1) x 2 x n_columns */
     double worst_conditioning, worst_angle;
     double *scan;                    /* the kinematics at every other scan angle, for the searches */
+    double *coordinate_winding;      /* whole turns per crank turn of each coordinate */
+    int *reaction_kept;              /* components x terms: 0 where a term is zero to round-off */
+    int have_quantity_winding, have_reaction_mask;
 } mm_model;
 
 /* a model of the program at the parameter values (its first registers): SETUP run, the checks,
@@ -135,11 +158,13 @@ void mm_free(mm_model *model);
 int mm_evaluate(mm_model *model, double phi1);
 /* the assembly check over the turn, then the searches and the switch schedule */
 int mm_prepare(mm_model *model);
-/* the functions of ROWS at n angles: rows x n, row-major */
-int mm_engine(mm_model *model, const double *phi1, int n, double *out);
-/* the table: periodic cubics (rows, m, 4) to tolerance, by the Fourier series of the engine's
+/* the functions of a table (MM_TABLE_...) at n angles: rows x n, row-major */
+int mm_rows(const mm_model *model, int table);
+int mm_engine(mm_model *model, int table, const double *phi1, int n, double *out);
+/* a table: periodic cubics (rows, m, 4) to tolerance, by the Fourier series of the engine's
  * samples; *m_out its intervals, *error the checked bound. The cubics are malloc'd (*cubics). */
-int mm_tabulate(mm_model *model, double tolerance, double **cubics, int *m_out, double *error, int *n_series);
+int mm_tabulate(mm_model *model, int table, double tolerance, double **cubics, int *m_out, double *error,
+                int *n_series);
 
 /* free the cubics mm_tabulate gave */
 void mm_release(double *cubics);

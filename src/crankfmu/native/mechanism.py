@@ -16,6 +16,8 @@ import numpy as np
 from . import LIBRARY
 
 I, D = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double)
+#: the tables a model gives (crank_mechanism.h's MM_TABLE_...)
+REDUCED, QUANTITIES, REACTIONS = range(3)
 
 #: crank_mechanism.h's error codes, and what each says (the Python engine's words)
 ERRORS = {
@@ -47,7 +49,10 @@ class MMProgram(ctypes.Structure):
                 ("kinematics", ctypes.c_int), ("n_points", ctypes.c_int), ("omega1", ctypes.c_int),
                 ("n_rows", ctypes.c_int), ("rows", I), ("n_columns", ctypes.c_int), ("columns", I),
                 ("n_searches", ctypes.c_int), ("searches", I), ("n_checks", ctypes.c_int), ("checks", I),
-                ("min_conditioning", ctypes.c_double)]
+                ("min_conditioning", ctypes.c_double), ("n_coordinates", ctypes.c_int), ("coordinates", I),
+                ("n_links", ctypes.c_int), ("links", I), ("crank", ctypes.c_int), ("n_joints", ctypes.c_int),
+                ("joints", I), ("n_terms_reaction", ctypes.c_int), ("term_inertia", I), ("n_applied", ctypes.c_int),
+                ("applied", I)]
 
 
 class MMModel(ctypes.Structure):
@@ -55,7 +60,9 @@ class MMModel(ctypes.Structure):
                 ("turn_start", ctypes.c_double), ("turn", D), ("winding", D), ("have_turn", ctypes.c_int),
                 ("error_angle", ctypes.c_double), ("error_value", ctypes.c_double), ("error_index", ctypes.c_int),
                 ("n_switches", ctypes.c_int), ("switches", ctypes.c_double * 64), ("forces", D),
-                ("worst_conditioning", ctypes.c_double), ("worst_angle", ctypes.c_double), ("scan", D)]
+                ("worst_conditioning", ctypes.c_double), ("worst_angle", ctypes.c_double), ("scan", D),
+                ("coordinate_winding", D), ("reaction_kept", I), ("have_quantity_winding", ctypes.c_int),
+                ("have_reaction_mask", ctypes.c_int)]
 
 
 class MechanismError(Exception):
@@ -99,6 +106,11 @@ def _struct(program, min_conditioning: float) -> tuple:
     s.n_searches, s.searches = len(program.searches), ints(program.searches)
     s.n_checks, s.checks = len(program.checks), ints(program.checks)
     s.min_conditioning = min_conditioning
+    s.n_coordinates, s.coordinates = len(program.coordinates), ints(program.coordinates)
+    s.n_links, s.links, s.crank = len(program.links), ints(program.links), program.crank
+    s.n_joints, s.joints = len(program.joints), ints(program.joints)
+    s.n_terms_reaction, s.term_inertia = len(program.term_inertia), ints(program.term_inertia)
+    s.n_applied, s.applied = len(program.applied), ints(program.applied)
     program._c_struct = (s, keep)
     return program._c_struct
 
@@ -136,13 +148,21 @@ class CModel:
         """(worst conditioning over the turn, crank angle rad where it is)."""
         return self._model.worst_conditioning, self._model.worst_angle
 
-    def engine(self, phi1) -> np.ndarray:
-        """The table's functions (rows, len(phi1)) at the crank angles."""
+    def engine(self, phi1, table: int = REDUCED) -> np.ndarray:
+        """A table's functions (rows, len(phi1)) at the crank angles: REDUCED, QUANTITIES or REACTIONS."""
         phi1 = np.ascontiguousarray(np.atleast_1d(phi1), dtype=float)
-        out = np.empty((len(self.program.rows), phi1.size))
-        self._raise(self._lib.mm_engine(ctypes.byref(self._model), phi1.ctypes.data_as(D), phi1.size,
+        out = np.empty((self._lib.mm_rows(ctypes.byref(self._model), table), phi1.size))
+        self._raise(self._lib.mm_engine(ctypes.byref(self._model), table, phi1.ctypes.data_as(D), phi1.size,
                                         out.ctypes.data_as(D)))
         return out
+
+    @property
+    def winding(self) -> np.ndarray:
+        """Whole turns per crank turn of each [[outputs]] or port coordinate (after a QUANTITIES table)."""
+        n = len(self.program.coordinates)
+        if not self._model.have_quantity_winding:
+            return np.zeros(n)
+        return np.ctypeslib.as_array(self._model.coordinate_winding, (max(n, 1),))[:n].copy()
 
     def registers(self, phi1: float) -> np.ndarray:
         """Every register after the kinematics and the rows at phi1 (the tests read the positions,
@@ -161,14 +181,19 @@ class CModel:
     def table(self, tolerance: float = 1e-11):
         """(coefficients (rows, m, 4), switch angles, forces, checked error bound, construction):
         the reduced model's table built in C (dynamics.tabulated.c_table wraps it)."""
+        coefficients, error, construction = self.cubics(REDUCED, tolerance)
+        return (coefficients, *self.schedule(), error, construction)
+
+    def cubics(self, table: int, tolerance: float):
+        """(coefficients (rows, m, 4), checked error bound, construction) of a table."""
         cubics = ctypes.POINTER(ctypes.c_double)()
         m, error, n = ctypes.c_int(), ctypes.c_double(), ctypes.c_int()
-        self._raise(self._lib.mm_tabulate(ctypes.byref(self._model), tolerance, ctypes.byref(cubics), ctypes.byref(m),
-                                          ctypes.byref(error), ctypes.byref(n)))
-        rows = len(self.program.rows)
+        self._raise(self._lib.mm_tabulate(ctypes.byref(self._model), table, tolerance, ctypes.byref(cubics),
+                                          ctypes.byref(m), ctypes.byref(error), ctypes.byref(n)))
+        rows = self._lib.mm_rows(ctypes.byref(self._model), table)
         try:
             coefficients = np.ctypeslib.as_array(cubics, (rows * m.value * 4,)).reshape(rows, m.value, 4).copy()
         finally:
             self._lib.mm_release(cubics)
-        return (coefficients, *self.schedule(), error.value,
+        return (coefficients, error.value,
                 f"Fourier series of {n.value} samples, Hermite cubics on {m.value} intervals, in C")

@@ -1,0 +1,206 @@
+"""Each load kind of a scenario file in the C model's program (the compiler's part that knows the
+loads): its torque on the crank (dynamics/loads.py, user_loads.py restated as register
+arithmetic), its switched columns and their values, the searches for its switch angles, and the
+forces and couples it applies link by link (what the joint reactions' Newton-Euler solve needs:
+``AppliedLoad``), term by term of the reaction table (dynamics.tabulated.REACTION_TERMS).
+
+A load is a dict of closures, each run in the section it belongs to:
+
+position   its torque when it depends on the position only (the table's Q row)
+viscous    its torque per omega1 (linear in omega1: the viscous row)
+columns    its switched columns (functions of phi1); values: their values for a direction
+searches   (kind, quantity, aux quantity, registers...) run over the turn before the rows
+applied    {term: [(link, point or None, fx, fy, moment registers or None)]}, term "1" (the
+           position-only loads), "omega1" (the viscous ones at omega1 = 1) or ("column", j)
+"""
+
+from __future__ import annotations
+
+from .program import BAND, REVERSALS, ROCKER, Unsupported
+
+
+class LoadClauses:
+    """What the scenario compiler (program_scenario._Compiler) knows of the loads."""
+
+    def _value(self, spec, key, at):
+        """A load's magnitude register, checked >= 0 at binding (Scenario._load_value)."""
+        reg = self.c.expression(spec[key], self.env, f"{at} {key}")
+        self.checks.append((reg, f"{at}: the load's {key} {spec[key]}"))
+        return reg
+
+    def _acting_link(self, spec):
+        """The link a point load acts on: the file's, or the link whose mass centre the point is."""
+        link = spec.get("link") or next((n for n, (centre, _, _) in self.links.items() if centre == spec["point"]),
+                                        None)
+        if link not in self.links:
+            raise Unsupported(f"no link for the load on {spec['point']}")
+        return link
+
+    def _loads_setup(self) -> list[dict]:
+        out = []
+        for i, spec in enumerate(self.scenario.data.get("loads", [])):
+            kind, at = spec.get("kind"), f"load {i + 1}"
+            if kind == "weights":
+                out.append(self._weights())
+            elif kind == "dead_point_moment":
+                out.append(self._dead_point_moment(spec, at))
+            elif kind == "viscous_force":
+                axis = {"x": 0, "y": 1}[spec["axis"]]
+                coefficient = self._value(spec, "coefficient", at)
+                out.append(self._viscous(spec["point"], axis, coefficient, self._acting_link(spec)))
+            elif kind == "slider_force":
+                out.append(self._slider_force(spec, {"x": 0, "y": 1}[spec["axis"]], at))
+            elif kind in ("force", "couple"):
+                out.append(self._user_force(spec, kind, at))
+            elif kind == "spring_damper":
+                out += self._spring_damper(spec, at)
+            else:
+                raise Unsupported(f"{at}: load kind {kind!r}")
+        return out
+
+    def _weights(self):
+        c, g = self.c, self.env["g"]
+
+        def weight(mass):
+            return c.emit("neg", c.mul(mass, g))
+        return {"position": lambda: c.add(*(c.mul(weight(mass), self.point(centre)[3])
+                                            for centre, mass, _ in self.links.values())),
+                "applied": {"1": lambda: [(link, centre, None, weight(mass), None)
+                                          for link, (centre, mass, _) in self.links.items()]}}
+
+    def _viscous(self, point, axis, coefficient, link):
+        c = self.c
+
+        def force():                        # -c v at omega1 = 1
+            return c.emit("neg", c.mul(coefficient, self.point(point)[2 + axis]))
+
+        def record():
+            f = force()
+            return [(link, point, f if axis == 0 else None, f if axis == 1 else None, None)]
+        return {"viscous": lambda: c.mul(force(), self.point(point)[2 + axis]), "applied": {"omega1": record}}
+
+    def _dead_point_moment(self, spec, at):
+        c = self.c
+        amplitude = c.expression(spec["amplitude"], self.env, f"{at} amplitude")
+        rise, fall = c.register(), c.register()
+        link = spec["link"]
+        rate = lambda: self.link_angle(link)[1]     # noqa: E731
+
+        def moment():                       # loads.DeadPointMoment.moment
+            half = c.literal(0.5)
+            s1 = c.emit("sin", c.mul(half, c.emit("sub", self.phi1, rise)))
+            s2 = c.emit("sin", c.mul(half, c.emit("sub", self.phi1, fall)))
+            return c.mul(amplitude, s1, s2)
+        return {"position": lambda: c.mul(moment(), rate()), "searches": [(ROCKER, rate, None, rise, fall, -1, -1)],
+                "applied": {"1": lambda: [(link, None, None, None, moment())]}}
+
+    def _slider_force(self, spec, axis, at):
+        c = self.c
+        forward, backward = self._value(spec, "forward", at), self._value(spec, "backward", at)
+        band = [float(v) for v in spec.get("band", [0.0, 1.0])]
+        low, high = c.register(), c.register()
+        lo, hi = c.literal(band[0]), c.literal(band[1])
+        point, link = spec["point"], self._acting_link(spec)
+        position = lambda: self.point(point)[axis]        # noqa: E731
+        rate = lambda: self.point(point)[2 + axis]        # noqa: E731
+        searches = [(REVERSALS, rate, position, low, high, -1, -1)]
+        if band != [0.0, 1.0]:
+            searches.append((BAND, position, None, low, high, lo, hi))
+
+        def values():
+            # loads.SliderForce.force with omega1 = +-1: on the extreme itself the stroke entered decides
+            r, curvature = self.point(point)[2 + axis], self.point(point)[4 + axis]
+            at_extreme = c.emit("not_above", c.emit("abs", r), c.mul(c.literal(1e-12), c.emit("abs", curvature)))
+            velocity = c.emit("if_positive", at_extreme, c.mul(curvature, c.emit("abs", self.omega1)),
+                              c.mul(r, self.omega1))
+            force = c.emit("if_positive", velocity, c.emit("neg", forward),
+                           c.emit("if_negative", velocity, backward, self.zero))
+            if band != [0.0, 1.0]:
+                x = self.point(point)[axis]
+                stroke = c.emit("sub", high, low)
+                done = c.emit("div", c.emit("if_positive", velocity, c.emit("sub", x, low), c.emit("sub", high, x)),
+                              stroke)
+                inside = c.mul(c.emit("not_above", lo, done), c.emit("not_above", done, hi))
+                force = c.emit("if_positive", inside, force, self.zero)
+            return [force]
+        unit = (self.one, None) if axis == 0 else (None, self.one)
+        return {"columns": lambda: [rate()], "values": values, "searches": searches,
+                "column_names": (f"{point}.{'xy'[axis]}",),
+                "applied": {("column", 0): lambda: [(link, point, *unit, None)]}}
+
+    def _user_components(self, expressions, at):
+        names = self.position_names()
+        return {k: self.c.expression(expressions[k], names, f"{at} {k}") for k in ("fx", "fy", "moment")
+                if k in expressions}
+
+    def _user_torque(self, link, point, regs):
+        c, parts = self.c, []
+        if "moment" in regs:
+            parts.append(c.mul(regs["moment"], self.link_angle(link)[1]))
+        if point is not None:
+            x = self.point(point)
+            parts += [c.mul(regs[k], x[2 + i]) for i, k in enumerate(("fx", "fy")) if k in regs]
+        return c.add(*parts)
+
+    def _user_force(self, spec, kind, at):
+        c = self.c
+        link, point = spec["link"], spec.get("point") if kind == "force" else None
+
+        def record(expressions):
+            regs = self._user_components(expressions, at)
+            return [(link, point, regs.get("fx"), regs.get("fy"), regs.get("moment"))]
+        direction = spec.get("direction_of")
+        if direction is None:
+            return {"position": lambda: self._user_torque(link, point, self._user_components(spec, at)),
+                    "applied": {"1": lambda: record(spec)}}
+
+        def rate():
+            if "." in direction:
+                p, _, axis = direction.partition(".")
+                return self.point(p)[2 + "xy".index(axis)]
+            return self.q(direction)[1]
+
+        def values():
+            rising = c.mul(rate(), self.omega1)
+            return [c.emit("if_positive", rising, self.one, self.zero),
+                    c.emit("if_negative", rising, self.one, self.zero)]
+        sides = (spec["increasing"], spec["decreasing"])
+        return {"columns": lambda: [self._user_torque(link, point, self._user_components(side, at)) for side in sides],
+                "values": values, "searches": [(REVERSALS, rate, None, -1, -1, -1, -1)],
+                "column_names": (f"{link} {direction} rising", f"{link} {direction} falling"),
+                "applied": {("column", j): (lambda side=side: record(side)) for j, side in enumerate(sides)}}
+
+    def _spring_damper(self, spec, at):
+        c = self.c
+        k = self._value({**spec, "stiffness": spec.get("stiffness", "0")}, "stiffness", at)
+        damping = self._value({**spec, "damping": spec.get("damping", "0")}, "damping", at)
+        d0 = self._value({**spec, "free_length": spec.get("free_length", "0")}, "free_length", at)
+        link_a, link_b = spec["links"]
+
+        def geometry():                       # user_loads.Spring.geometry: d, the unit vector, dd/dphi1
+            xa, ya, dxa, dya = self.point(spec["a"])[:4]
+            xb, yb, dxb, dyb = self.point(spec["b"])[:4]
+            ex, ey = c.emit("sub", xb, xa), c.emit("sub", yb, ya)
+            d = c.emit("hypot", ex, ey)
+            ux, uy = c.emit("div", ex, d), c.emit("div", ey, d)
+            dd = c.add(c.mul(ux, c.emit("sub", dxb, dxa)), c.mul(uy, c.emit("sub", dyb, dya)))
+            return d, ux, uy, dd
+
+        def spring_tension():
+            d, ux, uy, dd = geometry()
+            return c.mul(k, c.emit("sub", d, d0)), ux, uy, dd
+
+        def damper_tension():                 # at omega1 = 1
+            _, ux, uy, dd = geometry()
+            return c.mul(damping, dd), ux, uy, dd
+
+        def records(tension):
+            t, ux, uy, _ = tension()
+            fx, fy = c.mul(t, ux), c.mul(t, uy)
+            return [(link_a, spec["a"], fx, fy, None), (link_b, spec["b"], c.emit("neg", fx), c.emit("neg", fy), None)]
+
+        def torque(tension):
+            t, _, _, dd = tension()
+            return c.emit("neg", c.mul(t, dd))
+        return [{"position": lambda: torque(spring_tension), "applied": {"1": lambda: records(spring_tension)}},
+                {"viscous": lambda: torque(damper_tension), "applied": {"omega1": lambda: records(damper_tension)}}]
