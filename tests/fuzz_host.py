@@ -38,6 +38,20 @@ def callbacks(logger):
     return cb, logger
 
 
+def quiet_slave(fmu_path, where, model: str):
+    """(an fmpy FMU2Slave of the FMU instantiated with loggingOn false, value references by name,
+    the list its messages go to, the callbacks to keep alive)."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu_path))
+    messages = []
+    keep = callbacks(lambda env, name, status, category, message: messages.append(message.decode()))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu_path), str(where)), modelIdentifier=model)
+    fmu.instantiate(loggingOn=False, callbacks=keep[0])
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}, messages, keep
+
+
 class Host:
     """One FMU instance driven through fmpy's raw calls: statuses are returned, not raised."""
 

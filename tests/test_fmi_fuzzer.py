@@ -65,7 +65,9 @@ def test_the_fmi_api_survives_the_fuzzer(tmp_path):
     runs = int(re.search(r"stat::number_of_executed_units:\s+(\d+)", output).group(1))
     coverage = int(re.findall(r"cov: (\d+)", output)[-1])
     print(f"fuzzer: {runs} executions in 30 s, {coverage} coverage edges")
-    assert runs > 1000 and coverage > 400
+    # an input that sets the geometry and initialises builds the tables from the C mechanism model,
+    # some ms under the sanitizers: about 800 executions in 30 s, reaching the model's code too
+    assert runs > 300 and coverage > 700
 
 
 if __name__ == "__main__":          # make soak: a long run

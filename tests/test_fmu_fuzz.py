@@ -71,9 +71,6 @@ def test_fmu_fails_loudly_and_safely(reports, fmu, group, logging):
     # the case exercised what it claims (a case that checks nothing cannot pass)
     if group == "parameters":
         assert counts["refused at fmi2SetReal"] > 0 and counts.get("accepted", 0) > 0
-    elif group == "designs" and fmu.startswith("native"):
-        # a native FMU's geometry is fixed at build time: every design that changes it is refused
-        assert counts.get("designs refused at fmi2SetReal", 0) > 0
     elif group == "designs":
         assert counts.get("designs stepped for 2 s", 0) >= 5
         if fmu != "Drive":                      # a mechanism: its energy balance on every run

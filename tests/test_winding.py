@@ -137,9 +137,9 @@ def test_a_table_that_cannot_be_built_names_the_function_and_its_jump():
 
 
 def test_messages_print_numbers_as_written_and_tracebacks_on_request(built, tmp_path):
-    """The native FMU refuses another crank length naming the value it was built for as the file
-    writes it (r = 0.1, not 0.10000000000000001), with logging off too; the CLI's one-line failure
-    shows its traceback with CRANKFMU_TRACEBACK=1, and only then."""
+    """The native FMU refuses a ram line the lever cannot reach, naming the values as the file
+    writes them (r = 0.1, not 0.10000000000000001) and the bound, in the CLI's words, with logging
+    off too; the CLI's one-line failure shows its traceback with CRANKFMU_TRACEBACK=1, and only then."""
     import os
     import subprocess
     import sys
@@ -149,10 +149,12 @@ def test_messages_print_numbers_as_written_and_tracebacks_on_request(built, tmp_
     messages = []
     logger = lambda *args: messages.append(args[-1].decode() if isinstance(args[-1], bytes) else str(args[-1]))  # noqa: E731
     with pytest.raises(Exception):
-        simulate_fmu(str(built / "native" / "Whitworth.fmu"), stop_time=0.01, start_values={"r": 0.2},
+        simulate_fmu(str(built / "native" / "Whitworth.fmu"), stop_time=0.01, start_values={"h": 0.5},
                      logger=logger, debug_logging=False)
-    refusal = next(m for m in messages if "r = 0.2" in m)
-    assert "built for r = 0.1 " in refusal and "0.1000000" not in refusal
+    refusal = next(m for m in messages if "h = 0.5" in m)
+    assert "r = 0.1)" in refusal and "0.1000000" not in refusal
+    assert "at phi1 = 8.750 deg the contour equations have no real solution" in refusal
+    assert "crank turns fully only for h < 0.3 m (asked 0.5)" in refusal
     bad = tmp_path / "bad.toml"
     bad.write_text(WHITWORTH.read_text().replace('value = 0.1, unit = "m", min = 0', 'value = -0.1, unit = "m", min = 0'))
     (tmp_path / "whitworth.toml").write_text((DATA / "whitworth.toml").read_text())

@@ -4,6 +4,7 @@ process with a fresh HOME and wine prefix."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -17,9 +18,10 @@ import pytest
 
 #: run by the wine test in a fresh process: the FMU's win64 DLL in fmpy's win64 server under wine
 REMOTE_RUN = """
-import sys, numpy as np, fmpy
-result = fmpy.simulate_fmu(sys.argv[1], remote_platform="win64", output_interval=1e-3)
-np.save(sys.argv[2], np.stack([result[n] for n in ("time",) + tuple(sys.argv[3:])]))
+import json, sys, numpy as np, fmpy
+result = fmpy.simulate_fmu(sys.argv[1], remote_platform="win64", output_interval=1e-3,
+                           start_values=json.loads(sys.argv[3]))
+np.save(sys.argv[2], np.stack([result[n] for n in ("time",) + tuple(sys.argv[4:])]))
 """
 
 
@@ -66,18 +68,19 @@ def windows_path(path: Path) -> str:
     return "Z:" + str(Path(path).resolve()).replace("/", "\\")
 
 
-def run_win64_under_wine(fmu: Path, tmp_path: Path, fields) -> np.ndarray:
+def run_win64_under_wine(fmu: Path, tmp_path: Path, fields, start_values=None) -> np.ndarray:
     """fmpy remotes an FMU that has no binary for the host's platform: a copy of ``fmu`` without
     binaries/linux64 runs its win64 DLL in fmpy's server_tcp.exe under Debian's wine64 (which
     `make` puts on PATH), in a fresh process with a fresh HOME and wine prefix, over its default
-    experiment at 1 ms. Returns the rows time, *fields."""
+    experiment at 1 ms, with ``start_values`` (name -> value) set. Returns the rows time, *fields."""
     wine, env = wine_prefix(tmp_path)
     windows_only = tmp_path / fmu.name
     with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(windows_only, "w") as copy:
         for item in source.infolist():
             if not item.filename.startswith("binaries/linux64/"):
                 copy.writestr(item, source.read(item))
-    command = [sys.executable, "-c", REMOTE_RUN, str(windows_only), str(tmp_path / "remote.npy"), *fields]
+    command = [sys.executable, "-c", REMOTE_RUN, str(windows_only), str(tmp_path / "remote.npy"),
+               json.dumps(start_values or {}), *fields]
     if os.geteuid() == 0:
         # fmpy 0.3.32's client makes its lock file with mode 000 and holds an fcntl lock on it,
         # which wine cannot see; the server's watchdog opens the file for writing every 0.5 s and

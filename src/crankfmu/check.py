@@ -248,18 +248,20 @@ def check_scenario(source) -> Report:
 
 
 def native_tables_check(report: Report, scenario, path):
-    """What ``crankfmu fmu --native`` would refuse: its tables, built and checked by the same
-    function (fmi.native_build.native_tables), so check refuses exactly what the build would."""
-    from .fmi.native_build import native_tables
+    """What ``crankfmu fmu --native`` would refuse: its program and tables, built and checked by the
+    same function (fmi.native_build.native_program), so check refuses exactly what the build would."""
+    from .fmi.native_build import native_program
 
     try:
-        tables = native_tables(scenario)
+        _, tables = native_program(scenario)
     except CrankfmuError as exc:
         report.add("FAIL", f"crankfmu fmu --native would refuse it: {exc}", locate(path, str(exc)))
         return
-    built = [f"{what} {t.construction} (checked error {t.error_bound:.2g})"
-             for what, t in zip(("movement equation:", "outputs and ports:", "joint reactions:"), tables) if t]
-    report.add("OK", "the native FMU's tables: " + "; ".join(built))
+    built = [f"{what} {construction} (checked error {error:.2g})"
+             for what, (error, construction) in zip(("movement equation:", "outputs and ports:", "joint reactions:"),
+                                                     tables.values())]
+    report.add("OK", "the native FMU's tables, built by the C model when it initialises (at the file's values): "
+               + "; ".join(built))
 
 
 def fmu_declarations(report: Report, source, scenario, path):

@@ -386,6 +386,34 @@ def c_table(scenario, values: dict, tolerance: float = 1e-11) -> ReducedTable | 
                         program.column_names, construction, program.n_ports)
 
 
+def c_output_tables(scenario, values: dict, quantities, tolerance: float, reaction_tolerance: float, reactions: bool):
+    """(QuantityTable or None, ReactionTable or None) of a design built by the C model, as
+    tabulate_quantities and tabulate_reactions build them (the same constructions and bounds,
+    tests/test_c_model.py); None where the scenario does not compile to it or the C model refuses."""
+    if os.environ.get("CRANKFMU_TABLES") == "python":
+        return None
+    from ..native.mechanism import QUANTITIES, REACTIONS, CModel, MechanismError
+    from .program import parameter_values
+    from .program_scenario import compile_scenario
+
+    program = compile_scenario(scenario)
+    if program is None or tuple(dict.fromkeys(q.of for q in quantities)) != program.coordinate_names:
+        return None
+    try:
+        model = CModel(program, parameter_values(program, values))
+        quantity_table = reaction_table = None
+        if quantities:
+            coefficients, error, construction = model.cubics(QUANTITIES, tolerance)
+            quantity_table = QuantityTable(coefficients, program.coordinate_names, model.winding, error, construction)
+        if reactions:
+            coefficients, error, construction = model.cubics(REACTIONS, reaction_tolerance)
+            reaction_table = ReactionTable(coefficients, program.reaction_names, len(program.term_inertia), error,
+                                           construction)
+    except MechanismError:
+        return None
+    return quantity_table, reaction_table
+
+
 # ------------------------------------------------------------------------------- joint reactions
 #: the terms a joint reaction is linear in, before the switched loads' and the ports' values
 REACTION_TERMS = ("1", "epsilon1", "omega1^2", "omega1")

@@ -124,7 +124,8 @@ def what_it_is(model_description: bytes, about: dict) -> str:
     interfaces = [t for t in ("CoSimulation", "ModelExchange") if root.find(t) is not None]
     native = about.get("build") == "native"
     rows = [
-        ("build", ("native: C, the model tabulated at build time, stepped by crankfmu's C kernel"
+        ("build", ("native: C, the model tabulated by crankfmu's C mechanism model when the FMU initialises, "
+                   "at the values set, and stepped by crankfmu's C kernel"
                    if "table_error" in about else "native: C, the component's model compiled in "
                    "(crank_components.c, the C its Python FMU runs too)") if native
          else "Python: pythonfmu runs crankfmu's model in the host's Python"),
@@ -135,8 +136,9 @@ def what_it_is(model_description: bytes, about: dict) -> str:
         ("generated", f"by {root.get('generationTool', 'crankfmu')}"),
     ]
     if "table_error" in about:
-        rows.append(("tables", f"cubic splines over the crank turn, checked against the contour engine: largest "
-                               f"relative error {about['table_error']:.2g} of each function's largest magnitude"))
+        rows.append(("tables", f"cubics over the crank turn, each checked against the C model's own evaluation when "
+                               f"built; at the file's values the largest relative error is {about['table_error']:.2g} "
+                               "of each function's largest magnitude"))
     return "<table>" + "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in rows) + "</table>"
 
 

@@ -1,20 +1,22 @@
 """``crankfmu fmu SCENARIO --native``: a native FMI 2.0 Co-Simulation FMU that needs nothing on the
 host machine, no Python and no numpy.
 
-The FMU is the C kernel (``native/crank_kernel.c``) behind one FMI shell (``native/fmu/crank_fmi2.c``)
-and the scenario as data, generated here: ``model_config.h`` (identifier, GUID, counts, the rebuild
-command) and ``model_data.c`` (the tables, tabulated now with their error bound checked, written
-as hexadecimal floats so the binary holds exactly the numbers the in-process fast path uses, and
-the table of variables). It is compiled for linux64 with gcc and, where Debian's
+The FMU is the C kernel (``native/crank_kernel.c``) and the C mechanism model
+(``native/crank_mechanism.c``) behind one FMI shell (``native/fmu/crank_fmi2.c``), and the scenario as
+data, generated here: ``model_config.h`` (identifier, GUID, counts) and ``model_data.c`` (the
+scenario compiled into the C model's program, dynamics/program_scenario.py, and the table of
+variables). The FMU builds its tables when initialisation ends, at the values the host set; the
+build checks that the file's values give them. It is compiled for linux64 with gcc and, where Debian's
 ``x86_64-w64-mingw32-gcc`` is installed, for win64; both link libgcc statically and nothing
 beyond the C library. The FMU carries its C sources (``sources/``, with the modelDescription's
 SourceFiles and a ``buildDescription.xml``) so that ``fmpy compile`` or a tool on another
 platform builds it.
 
-The geometry, masses, loads and gravity the tables were built from are declared as fixed
-parameters with their values: a host that sets another value gets fmi2Error and a message with
-the rebuild command. A, B, A_low, B_low, omega_switch, J_flywheel and rtol are tunable, tau_ext
-is the input, phi1_start and omega1_start set the initial state.
+The geometry, masses, loads and gravity are fixed parameters: a host sets them before the end of
+initialisation (and again after a reset), each in its range; a design that does not assemble over
+the turn is refused when initialisation ends, with the engine's message. A, B, A_low, B_low,
+omega_switch, J_flywheel and rtol are tunable, tau_ext is the input, phi1_start and omega1_start
+set the initial state.
 
 In speed causality (``--causality speed``, or the file's ``[crank] causality``) the same shell is
 compiled with CAUSALITY_SPEED: the input is omega1 (its derivative taken where the host gives
@@ -35,12 +37,15 @@ from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
+import numpy as np
+
 from .. import units as si
 from ..atomic import replacing
 from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
+from ..dynamics.program import MIN_CONDITIONING
 from ..errors import CrankfmuError
 from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
-from ..native.sources import CFLAGS, HERE as NATIVE, KERNEL as KERNEL_SOURCES
+from ..native.sources import CFLAGS, HERE as NATIVE, KERNEL as KERNEL_SOURCES, MECHANISM as MECHANISM_SOURCES
 from .build import (LS_REF, LS_REF_MANIFEST, NATIVE_USER_FILES, cross_check_options, preflight, stage,
                     vendor_annotations)
 from .speed import NOT_DECLARED
@@ -75,6 +80,12 @@ def _c_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
+def _c_ints(values) -> str:
+    items = [str(int(v)) for v in np.asarray(values).ravel()] or ["0"]
+    lines = [", ".join(items[i:i + 16]) for i in range(0, len(items), 16)]
+    return "{\n    " + ",\n    ".join(lines) + "\n}"
+
+
 def _c_doubles(values) -> str:
     """Hexadecimal float literals: the exact binary values, whatever the compiler's parsing."""
     items = [float(v).hex() if v == v and abs(v) != float("inf") else ("NAN" if v != v else
@@ -83,15 +94,32 @@ def _c_doubles(values) -> str:
     return "{\n    " + ",\n    ".join(lines) + "\n}"
 
 
-def native_tables(scenario):
-    """(the reduced model's table, the [[outputs]] and ports' table or None, the joint reactions'
-    table or None): every table a native FMU of ``scenario`` carries, built and checked as the
-    Python FMU builds them at initialisation (fmi.slave.build_design). ``crankfmu check`` builds
-    them too, so it refuses exactly what the build would."""
-    from .slave import build_design
+def native_program(scenario):
+    """(the scenario's program, {table: (checked error bound, construction)}): what a native FMU of
+    ``scenario`` carries, and its tables built by the C model at the file's values, as the FMU
+    builds them when it initialises. ``crankfmu check`` builds them too, so it refuses exactly what
+    the build would; a refusal is the engine's message (the Python build names the cause)."""
+    from ..dynamics.program import parameter_values
+    from ..dynamics.program_scenario import compile_scenario
+    from ..native.mechanism import QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
+    from .slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
 
-    design = build_design(scenario, dict(scenario.values))
-    return design.table, design.quantity_table, design.reaction_table
+    program = compile_scenario(scenario)
+    if program is None:
+        raise CrankfmuError(f"{scenario.name}: a load or port of this scenario is not one the C mechanism model "
+                            "evaluates: use the Python FMU (crankfmu fmu without --native)")
+    tables = {}
+    try:
+        model = CModel(program, parameter_values(program, scenario.values))
+        for table, tolerance, needed in ((REDUCED, TABLE_TOLERANCE, True),
+                                         (QUANTITIES, TABLE_TOLERANCE, len(program.coordinates) > 0),
+                                         (REACTIONS, REACTION_TOLERANCE, len(program.joints) > 0)):
+            if needed:
+                tables[table] = model.cubics(table, tolerance)[1:]
+    except MechanismError as exc:
+        build_design(scenario, dict(scenario.values))       # the engine's message, where it refuses too
+        raise CrankfmuError(f"{scenario.name}: the C mechanism model cannot build the tables: {exc}") from None
+    return program, tables
 
 
 @dataclass
@@ -114,23 +142,20 @@ class NativeModel:
     """What a native FMU is generated from: the scenario, its tables and its variables."""
 
     def __init__(self, source, scenario_name, causality: str = "torque"):
-        from ..dynamics.tabulated import REACTION_TERMS
-        from ..scenario import load_scenario
         from .slave import output_quantities, reaction_variables, rtol_parameter
+        from ..scenario import load_scenario
 
         self.source = source
         self.speed = causality == "speed"
         self.scenario = source.scenario if source.scenario is not None else load_scenario(scenario_name)
-        self.table, self.quantity_table, self.reaction_table = native_tables(self.scenario)
-        definition = self.scenario.mechanism_definition()
+        self.program, self.table_errors = native_program(self.scenario)
+        definition = self.definition = self.scenario.mechanism_definition()
         self.quantities = output_quantities(self.scenario)
         self.ports = self.scenario.ports
         self.quantity_units = [q.unit(definition) for q in self.quantities]
         self.reactions = reaction_variables(self.scenario)
-        if self.reaction_table is not None:
-            n_sliders = self.table.forces.shape[2] if self.table.forces.ndim == 3 else 0
-            assert self.reaction_table.n_terms == len(REACTION_TERMS) + n_sliders + len(self.ports)
-            assert self.reaction_table.names == tuple(v.name for v in self.reactions)
+        assert self.program.reaction_names == tuple(v.name for v in self.reactions)
+        assert len(self.program.rows) == 4 + len(self.program.columns) + len(self.ports)
         # the file's parameters at the values it is built for (its --set overrides)
         params = {n: replace(p, value=self.scenario.values[n]) for n, p in self.scenario.parameters.items()}
         params["rtol"] = rtol_parameter(self.scenario.experiment.tolerance, tunable=True)
@@ -147,9 +172,7 @@ class NativeModel:
         # its step has no error control to tune (the line's integral is exact, the works quadratures)
         undeclared = (*NOT_DECLARED, "rtol") if self.speed else ()
         self.fixed = [p for n, p in params.items() if n not in (*tunable, *undeclared)]
-        self.rebuild = (f"crankfmu fmu {scenario_name} --native{' --causality speed' if self.speed else ''} "
-                        "--set NAME=VALUE --out DIR")
-        text = repr((self.source.fmu, causality, [float(x) for x in self.table.coefficients.ravel()[:64]],
+        text = repr((self.source.fmu, causality, self.program.code.tobytes(), self.program.literals.tobytes(),
                      [(p.name, p.value) for p in (*self.tunable, *self.fixed)], [q.name for q in self.quantities],
                      [v.name for v in self.reactions]))
         digest = hashlib.sha256(text.encode()).hexdigest()
@@ -157,9 +180,9 @@ class NativeModel:
 
     # ------------------------------------------------------------------ generated C
     def config_h(self) -> str:
-        exp = self.scenario.experiment
-        C = self.table.coefficients
-        Q, R = self.quantity_table, self.reaction_table
+        from .slave import REACTION_TOLERANCE, TABLE_TOLERANCE
+
+        exp, program = self.scenario.experiment, self.program
         return (f"/* generated by crankfmu fmu --native for scenario {self.scenario.name}: do not edit */\n"
                 "#ifndef MODEL_CONFIG_H\n#define MODEL_CONFIG_H\n"
                 f"#define MODEL_IDENTIFIER {_c_string(self.source.fmu)}\n"
@@ -171,20 +194,26 @@ class NativeModel:
                 f"#define N_QUANTITIES {len(self.quantities)}\n"
                 f"#define N_PORTS {len(self.ports)}\n"
                 f"#define N_REACTIONS {len(self.reactions)}\n"
-                f"#define REACTION_TERMS {R.n_terms if R else 1}\n"
-                f"#define REACTION_INTERVALS {R.coefficients.shape[1] if R else 1}\n"
-                f"#define N_QUANTITY_COORDINATES {len(Q.coordinates) if Q else 0}\n"
-                f"#define QUANTITY_FUNCTIONS {Q.coefficients.shape[0] if Q else 0}\n"
-                f"#define QUANTITY_INTERVALS {Q.coefficients.shape[1] if Q else 1}\n"
+                f"#define REACTION_TERMS {max(len(program.term_inertia), 1)}\n"
+                f"#define N_QUANTITY_COORDINATES {len(program.coordinates)}\n"
                 f"#define VR_E_KIN {[v.name for v in self.outputs].index('E_kin')}\n"
                 + "".join(f"#define ROW_{name.upper()} {i}\n" for i, name in enumerate(ROW_FIELDS)) +
                 f"#define STATE_NAMES {{{', '.join(_c_string(n) for n in ROW_FIELDS[:N_STATES])}}}\n"
                 f"#define DEFAULT_START_TIME {float(exp.start_time).hex()}\n"
-                f"#define REBUILD_COMMAND {_c_string(self.rebuild)}\n"
-                f"#define TABLE_FUNCTIONS {C.shape[0]}\n#define TABLE_INTERVALS {C.shape[1]}\n"
-                f"#define TABLE_SWITCHES {self.table.switch_angles.shape[0]}\n"
-                f"#define TABLE_SLIDERS {self.table.forces.shape[2] if self.table.forces.ndim == 3 else 0}\n"
+                f"#define TABLE_FUNCTIONS {len(program.rows)}\n"
+                f"#define TABLE_SLIDERS {len(program.columns)}\n"
+                f"#define TABLE_TOLERANCE {float(TABLE_TOLERANCE).hex()}\n"
+                f"#define REACTION_TOLERANCE {float(REACTION_TOLERANCE).hex()}\n"
+                f"#define N_PROGRAM_PARAMETERS {len(program.parameters)}\n"
+                f"#define N_GEOMETRY_PARAMETERS {len(self.geometry_parameters())}\n"
+                f"#define MECHANISM_NAME {_c_string(self.definition.name)}\n"
+                f"#define MECHANISM_BRANCH {_c_string(self.definition.branch)}\n"
                 "#endif\n")
+
+    def geometry_parameters(self) -> list[int]:
+        """The program's indices of the parameters the positions depend on (an assembly refusal names them)."""
+        return [self.program.parameters.index(p) for p in self.definition.geometry_parameters
+                if p in self.program.parameters]
 
     def data_c(self) -> str:
         def variable(name, kind, start=0.0, p=None, unit=""):
@@ -202,24 +231,48 @@ class NativeModel:
         rows += [variable(f"der({name})", "KIND_DERIVATIVE", unit=unit) for name, unit in self.derivatives()]
         rows += [variable(p.input_name, "KIND_INPUT", 0.0, unit=p.input_unit) for p in self.ports]
         rows += [variable(v.name, "KIND_REACTION", unit=v.unit) for v in self.reactions]
-        t, Q, R = self.table, self.quantity_table, self.reaction_table
-        coordinates = Q.coordinates if Q else ()
-        quantity_note = (f"\n * [[outputs]]: {Q.construction}, checked error bound {Q.error_bound:.3g}" if Q else "")
-        quantity_note += (f"\n * joint reactions: {R.construction}, checked error bound {R.error_bound:.3g}" if R else "")
+        program = self.program
+        vr_of = {v.name: vr for vr, v in enumerate(self.variables())}
+        coordinates = program.coordinate_names
+        errors = "; ".join(f"{what}: {construction}, checked error bound {error:.3g} at the file's values"
+                           for what, (error, construction) in zip(("the movement equation", "[[outputs]] and ports",
+                                                                   "joint reactions"), self.table_errors.values()))
+        ints = lambda name, a: f"static const int {name}[] = {_c_ints(a)};\n"      # noqa: E731
+        fields = {"code": "CODE", "sections": "SECTIONS", "terms": "TERMS", "angles": "ANGLES",
+                  "chain_constants": "CHAIN_CONSTANTS", "angle_column": "ANGLE_COLUMN", "rows": "ROWS",
+                  "columns": "COLUMNS", "searches": "SEARCHES", "checks": "CHECKS", "coordinates": "COORDINATES",
+                  "links": "LINKS", "joints": "JOINTS", "term_inertia": "TERM_INERTIA", "applied": "APPLIED"}
+        counts = {"code": "n_code", "sections": "n_sections", "terms": "n_terms", "angles": "n_angles",
+                  "rows": "n_rows", "columns": "n_columns", "searches": "n_searches", "checks": "n_checks",
+                  "coordinates": "n_coordinates", "links": "n_links", "joints": "n_joints",
+                  "term_inertia": "n_terms_reaction", "applied": "n_applied"}
+        arrays = "".join(ints(fields[k], getattr(program, k)) for k in fields)
+        initializer = ",\n".join(
+            [f"    .n_registers = {program.n_registers}", "    .literals = LITERALS"]
+            + [f"    .{k} = {fields[k]}" for k in fields]
+            + [f"    .{counts[k]} = {len(getattr(program, k))}" for k in counts]
+            + [f"    .{k} = {getattr(program, k)}" for k in ("n_q", "n_contours", "n_chains", "closed_form", "guess",
+                                                           "phi1", "kinematics", "n_points", "omega1", "crank")]
+            + [f"    .min_conditioning = {MIN_CONDITIONING.hex()}"])
+        parameter_vr = [vr_of.get(name, -1) for name in program.parameters]
         return (f"/* generated by crankfmu fmu --native for scenario {self.scenario.name}: do not edit.\n"
-                f" * Tables: {t.construction}; {t.coefficients.shape[1]} intervals, checked error bound "
-                f"{t.error_bound:.3g} (relative tolerance {t.tolerance:g}).{quantity_note} */\n"
+                f" * The tables are built from the program when the FMU initialises; {errors}. */\n"
                 '#include "crank_variables.h"\n\n'
                 f"const Variable VARIABLES[N_VARIABLES] = {{\n" + "\n".join(rows) + "\n};\n\n"
                 f"const int OUTPUT_ROW[N_OUTPUTS] = {{{', '.join(str(i) for i in self.output_rows())}}};\n\n"
-                f"const double TABLE_COEFFICIENTS[] = {_c_doubles(t.coefficients.ravel())};\n"
-                f"const double TABLE_SWITCH_ANGLES[] = {_c_doubles(t.switch_angles.ravel())};\n"
-                f"const double TABLE_FORCES[] = {_c_doubles(t.forces.ravel())};\n\n"
                 f"const int QUANTITY_COORDINATE[] = {{{', '.join(str(coordinates.index(q.of)) for q in self.quantities) or '0'}}};\n"
-                f"const int QUANTITY_ORDER[] = {{{', '.join(str(q.order) for q in self.quantities) or '0'}}};\n"
-                f"const double QUANTITY_WINDING[] = {_c_doubles(Q.winding if Q else [])};\n"
-                f"const double QUANTITY_COEFFICIENTS[] = {_c_doubles(Q.coefficients.ravel() if Q else [])};\n"
-                f"const double REACTION_COEFFICIENTS[] = {_c_doubles(R.coefficients.ravel() if R else [])};\n")
+                f"const int QUANTITY_ORDER[] = {{{', '.join(str(q.order) for q in self.quantities) or '0'}}};\n\n"
+                f"/* the scenario's program (dynamics/program_scenario.py) */\n"
+                f"static const double LITERALS[] = {_c_doubles(program.literals)};\n" + arrays +
+                f"const mm_program PROGRAM = {{\n{initializer}\n}};\n\n"
+                f"const int PROGRAM_PARAMETER_VR[N_PROGRAM_PARAMETERS] = {_c_ints(parameter_vr)};\n"
+                f"const double PROGRAM_PARAMETER_VALUE[N_PROGRAM_PARAMETERS] = "
+                f"{_c_doubles([self.scenario.values[n] for n in program.parameters])};\n"
+                f"const char* const PROGRAM_PARAMETER_NAME[N_PROGRAM_PARAMETERS] = "
+                f"{{{', '.join(_c_string(n) for n in program.parameters)}}};\n"
+                f"const char* const PROGRAM_CHECK_NAME[] = {{{', '.join(_c_string(n) for n in program.check_names) or '0'}}};\n"
+                f"const int GEOMETRY_PARAMETERS[] = {_c_ints(self.geometry_parameters())};\n"
+                f"const char* const UNKNOWN_NAMES[] = {{{', '.join(_c_string(u) for u in self.definition.unknowns) or '0'}}};\n")
 
     def derivatives(self) -> list[tuple[str, str]]:
         """(state, unit of its derivative) of the Model Exchange states: the kernel's y (none in
@@ -245,13 +298,12 @@ class NativeModel:
                                     start=repr(self.input_start)))
         for p in (*self.tunable, *self.fixed):
             fixed = p in self.fixed
-            note = (f" (the tables were built for {p.value!r} {p.unit}; {self.rebuild})" if fixed
-                    else f" (valid range {p.range_text()})")
+            note = (f" (valid range {p.range_text()}; set before the end of initialisation: the FMU tabulates "
+                    "its model then)" if fixed else f" (valid range {p.range_text()})")
             table.append(NativeVariable(
                 p.name, p.unit, (p.description + note).strip(), "parameter",
                 "fixed" if fixed or p.name in INITIAL else "tunable", start=repr(float(p.value)),
-                min=repr(float(p.value)) if fixed else (None if p.min is None else repr(float(p.min))),
-                max=repr(float(p.value)) if fixed else (None if p.max is None else repr(float(p.max)))))
+                min=None if p.min is None else repr(float(p.min)), max=None if p.max is None else repr(float(p.max))))
         table += [NativeVariable(q.name, unit, q.description, "output", "continuous", initial="calculated")
                   for q, unit in zip(self.quantities, self.quantity_units)]
         table += [NativeVariable(f"der({name})", unit, f"time derivative of {name} (Model Exchange)", "local",
@@ -369,9 +421,10 @@ endif()
 """
 
 
-def compile_binary(compiler: str, folder: Path, out: Path, windows: bool):
-    """The FMU's binary from the sources in ``folder``: C99, libgcc linked statically, nothing beyond
-    the C library (and libm on Linux); the FMI headers come with fmpy."""
+def start_compile(compiler: str, folder: Path, out: Path, windows: bool) -> subprocess.Popen:
+    """Start compiling the FMU's binary from the sources in ``folder``: C99, libgcc linked
+    statically, nothing beyond the C library (and libm on Linux); the FMI headers come with fmpy.
+    finish_compile waits for it (the platforms compile at once, on as many cores)."""
     import fmpy
 
     headers = Path(fmpy.__file__).parent / "c-code"
@@ -380,11 +433,15 @@ def compile_binary(compiler: str, folder: Path, out: Path, windows: bool):
            "-o", str(out), *[str(folder / n) for n in sorted(p.name for p in folder.glob("*.c"))]]
     cmd += [] if windows else ["-fvisibility=hidden", "-lm"]
     try:
-        done = subprocess.run(cmd, capture_output=True, text=True)
+        return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     except FileNotFoundError:
         raise CrankfmuError(f"{compiler} not found; it compiles the native FMU's binary") from None
-    if done.returncode != 0:
-        raise CrankfmuError(f"compiling the native FMU with {compiler} failed: {done.stderr.strip()}")
+
+
+def finish_compile(compiler: str, process: subprocess.Popen):
+    _, errors = process.communicate()
+    if process.returncode != 0:
+        raise CrankfmuError(f"compiling the native FMU with {compiler} failed: {errors.strip()}")
 
 
 def package_native(source, dest: Path, copied, generated: dict, describe, parameters: dict, win64: bool | None,
@@ -395,7 +452,8 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
     of ``fmi_version`` (PLATFORMS: Linux x86_64 always; Windows where MinGW-w64 is installed
     (``win64`` None) or asked for; FMI 3.0's aarch64 Linux where its cross compiler is installed);
     the modelDescription ``describe(sources)`` gives; the documentation (its ``about``: the tables'
-    error bound); the ``extra`` files (path in the FMU -> text or bytes). The FMU replaces
+    error bound); the ``extra`` files (path in the FMU -> text or bytes). ``reference``: the
+    reference CSV, or a function that computes it (called while the compilers run). The FMU replaces
     ``dest/<identifier>.fmu`` when ``written`` closes without an error."""
     fmu = source.fmu
     if win64 is None:
@@ -418,12 +476,25 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
             shutil.copy2(Path(fmpy.__file__).parent / "c-code" / n, src / n)
         (src / "CMakeLists.txt").write_text(cmake_lists(fmu), encoding="utf-8")
         sources = sorted(p.name for p in src.iterdir())
-        binaries = {}
-        for folder, cc, windows in platforms:
-            binaries[folder] = Path(tmp) / folder / f"{fmu}{'.dll' if windows else '.so'}"
-            binaries[folder].parent.mkdir()
-            with stage(fmu, f"compiling the {folder} binary"):
-                compile_binary(cc, src, binaries[folder], windows=windows)
+        binaries, compiling = {}, []
+        try:
+            for folder, cc, windows in platforms:
+                binaries[folder] = Path(tmp) / folder / f"{fmu}{'.dll' if windows else '.so'}"
+                binaries[folder].parent.mkdir()
+                with stage(fmu, f"compiling the {folder} binary"):
+                    compiling.append((folder, cc, start_compile(cc, src, binaries[folder], windows=windows)))
+            # the reference run while the compilers work
+            if callable(reference):
+                with stage(fmu, "the reference run of the default experiment"):
+                    reference = reference()
+            for folder, cc, process in compiling:
+                with stage(fmu, f"compiling the {folder} binary"):
+                    finish_compile(cc, process)
+        finally:
+            for _, _, process in compiling:
+                if process.poll() is None:
+                    process.kill()
+                    process.wait()
         with stage(fmu, "the modelDescription"):
             md = describe(sources)
         with stage(fmu, "the documentation"):
@@ -454,12 +525,16 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
                             f"got {fmi_version!r}")
     source = preflight("scenario", data_name, name, causality, values)
     fmu = source.fmu
-    with stage(fmu, "tabulating the model"):
+    with stage(fmu, "compiling the model and checking its tables"):
         model = NativeModel(source, data_name, source.causality)
-    with stage(fmu, "the reference run of the default experiment"):
-        reference = source.reference()
+    computed = {}
+
+    def reference():                # run while the binaries compile (package_native)
+        computed["csv"] = source.reference()
+        extra[f"{LS_REF}/{fmu}_out.csv"] = computed["csv"]
+        return computed["csv"]
     extra = {**{f"{NATIVE_USER_FILES}/{path}": text for path, text in source.files.items()},   # a user's files
-             f"{LS_REF}/fmi-ls-manifest.xml": LS_REF_MANIFEST.format(name=fmu), f"{LS_REF}/{fmu}_out.csv": reference}
+             f"{LS_REF}/fmi-ls-manifest.xml": LS_REF_MANIFEST.format(name=fmu)}
     describe = model.model_description
     if fmi_version == "3.0":
         from . import native_fmi3
@@ -470,11 +545,11 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
             extra["terminalsAndIcons/terminalsAndIcons.xml"] = native_fmi3.terminals_and_icons(model)
             extra["terminalsAndIcons/icon.png"] = mechanism_png(model.scenario)
     with ExitStack() as written:
-        out = package_native(source, dest, ((NATIVE, KERNEL_SOURCES), (SHELL, MODEL_SOURCES + SHELL_SOURCES[fmi_version])),
+        out = package_native(source, dest, ((NATIVE, KERNEL_SOURCES + MECHANISM_SOURCES), (SHELL, MODEL_SOURCES + SHELL_SOURCES[fmi_version])),
                              {"model_config.h": model.config_h(), "model_data.c": model.data_c()},
                              describe, model.parameters(), win64, reference, extra,
-                             {"table_error": model.table.error_bound}, written, fmi_version)
-        Path(written.enter_context(replacing(dest / f"{fmu}_ref.csv"))).write_text(reference, encoding="utf-8")
+                             {"table_error": max(e for e, _ in model.table_errors.values())}, written, fmi_version)
+        Path(written.enter_context(replacing(dest / f"{fmu}_ref.csv"))).write_text(computed["csv"], encoding="utf-8")
         Path(written.enter_context(replacing(dest / f"{fmu}_ref.opt"))).write_text(cross_check_options(source),
                                                                                    encoding="utf-8")
     return out

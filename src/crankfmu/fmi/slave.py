@@ -34,7 +34,7 @@ import numpy as np
 from ..contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS, Variable
 from ..dynamics import MotorLine
 from ..dynamics import modes
-from ..dynamics.tabulated import table_of, tabulate_quantities, tabulate_reactions
+from ..dynamics.tabulated import c_output_tables, table_of, tabulate_quantities, tabulate_reactions
 from ..integrators.fast import TABLE_TOLERANCE, FastStepper
 from ..native import ROW_FIELDS, QuantityReads, ReactionReads
 from ..parameters import Parameter
@@ -89,11 +89,17 @@ def output_tables(scenario, model) -> tuple:
     them (the kernel's ck_quantity_values and ck_reaction_values), so the two FMUs share one rule
     and the Python FMU's read costs a few multiply-adds, not a Newton-Euler solve."""
     quantities = output_quantities(scenario, model.reduced.ports)
+    reactions = bool(reaction_variables(scenario))
+    # by the C model, as the native FMU builds them (the Python engine where it cannot)
+    built = c_output_tables(scenario, model.reduced.source[1], quantities, TABLE_TOLERANCE, REACTION_TOLERANCE,
+                            reactions)
+    if built is not None:
+        return built
     quantity_table = (tabulate_quantities(model.mechanism, quantities, scenario.mechanism_definition(), TABLE_TOLERANCE)
                       if quantities else None)
     # the joint reactions: their terms tabulated (read on demand, so a looser tolerance than the
-    # movement equation's keeps the native FMU small); the kernel supplies the terms' weights
-    reaction_table = tabulate_reactions(model.reduced, REACTION_TOLERANCE) if reaction_variables(scenario) else None
+    # movement equation's); the kernel supplies the terms' weights
+    reaction_table = tabulate_reactions(model.reduced, REACTION_TOLERANCE) if reactions else None
     return quantity_table, reaction_table
 
 

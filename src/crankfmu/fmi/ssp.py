@@ -181,15 +181,15 @@ def _ssd(system: System, sets: dict, stop_time: float, step: float) -> str:
 
 def built_values(fmu: Path) -> tuple[str, dict[str, float]]:
     """(the FMU's build as its VendorAnnotations say: "native", "python" or "" for an FMU crankfmu did
-    not build, {parameter: the value it was built for} for each parameter fixed at build time: a
-    native mechanism FMU's geometry, masses, loads and gravity, declared with min = max = start)."""
+    not build, {parameter: its start value} for each fixed parameter: a mechanism FMU's geometry,
+    masses, loads and gravity, which a host sets before the end of initialisation)."""
     root = _model_description(fmu)
     build = built_from(fmu).get("build", "")
     fixed = {}
     for sv in root.find("ModelVariables"):
         real = sv.find("Real")
-        if (sv.get("causality") == "parameter" and real is not None and real.get("start") is not None
-                and real.get("min") == real.get("max") == real.get("start")):
+        if (sv.get("causality") == "parameter" and sv.get("variability") == "fixed" and real is not None
+                and real.get("start") is not None):
             fixed[sv.get("name")] = float(real.get("start"))
     return build, fixed
 
@@ -212,55 +212,24 @@ def built_from(fmu: Path) -> dict[str, str]:
     return {} if element is None else {"kind": element.tag.lower(), **element.attrib}
 
 
-def _build_for(fmu: Path, stem: str, values: dict[str, float], where: Path) -> Path:
-    """The native mechanism FMU ``fmu`` built again for ``values``, from the data files it was built
-    from: a packaged scenario by name, or the user's files the FMU carries."""
-    from .build import NATIVE_USER_FILES
-    from .native_build import build_native
-
-    about = built_from(fmu)
-    source = about["name"]
-    if about.get("file"):
-        with zipfile.ZipFile(fmu) as z:
-            for member in z.namelist():
-                if member.startswith(NATIVE_USER_FILES + "/"):
-                    z.extract(member, where / "files")
-        source = str(where / "files" / NATIVE_USER_FILES / about["file"])
-    return build_native(source, where, name=stem, causality=about.get("causality"), values=values)
-
-
-def _native_components(spec: System, fmus: Path, sets: dict, where: Path) -> dict[str, Path]:
-    """{FMU stem: the native FMU the SSP takes}: the folder's, or, where the SSP sets a native
-    mechanism FMU's fixed values (its tables' geometry, masses, loads) to others, that FMU built
-    again for the SSP's values in ``where``. A Python FMU, or one crankfmu did not build, is refused:
-    one CrankfmuError naming each."""
-    problems, others = [], {}
-    for comp, stem in spec.sources.items():
-        build, fixed = built_values(fmus / f"{stem}.fmu")
+def _native_components(spec: System, fmus: Path) -> dict[str, Path]:
+    """{FMU stem: the folder's native FMU}: each takes the values the SSP sets (a native mechanism
+    FMU builds its tables for them when it initialises). A Python FMU, or one crankfmu did not
+    build, is refused: one CrankfmuError naming each."""
+    problems = []
+    for stem in spec.sources.values():
+        build, _ = built_values(fmus / f"{stem}.fmu")
         if build != "native":
             problems.append(f"{stem}.fmu in {fmus} is not a native FMU (its build: {build or 'not crankfmu'})")
-            continue
-        values = sets["coupled"].get(comp, {})
-        others[comp] = {name: value for name, value in values.items() if name in fixed and value != fixed[name]}
     if problems:
         raise CrankfmuError(f"{spec.name}.ssp cannot be made of native FMUs: " + "; ".join(problems))
-    chosen = {}
-    for comp, stem in spec.sources.items():
-        chosen[stem] = fmus / f"{stem}.fmu"
-        if others[comp]:
-            print(f"{spec.name}.ssp: building {stem}.fmu for the values the SSP sets ("
-                  + ", ".join(f"{name} = {value!r}" for name, value in sorted(others[comp].items())) + ")")
-            chosen[stem] = _build_for(chosen[stem], stem, sets["coupled"][comp], where)
-    return chosen
+    return {stem: fmus / f"{stem}.fmu" for stem in spec.sources.values()}
 
 
 def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float = 1e-3,
               system: str = "FourBarDrive", native: bool = False) -> Path:
     """``out``/SYSTEM.ssp from the FMUs in ``fmus`` (``make fmu`` builds them). ``native``: every
-    FMU must be native (no Python on the host); a native mechanism FMU built for other values than
-    the SSP sets is built again for them, into the SSP only (``fmus`` is left as it is)."""
-    import tempfile
-
+    FMU must be native (no Python on the host)."""
     if system not in SYSTEMS:
         raise CrankfmuError(f"unknown system {system!r}: one of {', '.join(SYSTEMS)}")
     spec = SYSTEMS[system]
@@ -272,18 +241,17 @@ def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float
     if stop_time is None:
         stop_time = spec.stop_time
     sets = parameter_sets(spec)
-    with tempfile.TemporaryDirectory(prefix="crankfmu-ssp-") as tmp:
-        paths = (_native_components(spec, fmus, sets, Path(tmp)) if native
-                 else {stem: fmus / f"{stem}.fmu" for stem in spec.sources.values()})
-        out.mkdir(parents=True, exist_ok=True)
-        path = out / f"{system}.ssp"
-        with replacing(path) as partial, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("SystemStructure.ssd", _ssd(spec, sets, stop_time, step))
-            for name, per_component in sets.items():
-                for comp, values in per_component.items():
-                    z.writestr(f"ssv/{name}_{comp}.ssv", _ssv(name, values))
-            for stem, fmu in paths.items():
-                z.write(fmu, f"resources/{stem}.fmu")
+    paths = (_native_components(spec, fmus) if native
+             else {stem: fmus / f"{stem}.fmu" for stem in spec.sources.values()})
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"{system}.ssp"
+    with replacing(path) as partial, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("SystemStructure.ssd", _ssd(spec, sets, stop_time, step))
+        for name, per_component in sets.items():
+            for comp, values in per_component.items():
+                z.writestr(f"ssv/{name}_{comp}.ssv", _ssv(name, values))
+        for stem, fmu in paths.items():
+            z.write(fmu, f"resources/{stem}.fmu")
     return path
 
 

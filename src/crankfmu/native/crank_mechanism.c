@@ -460,7 +460,14 @@ int mm_bind(mm_model *m, const mm_program *p, const double *parameters, int n_pa
     double scale = 0.0;
     for (int i = 0; i < p->n_terms; ++i) scale = fmax(scale, fabs(m->registers[p->terms[MM_TERM_FIELDS * i + 1]]));
     m->length_scale = p->n_terms ? scale : 1.0;
-    return build_turn(m);
+    int status = build_turn(m);
+    /* a closed form with no solution somewhere: the assembly check's finer scan finds the first
+     * angle (the engine's order: the scan's positions before the turn table's) */
+    if (status != MM_OK && p->closed_form) {
+        m->have_turn = 0;
+        return MM_OK;
+    }
+    return status;
 }
 
 /* ----------------------------------------------------------------------- assembly and searches */
@@ -481,21 +488,23 @@ static double dead_point(mm_model *m, double a, double b, double fa)
     return 0.5 * (a + b);
 }
 
-static int check_assembly(mm_model *m)
+/* coarse: every 0.5 deg instead of 0.25 (the bisection for a geometry's bound, as the engine's) */
+static int check_assembly(mm_model *m, int coarse)
 {
     const mm_program *p = m->program;
-    double h = TWO_PI / MM_SCAN_POINTS;
-    double *signed_ = malloc(sizeof(double) * (MM_SCAN_POINTS + 1));
+    const int points = coarse ? MM_SCAN_POINTS / 2 : MM_SCAN_POINTS;
+    double h = TWO_PI / points;
+    double *signed_ = malloc(sizeof(double) * (points + 1));
     if (!signed_) return MM_NO_MEMORY;
     double residual = 0.0;
     term_value t[256];
     double q[MAX_Q];
     int status = MM_OK;
     int width = kinematics_width(p);
-    for (int i = 0; i < MM_SCAN_POINTS && status == MM_OK; ++i) {
+    for (int i = 0; i < points && status == MM_OK; ++i) {
         status = conditioning_at(m, i * h, signed_ + i);
         if (status) break;
-        if (i % 2 == 0)      /* every other scan angle: where the searches start */
+        if (!coarse && i % 2 == 0)      /* every other scan angle: where the searches start */
             memcpy(m->scan + (i / 2) * width, m->registers + p->phi1, sizeof(double) * width);
         /* the residual of the positions found (a closed form must satisfy the contours) */
         double *r = m->registers;
@@ -511,15 +520,15 @@ static int check_assembly(mm_model *m)
         free(signed_);
         return MM_CLOSED_FORM;
     }
-    signed_[MM_SCAN_POINTS] = signed_[0];
-    for (int i = 0; i < MM_SCAN_POINTS; ++i)
+    signed_[points] = signed_[0];
+    for (int i = 0; i < points; ++i)
         if (signbit(signed_[i]) != signbit(signed_[i + 1])) {
             m->error_angle = dead_point(m, i * h, (i + 1) * h, signed_[i]);
             free(signed_);
             return MM_DEAD_POINT;
         }
     int worst = 0;
-    for (int i = 1; i < MM_SCAN_POINTS; ++i)
+    for (int i = 1; i < points; ++i)
         if (fabs(signed_[i]) < fabs(signed_[worst])) worst = i;
     double worst_value = fabs(signed_[worst]), worst_angle = worst * h;
     /* a lock can hide between two scan angles: refine on 65 angles around the smallest */
@@ -691,9 +700,14 @@ static int searches(mm_model *m)
     return MM_OK;
 }
 
+int mm_check(mm_model *m, int coarse)
+{
+    return check_assembly(m, coarse);
+}
+
 int mm_prepare(mm_model *m)
 {
-    int status = check_assembly(m);
+    int status = check_assembly(m, 0);
     if (status == MM_OK) status = searches(m);
     return status;
 }

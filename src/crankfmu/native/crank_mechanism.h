@@ -156,7 +156,8 @@ int mm_bind(mm_model *model, const mm_program *program, const double *parameters
 void mm_free(mm_model *model);
 /* the kinematics at phi1 into the model's registers (q, q', q'' and the points'), then ROWS */
 int mm_evaluate(mm_model *model, double phi1);
-/* the assembly check over the turn, then the searches and the switch schedule */
+/* the assembly check over the turn (mm_check), then the searches and the switch schedule */
+int mm_check(mm_model *model, int coarse);
 int mm_prepare(mm_model *model);
 /* the functions of a table (MM_TABLE_...) at n angles: rows x n, row-major */
 int mm_rows(const mm_model *model, int table);

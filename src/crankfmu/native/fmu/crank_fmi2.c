@@ -76,6 +76,7 @@ void fmi2FreeInstance(fmi2Component c)
     Instance* in = (Instance*)c;
     if (!in) return;
     fmi2CallbackFreeMemory release = in->cb.freeMemory;
+    cm_release(&in->model);
     release((void*)in->name);
     release(in);
 }

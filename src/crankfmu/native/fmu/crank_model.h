@@ -13,6 +13,7 @@
 #include <stddef.h>
 
 #include "crank_kernel.h"
+#include "crank_mechanism.h"
 #include "crank_variables.h"
 
 enum { CM_OK = 0, CM_ERROR = 1 };
@@ -44,16 +45,28 @@ typedef struct {
 
 typedef void (*CmLogger)(void* host, int kind, const char* message);
 
+/* the tables the model builds (crank_mechanism.h's MM_TABLE_...) */
+enum { CM_REDUCED, CM_QUANTITIES, CM_REACTIONS, CM_TABLES };
+
 typedef struct {
     Snapshot now;
     CkTables tables;
     int model_exchange;
     CmLogger log;
     void* host;                    /* the shell's instance, given back to log */
+    /* the C model at the values the tables were built for (built_for), and its tables: built
+     * when initialisation ends (or an output is read in it), again when a reset or an FMU state
+     * brings other values; they belong to the instance, not to its FMU states */
+    mm_model mechanism;
+    double* cubics[CM_TABLES];
+    int intervals[CM_TABLES];
+    double built_for[N_PROGRAM_PARAMETERS + 1];
+    int have_tables;
 } Model;
 
-/* the model at its start values, its tables bound; log(host, ...) says what goes wrong */
+/* the model at its start values; log(host, ...) says what goes wrong. cm_release frees its tables */
 void cm_init(Model* m, int model_exchange, CmLogger log, void* host);
+void cm_release(Model* m);
 /* back to the start values (fmi2Reset, fmi3Reset) */
 void cm_reset(Model* m);
 /* a refusal: the message, formatted, to the logger as an error; returns CM_ERROR */

@@ -1,7 +1,7 @@
 /* The native mechanism FMU's variables (crank_model.c, behind the FMI 2.0 and 3.0 shells): the
  * contract's variables at fixed value references, and the data `crankfmu fmu --native` generates
- * for one scenario (model_config.h: its identifier, GUID, counts and rebuild command;
- * model_data.c: its tables and the table of every variable). */
+ * for one scenario (model_config.h: its identifier, GUID and counts; model_data.c: its compiled
+ * program and the table of every variable). */
 #ifndef CRANK_VARIABLES_H
 #define CRANK_VARIABLES_H
 
@@ -13,7 +13,7 @@ enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED, KIND_QUANTITY, KIND_DE
 typedef struct {
     const char* name;
     int kind;
-    double start;          /* a fixed parameter: the value the tables were built for */
+    double start;
     int has_min, min_inclusive, has_max;
     double min, max;
     const char* range;     /* the valid range as the refusal message states it */
@@ -55,21 +55,25 @@ enum {
 extern const int OUTPUT_ROW[N_OUTPUTS];
 
 extern const Variable VARIABLES[N_VARIABLES];
-extern const double TABLE_COEFFICIENTS[];
-extern const double TABLE_SWITCH_ANGLES[];
-extern const double TABLE_FORCES[];
+
+/* the scenario compiled for the C mechanism model (dynamics/program_scenario.py): its program, and
+ * each of its parameters' value reference (-1: a parameter the FMU does not declare, at
+ * PROGRAM_PARAMETER_VALUE), name, and the geometry parameters a refused assembly names */
+#include "crank_mechanism.h"
+extern const mm_program PROGRAM;
+extern const int PROGRAM_PARAMETER_VR[N_PROGRAM_PARAMETERS];
+extern const double PROGRAM_PARAMETER_VALUE[N_PROGRAM_PARAMETERS];
+extern const char* const PROGRAM_PARAMETER_NAME[N_PROGRAM_PARAMETERS];
+extern const char* const PROGRAM_CHECK_NAME[];
+extern const int GEOMETRY_PARAMETERS[];
+extern const char* const UNKNOWN_NAMES[];
 
 /* the [[outputs]]: quantity k is order QUANTITY_ORDER[k] (0 position, 1 velocity, 2 acceleration)
- * of coordinate QUANTITY_COORDINATE[k]; coordinate c's functions 3c, 3c + 1, 3c + 2 in
- * QUANTITY_COEFFICIENTS are q - QUANTITY_WINDING[c] phi1, q' and q'' (dynamics/tabulated.py,
- * QuantityTable) */
+ * of coordinate QUANTITY_COORDINATE[k]; the C model's [[outputs]] table holds coordinate c's
+ * q - winding phi1, q' and q'' (dynamics/tabulated.py, QuantityTable). The joint reactions: reaction
+ * k is sum_j REACTION_TERMS weights (ck_reaction_weights) times the reactions table's cubics
+ * k REACTION_TERMS + j (ReactionTable) */
 extern const int QUANTITY_COORDINATE[];
 extern const int QUANTITY_ORDER[];
-extern const double QUANTITY_WINDING[];
-extern const double QUANTITY_COEFFICIENTS[];
-
-/* the joint reactions: reaction k is sum_j REACTION_TERMS weights (ck_reaction_weights) times the
- * periodic cubics k REACTION_TERMS + j of REACTION_COEFFICIENTS (dynamics/tabulated.py, ReactionTable) */
-extern const double REACTION_COEFFICIENTS[];
 
 #endif
