@@ -7,7 +7,10 @@
   Python engine's (Scenario.build, then tabulated.tabulate) of the same table, median ms;
 - a steady-cycle sweep of seed 000 designs that differ in geometry (l1, l2, l3: every design its
   own table) on Dask with two workers, designs per second on the C tables against the Python
-  engine's (CRANKFMU_TABLES=python, today's path before the C model), on the same designs.
+  engine's (CRANKFMU_TABLES=python, today's path before the C model), on the same designs;
+- each packaged scenario's native FMU (FMI 2.0): `crankfmu fmu NAME --native` wall time and the
+  FMU's size, now and at BASELINE (the commit before the C model: tables compiled in), run from
+  `git archive` of it with the same Python and packages.
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ("seed000", "seed001", "seed002", "seed003", "seed004", "pumpjack")
+#: the commit before the C model: native FMUs carried their tables
+BASELINE = "58db02c"
 
 
 def median_ms(run, repeats: int) -> float:
@@ -91,9 +96,47 @@ def sweep(side: int, python_side: int) -> dict:
             "cores": os.cpu_count()}
 
 
+def native_builds(names) -> list[dict]:
+    """`crankfmu fmu NAME --native` (FMI 2.0, linux64 and win64 where MinGW is installed): wall time
+    and size, each in a fresh process: with this tree's code on an empty cache (cold: the reference
+    run and the kernel's objects made), again on that cache (warm: what `make fmu`'s second and
+    third FMU of a scenario pay), and with BASELINE's code (its kernel library compiled beforehand)."""
+    import subprocess
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        base = tmp / "baseline"
+        base.mkdir()
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", BASELINE], capture_output=True, check=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(base)], input=archive, check=True)
+        before_env = {**os.environ, "PYTHONPATH": str(base / "src"), "CRANKFMU_CACHE": str(tmp / "cache_before")}
+        subprocess.run([sys.executable, "-c", "import crankfmu.native"], env=before_env, cwd=tmp, check=True)
+
+        def build(label, name, env):
+            out = tmp / label / name
+            started = time.perf_counter()
+            done = subprocess.run([sys.executable, "-m", "crankfmu", "fmu", name, "--native", "--out", str(out)],
+                                  capture_output=True, text=True, env=env, cwd=tmp)
+            wall = time.perf_counter() - started
+            if done.returncode != 0:
+                raise RuntimeError(f"{label} build of {name} failed: {done.stderr[-2000:]}")
+            return wall, next(out.glob("*.fmu")).stat().st_size / 1e6
+
+        for name in names:
+            now_env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "CRANKFMU_CACHE": str(tmp / f"cache_{name}")}
+            row = {"scenario": name}
+            row["cold_s"], row["now_mb"] = build("cold", name, now_env)
+            row["warm_s"], _ = build("warm", name, now_env)
+            row["before_s"], row["before_mb"] = build("before", name, before_env)
+            rows.append(row)
+    return rows
+
+
 def measure(quick: bool) -> dict:
     return {"tabulation": tabulation(5 if quick else 21),
-            "sweep": sweep(8 if quick else 22, 5 if quick else 10)}
+            "sweep": sweep(8 if quick else 22, 5 if quick else 10),
+            "builds": native_builds(SCENARIOS[:2] if quick else SCENARIOS)}
 
 
 def report(result: dict) -> list[str]:
@@ -109,8 +152,15 @@ def report(result: dict) -> list[str]:
                   f"{s['cores']} cores: C tables {s['c']['designs']} designs in {s['c']['seconds']:.1f} s "
                   f"({s['c']['per_second']:.0f}/s); Python tables {s['python']['designs']} designs in "
                   f"{s['python']['seconds']:.1f} s ({s['python']['per_second']:.0f}/s): **{s['ratio']:.1f}x**. "
-                  f"delta of the same designs agrees to {s['delta_agreement']:.1e} relative.", ""]
-    return lines
+                  f"delta of the same designs agrees to {s['delta_agreement']:.1e} relative.", "",
+              f"Native FMUs (FMI 2.0), `crankfmu fmu NAME --native` in a fresh process, now and at {BASELINE} "
+              "(tables compiled in):", "",
+              "| scenario | build now, cold cache (s) | build now, warm cache (s) | size now (MB) | build before (s) | "
+              "size before (MB) |", "|---|---|---|---|---|---|"]
+    for r in result["builds"]:
+        lines.append(f"| {r['scenario']} | {r['cold_s']:.1f} | {r['warm_s']:.1f} | {r['now_mb']:.2f} | "
+                     f"{r['before_s']:.1f} | {r['before_mb']:.2f} |")
+    return lines + [""]
 
 
 def main(argv=None) -> int:

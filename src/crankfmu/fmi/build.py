@@ -21,6 +21,7 @@ method from the FMU's own stepper.
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import shutil
 import subprocess
@@ -443,18 +444,55 @@ LS_REF_MANIFEST = """<?xml version="1.0" encoding="UTF-8"?>
 
 
 def reference_result(scenario) -> str:
-    """The default experiment's outputs (CSV, quoted header) from the in-process reference."""
+    """The default experiment's outputs (CSV, quoted header) from the in-process reference: run once
+    per design and code (``make fmu`` builds three FMUs of each scenario), then read from the
+    per-user cache under the hash of the scenario's data, its mechanism, its values and crankfmu's
+    Python sources."""
+    import hashlib
+
     import numpy as np
 
     from crankfmu import COLUMNS, simulate
 
+    from ..cache import cache_root
+
+    key = hashlib.sha256(repr((scenario.data, scenario.mechanism_definition(), sorted(scenario.values.items()),
+                               _code_digest())).encode()).hexdigest()[:24]
+    cached = cache_root() / "references" / f"{key}.csv"
+    try:
+        return cached.read_text(encoding="utf-8")
+    except OSError:
+        pass
     exp = scenario.experiment
     n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
     times = exp.start_time + exp.output_interval * np.arange(n + 1)
     result = simulate(scenario, t_end=exp.stop_time, output_times=times)
     lines = [",".join(f'"{c}"' for c in COLUMNS)]
     lines += [",".join(f"{getattr(result, c)[i]:.17g}" for c in COLUMNS) for i in range(times.size)]
-    return "\n".join(lines) + "\n"
+    text = "\n".join(lines) + "\n"
+    try:
+        cached.parent.mkdir(parents=True, exist_ok=True)
+        partial = cached.with_name(f"{cached.name}.{os.getpid()}")
+        partial.write_text(text, encoding="utf-8")
+        os.replace(partial, cached)
+    except OSError:                   # a cache that cannot be written: the run is not kept
+        pass
+    return text
+
+
+_CODE_DIGEST = []
+
+
+def _code_digest() -> str:
+    """The hash of crankfmu's Python sources (what the reference run's numbers depend on), once per process."""
+    import hashlib
+
+    if not _CODE_DIGEST:
+        digest = hashlib.sha256()
+        for path in sorted(PACKAGE.rglob("*.py")):
+            digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0" + path.read_bytes())
+        _CODE_DIGEST.append(digest.hexdigest())
+    return _CODE_DIGEST[0]
 
 
 def speed_reference(scenario) -> str:

@@ -27,10 +27,13 @@ phi1_start sets the initial state; Co-Simulation only.
 from __future__ import annotations
 
 import hashlib
+import os
 import shutil
 import subprocess
+import threading
 import tempfile
 import zipfile
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import ExitStack
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -421,27 +424,55 @@ endif()
 """
 
 
-def start_compile(compiler: str, folder: Path, out: Path, windows: bool) -> subprocess.Popen:
-    """Start compiling the FMU's binary from the sources in ``folder``: C99, libgcc linked
-    statically, nothing beyond the C library (and libm on Linux); the FMI headers come with fmpy.
-    finish_compile waits for it (the platforms compile at once, on as many cores)."""
+def _run(cmd: list, compiler: str) -> str:
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True)
+    except FileNotFoundError:
+        raise CrankfmuError(f"{compiler} not found; it compiles the native FMU's binary") from None
+    if done.returncode != 0:
+        raise CrankfmuError(f"compiling the native FMU with {compiler} failed: {done.stderr.strip()}")
+    return done.stdout
+
+
+def _cached_object(compiler: str, flags: list, source: Path, generated) -> Path | None:
+    """The object of ``source`` from the per-user cache (compiled into it the first time), where
+    nothing it includes is generated per FMU (the kernel and the mechanism model are the same for
+    every scenario: only their compiler, flags and content name the object); None otherwise."""
+    from ..cache import cache_root
+
+    made = _run([compiler, *flags, "-MM", str(source)], compiler).replace("\\\n", " ").split()[1:]
+    if any(Path(dep).name in generated for dep in made):
+        return None
+    digest = hashlib.sha256(repr((compiler, flags)).encode())
+    for dep in sorted(made):
+        digest.update(Path(dep).name.encode() + b"\0" + Path(dep).read_bytes())
+    obj = cache_root() / "objects" / f"{source.stem}_{digest.hexdigest()[:20]}.o"
+    if not obj.is_file():
+        obj.parent.mkdir(parents=True, exist_ok=True)
+        partial = obj.with_name(f"{obj.name}.{os.getpid()}.{threading.get_ident()}")
+        _run([compiler, *flags, "-c", "-o", str(partial), str(source)], compiler)
+        os.replace(partial, obj)
+    return obj
+
+
+def compile_binary(compiler: str, folder: Path, out: Path, windows: bool, generated=()):
+    """The FMU's binary from the sources in ``folder``: C99, libgcc linked statically, nothing beyond
+    the C library (and libm on Linux); the FMI headers come with fmpy. The sources that include
+    nothing ``generated`` (the kernel, the mechanism model) come compiled from the per-user cache."""
     import fmpy
 
     headers = Path(fmpy.__file__).parent / "c-code"
-    flags = [f for f in CFLAGS if not (windows and f == "-fPIC")]
-    cmd = [compiler, *flags, "-shared", "-DCK_API=", f"-I{folder}", f"-I{headers}", "-static-libgcc",
-           "-o", str(out), *[str(folder / n) for n in sorted(p.name for p in folder.glob("*.c"))]]
-    cmd += [] if windows else ["-fvisibility=hidden", "-lm"]
-    try:
-        return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    except FileNotFoundError:
-        raise CrankfmuError(f"{compiler} not found; it compiles the native FMU's binary") from None
-
-
-def finish_compile(compiler: str, process: subprocess.Popen):
-    _, errors = process.communicate()
-    if process.returncode != 0:
-        raise CrankfmuError(f"compiling the native FMU with {compiler} failed: {errors.strip()}")
+    flags = [f for f in CFLAGS if not (windows and f == "-fPIC")] + ["-DCK_API=", f"-I{folder}", f"-I{headers}"]
+    flags += [] if windows else ["-fvisibility=hidden"]
+    inputs = []
+    for source in sorted(folder.glob("*.c")):
+        try:
+            cached = None if source.name in generated else _cached_object(compiler, flags, source, generated)
+        except OSError:                # a cache that cannot be written: compile it here
+            cached = None
+        inputs.append(str(cached or source))
+    cmd = [compiler, *flags, "-shared", "-static-libgcc", "-o", str(out), *inputs]
+    _run(cmd + ([] if windows else ["-lm"]), compiler)
 
 
 def package_native(source, dest: Path, copied, generated: dict, describe, parameters: dict, win64: bool | None,
@@ -476,25 +507,20 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
             shutil.copy2(Path(fmpy.__file__).parent / "c-code" / n, src / n)
         (src / "CMakeLists.txt").write_text(cmake_lists(fmu), encoding="utf-8")
         sources = sorted(p.name for p in src.iterdir())
-        binaries, compiling = {}, []
-        try:
+        binaries = {}
+        # every platform's compiler at once, the reference run beside them
+        with ThreadPoolExecutor(max_workers=len(platforms)) as pool:
+            compiling = []
             for folder, cc, windows in platforms:
                 binaries[folder] = Path(tmp) / folder / f"{fmu}{'.dll' if windows else '.so'}"
                 binaries[folder].parent.mkdir()
-                with stage(fmu, f"compiling the {folder} binary"):
-                    compiling.append((folder, cc, start_compile(cc, src, binaries[folder], windows=windows)))
-            # the reference run while the compilers work
+                compiling.append((folder, pool.submit(compile_binary, cc, src, binaries[folder], windows, generated)))
             if callable(reference):
                 with stage(fmu, "the reference run of the default experiment"):
                     reference = reference()
-            for folder, cc, process in compiling:
+            for folder, job in compiling:
                 with stage(fmu, f"compiling the {folder} binary"):
-                    finish_compile(cc, process)
-        finally:
-            for _, _, process in compiling:
-                if process.poll() is None:
-                    process.kill()
-                    process.wait()
+                    job.result()
         with stage(fmu, "the modelDescription"):
             md = describe(sources)
         with stage(fmu, "the documentation"):
