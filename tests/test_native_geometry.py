@@ -50,9 +50,9 @@ def native_fmu(name: str, scratch: Path) -> Path:
 
 
 def changed_design(scenario) -> dict:
-    """Another design: the first geometry parameter 2 % longer (or shorter where longer does not
-    turn), every mass parameter 10 % heavier, each load magnitude 10 % larger, gravity 9.7 m/s2,
-    another flywheel."""
+    """Another design: the crank (l1, or the Whitworth's r; else the first geometry parameter) 2 %
+    longer (or shorter where longer does not turn), every mass parameter 10 % heavier, each load
+    magnitude 10 % larger, gravity 9.7 m/s2, another flywheel."""
     definition = scenario.mechanism_definition()
     load_names = set(scenario.load_parameters()) - {"g"}
     changes = {p: scenario[p] * 1.1 for p in (*definition.mass_parameters, *load_names)
@@ -60,7 +60,7 @@ def changed_design(scenario) -> dict:
     if "g" in scenario.parameters:
         changes["g"] = 9.7
     changes["J_flywheel"] = scenario["J_flywheel"] * 1.3 + 0.01
-    name = definition.geometry_parameters[0]
+    name = next((p for p in ("l1", "r") if p in definition.geometry_parameters), definition.geometry_parameters[0])
     for factor in (1.02, 0.98):
         candidate = {**changes, name: scenario[name] * factor}
         try:
@@ -152,3 +152,60 @@ def test_a_refused_geometry_says_what_the_cli_says_and_the_instance_resets(scrat
     fmu.terminate()
     fmu.freeInstance()
     assert math.isfinite(omega) and re.search("cannot be assembled", " ".join(messages))
+
+
+def test_a_c_host_with_an_empty_environment_runs_a_new_crank_length(scratch, tmp_path):
+    """The plain C host (tests/c_host/fmu_driver.c, dlopen, no Python) under env -i sets l1 and
+    J_flywheel before initialisation and steps 2 s at 1 ms: omega1 is the reference's at those
+    values to 1e-8."""
+    import shutil
+    import subprocess
+
+    from fmpy import extract, read_model_description
+
+    if shutil.which("gcc") is None:
+        pytest.skip("needs gcc")
+    fmu = native_fmu("FourBar", scratch)
+    driver = tmp_path / "fmu_driver"
+    headers = Path(fmpy.__file__).parent / "c-code"
+    subprocess.run(["gcc", "-O1", f"-I{headers}", "-o", str(driver), str(HERE / "c_host" / "fmu_driver.c"), "-ldl"],
+                   check=True)
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    changes = {"l1": 0.21, "J_flywheel": 1.7}
+    done = subprocess.run(["env", "-i", str(driver), extract(str(fmu), str(tmp_path / "x")), "FourBar", md.guid, "2000",
+                           "0.001", str(vr["omega1"]), *(f"{vr[k]}={v!r}" for k, v in changes.items())],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout[-2000:]
+    t, omega = map(float, re.search(r"result t=(\S+) value=(\S+)", done.stdout).groups())
+    reference = _reference(load_scenario("seed000"), changes, np.array([0.0, 2.0])).omega1[-1]
+    assert t == pytest.approx(2.0) and abs(omega - reference) < 1e-8 * abs(reference)
+
+
+@pytest.mark.parametrize("master", ["ecos", "libcosim"])
+def test_masters_we_did_not_write_set_the_crank_length_through_an_ssp(master, scratch, tmp_path):
+    """FourBar.fmu alone in an SSP whose parameter set gives l1 and J_flywheel, run by the ecos
+    command and by libcosim under env -i with an empty HOME: omega1 is the reference's at those
+    values (ecos writes 6 decimals: 1e-6 relative; libcosim 1e-8)."""
+    import shutil
+
+    from crankfmu.fmi.ssp import System, write_ssp
+    from crankfmu.validation import masters
+
+    fmu = native_fmu("FourBar", scratch)
+    folder = tmp_path / "fmus"
+    folder.mkdir()
+    shutil.copy2(fmu, folder / "FourBar.fmu")
+    changes = {"l1": 0.21, "J_flywheel": 1.7}
+    system = System("OneFourBar", "seed-000 four-bar with another crank and flywheel", {"FourBar": "FourBar"},
+                    {"FourBar": (("omega1", "output"),)}, (), {"FourBar": changes}, {})
+    ssp = write_ssp(folder, tmp_path / "ssp", stop_time=1.0, step=1e-3, system=system, native=True)
+    (tmp_path / "home").mkdir()
+    env = {"PATH": "/usr/bin:/bin", "HOME": str(tmp_path / "home")}
+    result = masters.run(master, ssp, 1.0, 1e-3, ["FourBar.omega1"], parameter_set="coupled", env=env)
+    assert result.error is None, result.output[-3000:]
+    omega = result.values["FourBar.omega1"]
+    reference = _reference(load_scenario("seed000"), changes, result.time)
+    scale = np.max(np.abs(reference.omega1))
+    bound = 1e-6 if master == "ecos" else 1e-8
+    assert np.max(np.abs(omega - reference.omega1)) < bound * scale, master

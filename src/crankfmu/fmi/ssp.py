@@ -227,12 +227,15 @@ def _native_components(spec: System, fmus: Path) -> dict[str, Path]:
 
 
 def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float = 1e-3,
-              system: str = "FourBarDrive", native: bool = False) -> Path:
+              system: "str | System" = "FourBarDrive", native: bool = False) -> Path:
     """``out``/SYSTEM.ssp from the FMUs in ``fmus`` (``make fmu`` builds them). ``native``: every
     FMU must be native (no Python on the host)."""
-    if system not in SYSTEMS:
+    if isinstance(system, System):        # a system of the caller's (the tests': one FMU and its values)
+        spec, system = system, system.name
+    elif system not in SYSTEMS:
         raise CrankfmuError(f"unknown system {system!r}: one of {', '.join(SYSTEMS)}")
-    spec = SYSTEMS[system]
+    else:
+        spec = SYSTEMS[system]
     fmus, out = Path(fmus), Path(out)
     for stem in spec.sources.values():
         if not (fmus / f"{stem}.fmu").is_file():
