@@ -73,6 +73,8 @@ class Program:
     row_names: tuple[str, ...]
     n_ports: int
     column_names: tuple[str, ...] = field(default=())
+    #: the parameters the program reads (indices into ``parameters``): the tables depend on these only
+    table_parameters: tuple[int, ...] = ()
     # the [[outputs]] and ports' coordinates: (q, q', q'' registers, is an angle) each
     coordinates: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int32))
     coordinate_names: tuple[str, ...] = ()
@@ -92,7 +94,8 @@ class _Code:
     """Registers and instructions, section by section."""
 
     def __init__(self, n_parameters: int):
-        self.n = n_parameters
+        self.n = self.n_parameters = n_parameters
+        self.used: set[int] = set()          # the parameters' registers an expression read
         self.code: list[tuple[int, int, int, int, int]] = []
         self.literals: list[float] = []
         self.sections: dict[int, tuple[int, int]] = {}
@@ -149,7 +152,11 @@ class _Code:
         if isinstance(node, ast.Constant):
             return self.literal(node.value)
         if isinstance(node, ast.Name):
-            return self.literal(CONSTANTS[node.id]) if node.id in CONSTANTS and node.id not in names else names[node.id]
+            if node.id in CONSTANTS and node.id not in names:
+                return self.literal(CONSTANTS[node.id])
+            if names[node.id] < self.n_parameters:
+                self.used.add(names[node.id])
+            return names[node.id]
         if isinstance(node, ast.UnaryOp):
             inner = self._node(node.operand, names)
             return self.emit("neg", inner) if isinstance(node.op, ast.USub) else inner

@@ -60,6 +60,7 @@ class LoadClauses:
 
     def _weights(self):
         c, g = self.c, self.env["g"]
+        c.used.add(g)
 
         def weight(mass):
             return c.emit("neg", c.mul(mass, g))

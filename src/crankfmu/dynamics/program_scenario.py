@@ -158,6 +158,7 @@ class _Compiler(LoadClauses):
             check_names=tuple(n for _, n in self.checks), row_names=tuple(row_names),
             n_ports=len(self.scenario.data.get("ports", [])),
             column_names=tuple(n for load in loads for n in load.get("column_names", ())),
+            table_parameters=tuple(sorted(c.used)),
             coordinates=np.array(coordinates, dtype=np.int32).reshape(-1, 4), coordinate_names=tuple(coordinate_names),
             **reactions,
         )

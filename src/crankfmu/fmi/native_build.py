@@ -208,6 +208,7 @@ class NativeModel:
                 f"#define TABLE_TOLERANCE {float(TABLE_TOLERANCE).hex()}\n"
                 f"#define REACTION_TOLERANCE {float(REACTION_TOLERANCE).hex()}\n"
                 f"#define N_PROGRAM_PARAMETERS {len(program.parameters)}\n"
+                f"#define N_TABLE_PARAMETERS {len(program.table_parameters)}\n"
                 f"#define N_GEOMETRY_PARAMETERS {len(self.geometry_parameters())}\n"
                 f"#define MECHANISM_NAME {_c_string(self.definition.name)}\n"
                 f"#define MECHANISM_BRANCH {_c_string(self.definition.branch)}\n"
@@ -275,6 +276,7 @@ class NativeModel:
                 f"{{{', '.join(_c_string(n) for n in program.parameters)}}};\n"
                 f"const char* const PROGRAM_CHECK_NAME[] = {{{', '.join(_c_string(n) for n in program.check_names) or '0'}}};\n"
                 f"const int GEOMETRY_PARAMETERS[] = {_c_ints(self.geometry_parameters())};\n"
+                f"const int TABLE_PARAMETERS[] = {_c_ints(program.table_parameters)};\n"
                 f"const char* const UNKNOWN_NAMES[] = {{{', '.join(_c_string(u) for u in self.definition.unknowns) or '0'}}};\n")
 
     def derivatives(self) -> list[tuple[str, str]]:

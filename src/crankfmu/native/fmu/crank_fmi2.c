@@ -193,7 +193,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
 {
     if (!c) return fmi2Error;
     if (!state) return status_of(cm_fail(MODEL(c), "%s", "fmi2SetFMUstate: no state"));
-    MODEL(c)->now = *(const Snapshot*)state;
+    cm_restore(MODEL(c), (const Snapshot*)state);
     return fmi2OK;
 }
 

@@ -261,7 +261,7 @@ fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState)
 {
     if (!instance) return fmi3Error;
     if (!FMUState) return status_of(cm_fail(MODEL(instance), "%s", "fmi3SetFMUState: no state"));
-    MODEL(instance)->now = *(const Snapshot*)FMUState;
+    cm_restore(MODEL(instance), (const Snapshot*)FMUState);
     return fmi3OK;
 }
 

@@ -47,6 +47,13 @@ void cm_reset(Model* m)
     m->now.t_limit = INFINITY;
     m->now.event_ahead = -INFINITY;
     m->now.phase = CM_INSTANTIATED;
+    m->tables_stale = 1;                 /* the start values: perhaps another design than the tables' */
+}
+
+void cm_restore(Model* m, const Snapshot* state)
+{
+    m->now = *state;
+    m->tables_stale = 1;
 }
 
 void cm_init(Model* m, int model_exchange, CmLogger log, void* host)
@@ -184,9 +191,18 @@ static int refuse_design(const Model* m, const char* call, int status, const dou
 /* the tables at the values set now: built once per design, again where the values changed */
 static int ensure_tables(Model* m, const char* call)
 {
+    if (m->have_tables && !m->tables_stale) return CM_OK;       /* the step's path: one test */
     double values[N_PROGRAM_PARAMETERS + 1];
     program_parameters(m, values);
-    if (m->have_tables && memcmp(values, m->built_for, sizeof(double) * N_PROGRAM_PARAMETERS) == 0) return CM_OK;
+    if (m->have_tables) {
+        int same = 1;
+        for (int k = 0; k < N_TABLE_PARAMETERS && same; k++)
+            same = values[TABLE_PARAMETERS[k]] == m->built_for[TABLE_PARAMETERS[k]];
+        if (same) {
+            m->tables_stale = 0;
+            return CM_OK;
+        }
+    }
     cm_release(m);
     int status = mm_bind(&m->mechanism, &PROGRAM, values, N_PROGRAM_PARAMETERS);
     if (status == MM_OK) status = mm_prepare(&m->mechanism);
@@ -205,6 +221,7 @@ static int ensure_tables(Model* m, const char* call)
     }
     memcpy(m->built_for, values, sizeof(double) * N_PROGRAM_PARAMETERS);
     m->have_tables = 1;
+    m->tables_stale = 0;
     m->tables.coefficients = m->cubics[CM_REDUCED];
     m->tables.n_functions = TABLE_FUNCTIONS;
     m->tables.n = m->intervals[CM_REDUCED];
@@ -522,7 +539,6 @@ int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* val
     reads.have_quantities = reads.have_reactions = 0;
     const Model* source = m;
     Model preview;
-    int tables_checked = 0;
     for (size_t i = 0; i < n; i++) {
         if (vr[i] >= N_VARIABLES) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
         int k = (int)vr[i];
@@ -536,7 +552,7 @@ int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* val
         }
         /* the tables of the values the state holds (an FMU state of another design, or a design
          * refused since): built again, or the read refused */
-        if (m->now.phase >= CM_STEPPING && !tables_checked++ && ensure_tables(m, call) != CM_OK) return CM_ERROR;
+        if (m->now.phase >= CM_STEPPING && ensure_tables(m, call) != CM_OK) return CM_ERROR;
         if (m->now.phase == CM_INITIALIZATION && source == m) {
             /* what the start values give, computed on a copy: they may still change */
             if (ensure_tables(m, call) != CM_OK) return CM_ERROR;
@@ -577,6 +593,7 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
         if (x == m->now.values[vr[i]] && (v->kind != KIND_INPUT || m->now.input_rate[input_index((int)vr[i])] == 0.0))
             continue;
         m->now.values[vr[i]] = x;
+        if (v->kind == KIND_FIXED || v->kind == KIND_TUNABLE) m->tables_stale = 1;
         if (v->kind == KIND_INPUT) m->now.input_rate[input_index((int)vr[i])] = 0.0;   /* held, unless a derivative follows */
         if (m->now.phase < CM_STEPPING) continue;
         changed = 1;

@@ -62,11 +62,14 @@ typedef struct {
     int intervals[CM_TABLES];
     double built_for[N_PROGRAM_PARAMETERS + 1];
     int have_tables;
+    int tables_stale;              /* a parameter or the state changed since: compare before the next use */
 } Model;
 
 /* the model at its start values; log(host, ...) says what goes wrong. cm_release frees its tables */
 void cm_init(Model* m, int model_exchange, CmLogger log, void* host);
 void cm_release(Model* m);
+/* an FMU state back (fmi2SetFMUstate, fmi3SetFMUState): its values may be another design's */
+void cm_restore(Model* m, const Snapshot* state);
 /* back to the start values (fmi2Reset, fmi3Reset) */
 void cm_reset(Model* m);
 /* a refusal: the message, formatted, to the logger as an error; returns CM_ERROR */

@@ -66,6 +66,8 @@ extern const double PROGRAM_PARAMETER_VALUE[N_PROGRAM_PARAMETERS];
 extern const char* const PROGRAM_PARAMETER_NAME[N_PROGRAM_PARAMETERS];
 extern const char* const PROGRAM_CHECK_NAME[];
 extern const int GEOMETRY_PARAMETERS[];
+/* the program's parameters its tables depend on (the others, the motor line for one, do not) */
+extern const int TABLE_PARAMETERS[];
 extern const char* const UNKNOWN_NAMES[];
 
 /* the [[outputs]]: quantity k is order QUANTITY_ORDER[k] (0 position, 1 velocity, 2 acceleration)
