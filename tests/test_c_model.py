@@ -17,8 +17,8 @@ import pytest
 
 from crankfmu.dynamics.program import parameter_values
 from crankfmu.dynamics.program_scenario import compile_scenario
-from crankfmu.dynamics.tabulated import _engine_values, c_table, tabulate
-from crankfmu.errors import AssemblyError
+from crankfmu.dynamics.tabulated import _engine_values, _evaluate, c_table, tabulate
+from crankfmu.errors import AssemblyError, SchemeError
 from crankfmu.native.mechanism import CModel, MechanismError
 from crankfmu.scenario import available_scenarios, load_scenario
 from crankfmu.studies.batch import steady_cycles
@@ -238,3 +238,43 @@ def test_the_c_outputs_and_reaction_tables_equal_the_python_ones(name, changed, 
         if table == QUANTITIES:
             assert np.array_equal(model.winding, want.winding)
             assert tuple(program.coordinate_names) == want.coordinates
+
+
+def test_a_design_next_to_a_dead_point_is_a_spline_of_samples_in_c_as_in_the_engine():
+    """seed 000 with l1 = 0.2999 (the crank turns fully below 0.3; conditioning 0.028): the Fourier
+    series of the functions no longer converges geometrically, and the C model, as the engine,
+    takes the periodic cubic spline of 2^16 samples. Its checked error, 1.8e-11, is over the 1e-11
+    asked and within the 1e-8 a table is kept at (its error_bound says so). Same samples, same
+    circulant solve: the two splines agree to 1e-13 of each function's largest value at any angle
+    (1e-15 measured), and their bounds to 1 %."""
+    scenario = load_scenario("seed000").with_params(l1=0.2999)
+    c = c_table(scenario, scenario.values, 1e-11)
+    python = tabulate(scenario.build().reduced, 1e-11)
+    assert c.construction == "cubic spline of 65536 samples, in C"
+    assert python.construction == "cubic spline of 65536 samples"
+    assert 1e-11 < c.error_bound < 1e-8 and c.error_bound == pytest.approx(python.error_bound, rel=0.01)
+    phi1 = np.random.default_rng(38).uniform(0.0, 2.0 * math.pi, 4000)
+    ours, theirs = _evaluate(c.coefficients, phi1), _evaluate(python.coefficients, phi1)
+    scale = np.maximum(np.max(np.abs(theirs), axis=1), 1e-300)
+    assert np.all(np.max(np.abs(ours - theirs), axis=1) <= 1e-13 * scale)
+
+
+def test_a_design_no_table_follows_is_refused_where_the_engine_refuses_it():
+    """l1 = 0.299999 (conditioning 0.0028): 2^16 spline intervals leave 0.5 dJ/dphi1 1.7e-7 off,
+    beyond the 1e-8 kept. The engine names that function (row 1), where it changes fastest
+    (180.03 deg) and calls the step a jump; the C model refuses with the same row, angle and
+    verdict (what the native FMU's message says)."""
+    scenario = load_scenario("seed000").with_params(l1=0.299999)
+    program = compile_scenario(scenario)
+    model = CModel(program, parameter_values(program, scenario.values))
+    with pytest.raises(MechanismError) as refused:
+        model.table(1e-11)
+    with pytest.raises(SchemeError) as engine:
+        tabulate(scenario.build().reduced, 1e-11)
+    c = refused.value
+    assert c.code == -13 and model._model.error_index == 1 and model._model.error_jumps == 1
+    assert "0.5 dJ_red/dphi1 cannot be tabulated" in str(engine.value) and "jumps" in str(engine.value)
+    at = float(re.search(r"between phi1 = ([\d.]+) to", str(engine.value)).group(1))
+    assert abs(math.degrees(c.angle) - at) < 0.02
+    assert model._model.error_value == pytest.approx(float(re.search(r"\(error ([\d.e-]+)\)",
+                                                                      str(engine.value)).group(1)), rel=0.05)

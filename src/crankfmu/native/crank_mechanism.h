@@ -64,7 +64,7 @@ enum mm_error {
     MM_CHECK = -10,           /* a value check failed (index: the check) */
     MM_NOT_ROCKER = -11,      /* a rocker search found other than one rise and one fall (index: search) */
     MM_NO_REVERSAL = -12,     /* a reversal search found none (index: search) */
-    MM_NOT_TABULATED = -13,   /* the Fourier series did not converge (a spline of samples is needed) */
+    MM_NOT_TABULATED = -13,   /* neither the Fourier series nor 2^16 spline intervals reach the tolerance */
     MM_NO_MEMORY = -14,
     MM_TOO_MANY_SWITCHES = -15,
     MM_NOT_FINITE = -16       /* a function of the table is not finite, or beyond 1e150 (index: its row) */
@@ -148,6 +148,12 @@ typedef struct {
     double *coordinate_winding;      /* whole turns per crank turn of each coordinate */
     int *reaction_kept;              /* components x terms: 0 where a term is zero to round-off */
     int have_quantity_winding, have_reaction_mask;
+    /* a table that cannot be built (MM_NOT_TABULATED): the function's row is error_index, its
+     * checked error error_value, where it changes fastest error_angle (rad), by error_step
+     * between two of the last samples; error_jumps: that step is over 1e3 times the median's
+     * (a discontinuity in phi1, not a dead point) */
+    double error_step;
+    int error_jumps;
 } mm_model;
 
 /* a model of the program at the parameter values (its first registers): SETUP run, the checks,
@@ -163,7 +169,9 @@ int mm_prepare(mm_model *model);
 int mm_rows(const mm_model *model, int table);
 int mm_engine(mm_model *model, int table, const double *phi1, int n, double *out);
 /* a table: periodic cubics (rows, m, 4) to tolerance, by the Fourier series of the engine's
- * samples; *m_out its intervals, *error the checked bound. The cubics are malloc'd (*cubics). */
+ * samples, else by the periodic cubic spline of up to 2^16 samples (kept where its error is within
+ * 1e-8 when 2^16 do not reach the tolerance); *m_out its intervals, *error the checked bound,
+ * *n_series the series' samples (0: the spline's). The cubics are malloc'd (*cubics). */
 int mm_tabulate(mm_model *model, int table, double tolerance, double **cubics, int *m_out, double *error,
                 int *n_series);
 

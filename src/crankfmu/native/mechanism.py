@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ctypes
 import time
+import weakref
 
 import numpy as np
 
@@ -33,7 +34,7 @@ ERRORS = {
     -10: "a value is negative or not finite",
     -11: "a rocker load's link does not have two extreme positions per crank turn",
     -12: "a direction-dependent load's coordinate never changes direction",
-    -13: "the Fourier series of the functions does not converge (a spline of samples is needed)",
+    -13: "a function of the table cannot be tabulated to its tolerance with 65536 intervals",
     -14: "out of memory",
     -15: "too many switch angles",
     -16: "a function of the table is not finite (or beyond 1e150)",
@@ -62,7 +63,7 @@ class MMModel(ctypes.Structure):
                 ("n_switches", ctypes.c_int), ("switches", ctypes.c_double * 64), ("forces", D),
                 ("worst_conditioning", ctypes.c_double), ("worst_angle", ctypes.c_double), ("scan", D),
                 ("coordinate_winding", D), ("reaction_kept", I), ("have_quantity_winding", ctypes.c_int),
-                ("have_reaction_mask", ctypes.c_int)]
+                ("have_reaction_mask", ctypes.c_int), ("error_step", ctypes.c_double), ("error_jumps", ctypes.c_int)]
 
 
 class MechanismError(Exception):
@@ -143,6 +144,15 @@ class CModel:
         if lib is not None:
             lib.mm_free(ctypes.byref(self._model))
 
+    def found(self) -> dict[int, dict[str, float]]:
+        """What the loads' searches found, by the load's index in the scenario file: a rocker's
+        extremes {"phi1d", "phi1a"} (rad), a slider's {"low", "high"} (m) (Program.found)."""
+        r = np.ctypeslib.as_array(self._model.registers, (self.program.n_registers,))
+        out: dict[int, dict[str, float]] = {}
+        for index, name, register in self.program.found:
+            out.setdefault(index, {})[name] = float(r[register])
+        return out
+
     @property
     def worst_conditioning(self) -> tuple[float, float]:
         """(worst conditioning over the turn, crank angle rad where it is)."""
@@ -191,9 +201,15 @@ class CModel:
         self._raise(self._lib.mm_tabulate(ctypes.byref(self._model), table, tolerance, ctypes.byref(cubics),
                                           ctypes.byref(m), ctypes.byref(error), ctypes.byref(n)))
         rows = self._lib.mm_rows(ctypes.byref(self._model), table)
-        try:
-            coefficients = np.ctypeslib.as_array(cubics, (rows * m.value * 4,)).reshape(rows, m.value, 4).copy()
-        finally:
+        if rows * m.value:
+            # the C buffer itself, not a copy (a table is up to a few MB): freed with the array
+            flat = np.ctypeslib.as_array(cubics, (rows * m.value * 4,))
+            weakref.finalize(flat, self._lib.mm_release, cubics)
+            coefficients = flat.reshape(rows, m.value, 4)
+        else:
             self._lib.mm_release(cubics)
+            coefficients = np.zeros((rows, m.value, 4))
+        if n.value == 0:
+            return coefficients, error.value, f"cubic spline of {m.value} samples, in C"
         return (coefficients, error.value,
                 f"Fourier series of {n.value} samples, Hermite cubics on {m.value} intervals, in C")

@@ -175,8 +175,14 @@ static int refuse_design(const Model* m, const char* call, int status, const dou
         return cm_fail(m, "%s: %s: a slider force's point, or a direction-dependent load's coordinate, never reverses "
                        "over the turn", call, MECHANISM_NAME);
     case MM_NOT_TABULATED:
-        return cm_fail(m, "%s: %s: the tables cannot be built to their tolerance at these values: a function is too "
-                       "steep (a dead point near) or jumps; the Python FMU tabulates it otherwise", call, MECHANISM_NAME);
+        if (mm->error_jumps)
+            return cm_fail(m, "%s: %s: function %d of the tables cannot be tabulated with 65536 intervals (error %.2g): "
+                           "it jumps by %.4g near phi1 = %.3f deg, a discontinuity in the crank angle (a closed form's "
+                           "branch cut?), not a dead point", call, MECHANISM_NAME, mm->error_index, mm->error_value,
+                           mm->error_step, at);
+        return cm_fail(m, "%s: %s: function %d of the tables cannot be tabulated with 65536 intervals (error %.2g): it "
+                       "changes fastest near phi1 = %.3f deg; the mechanism is too close to a dead point there", call,
+                       MECHANISM_NAME, mm->error_index, mm->error_value, at);
     case MM_NOT_FINITE:
         return cm_fail(m, "%s: %s: a function of the tables is %g at phi1 = %.3f deg (not finite, or beyond 1e150)",
                        call, MECHANISM_NAME, mm->error_value, at);
