@@ -117,6 +117,24 @@ def test_the_c_model_equals_the_python_engine_point_by_point(name, changed, guid
     # the assembly check's worst conditioning and where it is
     assert abs(c_model.worst_conditioning[0] - model.conditioning) < 1e-9
 
+    # the model the fast path builds on the C model (Scenario.build(table=...)): its loads hold
+    # what the C searches found, the engine's values to rounding; a Python integrator that needs
+    # a slider's reversals searches them then, and finds the engine's schedule
+    fast = scenario.build(table=1e-11)
+    assert getattr(fast.reduced, "c_model", None) is not None
+    assert abs(fast.conditioning - model.conditioning) < 1e-9
+    for ours, theirs in zip(fast.reduced.loads, reduced.loads, strict=True):
+        assert type(ours) is type(theirs)
+        for field in ("phi1d", "phi1a"):
+            if hasattr(theirs, field):
+                assert abs(getattr(ours, field) - getattr(theirs, field)) < 1e-12, field
+        for field in ("low", "high"):
+            if hasattr(theirs, field):
+                assert abs(getattr(ours, field) - getattr(theirs, field)) < 1e-12 * mechanism.length_scale, field
+    fast_switches, fast_forces = fast.reduced.slider_schedule()
+    assert np.allclose(fast_switches, switches, rtol=0, atol=1e-12)
+    assert np.array_equal(fast_forces, forces)
+
 
 @pytest.mark.parametrize("name", ["seed000", "seed001", "seed004", "pumpjack",
                                   str(USER / "whitworth_scenario.toml")], ids=lambda n: Path(n).stem)
@@ -143,8 +161,12 @@ def test_a_geometry_that_does_not_assemble_is_refused_by_both():
         CModel(program, parameter_values(program, scenario.values))
     assert refused.value.code in (-1, -7, -8)
     assert c_table(scenario, scenario.values) is None
-    with pytest.raises(AssemblyError):
+    with pytest.raises(AssemblyError) as engine:
         scenario.build()
+    # the fast path's build, refused by the C model, says what the engine says (with the bound)
+    with pytest.raises(AssemblyError) as fast:
+        scenario.build(table=1e-11)
+    assert str(fast.value) == str(engine.value) and "crank turns fully only for l1 <" in str(engine.value)
 
 
 def test_a_negative_mass_is_refused_naming_the_value():

@@ -145,11 +145,31 @@ class Scenario:
             raise self._explain_assembly(exc, definition) from None
         return mechanism, worst, at
 
-    def build(self) -> "Model":
-        """Mechanism, reduced model, motor and equation of motion for these parameter values."""
+    def build(self, table: float | None = None) -> "Model":
+        """Mechanism, reduced model, motor and equation of motion for these parameter values.
+
+        ``table``: also tabulate the reduced model to this relative tolerance by the C model
+        (dynamics.tabulated.c_table, what table_of then returns). The C model then checks the
+        assembly over the turn and finds the loads' switch angles, by the rules the Python engine
+        states (tests/test_c_model.py compares them), and the Python engine does not do them again:
+        the fast path's model costs the C model's work, not the engine's. Where the C model does
+        not take the scenario or refuses the values, the Python engine builds the model as without
+        ``table`` (and says why it cannot)."""
         values = self.values
         definition = self.mechanism_definition()
-        mechanism, worst, at = self.assembled_mechanism(definition)
+        prepared = table_built = None
+        if table is not None:
+            from .dynamics.tabulated import c_model, c_table
+            prepared = c_model(self, values)
+            table_built = prepared and c_table(self, values, table, prepared)
+            if table_built is None:
+                prepared = None
+        if prepared is None:
+            mechanism, worst, at = self.assembled_mechanism(definition)
+            found = {}
+        else:
+            mechanism = definition.bind(values)
+            (worst, at), found = prepared.worst_conditioning, prepared.found()
         links = []
         for lname, ld in definition.links.items():
             mass = evaluate(ld.mass, values, f"{self.name}: mass of {lname}")
@@ -166,15 +186,20 @@ class Scenario:
                 loads += parse_user_load(spec, mechanism, {l.name for l in links}, values,
                                          f"{self.where}: load {i + 1}")
             else:
-                loads.append(self._make_load(spec, mechanism, links, values))
+                loads.append(self._make_load(spec, mechanism, links, values, found.get(i)))
         from .dynamics.ports import parse_ports
         ports = parse_ports(self.data.get("ports", []), definition, self.where, values)
         reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads, ports)
         reduced.source = (self, values)          # what the C model tabulates it from (table_of)
+        if prepared is not None:
+            from .dynamics.tabulated import keep_table
+            reduced.c_model = prepared           # the output tables are built on it (fmi.slave)
+            keep_table(reduced, table_built)
         # J = J_flywheel + the links' kinetic energy per omega1^2 / 2, a sum of terms >= 0 (masses
         # and inertias were checked >= 0): a flywheel makes it positive at every angle; without
         # one, it is checked on a grid
         J = (np.array([values["J_flywheel"]]) if values["J_flywheel"] > 0
+             else table_built.coefficients[0, :, 0] if table_built is not None
              else reduced.coefficients(np.linspace(0, 2 * math.pi, 721))[0])
         if not np.min(J) > 0:
             raise ParameterError(
@@ -200,12 +225,16 @@ class Scenario:
                         names |= Expression(text).names
         return sorted(names & set(self.parameters))
 
-    def _make_load(self, spec, mechanism: Mechanism, links, values):
+    def _make_load(self, spec, mechanism: Mechanism, links, values, found: dict | None = None):
+        """A load of the file; ``found``: what the C model's searches found for it (CModel.found),
+        taken instead of searching with the Python engine."""
         kind = spec.get("kind")
         if kind == "weights":
             return Weights({l.name: l.mass for l in links}, {l.name: l.centre for l in links}, values["g"])
         if kind == "dead_point_moment":
             amplitude = evaluate(spec["amplitude"], values, f"{self.name}: load amplitude")
+            if found:
+                return DeadPointMoment(spec["link"], amplitude, found["phi1d"], found["phi1a"])
             return DeadPointMoment.from_geometry(mechanism, spec["link"], amplitude)
         if kind in ("viscous_force", "slider_force"):
             axis = {"x": 0, "y": 1}.get(spec.get("axis"))
@@ -224,9 +253,11 @@ class Scenario:
                     or not all(isinstance(v, (int, float)) for v in band) or not 0 <= band[0] < band[1] <= 1):
                 raise DefinitionError(f"{self.where}: slider_force band must be [lo, hi] with "
                                       f"0 <= lo < hi <= 1 (fractions of the stroke), got {band!r}")
-            return SliderForce.from_geometry(
-                mechanism, spec["point"], link, axis, self._load_value(spec, "forward", values, "N"),
-                self._load_value(spec, "backward", values, "N"), tuple(float(v) for v in band))
+            forward, backward = (self._load_value(spec, k, values, "N") for k in ("forward", "backward"))
+            band = tuple(float(v) for v in band)
+            if found:
+                return SliderForce(spec["point"], link, axis, forward, backward, band, found["low"], found["high"])
+            return SliderForce.from_geometry(mechanism, spec["point"], link, axis, forward, backward, band)
         raise DefinitionError(f"{self.where}: unknown load kind {kind!r} (known: weights, dead_point_moment, "
                               f"viscous_force, slider_force, {', '.join(USER_LOADS)})")
 

@@ -209,7 +209,9 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
     if rtol is not None and not (rtol > 0 and math.isfinite(rtol)):
         raise ParameterError(f"rtol must be > 0, got {rtol!r}", "rtol")
     integrator = make_integrator(method, rtol, angle_step)
-    model = scenario.build()
+    # the fast path runs on the C model's table: its assembly check and switch angles are the C
+    # model's too; every other method builds and checks the model with the Python engine
+    model = scenario.build(table=getattr(integrator, "table_tolerance", None))
     if inputs:
         _set_inputs(model.equation, inputs)
     times = None

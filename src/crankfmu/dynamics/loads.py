@@ -100,21 +100,29 @@ class SliderForce:
     band: tuple[float, float] = (0.0, 1.0)
     low: float = 0.0               # m, the slider's extreme positions (needed for the band)
     high: float = 0.0
-    extremes: tuple[float, ...] = ()   # rad, crank angles where the slider reverses
+    # rad, crank angles where the slider reverses; None: not searched yet (a model built on the C
+    # model's searches has low and high from them, and switch_angles searches when a Python
+    # integrator first needs the angles)
+    extremes: tuple[float, ...] | None = None
     position_only = False
     category = TECHNOLOGICAL
 
     @classmethod
     def from_geometry(cls, mechanism: Mechanism, point: str, link: str, axis: int, forward: float,
                       backward: float, band=(0.0, 1.0)) -> "SliderForce":
+        angles = cls.reversals(mechanism, point, axis)
+        x = mechanism.kinematics(np.array(angles)).point(point).along(axis)
+        return cls(point, link, axis, float(forward), float(backward), tuple(band),
+                   float(np.min(x)), float(np.max(x)), angles)
+
+    @staticmethod
+    def reversals(mechanism: Mechanism, point: str, axis: int) -> tuple[float, ...]:
+        """Crank angles (rad) where ``point`` reverses along ``axis``: the roots of dx/dphi1."""
         found = mechanism.stationary_angles(lambda kin: kin.point(point).ratio(axis))
         if not found:
             raise DefinitionError(f"point {point!r} does not move back and forth along "
                                   f"{'xy'[axis]}: a slider force needs a slider")
-        angles = tuple(a for a, _ in found)
-        x = mechanism.kinematics(np.array(angles)).point(point).along(axis)
-        return cls(point, link, axis, float(forward), float(backward), tuple(band),
-                   float(np.min(x)), float(np.max(x)), angles)
+        return tuple(a for a, _ in found)
 
     @property
     def work_per_cycle(self) -> float:
@@ -124,6 +132,8 @@ class SliderForce:
     def switch_angles(self, mechanism: Mechanism) -> list[float]:
         """Crank angles (rad, in [0, 2 pi)) where the force jumps with the crank turning forward:
         the slider's extreme positions and, with a band, where it enters and leaves it."""
+        if self.extremes is None:
+            self.extremes = self.reversals(mechanism, self.point, self.axis)
         angles = list(self.extremes)
         if self.band != (0.0, 1.0):
             stroke = self.high - self.low

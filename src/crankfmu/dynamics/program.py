@@ -75,6 +75,8 @@ class Program:
     column_names: tuple[str, ...] = field(default=())
     #: the parameters the program reads (indices into ``parameters``): the tables depend on these only
     table_parameters: tuple[int, ...] = ()
+    #: what the loads' searches find, (load index in the file, name, register) each (program_loads)
+    found: tuple[tuple[int, str, int], ...] = ()
     # the [[outputs]] and ports' coordinates: (q, q', q'' registers, is an angle) each
     coordinates: np.ndarray = field(default_factory=lambda: np.zeros((0, 4), np.int32))
     coordinate_names: tuple[str, ...] = ()

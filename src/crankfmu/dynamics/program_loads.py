@@ -10,6 +10,9 @@ position   its torque when it depends on the position only (the table's Q row)
 viscous    its torque per omega1 (linear in omega1: the viscous row)
 columns    its switched columns (functions of phi1); values: their values for a direction
 searches   (kind, quantity, aux quantity, registers...) run over the turn before the rows
+found      {name: register} of what the searches find that the Python load holds (a rocker's
+           extremes phi1d and phi1a, a slider's low and high): Scenario.build takes them from
+           the C model instead of searching again
 applied    {term: [(link, point or None, fx, fy, moment registers or None)]}, term "1" (the
            position-only loads), "omega1" (the viscous ones at omega1 = 1) or ("column", j)
 """
@@ -39,7 +42,7 @@ class LoadClauses:
     def _loads_setup(self) -> list[dict]:
         out = []
         for i, spec in enumerate(self.scenario.data.get("loads", [])):
-            kind, at = spec.get("kind"), f"load {i + 1}"
+            kind, at, start = spec.get("kind"), f"load {i + 1}", len(out)
             if kind == "weights":
                 out.append(self._weights())
             elif kind == "dead_point_moment":
@@ -56,6 +59,7 @@ class LoadClauses:
                 out += self._spring_damper(spec, at)
             else:
                 raise Unsupported(f"{at}: load kind {kind!r}")
+            self.found += [(i, name, reg) for load in out[start:] for name, reg in load.get("found", {}).items()]
         return out
 
     def _weights(self):
@@ -93,6 +97,7 @@ class LoadClauses:
             s2 = c.emit("sin", c.mul(half, c.emit("sub", self.phi1, fall)))
             return c.mul(amplitude, s1, s2)
         return {"position": lambda: c.mul(moment(), rate()), "searches": [(ROCKER, rate, None, rise, fall, -1, -1)],
+                "found": {"phi1d": rise, "phi1a": fall},
                 "applied": {"1": lambda: [(link, None, None, None, moment())]}}
 
     def _slider_force(self, spec, axis, at):
@@ -126,7 +131,7 @@ class LoadClauses:
             return [force]
         unit = (self.one, None) if axis == 0 else (None, self.one)
         return {"columns": lambda: [rate()], "values": values, "searches": searches,
-                "column_names": (f"{point}.{'xy'[axis]}",),
+                "found": {"low": low, "high": high}, "column_names": (f"{point}.{'xy'[axis]}",),
                 "applied": {("column", 0): lambda: [(link, point, *unit, None)]}}
 
     def _user_components(self, expressions, at):

@@ -25,6 +25,7 @@ class _Compiler(LoadClauses):
         self.unknowns = list(d.unknowns)
         self.points = list(d.points)
         self.checks: list[tuple[int, str]] = []
+        self.found: list[tuple[int, str, int]] = []
 
     # ---------------------------------------------------------------- registers of the kinematics
     def q(self, name):
@@ -158,7 +159,7 @@ class _Compiler(LoadClauses):
             check_names=tuple(n for _, n in self.checks), row_names=tuple(row_names),
             n_ports=len(self.scenario.data.get("ports", [])),
             column_names=tuple(n for load in loads for n in load.get("column_names", ())),
-            table_parameters=tuple(sorted(c.used)),
+            table_parameters=tuple(sorted(c.used)), found=tuple(self.found),
             coordinates=np.array(coordinates, dtype=np.int32).reshape(-1, 4), coordinate_names=tuple(coordinate_names),
             **reactions,
         )

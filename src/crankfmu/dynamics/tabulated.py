@@ -355,18 +355,20 @@ def table_of(reduced: ReducedModel, tolerance: float = 1e-11) -> ReducedTable:
     tables = _TABLES.setdefault(reduced, {})
     if tolerance not in tables:
         source = getattr(reduced, "source", None)
-        table = c_table(*source, tolerance) if source is not None else None
+        table = c_table(*source, tolerance, getattr(reduced, "c_model", None)) if source is not None else None
         tables[tolerance] = table or tabulate(reduced, tolerance)
     return tables[tolerance]
 
 
-def c_table(scenario, values: dict, tolerance: float = 1e-11) -> ReducedTable | None:
-    """The reduced model's table built by the C model (native/crank_mechanism.c) from the
-    scenario's compiled program at ``values``, with the same constructions and checked bound as
-    :func:`tabulate`; None where the scenario does not compile to it or the C model refuses the
-    values (the Python engine then builds the table, or says why it cannot). With the
-    environment variable CRANKFMU_TABLES=python every table is the Python engine's (the reference
-    path; make bench times a sweep both ways)."""
+def keep_table(reduced: ReducedModel, table: ReducedTable) -> None:
+    """Record ``table`` as the table of ``reduced`` at its tolerance (what table_of then returns)."""
+    _TABLES.setdefault(reduced, {})[table.tolerance] = table
+
+
+def c_model(scenario, values: dict):
+    """The C model (native.mechanism.CModel) of a design, its assembly checked over the turn and
+    its loads' switch angles found; None where the scenario does not compile to it, the C model
+    refuses the values (the Python engine then says why) or CRANKFMU_TABLES=python."""
     if os.environ.get("CRANKFMU_TABLES") == "python":
         return None
     from ..native.mechanism import CModel, MechanismError
@@ -376,31 +378,48 @@ def c_table(scenario, values: dict, tolerance: float = 1e-11) -> ReducedTable | 
     program = compile_scenario(scenario)
     if program is None:
         return None
-    started = time.perf_counter()
     try:
-        model = CModel(program, parameter_values(program, values))
+        return CModel(program, parameter_values(program, values))
+    except MechanismError:
+        return None
+
+
+def c_table(scenario, values: dict, tolerance: float = 1e-11, model=None) -> ReducedTable | None:
+    """The reduced model's table built by the C model (native/crank_mechanism.c) from the
+    scenario's compiled program at ``values`` (or by ``model``, a c_model of them), with the same
+    constructions and checked bound as :func:`tabulate`; None where the scenario does not compile
+    to it or the C model refuses the values (the Python engine then builds the table, or says why
+    it cannot). With the environment variable CRANKFMU_TABLES=python every table is the Python
+    engine's (the reference path; make bench times a sweep both ways)."""
+    from ..native.mechanism import MechanismError
+
+    started = time.perf_counter()
+    model = model or c_model(scenario, values)
+    if model is None:
+        return None
+    try:
         coefficients, switches, forces, error, construction = model.table(tolerance)
     except MechanismError:
         return None
     return ReducedTable(coefficients, switches, forces, error, tolerance, time.perf_counter() - started,
-                        program.column_names, construction, program.n_ports)
+                        model.program.column_names, construction, model.program.n_ports)
 
 
-def c_output_tables(scenario, values: dict, quantities, tolerance: float, reaction_tolerance: float, reactions: bool):
-    """(QuantityTable or None, ReactionTable or None) of a design built by the C model, as
-    tabulate_quantities and tabulate_reactions build them (the same constructions and bounds,
-    tests/test_c_model.py); None where the scenario does not compile to it or the C model refuses."""
-    if os.environ.get("CRANKFMU_TABLES") == "python":
+def c_output_tables(scenario, values: dict, quantities, tolerance: float, reaction_tolerance: float, reactions: bool,
+                    model=None):
+    """(QuantityTable or None, ReactionTable or None) of a design built by the C model (``model``, a
+    c_model of these values, or a new one), as tabulate_quantities and tabulate_reactions build them
+    (the same constructions and bounds, tests/test_c_model.py); None where the scenario does not
+    compile to it or the C model refuses."""
+    from ..native.mechanism import QUANTITIES, REACTIONS, MechanismError
+
+    model = model or c_model(scenario, values)
+    if model is None:
         return None
-    from ..native.mechanism import QUANTITIES, REACTIONS, CModel, MechanismError
-    from .program import parameter_values
-    from .program_scenario import compile_scenario
-
-    program = compile_scenario(scenario)
-    if program is None or tuple(dict.fromkeys(q.of for q in quantities)) != program.coordinate_names:
+    program = model.program
+    if tuple(dict.fromkeys(q.of for q in quantities)) != program.coordinate_names:
         return None
     try:
-        model = CModel(program, parameter_values(program, values))
         quantity_table = reaction_table = None
         if quantities:
             coefficients, error, construction = model.cubics(QUANTITIES, tolerance)

@@ -66,7 +66,7 @@ def build_design(scenario, values: dict) -> "Design":
         _DESIGNS[key] = _DESIGNS.pop(key)           # most recent last
         return _DESIGNS[key]
     built = scenario.with_params(**values)
-    model = built.build()
+    model = built.build(table=TABLE_TOLERANCE)
     design = Design(model, table_of(model.reduced, TABLE_TOLERANCE), *output_tables(built, model))
     _DESIGNS[key] = design
     while len(_DESIGNS) > _DESIGNS_KEPT:
@@ -92,7 +92,7 @@ def output_tables(scenario, model) -> tuple:
     reactions = bool(reaction_variables(scenario))
     # by the C model, as the native FMU builds them (the Python engine where it cannot)
     built = c_output_tables(scenario, model.reduced.source[1], quantities, TABLE_TOLERANCE, REACTION_TOLERANCE,
-                            reactions)
+                            reactions, getattr(model.reduced, "c_model", None))
     if built is not None:
         return built
     quantity_table = (tabulate_quantities(model.mechanism, quantities, scenario.mechanism_definition(), TABLE_TOLERANCE)

@@ -45,6 +45,8 @@ class FastIntegrator(Integrator):
     """Dormand-Prince 5(4) in C on the tabulated model, every discontinuity located."""
 
     name = "fast"
+    #: the model this integrator runs is tabulated to this (Scenario.build(table=...))
+    table_tolerance = TABLE_TOLERANCE
 
     def __init__(self, rtol: float | None = None, atol: float | None = None, chunk: int = 4096):
         rtol = DEFAULT_RTOL if rtol is None else rtol
