@@ -84,8 +84,15 @@ class Scenario:
         return self.values[name]
 
     def with_params(self, **values) -> "Scenario":
-        """A copy with parameters overridden by name; each value is range-checked now."""
-        return Scenario(self.data, self.where, self.path, {**self.overrides, **values})
+        """A copy with parameters overridden by name; each value is range-checked now. The file's
+        parsed parameters and experiment are shared, not parsed again (a sweep makes one copy per
+        design)."""
+        copy = object.__new__(Scenario)
+        copy.__dict__.update(self.__dict__)
+        copy.overrides = dict(self.overrides)
+        for k, v in values.items():
+            copy.overrides[k] = copy._param(k).check(v)
+        return copy
 
     def __repr__(self) -> str:
         extra = f", overrides={self.overrides}" if self.overrides else ""
