@@ -40,6 +40,7 @@ from ..errors import CrankfmuError
 from .. import units as si
 from ..atomic import replacing
 from . import documentation
+from .background import reference_beside
 from . import cushion as cushion_core
 from . import drive as drive_core
 from . import rodstring as rodstring_core
@@ -596,7 +597,9 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
     name = source.fmu
     dest.mkdir(parents=True, exist_ok=True)
     out = dest / f"{name}.fmu"
-    with tempfile.TemporaryDirectory() as tmp, ExitStack() as written:
+    # the reference run from now on, beside the packing and the shim's compiler (fmi.background)
+    with tempfile.TemporaryDirectory() as tmp, ExitStack() as written, \
+            reference_beside(source.reference) as reference_text:
         # the package travels under a private name (see slave_script.py.in)
         private = Path(tmp) / "pkg" / f"crankfmu_{name}"
         script_dir = Path(tmp) / "script"
@@ -625,7 +628,7 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
         with stage(name, "compiling the linux64 shim"):
             shim = compile_shim(name, Path(tmp) / f"{name}.so")
         with stage(name, "the reference run of the default experiment"):
-            reference = source.reference() if source.reference else None
+            reference = reference_text()
         with stage(name, "finding pythonfmu's platform binaries"):
             platform_binaries = pythonfmu_binaries()
         binary = f"binaries/linux64/{name}.so"

@@ -49,6 +49,7 @@ from ..dynamics.program import MIN_CONDITIONING
 from ..errors import CrankfmuError
 from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
 from ..native.sources import CFLAGS, HERE as NATIVE, KERNEL as KERNEL_SOURCES, MECHANISM as MECHANISM_SOURCES
+from .background import reference_beside
 from .build import (LS_REF, LS_REF_MANIFEST, NATIVE_USER_FILES, cross_check_options, preflight, stage,
                     vendor_annotations)
 from .speed import NOT_DECLARED
@@ -552,13 +553,19 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
         raise CrankfmuError(f"--fmi-version must be one of {', '.join(v.removesuffix('.0') for v in FMI_VERSIONS)}, "
                             f"got {fmi_version!r}")
     source = preflight("scenario", data_name, name, causality, values)
+    # the reference run from now until the FMU is written, beside the tables and the compilers
+    with reference_beside(source.reference) as reference_text:
+        return _build_native(source, data_name, dest, win64, fmi_version, reference_text)
+
+
+def _build_native(source, data_name, dest: Path, win64, fmi_version: str, reference_text) -> Path:
     fmu = source.fmu
     with stage(fmu, "compiling the model and checking its tables"):
         model = NativeModel(source, data_name, source.causality)
     computed = {}
 
-    def reference():                # run while the binaries compile (package_native)
-        computed["csv"] = source.reference()
+    def reference():                # the background run's text (package_native waits for it)
+        computed["csv"] = reference_text()
         extra[f"{LS_REF}/{fmu}_out.csv"] = computed["csv"]
         return computed["csv"]
     extra = {**{f"{NATIVE_USER_FILES}/{path}": text for path, text in source.files.items()},   # a user's files
