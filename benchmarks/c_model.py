@@ -4,7 +4,9 @@
 
 - each packaged scenario's model build and tabulation: the C model (dynamics.tabulated.c_table:
   bind the compiled program, check the assembly, find the switch angles, tabulate) against the
-  Python engine's (Scenario.build, then tabulated.tabulate) of the same table, median ms;
+  Python engine's (Scenario.build, then tabulated.tabulate) of the same table, median ms; and
+  every table a native FMU builds at initialisation (with the [[outputs]] and the joint
+  reactions: c_output_tables against slave.output_tables on the Python engine);
 - a steady-cycle sweep of seed 000 designs that differ in geometry (l1, l2, l3: every design its
   own table) on Dask with two workers, designs per second on the C tables against the Python
   engine's (CRANKFMU_TABLES=python, today's path before the C model), on the same designs;
@@ -42,18 +44,47 @@ def median_ms(run, repeats: int) -> float:
 
 
 def tabulation(repeats: int) -> list[dict]:
-    from crankfmu.dynamics.tabulated import c_table, tabulate
+    """Per scenario: the reduced table (the movement equation's), and every table a native FMU
+    builds at initialisation (the reduced one, the [[outputs]] and ports' kinematics, the joint
+    reactions' terms), each with the model build and checks before it, C against Python."""
+    from crankfmu.dynamics.tabulated import c_model, c_output_tables, c_table, tabulate
+    from crankfmu.fmi.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, output_quantities, output_tables, \
+        reaction_variables
     from crankfmu.scenario import load_scenario
+
+    def python_all(scenario):
+        saved = os.environ.get("CRANKFMU_TABLES")
+        os.environ["CRANKFMU_TABLES"] = "python"
+        try:
+            model = scenario.build()
+            tabulate(model.reduced, TABLE_TOLERANCE)
+            output_tables(scenario, model)
+        finally:
+            os.environ.pop("CRANKFMU_TABLES")
+            if saved is not None:
+                os.environ["CRANKFMU_TABLES"] = saved
+
+    def c_all(scenario, quantities, reactions):
+        # one model checked once, its three tables: what the native FMU's initialisation does
+        model = c_model(scenario, scenario.values)
+        table = c_table(scenario, scenario.values, TABLE_TOLERANCE, model)
+        c_output_tables(scenario, scenario.values, quantities, TABLE_TOLERANCE, REACTION_TOLERANCE, reactions,
+                        model)
+        return table
 
     rows = []
     for name in SCENARIOS:
         scenario = load_scenario(name)
         values = scenario.values
+        quantities, reactions = output_quantities(scenario), bool(reaction_variables(scenario))
         python = median_ms(lambda: tabulate(scenario.build().reduced, 1e-11), repeats)
         table = c_table(scenario, values, 1e-11)
         c = median_ms(lambda: c_table(scenario, values, 1e-11), repeats)
+        python_every = median_ms(lambda: python_all(scenario), max(3, repeats // 3))
+        c_every = median_ms(lambda: c_all(scenario, quantities, reactions), repeats)
         rows.append({"scenario": name, "python_ms": python, "c_ms": c, "ratio": python / c,
-                     "intervals": table.n_intervals, "error": table.error_bound})
+                     "intervals": table.n_intervals, "error": table.error_bound,
+                     "python_all_ms": python_every, "c_all_ms": c_every, "ratio_all": python_every / c_every})
     return rows
 
 
@@ -141,12 +172,16 @@ def measure(quick: bool) -> dict:
 
 def report(result: dict) -> list[str]:
     lines = ["## The model in C (issue 38)", "",
-             "Model build and tabulation at initialisation, median of one run:", "",
-             "| scenario | Python build + tabulation (ms) | C (ms) | ratio | intervals | checked error |",
-             "|---|---|---|---|---|---|"]
+             "Model build and tabulation at initialisation, median of one run: the reduced table (the "
+             "movement equation's), and every table a native FMU builds (with its [[outputs]] and joint "
+             "reactions):", "",
+             "| scenario | reduced: Python build + tabulation (ms) | C (ms) | ratio | intervals | checked error | "
+             "every table: Python (ms) | C (ms) | ratio |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in result["tabulation"]:
         lines.append(f"| {r['scenario']} | {r['python_ms']:.2f} | {r['c_ms']:.2f} | {r['ratio']:.1f}x | "
-                     f"{r['intervals']} | {r['error']:.1e} |")
+                     f"{r['intervals']} | {r['error']:.1e} | {r['python_all_ms']:.1f} | {r['c_all_ms']:.1f} | "
+                     f"{r['ratio_all']:.1f}x |")
     s = result["sweep"]
     lines += ["", f"Steady sweep of seed 000 over l1, l2, l3 (every design its own table) on Dask, "
                   f"{s['cores']} cores: C tables {s['c']['designs']} designs in {s['c']['seconds']:.1f} s "
