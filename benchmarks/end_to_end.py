@@ -158,17 +158,20 @@ def c_rk4_limit(values: dict, y0, grid, truth, target: float, repeats: int = 20)
 # ------------------------------------------------------------------ simulate() and its breakdown
 def simulate_breakdown(name: str, repeats: int) -> dict:
     """simulate(load_scenario(name), method="fast") end to end in this (warm) process, and the
-    median time of each stage run alone: files, model, table, kernel; the outputs are the rest."""
+    median time of each stage run alone: files, model (the fast path's Scenario.build(table=...)
+    without its table), table (the C model's: assembly check, searches, tabulation), kernel; the
+    outputs are the rest."""
     import crankfmu
-    from crankfmu.dynamics.tabulated import tabulate
+    from crankfmu.dynamics.tabulated import c_table
     from crankfmu.integrators.fast import TABLE_TOLERANCE, FastIntegrator
     from crankfmu.scenario import load_scenario
 
     crankfmu.simulate(load_scenario(name), method="fast")                  # compile and warm up
     result, total = median_time(lambda: crankfmu.simulate(load_scenario(name), method="fast"), repeats)
     scenario, files = median_time(lambda: load_scenario(name), repeats)
-    model, build = median_time(scenario.build, repeats)
-    _, table = median_time(lambda: tabulate(model.reduced, TABLE_TOLERANCE), repeats)
+    model, built = median_time(lambda: scenario.build(table=TABLE_TOLERANCE), repeats)
+    _, table = median_time(lambda: c_table(scenario, scenario.values, TABLE_TOLERANCE), repeats)
+    build = max(built - table, 0.0)
     times = result.time
     integrator = FastIntegrator()
     _, kernel = median_time(lambda: integrator.run(model.equation, float(times[0]), model.y0, float(times[-1]),
