@@ -20,6 +20,20 @@ def test_unknown_parameter_lists_the_valid_names(scenario):
     assert info.value.parameter == "l9"
 
 
+def test_copies_with_other_values_are_independent_and_checked_on_each_copy(scenario):
+    """with_params shares the file's parsed parameters (a sweep makes a copy per design), not the
+    overrides: each copy keeps its own values, and a refused value leaves the copy it came from as
+    it was."""
+    a = scenario.with_params(l1=0.21)
+    b = a.with_params(l2=0.51)
+    with pytest.raises(ParameterError, match="l3 = -1.0 is out of range"):
+        b.with_params(l3=-1.0)
+    assert scenario.values["l1"] == 0.2 and "l1" not in scenario.overrides
+    assert (a.values["l1"], a.values["l2"]) == (0.21, 0.5)
+    assert (b.values["l1"], b.values["l2"], b.values["l3"]) == (0.21, 0.51, 0.55)
+    assert b.parameters is scenario.parameters and b.overrides is not a.overrides
+
+
 @pytest.mark.parametrize("name, value, expected", [
     ("l1", 0.0, r"l1 = 0.0 is out of range: valid range \(0, inf\) m"),
     ("l2", -0.5, r"l2 = -0.5 is out of range: valid range \(0, inf\) m"),
