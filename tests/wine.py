@@ -4,17 +4,22 @@ process with a fresh HOME and wine prefix."""
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+
+#: held while a remoting session runs: one machine-wide (the pytest workers share /tmp)
+REMOTING_LOCK = Path(tempfile.gettempdir()) / "crankfmu-fmpy-remoting.lock"
 
 #: run by the wine test in a fresh process: the FMU's win64 DLL in fmpy's win64 server under wine
 REMOTE_RUN = """
@@ -87,6 +92,10 @@ def run_win64_under_wine(fmu: Path, tmp_path: Path, fields, start_values=None) -
         # exits when that succeeds, leaving the client waiting forever. Root's override of file
         # permissions makes it succeed at once: run as root without that capability (as any user)
         command = ["setpriv", "--bounding-set=-dac_override,-dac_read_search", "--", *command]
-    returncode = run_in_session(command, env, tmp_path / "remote.log")
+    # fmpy's client and server meet on one fixed localhost port: two sessions at once (two pytest
+    # workers) take each other's connection ("Connection failed", then a hang), so one at a time
+    with open(REMOTING_LOCK, "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        returncode = run_in_session(command, env, tmp_path / "remote.log")
     assert returncode == 0, (tmp_path / "remote.log").read_text()[-3000:]
     return np.load(tmp_path / "remote.npy")
