@@ -367,15 +367,25 @@ static int build_turn(mm_model *m)
 
 /* kinematics into the registers; the signed conditioning into *cond and the contours' largest
  * residual at the positions found into *residual_out (each may be NULL) */
+static int kinematics_of(mm_model *m, double phi1, const double *q, double *cond, double *residual_out);
+
 static int kinematics_at(mm_model *m, double phi1, double *cond, double *residual_out)
+{
+    double q[MAX_Q];
+    int status = positions(m, phi1, q);
+    if (status) { m->error_angle = phi1; return status; }
+    return kinematics_of(m, phi1, q, cond, residual_out);
+}
+
+/* kinematics_at from the positions q at phi1 */
+static int kinematics_of(mm_model *m, double phi1, const double *q, double *cond, double *residual_out)
 {
     const mm_program *p = m->program;
     double *r = m->registers;
     int nq = p->n_q;
-    double q[MAX_Q], dq[MAX_Q], ddq[MAX_Q];
+    double dq[MAX_Q], ddq[MAX_Q];
     term_value t[256];
-    int status = positions(m, phi1, q);
-    if (status) { m->error_angle = phi1; return status; }
+    int status;
     terms_at(m, q, t);
     if (residual_out) *residual_out = residual_max(m, t);
     status = transfer(m, q, t, dq, ddq, cond);
@@ -479,9 +489,13 @@ int mm_bind(mm_model *m, const mm_program *p, const double *parameters, int n_pa
 
 /* ----------------------------------------------------------------------- assembly and searches */
 
+static int scan_angle(mm_model *m, double phi1, int turn_row, int full, double *cond, double *residual);
+
+/* the signed conditioning at phi1 (the positions, not their derivatives) */
 static int conditioning_at(mm_model *m, double phi1, double *cond)
 {
-    return kinematics(m, phi1, cond);
+    double residual;
+    return scan_angle(m, phi1, -1, 0, cond, &residual);
 }
 
 /* the root of the conditioning between a and b (signs differ), by bisection */
@@ -495,6 +509,51 @@ static double dead_point(mm_model *m, double a, double b, double fa)
     return 0.5 * (a + b);
 }
 
+/* the signed conditioning at solved positions q (transfer's, without its solves) */
+static int conditioning_of(const mm_model *m, const term_value *t, double *cond)
+{
+    const mm_program *p = m->program;
+    int nq = p->n_q, n = nq - 1;
+    double J[MAX_Q * MAX_Q], Ju[MAX_Q * MAX_Q];
+    if (n == 0) { *cond = 1.0; return MM_OK; }
+    jacobian(m, t, J);
+    unknown_block(nq, J, Ju);
+    double norms = 1.0;
+    for (int j = 0; j < n; ++j) {
+        double norm = 0.0;
+        for (int i = 0; i < n; ++i) norm += Ju[i * n + j] * Ju[i * n + j];
+        norms *= sqrt(norm);
+    }
+    int piv[MAX_Q];
+    double det;
+    int regular = lu_factor(n, Ju, piv, &det);
+    *cond = det / norms;
+    return regular ? MM_OK : MM_SINGULAR;
+}
+
+/* one angle of the assembly scan: its residual and signed conditioning, and with ``full`` its
+ * kinematics in the registers (what the searches start from). A closed form's positions at one of
+ * the turn table's own angles are that table's row, bit for bit what positions() gives there
+ * (the same closed form at the same angle, moved by the same whole turns): not computed again. */
+static int scan_angle(mm_model *m, double phi1, int turn_row, int full, double *cond, double *residual)
+{
+    const mm_program *p = m->program;
+    double q[MAX_Q];
+    if (turn_row >= 0 && p->closed_form && m->have_turn && m->turn_start == 0.0)
+        memcpy(q, m->turn + (size_t)turn_row * p->n_q, sizeof(double) * p->n_q);
+    else {
+        int status = positions(m, phi1, q);
+        if (status) { m->error_angle = phi1; return status; }
+    }
+    if (full) return kinematics_of(m, phi1, q, cond, residual);
+    term_value t[256];
+    terms_at(m, q, t);
+    *residual = residual_max(m, t);
+    int status = conditioning_of(m, t, cond);
+    if (status) m->error_angle = phi1;
+    return status;
+}
+
 /* coarse: every 0.5 deg instead of 0.25 (the bisection for a geometry's bound, as the engine's) */
 static int check_assembly(mm_model *m, int coarse)
 {
@@ -506,13 +565,15 @@ static int check_assembly(mm_model *m, int coarse)
     double residual = 0.0;
     int status = MM_OK;
     int width = kinematics_width(p);
+    /* the turn table's angles are every MM_TURN_POINTS-th of the turn: every other scan angle */
+    const int per_row = points / MM_TURN_POINTS;
     for (int i = 0; i < points && status == MM_OK; ++i) {
         /* with the residual of the positions found (a closed form must satisfy the contours) */
         double res;
-        status = kinematics_at(m, i * h, signed_ + i, &res);
+        int kept = !coarse && i % 2 == 0;          /* every other scan angle: where the searches start */
+        status = scan_angle(m, i * h, i % per_row == 0 ? i / per_row : -1, kept, signed_ + i, &res);
         if (status) break;
-        if (!coarse && i % 2 == 0)      /* every other scan angle: where the searches start */
-            memcpy(m->scan + (i / 2) * width, m->registers + p->phi1, sizeof(double) * width);
+        if (kept) memcpy(m->scan + (i / 2) * width, m->registers + p->phi1, sizeof(double) * width);
         if (!(res <= residual)) residual = res;
     }
     if (status) { free(signed_); return status; }
