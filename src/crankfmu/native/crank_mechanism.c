@@ -198,33 +198,41 @@ static int newton(mm_model *m, double *q)
     return residual_max(m, t) <= 1e3 * tol ? MM_OK : MM_NO_CONVERGENCE;
 }
 
-/* q', q'' at solved positions q (and the terms there); the signed conditioning into *cond */
-static int transfer(const mm_model *m, const double *q, const term_value *t, double *dq, double *ddq, double *cond)
+/* the contours' Jacobian J (2k x n_q) at the terms t and the LU factors of its unknowns' block Ju
+ * (pivots piv); the signed conditioning into *cond (may be NULL): the det of the column-normalised
+ * block, 1 for orthogonal columns, 0 at a dead point, det(Ju D) = det(Ju) prod D from the same
+ * factors as the solves. MM_SINGULAR where Ju is singular; n_q = 1 (no unknown) is regular. */
+static int factor_unknowns(const mm_model *m, const term_value *t, double *J, double *Ju, int *piv, double *cond)
 {
-    const mm_program *p = m->program;
-    int nq = p->n_q, n = nq - 1, k = p->n_contours;
-    double J[MAX_Q * MAX_Q], Ju[MAX_Q * MAX_Q], rhs[2 * MAX_Q];
-    (void)q;
+    int nq = m->program->n_q, n = nq - 1;
     jacobian(m, t, J);
     unknown_block(nq, J, Ju);
-    dq[0] = 1.0;
-    ddq[0] = 0.0;
     if (n == 0) { if (cond) *cond = 1.0; return MM_OK; }
     double norms = 1.0;
     if (cond) {
-        /* the conditioning is the det of the column-normalised block: 1 for orthogonal columns, 0 at
-         * a dead point; det(Ju D) = det(Ju) prod D, from the same factors as the solves */
         for (int j = 0; j < n; ++j) {
             double norm = 0.0;
             for (int i = 0; i < n; ++i) norm += Ju[i * n + j] * Ju[i * n + j];
             norms *= sqrt(norm);
         }
     }
-    int piv[MAX_Q];
     double det;
     int regular = lu_factor(n, Ju, piv, &det);
     if (cond) *cond = det / norms;
-    if (!regular) return MM_SINGULAR;
+    return regular ? MM_OK : MM_SINGULAR;
+}
+
+/* q', q'' at solved positions (their terms t); the signed conditioning into *cond (may be NULL) */
+static int transfer(const mm_model *m, const term_value *t, double *dq, double *ddq, double *cond)
+{
+    const mm_program *p = m->program;
+    int nq = p->n_q, n = nq - 1, k = p->n_contours;
+    double J[MAX_Q * MAX_Q], Ju[MAX_Q * MAX_Q], rhs[2 * MAX_Q];
+    int piv[MAX_Q];
+    int status = factor_unknowns(m, t, J, Ju, piv, cond);
+    dq[0] = 1.0;
+    ddq[0] = 0.0;
+    if (n == 0 || status) return status;
     for (int i = 0; i < n; ++i) rhs[i] = -J[i * nq];
     lu_solve(n, Ju, piv, rhs);
     for (int j = 0; j < n; ++j) dq[j + 1] = rhs[j];
@@ -296,7 +304,7 @@ static int newton_positions(mm_model *m, double phi1, double *q)
     double dq[MAX_Q], ddq[MAX_Q];
     term_value t[256];
     terms_at(m, base, t);
-    int status = transfer(m, base, t, dq, ddq, NULL);
+    int status = transfer(m, t, dq, ddq, NULL);
     if (status) return status;
     for (int j = 0; j < nq; ++j) q[j] = base[j] + dphi * dq[j] + 0.5 * dphi * dphi * ddq[j];
     q[0] = phi1;
@@ -341,7 +349,7 @@ static int build_turn(mm_model *m)
         for (int i = 1; i <= MM_TURN_POINTS; ++i) {
             double *prev = m->turn + (i - 1) * nq, *next = prev + nq;
             terms_at(m, prev, t);
-            status = transfer(m, prev, t, dq, ddq, NULL);
+            status = transfer(m, t, dq, ddq, NULL);
             if (status) { m->error_angle = prev[0]; return status; }
             for (int j = 0; j < nq; ++j) next[j] = prev[j] + h * dq[j] + 0.5 * h * h * ddq[j];
             next[0] = m->turn_start + i * h;
@@ -388,7 +396,7 @@ static int kinematics_of(mm_model *m, double phi1, const double *q, double *cond
     int status;
     terms_at(m, q, t);
     if (residual_out) *residual_out = residual_max(m, t);
-    status = transfer(m, q, t, dq, ddq, cond);
+    status = transfer(m, t, dq, ddq, cond);
     if (status) { m->error_angle = phi1; return status; }
     r[p->phi1] = phi1;
     double *u = r + p->kinematics;
@@ -509,26 +517,12 @@ static double dead_point(mm_model *m, double a, double b, double fa)
     return 0.5 * (a + b);
 }
 
-/* the signed conditioning at solved positions q (transfer's, without its solves) */
+/* the signed conditioning at solved positions (their terms t): transfer's, without its solves */
 static int conditioning_of(const mm_model *m, const term_value *t, double *cond)
 {
-    const mm_program *p = m->program;
-    int nq = p->n_q, n = nq - 1;
     double J[MAX_Q * MAX_Q], Ju[MAX_Q * MAX_Q];
-    if (n == 0) { *cond = 1.0; return MM_OK; }
-    jacobian(m, t, J);
-    unknown_block(nq, J, Ju);
-    double norms = 1.0;
-    for (int j = 0; j < n; ++j) {
-        double norm = 0.0;
-        for (int i = 0; i < n; ++i) norm += Ju[i * n + j] * Ju[i * n + j];
-        norms *= sqrt(norm);
-    }
     int piv[MAX_Q];
-    double det;
-    int regular = lu_factor(n, Ju, piv, &det);
-    *cond = det / norms;
-    return regular ? MM_OK : MM_SINGULAR;
+    return factor_unknowns(m, t, J, Ju, piv, cond);
 }
 
 /* one angle of the assembly scan: its residual and signed conditioning, and with ``full`` its

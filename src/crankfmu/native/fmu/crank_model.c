@@ -545,6 +545,7 @@ int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* val
     reads.have_quantities = reads.have_reactions = 0;
     const Model* source = m;
     Model preview;
+    int tables_checked = 0;                 /* once per call, at its first computed variable */
     for (size_t i = 0; i < n; i++) {
         if (vr[i] >= N_VARIABLES) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
         int k = (int)vr[i];
@@ -556,12 +557,14 @@ int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* val
             value[i] = VARIABLES[k].start;
             continue;
         }
-        /* the tables of the values the state holds (an FMU state of another design, or a design
-         * refused since): built again, or the read refused */
-        if (m->now.phase >= CM_STEPPING && ensure_tables(m, call) != CM_OK) return CM_ERROR;
+        /* the tables of the values the state holds (an FMU state of another design, a design
+         * refused since, or in initialisation the start values): built again, or the read refused */
+        if (!tables_checked && (m->now.phase >= CM_STEPPING || m->now.phase == CM_INITIALIZATION)) {
+            if (ensure_tables(m, call) != CM_OK) return CM_ERROR;
+            tables_checked = 1;
+        }
         if (m->now.phase == CM_INITIALIZATION && source == m) {
             /* what the start values give, computed on a copy: they may still change */
-            if (ensure_tables(m, call) != CM_OK) return CM_ERROR;
             preview = *m;
             if (m->model_exchange) {
                 me_start(&preview);
