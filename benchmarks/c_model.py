@@ -24,6 +24,7 @@ import statistics
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,21 @@ def median_ms(run, repeats: int) -> float:
     return 1e3 * statistics.median(times)
 
 
+@contextmanager
+def tables(python: bool):
+    """Every table built by the Python engine (CRANKFMU_TABLES=python) or by the C model, inside
+    the block (the Dask workers inherit it); the caller's setting restored after."""
+    saved = os.environ.pop("CRANKFMU_TABLES", None)
+    if python:
+        os.environ["CRANKFMU_TABLES"] = "python"
+    try:
+        yield
+    finally:
+        os.environ.pop("CRANKFMU_TABLES", None)
+        if saved is not None:
+            os.environ["CRANKFMU_TABLES"] = saved
+
+
 def tabulation(repeats: int) -> list[dict]:
     """Per scenario: the reduced table (the movement equation's), and every table a native FMU
     builds at initialisation (the reduced one, the [[outputs]] and ports' kinematics, the joint
@@ -53,16 +69,10 @@ def tabulation(repeats: int) -> list[dict]:
     from crankfmu.scenario import load_scenario
 
     def python_all(scenario):
-        saved = os.environ.get("CRANKFMU_TABLES")
-        os.environ["CRANKFMU_TABLES"] = "python"
-        try:
+        with tables(python=True):
             model = scenario.build()
             tabulate(model.reduced, TABLE_TOLERANCE)
             output_tables(scenario, model)
-        finally:
-            os.environ.pop("CRANKFMU_TABLES")
-            if saved is not None:
-                os.environ["CRANKFMU_TABLES"] = saved
 
     def c_all(scenario, quantities, reactions):
         # one model checked once, its three tables: what the native FMU's initialisation does
@@ -100,18 +110,10 @@ def sweep(side: int) -> dict:
     def run(n, python):
         axes = [SweepAxis("l1", list(np.linspace(0.18, 0.22, n))), SweepAxis("l2", list(np.linspace(0.48, 0.52, n))),
                 SweepAxis("l3", list(np.linspace(0.53, 0.57, n)))]
-        saved = os.environ.get("CRANKFMU_TABLES")
-        if python:
-            os.environ["CRANKFMU_TABLES"] = "python"
-        try:
-            with tempfile.TemporaryDirectory() as tmp:
-                started = time.perf_counter()
-                result = run_sweep(scenario, axes, Path(tmp), resume=False, study="steady", scheduler="local")
-                wall = time.perf_counter() - started
-        finally:
-            os.environ.pop("CRANKFMU_TABLES", None)
-            if saved is not None:
-                os.environ["CRANKFMU_TABLES"] = saved
+        with tables(python), tempfile.TemporaryDirectory() as tmp:
+            started = time.perf_counter()
+            result = run_sweep(scenario, axes, Path(tmp), resume=False, study="steady", scheduler="local")
+            wall = time.perf_counter() - started
         return {"designs": n ** 3, "failed": len(result.failed), "seconds": wall, "per_second": n ** 3 / wall,
                 "rows": {(r["l1"], r["l2"], r["l3"]): r["delta"] for r in result.rows}}
 
