@@ -18,7 +18,7 @@ import pytest
 from crankfmu.dynamics.program import parameter_values
 from crankfmu.dynamics.program_scenario import compile_scenario
 from crankfmu.dynamics.tabulated import _engine_values, _evaluate, c_table, tabulate
-from crankfmu.errors import AssemblyError, SchemeError
+from crankfmu.errors import AssemblyError, DefinitionError, SchemeError
 from crankfmu.native.mechanism import CModel, MechanismError
 from crankfmu.scenario import available_scenarios, load_scenario
 from crankfmu.studies.batch import steady_cycles
@@ -167,6 +167,29 @@ def test_a_geometry_that_does_not_assemble_is_refused_by_both():
     with pytest.raises(AssemblyError) as fast:
         scenario.build(table=1e-11)
     assert str(fast.value) == str(engine.value) and "crank turns fully only for l1 <" in str(engine.value)
+
+
+def test_a_jump_the_determinant_cannot_see_is_refused_by_both_in_the_same_words():
+    """tests/data/user/whitworth_swap.toml at a = 0.3: both loops' branches swap where cos(phi1) <
+    -0.3, so the contours close everywhere and their determinant keeps its sign; the block's
+    distance s3 = +-sqrt(r^2 - 2 r d sin(phi1) + d^2) jumps by twice that root. The engine and the
+    C model refuse it by the same rule (the trapezoid rule on the closed form's transfer functions):
+    the same unknown, jump and angle; the larger of the two swaps, at 360 - acos(-0.3) deg."""
+    scenario = load_scenario(str(USER / "whitworth_swap_scenario.toml"))
+    with pytest.raises(DefinitionError) as engine:
+        scenario.with_params(a=0.3).build()
+    at = 360.0 - math.degrees(math.acos(-0.3))
+    jump = 2.0 * math.sqrt(0.1**2 - 2 * 0.1 * 0.05 * math.sin(math.radians(at)) + 0.05**2)
+    found = re.search(r"the closed form of s3 jumps by ([\d.]+) m at phi1 = ([\d.]+) deg \(a length cannot jump\)",
+                      str(engine.value))
+    assert found, str(engine.value)
+    assert abs(float(found[1]) - jump) < 1e-3 * jump and abs(float(found[2]) - at) < 1e-3
+    program = compile_scenario(scenario)
+    with pytest.raises(MechanismError) as c_model:
+        CModel(program, parameter_values(program, {**scenario.values, "a": 0.3}))
+    assert (c_model.value.code, c_model.value.index) == (-17, 1)               # MM_JUMPS, the first unknown
+    assert found[0].replace(found[1], f"{c_model.value.value:.4g}").replace(
+        found[2], f"{math.degrees(c_model.value.angle):.4f}") == found[0]
 
 
 def test_a_negative_mass_is_refused_naming_the_value():

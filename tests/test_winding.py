@@ -119,6 +119,38 @@ def test_a_closed_form_that_jumps_between_branches_is_refused_by_check(tmp_path,
     assert not (tmp_path / "n").exists()
 
 
+def test_two_loops_that_swap_branches_together_are_refused_by_the_native_fmu_in_the_clis_words(tmp_path):
+    """tests/data/user/whitworth_swap.toml: a jump the contours' determinant cannot see (both loops'
+    branches swap where cos(phi1) < -a). Its native FMU, built where they never swap (a = 1.5),
+    refuses a = 0.3 set by the host with fmi2Error and the CLI's words, logging off (the C model's
+    rule is the engine's: tests/test_c_model.py), and runs again at a = 1.5 after a reset."""
+    from fmpy.fmi1 import FMICallException
+
+    from crankfmu.errors import DefinitionError
+    from fuzz_host import quiet_slave
+
+    path = DATA / "whitworth_swap_scenario.toml"
+    with pytest.raises(DefinitionError) as cli:
+        load_scenario(str(path)).with_params(a=0.3).build()
+    assert "the closed form of s3 jumps by" in str(cli.value)
+    assert main(["fmu", str(path), "--native", "--out", str(tmp_path / "n")]) == 0
+    fmu, vr, messages, keep = quiet_slave(tmp_path / "n" / "WhitworthSwap.fmu", tmp_path / "x", "WhitworthSwap")
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.setReal([vr["a"]], [0.3])
+    with pytest.raises(FMICallException):
+        fmu.exitInitializationMode()
+    assert messages[-1] == f"fmi2ExitInitializationMode: {cli.value}"
+    fmu.reset()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+    assert math.isfinite(fmu.getReal([vr["omega1"]])[0])
+    fmu.terminate()
+    fmu.freeInstance()
+
+
 def test_a_table_that_cannot_be_built_names_the_function_and_its_jump():
     """A function with a jump (what an angle with atan2's cut was before the engine made it
     continuous): no number of intervals follows it, and the message says it jumps, not that the

@@ -301,8 +301,8 @@ class Scenario:
             try:
                 definition.bind({**self.values, name: v}).check_assembly(coarse=True)
                 return True
-            except AssemblyError:
-                return False
+            except (AssemblyError, DefinitionError):  # a closed form that misses the contours or jumps
+                return False                          # does not assemble either (the C model's bound: the same)
 
         if not assembles(good):
             return None

@@ -548,6 +548,88 @@ static int scan_angle(mm_model *m, double phi1, int turn_row, int full, double *
     return status;
 }
 
+/* q' at positions q (raw or unwrapped: whole turns do not change it) into dq */
+static int rates_at(const mm_model *m, const double *q, double *dq)
+{
+    double ddq[MAX_Q];
+    term_value t[256];
+    terms_at(m, q, t);
+    return transfer(m, t, dq, ddq, NULL);
+}
+
+/* the largest trapezoid miss |q(b) - q(a) - (b - a) (q'(a) + q'(b)) / 2| of column j over n intervals
+ * of angles x with positions q and rates dq (rows of n_q); its interval into *at */
+static double worst_miss(int nq, int j, int n, const double *x, const double *q, const double *dq, int *at)
+{
+    double worst = -1.0;
+    for (int i = 0; i < n; ++i) {
+        double miss = fabs(q[(i + 1) * nq + j] - q[i * nq + j] - 0.5 * (x[i + 1] - x[i]) * (dq[i * nq + j] + dq[(i + 1) * nq + j]));
+        if (miss > worst || isnan(miss)) { worst = miss; *at = i; if (isnan(miss)) break; }
+    }
+    return worst;
+}
+
+/* A closed form's unknown that jumps along the turn though the contours close and the conditioning
+ * keeps its sign (two loops' branches swapped at one angle): the engine's rule
+ * (Contour._refuse_jumps), the check's last. Each unknown's increment between neighbouring turn
+ * table angles against the trapezoid rule on its transfer function; the worst interval refined on
+ * 65 angles until its miss closes (a steep but continuous function: it shrinks as h^3) or keeps
+ * its gap however fine (a jump). The rates at the table's angles are the scan's where it kept
+ * them (every other scan angle is a turn table angle), computed where it did not (coarse). */
+static int refuse_jumps(mm_model *m, int coarse)
+{
+    const mm_program *p = m->program;
+    const int nq = p->n_q, rows = MM_TURN_POINTS + 1, width = kinematics_width(p);
+    const double h = TWO_PI / MM_TURN_POINTS;
+    double *x = malloc(sizeof(double) * rows), *dq = malloc(sizeof(double) * rows * nq);
+    int status = (x && dq) ? MM_OK : MM_NO_MEMORY;
+    for (int i = 0; i < rows && status == MM_OK; ++i) {
+        x[i] = i * h;
+        if (!coarse && i < MM_TURN_POINTS) {
+            const double *kept = m->scan + (size_t)i * width + (p->kinematics - p->phi1);
+            dq[i * nq] = 1.0;
+            for (int j = 1; j < nq; ++j) dq[i * nq + j] = kept[3 * (j - 1) + 1];
+        } else if ((status = rates_at(m, m->turn + (size_t)i * nq, dq + i * nq)))
+            m->error_angle = x[i];
+    }
+    for (int j = 1; j < nq && status == MM_OK; ++j) {
+        double scale = p->angle_column[j] ? TWO_PI : fmax(m->length_scale, 1e-300);
+        int i;
+        double gaps[4], lo, hi, gap = 0.0;
+        gaps[0] = worst_miss(nq, j, MM_TURN_POINTS, x, m->turn, dq, &i);
+        lo = x[i];
+        hi = x[i + 1];
+        int n_gaps = 1, closed = 0;
+        for (int it = 0; it < 3 && status == MM_OK; ++it) {
+            double last = gaps[n_gaps - 1];
+            if (last <= 1e-3 * scale || (n_gaps > 1 && last < 0.25 * gaps[n_gaps - 2])) { closed = 1; break; }
+            double fine[65], q[65 * MAX_Q], fine_dq[65 * MAX_Q];
+            for (int k = 0; k < 65 && status == MM_OK; ++k) {
+                fine[k] = k == 64 ? hi : lo + k * ((hi - lo) / 64.0);
+                double *row = q + k * nq;
+                if ((status = closed_positions(m, fine[k], row)) == MM_OK) status = rates_at(m, row, fine_dq + k * nq);
+                if (status) { m->error_angle = fine[k]; break; }
+                for (int c = 1; c < nq && k > 0; ++c)          /* unwrapped along the fine angles */
+                    if (p->angle_column[c]) row[c] += TWO_PI * nearbyint((row[c - nq] - row[c]) / TWO_PI);
+            }
+            if (status) break;
+            gaps[n_gaps++] = worst_miss(nq, j, 64, fine, q, fine_dq, &i);
+            lo = fine[i];
+            hi = fine[i + 1];
+            gap = q[(i + 1) * nq + j] - q[i * nq + j];
+        }
+        if (status == MM_OK && !closed) {
+            m->error_index = j;
+            m->error_value = gap;
+            m->error_angle = lo;
+            status = MM_JUMPS;
+        }
+    }
+    free(x);
+    free(dq);
+    return status;
+}
+
 /* coarse: every 0.5 deg instead of 0.25 (the bisection for a geometry's bound, as the engine's) */
 static int check_assembly(mm_model *m, int coarse)
 {
@@ -608,7 +690,7 @@ static int check_assembly(mm_model *m, int coarse)
         m->error_value = worst_value;
         return MM_LOCKS;
     }
-    return MM_OK;
+    return p->closed_form ? refuse_jumps(m, coarse) : MM_OK;
 }
 
 /* the value a search section gives at phi1 */

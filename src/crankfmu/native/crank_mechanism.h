@@ -67,7 +67,9 @@ enum mm_error {
     MM_NOT_TABULATED = -13,   /* neither the Fourier series nor 2^16 spline intervals reach the tolerance */
     MM_NO_MEMORY = -14,
     MM_TOO_MANY_SWITCHES = -15,
-    MM_NOT_FINITE = -16       /* a function of the table is not finite, or beyond 1e150 (index: its row) */
+    MM_NOT_FINITE = -16,      /* a function of the table is not finite, or beyond 1e150 (index: its row) */
+    MM_JUMPS = -17            /* a closed form's unknown jumps along the turn (index: the unknown's column,
+                               * value: the jump, rad or m; angle: where) */
 };
 
 typedef struct {

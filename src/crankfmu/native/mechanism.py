@@ -38,6 +38,7 @@ ERRORS = {
     -14: "out of memory",
     -15: "too many switch angles",
     -16: "a function of the table is not finite (or beyond 1e150)",
+    -17: "a closed form's unknown jumps along the turn (not a whole turn)",
 }
 
 

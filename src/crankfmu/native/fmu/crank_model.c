@@ -183,6 +183,14 @@ static int refuse_design(const Model* m, const char* call, int status, const dou
         return cm_fail(m, "%s: %s: function %d of the tables cannot be tabulated with 65536 intervals (error %.2g): it "
                        "changes fastest near phi1 = %.3f deg; the mechanism is too close to a dead point there", call,
                        MECHANISM_NAME, mm->error_index, mm->error_value, at);
+    case MM_JUMPS: {
+        int angle = PROGRAM.angle_column[mm->error_index];
+        return cm_fail(m, "%s: %s: the closed form of %s jumps by %.4g %s at phi1 = %.4f deg (%s); write it continuous "
+                       "along the turn, or give a guess instead of a closed form", call, MECHANISM_NAME,
+                       UNKNOWN_NAMES[mm->error_index - 1], mm->error_value, angle ? "rad" : "m",
+                       mm->error_angle * (180.0 / 3.141592653589793),
+                       angle ? "not a whole turn, so it cannot be made continuous" : "a length cannot jump");
+    }
     case MM_NOT_FINITE:
         return cm_fail(m, "%s: %s: a function of the tables is %g at phi1 = %.3f deg (not finite, or beyond 1e150)",
                        call, MECHANISM_NAME, mm->error_value, at);
