@@ -289,3 +289,30 @@ def test_third_party_masters_run_it(master, native, reference):
         got = run.values[name]
         expected = np.interp(run.time, reference.time, getattr(reference, name))
         assert np.max(np.abs(got - expected)) <= 1e-6 * np.max(np.abs(expected)), name
+
+
+def test_a_second_build_takes_the_kernel_and_the_mechanism_model_compiled_from_the_cache(tmp_path, monkeypatch):
+    """The kernel and the mechanism model are the same C for every scenario: compiled once into the
+    per-user cache, then linked into every FMU, though each build copies its sources to a new
+    temporary folder (the object's name is its compiler, flags and content, not that folder's)."""
+    import os
+
+    from crankfmu.fmi import native_build
+    from crankfmu.native.sources import HERE as NATIVE
+
+    monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path / "cache"))
+    compiled = []
+    run = native_build._run
+    monkeypatch.setattr(native_build, "_run", lambda cmd, cc: (compiled.append(cmd), run(cmd, cc))[1])
+    objects = []
+    for build in ("first", "second"):
+        folder = tmp_path / build / "sources"
+        folder.mkdir(parents=True)
+        for name in ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h", "crank_numbers.h"):
+            shutil.copy2(NATIVE / name, folder / name)
+        flags = ["-std=c99", "-O2", "-ffp-contract=off", "-fPIC", "-DCK_API=", f"-I{folder}"]
+        compiled.clear()
+        objects.append(native_build._cached_object("gcc", flags, folder / "crank_kernel.c", ()))
+    assert objects[0] == objects[1] and objects[0].is_file()
+    assert not any("-c" in cmd for cmd in compiled)          # the second build compiled nothing
+    assert os.listdir(tmp_path / "cache" / "objects") == [objects[0].name]

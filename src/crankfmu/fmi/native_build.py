@@ -446,7 +446,9 @@ def _cached_object(compiler: str, flags: list, source: Path, generated) -> Path 
     made = _run([compiler, *flags, "-MM", str(source)], compiler).replace("\\\n", " ").split()[1:]
     if any(Path(dep).name in generated for dep in made):
         return None
-    digest = hashlib.sha256(repr((compiler, flags)).encode())
+    # not the build's own temporary folder of sources (-I): it differs every build, and what the
+    # object depends on in it is hashed below by name and content
+    digest = hashlib.sha256(repr((compiler, [f for f in flags if f != f"-I{source.parent}"])).encode())
     for dep in sorted(made):
         digest.update(Path(dep).name.encode() + b"\0" + Path(dep).read_bytes())
     obj = cache_root() / "objects" / f"{source.stem}_{digest.hexdigest()[:20]}.o"
