@@ -574,15 +574,22 @@ def preflight(kind: str, data_name: str, name: str | None = None, causality: str
     return source
 
 
+class StageFailed(CrankfmuError):
+    """A build's failure, named by the stage it happened in."""
+
+
 @contextmanager
 def stage(fmu: str, what: str):
-    """Name the stage of the build in any failure inside it: the CLI prints one line."""
+    """Name the stage of the build in any failure inside it: the CLI prints one line. A stage inside
+    another (the reference run, waited for by the documentation that plots it) names itself only."""
     try:
         yield
+    except StageFailed:
+        raise
     except CrankfmuError as exc:
-        raise CrankfmuError(f"{fmu}.fmu: {what}: {exc}") from exc
+        raise StageFailed(f"{fmu}.fmu: {what}: {exc}") from exc
     except Exception as exc:        # anything else is a bug or the machine: the message says which stage
-        raise CrankfmuError(f"{fmu}.fmu: {what} failed: {type(exc).__name__}: {exc}") from exc
+        raise StageFailed(f"{fmu}.fmu: {what} failed: {type(exc).__name__}: {exc}") from exc
 
 
 def build(kind: str, data_name: str, dest: Path, name: str | None = None, causality: str | None = None) -> Path:
@@ -627,8 +634,13 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
             slave_units, slave_parameters = declared.units, {p.name: p for p in declared.parameters}
         with stage(name, "compiling the linux64 shim"):
             shim = compile_shim(name, Path(tmp) / f"{name}.so")
-        with stage(name, "the reference run of the default experiment"):
-            reference = reference_text()
+        waited = []
+
+        def reference_run():            # the documentation waits for it once it has drawn the mechanism
+            if not waited:
+                with stage(name, "the reference run of the default experiment"):
+                    waited.append(reference_text())
+            return waited[0]
         with stage(name, "finding pythonfmu's platform binaries"):
             platform_binaries = pythonfmu_binaries()
         binary = f"binaries/linux64/{name}.so"
@@ -642,9 +654,10 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
                     with stage(name, "completing the modelDescription"):
                         data = complete_model_description(data, slave_units, slave_parameters, source)
                     with stage(name, "the documentation"):
-                        docs = source.documentation(name, data, slave_parameters, reference, build="python",
+                        docs = source.documentation(name, data, slave_parameters, reference_run, build="python",
                                                     platforms=sorted(platform_binaries))
                 zout.writestr(item, data)
+            reference = reference_run()
             with stage(name, "writing the FMU"):
                 for platform, library in platform_binaries.items():
                     inner = f"{name}_pythonfmu.so" if platform == "linux64" else f"{name}{library.suffix}"

@@ -250,13 +250,17 @@ the instance stays usable (set a good value, or reset it).</p>"""
 
 
 def scenario_documentation(name: str, scenario, model_description: bytes, parameters: dict,
-                           reference_csv: str | None, speed: bool = False, **about) -> dict[str, bytes]:
+                           reference_csv, speed: bool = False, **about) -> dict[str, bytes]:
     """documentation/ files of a mechanism FMU: index.html, mechanism.png, default_experiment.png.
+    ``reference_csv``: the reference run's CSV, None, or a function that waits for the run (called
+    once the mechanism is drawn: the drawing is made while the run goes on beside it).
     ``speed``: the FMU is speed-causal. ``about``: ``build`` ("python" or "native"), ``platforms``,
     and a native FMU's ``table_error``."""
     definition = scenario.mechanism_definition()
     native = about.get("build") == "native"
     files = {"documentation/mechanism.png": mechanism_png(scenario)}
+    if callable(reference_csv):
+        reference_csv = reference_csv()
     contours = "\n".join(f'<div class="equation">{math(text + " == 0")}<p class="note">contour '
                          f"{html.escape(cname)}</p></div>" for cname, text in definition.contour_sources)
     plot = ""

@@ -489,7 +489,8 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
     (``win64`` None) or asked for; FMI 3.0's aarch64 Linux where its cross compiler is installed);
     the modelDescription ``describe(sources)`` gives; the documentation (its ``about``: the tables'
     error bound); the ``extra`` files (path in the FMU -> text or bytes). ``reference``: the
-    reference CSV, or a function that computes it (called while the compilers run). The FMU replaces
+    reference CSV, or a function that waits for it (the documentation calls it once its drawings,
+    made while the run goes on, are done; else it is called before the FMU is written). The FMU replaces
     ``dest/<identifier>.fmu`` when ``written`` closes without an error."""
     fmu = source.fmu
     if win64 is None:
@@ -520,17 +521,17 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
                 binaries[folder] = Path(tmp) / folder / f"{fmu}{'.dll' if windows else '.so'}"
                 binaries[folder].parent.mkdir()
                 compiling.append((folder, pool.submit(compile_binary, cc, src, binaries[folder], windows, generated)))
-            if callable(reference):
-                with stage(fmu, "the reference run of the default experiment"):
-                    reference = reference()
             for folder, job in compiling:
                 with stage(fmu, f"compiling the {folder} binary"):
                     job.result()
         with stage(fmu, "the modelDescription"):
             md = describe(sources)
         with stage(fmu, "the documentation"):
+            # a mechanism's documentation draws it before it waits for the reference run to plot
             docs = source.documentation(fmu, md, parameters, reference, build="native", platforms=list(binaries),
                                         **about)
+        if callable(reference):             # a documentation without the plot: the run's CSV all the same
+            reference()
         partial = written.enter_context(replacing(out))
         with stage(fmu, "writing the FMU"), zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", md)
@@ -566,9 +567,11 @@ def _build_native(source, data_name, dest: Path, win64, fmi_version: str, refere
         model = NativeModel(source, data_name, source.causality)
     computed = {}
 
-    def reference():                # the background run's text (package_native waits for it)
-        computed["csv"] = reference_text()
-        extra[f"{LS_REF}/{fmu}_out.csv"] = computed["csv"]
+    def reference():                # the background run's text (the documentation waits for it)
+        if "csv" not in computed:
+            with stage(fmu, "the reference run of the default experiment"):
+                computed["csv"] = reference_text()
+            extra[f"{LS_REF}/{fmu}_out.csv"] = computed["csv"]
         return computed["csv"]
     extra = {**{f"{NATIVE_USER_FILES}/{path}": text for path, text in source.files.items()},   # a user's files
              f"{LS_REF}/fmi-ls-manifest.xml": LS_REF_MANIFEST.format(name=fmu)}
