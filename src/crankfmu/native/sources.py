@@ -11,8 +11,10 @@ KERNEL = ("crank_kernel.c", "crank_kernel.h", "crank_modes.h", "crank_tableau.h"
 COMPONENTS = ("crank_components.c", "crank_components.h")
 #: the pumping well as one model: the kernel and the string's steps coupled (crankfmu well runs it)
 WELL = ("crank_well.c", "crank_well.h")
-#: the mechanism model: a scenario's compiled program evaluated, checked and tabulated
-MECHANISM = ("crank_mechanism.c", "crank_mechanism.h")
+#: the mechanism model: a scenario's compiled program evaluated (crank_mechanism.c), checked and
+#: searched (crank_assembly.c), its tables' functions (crank_engine.c) tabulated (crank_tabulator.c)
+MECHANISM = ("crank_mechanism.c", "crank_assembly.c", "crank_engine.c", "crank_tabulator.c", "crank_mechanism.h",
+             "crank_mechanism_internal.h")
 SOURCES = KERNEL + COMPONENTS + WELL + MECHANISM
 #: the C files the library is compiled from (the mechanism's kernel, the components' physics, the well)
 C_FILES = tuple(name for name in SOURCES if name.endswith(".c"))

@@ -1,0 +1,463 @@
+/* The mechanism model's tabulator (crank_mechanism.h's mm_tabulate): a table's functions as periodic
+ * Hermite cubics to a checked tolerance, from the Fourier series of the engine's samples, else from
+ * the periodic cubic spline of up to 2^16 samples (dynamics/tabulated.py's construction). */
+#include "crank_mechanism_internal.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* the twiddles of one transform size, computed once per size (a recurrence would drift by 1e-13
+ * over a 4096-point transform), laid out stage by stage: entry half + k of stage len = 2 half is
+ * e^{-2 pi i k / len}, so a stage reads its twiddles contiguously; and the bit-reversal order */
+typedef struct {
+    int size;
+    double *c, *s;
+    int *reversed;
+} twiddles;
+
+static int twiddles_for(twiddles *w, int size)
+{
+    if (w->size == size) return 1;
+    free(w->c);
+    free(w->s);
+    free(w->reversed);
+    w->c = malloc(sizeof(double) * (size + 1));
+    w->s = malloc(sizeof(double) * (size + 1));
+    w->reversed = malloc(sizeof(int) * (size + 1));
+    w->size = 0;
+    if (!w->c || !w->s || !w->reversed) return 0;
+    /* the last stage's e^{-2 pi i k / size}, k < size/2, from cos and sin on the first eighth of
+     * the turn and the symmetries of the others (exact: a swap and a sign) */
+    int top = size / 2, eighth = size / 8, quarter = size / 4;
+    double *c = w->c + top, *s = w->s + top;
+    for (int k = 0; k < top; ++k) {
+        double co, si;
+        if (size < 8 || k <= eighth) {
+            co = cos(TWO_PI * k / size);
+            si = sin(TWO_PI * k / size);
+        } else if (k <= quarter) {
+            co = sin(TWO_PI * (quarter - k) / size);
+            si = cos(TWO_PI * (quarter - k) / size);
+        } else {                   /* angle pi/2 + x: (-sin x, cos x); s holds -sin */
+            co = s[k - quarter];
+            si = c[k - quarter];
+        }
+        c[k] = co;
+        s[k] = -si;
+    }
+    /* the earlier stages: entry half + k is the last stage's entry k size / (2 half) */
+    for (int half = 1; half < top; half <<= 1)
+        for (int k = 0; k < half; ++k) {
+            w->c[half + k] = c[k * (top / half)];
+            w->s[half + k] = s[k * (top / half)];
+        }
+    for (int i = 0, j = 0; i < size; ++i) {
+        w->reversed[i] = j;
+        int bit = size >> 1;
+        for (; bit && (j & bit); bit >>= 1) j ^= bit;
+        j ^= bit;
+    }
+    w->size = size;
+    return 1;
+}
+
+/* in-place radix-2 complex FFT of length n (a power of two, w its twiddles); inverse: the
+ * conjugate direction, without the 1/n */
+static void fft(double *re, double *im, int n, int inverse, const twiddles *w)
+{
+    for (int i = 0; i < n; ++i) {
+        int j = w->reversed[i];
+        if (i < j) {
+            double t = re[i]; re[i] = re[j]; re[j] = t;
+            t = im[i]; im[i] = im[j]; im[j] = t;
+        }
+    }
+    for (int i = 0; i + 1 < n; i += 2) {          /* the first stage: twiddle 1 */
+        double tr = re[i + 1], ti = im[i + 1];
+        re[i + 1] = re[i] - tr; im[i + 1] = im[i] - ti;
+        re[i] += tr; im[i] += ti;
+    }
+    double sign = inverse ? -1.0 : 1.0;
+    for (int half = 2; half < n; half <<= 1) {
+        const double *wc = w->c + half, *ws = w->s + half;
+        for (int i = 0; i < n; i += 2 * half) {
+            double *ar = re + i, *ai = im + i, *br = ar + half, *bi = ai + half;
+            for (int k = 0; k < half; ++k) {
+                double cr = wc[k], ci = sign * ws[k];
+                double tr = br[k] * cr - bi[k] * ci, ti = br[k] * ci + bi[k] * cr;
+                br[k] = ar[k] - tr; bi[k] = ai[k] - ti;
+                ar[k] += tr; ai[k] += ti;
+            }
+        }
+    }
+}
+
+/* the real-FFT coefficients (n/2 + 1 complex) of n real samples */
+static void rfft(const double *x, int n, double *sr, double *si, double *wr, double *wi, twiddles *tw)
+{
+    for (int i = 0; i < n; ++i) { wr[i] = x[i]; wi[i] = 0.0; }
+    twiddles_for(tw, n);
+    fft(wr, wi, n, 0, tw);
+    for (int k = 0; k <= n / 2; ++k) { sr[k] = wr[k]; si[k] = wi[k]; }
+}
+
+/* the interpolant of n samples (series ar, ai: n/2 + 1) or its derivative at k 2 pi / m + shift
+ * (numerics.series_on_grid): the zero-padded Hermitian spectrum X (m/2 + 1 terms) inverted by one
+ * complex transform of m/2 points, z_j = x_2j + i x_2j+1 = IDFT(E + i O) with
+ * E_k = X_k + conj(X_{m/2-k}), O_k = (X_k - conj(X_{m/2-k})) e^{2 pi i k / m}.
+ * pc, ps: cos and sin of k shift, k <= n/2 (series_t's phases, one set for every row);
+ * xr, xi: the padded spectrum, zero beyond n/2 on entry and on return */
+static void on_grid(const double *ar, const double *ai, int n, int m, const double *pc, const double *ps,
+                    int derivative, double *xr, double *xi, double *re, double *im, twiddles *half,
+                    twiddles *full, double *out)
+{
+    int h = m / 2, top = n / 2 < h ? n / 2 : h;
+    for (int k = 0; k <= top; ++k) {
+        double scale = (double)m / n * (k == n / 2 && m > n ? 0.5 : 1.0);
+        double c = pc[k], s = ps[k];
+        double vr = scale * (ar[k] * c - ai[k] * s), vi = scale * (ar[k] * s + ai[k] * c);
+        if (derivative) { double t = -k * vi; vi = k * vr; vr = t; }
+        xr[k] = vr;
+        xi[k] = vi;
+    }
+    xi[0] = 0.0;
+    xi[h] = 0.0;          /* irfft reads the real part of the Nyquist term */
+    twiddles_for(full, m);
+    /* the full table's stage of length m holds e^{-2 pi i k / m}, k < m/2 */
+    const double *fc = full->c + h, *fs = full->s + h;
+    for (int k = 0; k < h; ++k) {
+        double br = xr[h - k], bi = -xi[h - k];                 /* conj(X_{m/2-k}) */
+        double er = xr[k] + br, ei = xi[k] + bi;
+        double dr = xr[k] - br, di = xi[k] - bi;
+        double wr = fc[k], wi = -fs[k];                         /* e^{+2 pi i k / m} */
+        double orr = dr * wr - di * wi, oi = dr * wi + di * wr;
+        re[k] = er - oi;                                        /* E + i O */
+        im[k] = ei + orr;
+    }
+    for (int k = 0; k <= top; ++k) { xr[k] = 0.0; xi[k] = 0.0; }
+    xr[h] = xi[h] = 0.0;
+    twiddles_for(half, h);
+    fft(re, im, h, 1, half);
+    double inv = 1.0 / m;
+    for (int j = 0; j < h; ++j) {
+        out[2 * j] = re[j] * inv;
+        out[2 * j + 1] = im[j] * inv;
+    }
+}
+
+typedef struct {
+    int rows, n;
+    double *sr, *si;          /* rows x (n/2 + 1) */
+    double *xr, *xi;          /* a padded spectrum, kept zero between uses */
+    double *pc, *ps;          /* cos and sin of k shift, k <= n/2 */
+    twiddles *half, *full;
+} series_t;
+
+static void series_phases(int n, double shift, double *pc, double *ps)
+{
+    for (int k = 0; k <= n / 2; ++k) {
+        pc[k] = cos(k * shift);
+        ps[k] = sin(k * shift);
+    }
+}
+
+/* one row of the series at m angles (+ the shift whose phases pc, ps are), value or derivative */
+static void series_row(const series_t *s, int r, int m, const double *pc, const double *ps, int derivative,
+                       double *re, double *im, double *out)
+{
+    int w = s->n / 2 + 1;
+    on_grid(s->sr + r * w, s->si + r * w, s->n, m, pc, ps, derivative, s->xr, s->xi, re, im, s->half, s->full, out);
+}
+
+/* the series of every row at m angles (+ shift), value or derivative: out rows x m. Each row by
+ * its own transform: two rows packed into one complex transform would leak each other's
+ * rounding, and a row is checked relative to its own scale (an exact zero must stay zero) */
+static void series_values(series_t *s, int m, double shift, int derivative, double *re, double *im, double *out)
+{
+    series_phases(s->n, shift, s->pc, s->ps);
+    for (int r = 0; r < s->rows; ++r) series_row(s, r, m, s->pc, s->ps, derivative, re, im, out + (size_t)r * m);
+}
+
+/* the spline of samples (dynamics.tabulated._from_samples), where the Fourier series does not
+ * converge (a mechanism close to a dead point, a load with a kink in phi1): the C2 periodic cubic
+ * spline of n samples (numerics.periodic_cubic_spline: its second derivatives M from the circulant
+ * [1 4 1] system, solved by one transform each way), n doubling from 256 until the spline agrees
+ * with the engine to tolerance at every interval's midpoint and 0.3 in; with 2^16 intervals, kept
+ * where it is within loosest */
+
+static int from_samples(mm_model *m, int table, double tolerance, double **cubics_out, int *m_out, double *error_out)
+{
+    const int rows = mm_rows(m, table), n_start = 256, n_max = 1 << 16;
+    const double loosest = 1e-8;
+    int status = MM_OK;
+    double *values = NULL, *exact = NULL, *angles = NULL, *cubics = NULL, *re = NULL, *im = NULL, *eigen = NULL;
+    double *errors = NULL;
+    twiddles tw = {0, NULL, NULL, NULL};
+    for (int n = n_start;; n *= 2) {
+        double h = TWO_PI / n;
+        free(values); free(exact); free(angles); free(cubics); free(re); free(im); free(eigen); free(errors);
+        values = malloc(sizeof(double) * rows * n);
+        exact = malloc(sizeof(double) * rows * 2 * n);
+        angles = malloc(sizeof(double) * 2 * n);
+        cubics = malloc(sizeof(double) * rows * n * 4);
+        re = malloc(sizeof(double) * n);
+        im = malloc(sizeof(double) * n);
+        eigen = malloc(sizeof(double) * n);
+        errors = malloc(sizeof(double) * (rows > 0 ? rows : 1));
+        if (!values || !exact || !angles || !cubics || !re || !im || !eigen || !errors || !twiddles_for(&tw, n)) {
+            status = MM_NO_MEMORY;
+            break;
+        }
+        for (int i = 0; i < n; ++i) angles[i] = i * h;
+        if ((status = mm_engine(m, table, angles, n, values))) break;
+        for (int i = 0; i < n; ++i) { angles[i] = (i + 0.5) * h; angles[n + i] = (i + 0.3) * h; }
+        if ((status = mm_engine(m, table, angles, 2 * n, exact))) break;
+        for (int k = 0; k < n; ++k) eigen[k] = 4.0 + 2.0 * cos(TWO_PI * k / n);
+        double error = 0.0;
+        int worst = 0;
+        for (int r = 0; r < rows; ++r) {
+            const double *y = values + (size_t)r * n;
+            double *c = cubics + (size_t)r * n * 4;
+            for (int i = 0; i < n; ++i) {
+                re[i] = 6.0 * (y[(i + 1) % n] - 2.0 * y[i] + y[(i + n - 1) % n]) / (h * h);
+                im[i] = 0.0;
+            }
+            fft(re, im, n, 0, &tw);
+            for (int k = 0; k < n; ++k) { re[k] /= eigen[k]; im[k] /= eigen[k]; }
+            fft(re, im, n, 1, &tw);                     /* M = re / n */
+            double scale = 1e-300;
+            for (int i = 0; i < n; ++i) scale = fmax(scale, fabs(y[i]));
+            for (int i = 0; i < n; ++i) {
+                double M = re[i] / n, M1 = re[(i + 1) % n] / n, y1 = y[(i + 1) % n];
+                c[4 * i] = y[i];
+                c[4 * i + 1] = (y1 - y[i]) / h - h * (2.0 * M + M1) / 6.0;
+                c[4 * i + 2] = 0.5 * M;
+                c[4 * i + 3] = (M1 - M) / (6.0 * h);
+            }
+            double e = 0.0;
+            for (int j = 0; j < 2 * n; ++j) {
+                const double *ci = c + 4 * (j % n);
+                double u = (j < n ? 0.5 : 0.3) * h;
+                double d = fabs(ci[0] + u * (ci[1] + u * (ci[2] + u * ci[3])) - exact[(size_t)r * 2 * n + j]) / scale;
+                if (!(d <= e)) e = d;
+            }
+            errors[r] = e;
+            if (!(e <= error)) { error = e; worst = r; }
+        }
+        if (error <= tolerance || (2 * n > n_max && error <= loosest)) {
+            *cubics_out = cubics;
+            cubics = NULL;
+            *m_out = n;
+            *error_out = error;
+            break;
+        }
+        if (2 * n > n_max) {
+            /* where the worst function changes fastest, and whether that is a jump */
+            const double *y = values + (size_t)worst * n;
+            int k = 0;
+            for (int i = 0; i < n; ++i) {
+                exact[i] = fabs(y[(i + 1) % n] - y[i]);
+                if (exact[i] > exact[k]) k = i;
+            }
+            double step = y[(k + 1) % n] - y[k], largest = exact[k];
+            qsort(exact, (size_t)n, sizeof(double), mm_ascending);
+            double median = 0.5 * (exact[n / 2 - 1] + exact[n / 2]) + 1e-300;
+            m->error_index = worst;
+            m->error_value = error;
+            m->error_angle = k * h;
+            m->error_step = step;
+            m->error_jumps = largest > 1e3 * median;
+            status = MM_NOT_TABULATED;
+            break;
+        }
+    }
+    free(values); free(exact); free(angles); free(cubics); free(re); free(im); free(eigen); free(errors);
+    free(tw.c); free(tw.s); free(tw.reversed);
+    return status;
+}
+
+int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, int *m_out, double *error_out,
+                int *n_series)
+{
+    const int rows = mm_rows(m, table), n_first = 64, n_last = 4096, m_last = 1 << 16;
+    const double budget = 0.5 * tolerance;
+    int n = n_first, status = MM_OK;
+    double last = INFINITY, error = 0.0;
+    /* working memory for the largest case */
+    size_t big = (size_t)(n_last > 8192 ? n_last : 8192);     /* grown with the intervals */
+    double *samples = malloc(sizeof(double) * rows * n_last);
+    double *exact = malloc(sizeof(double) * rows * (n_last + n_last / 4));
+    double *angles = malloc(sizeof(double) * (n_last + n_last / 4) * 2);
+    double *scale = malloc(sizeof(double) * rows);
+    double *re = malloc(sizeof(double) * big), *im = malloc(sizeof(double) * big);
+    double *work = malloc(sizeof(double) * rows * (n_last + n_last / 4));
+    double *phases = malloc(sizeof(double) * 4 * (n_last / 2 + 1));
+    twiddles half = {0, NULL, NULL, NULL}, full = {0, NULL, NULL, NULL}, forward = {0, NULL, NULL, NULL};
+    series_t s = {rows, 0, malloc(sizeof(double) * rows * (n_last / 2 + 1)), malloc(sizeof(double) * rows * (n_last / 2 + 1)),
+                  calloc(big / 2 + 1, sizeof(double)), calloc(big / 2 + 1, sizeof(double)),
+                  malloc(sizeof(double) * (n_last / 2 + 1)), malloc(sizeof(double) * (n_last / 2 + 1)), &half, &full};
+    double *values = NULL, *slopes = NULL, *cubics = NULL;
+    if (!samples || !exact || !angles || !scale || !re || !im || !work || !phases || !s.sr || !s.si || !s.xr || !s.xi || !s.pc ||
+        !s.ps) { status = MM_NO_MEMORY; goto done; }
+
+    /* the first samples and their checks in one engine call */
+    {
+        double h = TWO_PI / n;
+        int c = 0;
+        for (int i = 0; i < n; ++i) angles[c++] = i * h;
+        for (int i = 0; i < n; ++i) angles[c++] = (i + 0.5) * h;
+        for (int i = 0; i < n; i += 4) angles[c++] = (i + 0.3) * h;
+        double *first = malloc(sizeof(double) * rows * c);
+        if (!first) { status = MM_NO_MEMORY; goto done; }
+        status = mm_engine(m, table, angles, c, first);
+        for (int r = 0; r < rows && status == MM_OK; ++r) {
+            memcpy(samples + r * n, first + r * c, sizeof(double) * n);
+            memcpy(exact + r * (c - n), first + r * c + n, sizeof(double) * (c - n));
+        }
+        free(first);
+        if (status) goto done;
+    }
+    for (;;) {
+        double h = TWO_PI / n;
+        int checks = n + n / 4;
+        for (int r = 0; r < rows; ++r) {
+            double big_value = 1e-300;
+            for (int i = 0; i < n; ++i) big_value = fmax(big_value, fabs(samples[r * n + i]));
+            for (int i = 0; i < checks; ++i) big_value = fmax(big_value, fabs(exact[r * checks + i]));
+            scale[r] = big_value;
+        }
+        s.n = n;
+        for (int r = 0; r < rows; ++r)
+            rfft(samples + r * n, n, s.sr + r * (n / 2 + 1), s.si + r * (n / 2 + 1), re, im, &forward);
+        /* the interpolant at the midpoints, and at 0.3 of every fourth interval */
+        series_values(&s, n, 0.5 * h, 0, re, im, work);
+        error = 0.0;
+        for (int r = 0; r < rows; ++r)
+            for (int i = 0; i < n; ++i) {
+                double e = fabs(work[r * n + i] - exact[r * checks + i]) / scale[r];
+                if (!(e <= error)) error = e;
+            }
+        series_values(&s, n, 0.3 * h, 0, re, im, work);
+        for (int r = 0; r < rows; ++r)
+            for (int i = 0; i < n; i += 4) {
+                double e = fabs(work[r * n + i] - exact[r * checks + n + i / 4]) / scale[r];
+                if (!(e <= error)) error = e;
+            }
+        if (error <= budget) break;
+        if (2 * n > n_last || (n >= 4 * n_first && error > 0.25 * last)) { status = MM_NOT_TABULATED; goto spline; }
+        last = error;
+        /* the midpoints become samples */
+        for (int r = 0; r < rows; ++r)
+            for (int i = n - 1; i >= 0; --i) {
+                work[r * 2 * n + 2 * i] = samples[r * n + i];
+                work[r * 2 * n + 2 * i + 1] = exact[r * checks + i];
+            }
+        n *= 2;
+        memcpy(samples, work, sizeof(double) * rows * n);
+        h = TWO_PI / n;
+        int c = 0;
+        for (int i = 0; i < n; ++i) angles[c++] = (i + 0.5) * h;
+        for (int i = 0; i < n; i += 4) angles[c++] = (i + 0.3) * h;
+        if ((status = mm_engine(m, table, angles, c, exact))) goto done;
+    }
+    /* the Hermite cubics of the series on mm intervals, by its bound on the fourth derivative */
+    {
+        double fourth = 0.0;
+        int w = n / 2 + 1;
+        for (int r = 0; r < rows; ++r) {
+            double sum = 0.0;
+            for (int k = 0; k < w; ++k) {
+                double a = hypot(s.sr[r * w + k], s.si[r * w + k]) * (2.0 / n) * (k == 0 ? 0.5 : 1.0);
+                double k2 = (double)k * k;
+                sum += k2 * k2 * a;
+            }
+            fourth = fmax(fourth, sum / scale[r]);
+        }
+        double predicted = TWO_PI * pow(fourth / (384.0 * budget), 0.25);
+        int mm = 1 << (int)nearbyint(log2(fmax(predicted, 1.0)));
+        if (mm < n) mm = n;
+        if (mm > m_last) mm = m_last;
+        for (;;) {
+            double hm = TWO_PI / mm;
+            free(values); free(slopes); free(cubics);
+            values = slopes = cubics = NULL;
+            if ((size_t)mm > big) {
+                big = (size_t)mm;
+                free(re); free(im); free(s.xr); free(s.xi);
+                re = malloc(sizeof(double) * big); im = malloc(sizeof(double) * big);
+                s.xr = calloc(big / 2 + 1, sizeof(double)); s.xi = calloc(big / 2 + 1, sizeof(double));
+                if (!re || !im || !s.xr || !s.xi) { status = MM_NO_MEMORY; goto done; }
+            }
+            /* one row at a time: its values and slopes stay in cache, only the cubics are kept */
+            values = malloc(sizeof(double) * mm);
+            slopes = malloc(sizeof(double) * mm);
+            cubics = malloc(sizeof(double) * rows * mm * 4);
+            if (!values || !slopes || !cubics) { status = MM_NO_MEMORY; goto done; }
+            double cubic_error = pow(hm, 4) / 384.0 * fourth;
+            /* the bound is pessimistic: where it exceeds the budget, measure at the midpoints */
+            int measure = cubic_error > budget;
+            if (measure) cubic_error = 0.0;
+            double *pc = phases, *ps = phases + w, *mid_c = phases + 2 * w, *mid_s = phases + 3 * w;
+            series_phases(n, 0.0, pc, ps);
+            series_phases(n, 0.5 * hm, mid_c, mid_s);
+            for (int r = 0; r < rows; ++r) {
+                series_row(&s, r, mm, pc, ps, 0, re, im, values);
+                series_row(&s, r, mm, pc, ps, 1, re, im, slopes);
+                const double inv_h = 1.0 / hm, inv_h2 = inv_h * inv_h;
+                for (int i = 0; i < mm; ++i) {
+                    int next = i + 1 < mm ? i + 1 : 0;
+                    double y = values[i], y1 = values[next];
+                    double d = slopes[i], d1 = slopes[next];
+                    double secant = (y1 - y) * inv_h;
+                    double cubic = d + d1 - 2.0 * secant;
+                    double *c = cubics + ((size_t)r * mm + i) * 4;
+                    c[0] = y;
+                    c[1] = d;
+                    c[2] = (secant - d - cubic) * inv_h;
+                    c[3] = cubic * inv_h2;
+                }
+                if (measure) {
+                    series_row(&s, r, mm, mid_c, mid_s, 0, re, im, values);
+                    double u = 0.5 * hm;
+                    for (int i = 0; i < mm; ++i) {
+                        const double *c = cubics + ((size_t)r * mm + i) * 4;
+                        double e = fabs(c[0] + u * (c[1] + u * (c[2] + u * c[3])) - values[i]) / scale[r];
+                        if (!(e <= cubic_error)) cubic_error = e;
+                    }
+                }
+            }
+            if (cubic_error <= budget) {
+                *cubics_out = cubics;
+                cubics = NULL;
+                *m_out = mm;
+                *error_out = error + cubic_error;
+                *n_series = n;
+                break;
+            }
+            int doubling = (int)ceil(0.25 * log2(cubic_error / budget));
+            mm <<= doubling > 1 ? doubling : 1;
+            if (mm > m_last) { status = MM_NOT_TABULATED; goto spline; }
+        }
+    }
+spline:
+    if (status == MM_NOT_TABULATED) {
+        /* the series does not converge: the spline of samples, its memory of its own */
+        free(values); free(slopes); free(cubics);
+        values = slopes = cubics = NULL;
+        status = from_samples(m, table, tolerance, cubics_out, m_out, error_out);
+        *n_series = 0;
+    }
+done:
+    free(samples); free(exact); free(angles); free(scale); free(re); free(im); free(work); free(phases);
+    free(s.sr); free(s.si); free(s.xr); free(s.xi); free(s.pc); free(s.ps); free(values); free(slopes); free(cubics);
+    free(half.c); free(half.s); free(half.reversed); free(full.c); free(full.s); free(full.reversed);
+    free(forward.c); free(forward.s); free(forward.reversed);
+    return status;
+}
+
+void mm_release(double *cubics)
+{
+    free(cubics);
+}
