@@ -27,6 +27,10 @@
  * fatal error (pythonfmu has already released its Python objects then: forwarding another call,
  * fmi2FreeInstance included, would use them after free). fmi2Discard from fmi2DoStep is made
  * fmi2Error: the model never asks a master to retry a smaller step, it refuses.
+ *
+ * And it gives each thread that calls it a Python thread state for good (keep_thread_state): a
+ * master's worker thread (ecos steps its FMUs in a TBB pool) has none, and pythonfmu's per-call
+ * PyGILState_Ensure and Release would create and destroy one on every call.
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -60,6 +64,29 @@ typedef struct {
 
 static void* inner_lib = NULL;
 static void (*inner_finalize)(void) = NULL;
+
+/* pythonfmu takes the GIL per call with PyGILState_Ensure and gives it back with
+ * PyGILState_Release. From a thread with no Python thread state that pair creates one and
+ * destroys it again, its frame stack mapped and unmapped with it: three mmap and munmap pairs,
+ * their page faults and a third of a step's time per step in ecos, whose TBB workers are such
+ * threads. The first call from such a thread takes a thread state (PyGILState_Ensure) and gives
+ * back only the GIL (PyEval_SaveThread): pythonfmu's pairs then find it and keep it. A thread
+ * that has one already (a Python host's, or where the shim started the interpreter) is left as
+ * it is. One thread state per calling thread stays until the process ends. */
+static int (*python_gil_ensure)(void) = NULL;
+static void* (*python_this_thread_state)(void) = NULL;
+static void* (*python_save_thread)(void) = NULL;
+static __thread int thread_state_kept = 0;
+
+static void keep_thread_state(void)
+{
+    if (thread_state_kept) return;
+    thread_state_kept = 1;
+    if (!python_gil_ensure || !python_this_thread_state || !python_save_thread) return;
+    if (python_this_thread_state()) return;
+    python_gil_ensure();
+    python_save_thread();
+}
 
 /* Other copies of pythonfmu's binary loaded before ours (another FMU's, e.g. a stock pythonfmu
  * FMU): they have the same use-after-free at exit, and the first copy loaded in a process owns
@@ -393,6 +420,9 @@ static int load(const char* resources, const fmi2CallbackFunctions* cb, fmi2Stri
         return 0;                                           \
     }
     FMI2_FORWARDED(BIND)
+    python_gil_ensure = (int (*)(void))dlsym(RTLD_DEFAULT, "PyGILState_Ensure");
+    python_this_thread_state = (void* (*)(void))dlsym(RTLD_DEFAULT, "PyGILState_GetThisThreadState");
+    python_save_thread = (void* (*)(void))dlsym(RTLD_DEFAULT, "PyEval_SaveThread");
     inner_lib = lib;
     /* In every host, Python or not: the use-after-free of pythonfmu's library destructor happens
      * at any process exit once an instance was created (valgrind shows it in an fmpy host too,
@@ -422,6 +452,7 @@ static fmi2Status merged(Shim* s, fmi2Status returned)
     Shim* s = (Shim*)(c);                                                                          \
     if (!s || !inner_lib) return fmi2Error;                                                        \
     if (s->lost) return shim_error(s, "this instance was lost to an earlier fatal error: free it"); \
+    keep_thread_state();                                                                           \
     s->worst = fmi2OK
 #define FORWARD(call) do { fmi2Status r_ = (call); return merged(s, r_); } while (0)
 
@@ -434,6 +465,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     char resources[4096];
     resources_path(resource_uri, resources, sizeof resources);
     if (!load(resources, callbacks, name)) return NULL;
+    keep_thread_state();
     Shim* s = (Shim*)calloc(1, sizeof(Shim));
     if (!s) return NULL;
     if (callbacks) s->host = *callbacks;
