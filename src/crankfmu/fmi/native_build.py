@@ -427,9 +427,16 @@ endif()
 """
 
 
+#: the compilers run at a lower priority: a build's longest single task is the reference run, one
+#: process from the build's start to its end (fmi.background); the compilers' work can be spread
+#: over what the cores have left, and where they are busy (two cores: the reference run, two
+#: compilers and the documentation) the build then ends when the reference run does
+_YIELDING = ["nice", "-n", "10"] if shutil.which("nice") else []
+
+
 def _run(cmd: list, compiler: str) -> str:
     try:
-        done = subprocess.run(cmd, capture_output=True, text=True)
+        done = subprocess.run([*_YIELDING, *cmd], capture_output=True, text=True)
     except FileNotFoundError:
         raise CrankfmuError(f"{compiler} not found; it compiles the native FMU's binary") from None
     if done.returncode != 0:
