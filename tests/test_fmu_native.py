@@ -316,3 +316,13 @@ def test_a_second_build_takes_the_kernel_and_the_mechanism_model_compiled_from_t
     assert objects[0] == objects[1] and objects[0].is_file()
     assert not any("-c" in cmd for cmd in compiled)          # the second build compiled nothing
     assert os.listdir(tmp_path / "cache" / "objects") == [objects[0].name]
+
+
+def test_a_missing_compiler_is_named():
+    """The compilers run under nice (a lower priority beside the reference run): a compiler that is
+    not installed is still named as missing, not reported as nice's failure."""
+    from crankfmu.errors import CrankfmuError
+    from crankfmu.fmi.native_build import _run
+
+    with pytest.raises(CrankfmuError, match="no-such-cc not found; it compiles the native FMU's binary"):
+        _run(["no-such-cc", "-c", "x.c"], "no-such-cc")

@@ -436,6 +436,8 @@ _YIELDING = ["nice", "-n", "10"] if shutil.which("nice") else []
 
 def _run(cmd: list, compiler: str) -> str:
     try:
+        if _YIELDING and shutil.which(cmd[0]) is None:      # nice would say it, in its words
+            raise FileNotFoundError(cmd[0])
         done = subprocess.run([*_YIELDING, *cmd], capture_output=True, text=True)
     except FileNotFoundError:
         raise CrankfmuError(f"{compiler} not found; it compiles the native FMU's binary") from None
