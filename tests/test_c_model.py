@@ -190,6 +190,13 @@ def test_a_jump_the_determinant_cannot_see_is_refused_by_both_in_the_same_words(
     assert (c_model.value.code, c_model.value.index) == (-17, 1)               # MM_JUMPS, the first unknown
     assert found[0].replace(found[1], f"{c_model.value.value:.4g}").replace(
         found[2], f"{math.degrees(c_model.value.angle):.4f}") == found[0]
+    # a = 1: the sign is 0 at phi1 = 180 deg, where s3 = 0 misses the contours and the Jacobian is
+    # singular: the residual is the engine's verdict (it checks the whole turn's first), and the C's
+    with pytest.raises(DefinitionError, match=r"does not satisfy the contour equations \(residual 0\.4 m\)"):
+        scenario.with_params(a=1.0).build()
+    with pytest.raises(MechanismError) as missed:
+        CModel(program, parameter_values(program, {**scenario.values, "a": 1.0}))
+    assert missed.value.code == -9 and f"{missed.value.value:.3g}" == "0.4"           # MM_CLOSED_FORM
 
 
 def test_a_negative_mass_is_refused_naming_the_value():

@@ -156,11 +156,19 @@ static int check_assembly(mm_model *m, int coarse)
     int width = mm_kinematics_width(p);
     /* the turn table's angles are every MM_TURN_POINTS-th of the turn: every other scan angle */
     const int per_row = points / MM_TURN_POINTS;
+    int singular = -1;
     for (int i = 0; i < points && status == MM_OK; ++i) {
         /* with the residual of the positions found (a closed form must satisfy the contours) */
         double res;
         int kept = !coarse && i % 2 == 0;          /* every other scan angle: where the searches start */
         status = scan_angle(m, i * h, i % per_row == 0 ? i / per_row : -1, kept, signed_ + i, &res);
+        if (status == MM_SINGULAR) {
+            /* the residuals of the whole turn first, as the engine's check: a closed form that
+             * misses the contours where its Jacobian is singular is refused for that */
+            if (singular < 0) singular = i;
+            signed_[i] = 0.0;
+            status = MM_OK;
+        }
         if (status) break;
         if (kept) memcpy(m->scan + (i / 2) * width, m->registers + p->phi1, sizeof(double) * width);
         if (!(res <= residual)) residual = res;
@@ -170,6 +178,11 @@ static int check_assembly(mm_model *m, int coarse)
         m->error_value = residual;
         free(signed_);
         return MM_CLOSED_FORM;
+    }
+    if (singular >= 0) {
+        m->error_angle = singular * h;
+        free(signed_);
+        return MM_SINGULAR;
     }
     signed_[points] = signed_[0];
     for (int i = 0; i < points; ++i)
