@@ -64,8 +64,9 @@ $(DEV_STAMP): $(STAMP)
 
 venv: $(STAMP)
 
-# the FMUs, on both cores: the Python ones, and the native ones in two halves (a native build
-# compiles megabytes of tables); the win64 binaries where MinGW is installed (make test installs it)
+# the FMUs, on both cores: the Python ones, and the native ones in two halves (each native build
+# runs two compilers and a reference run); the win64 binaries where MinGW is installed (make test
+# installs it)
 fmu: $(STAMP)
 	@$(MAKE) --no-print-directory -j2 --output-sync=target fmu-python fmu-native-a fmu-native-b
 
