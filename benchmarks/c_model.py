@@ -12,7 +12,10 @@
   engine's (CRANKFMU_TABLES=python, today's path before the C model), the same sweep both ways;
 - each packaged scenario's native FMU (FMI 2.0): `crankfmu fmu NAME --native` wall time and the
   FMU's size, now and at BASELINE (the commit before the C model: tables compiled in), run from
-  `git archive` of it with the same Python and packages.
+  `git archive` of it with the same Python and packages;
+- `simulate()` of seed 000 end to end against DOP853 on a hand-written right-hand side at the same
+  error (end_to_end.py's peer);
+- the issue's targets, each with its measured figure and MET or NOT MET.
 """
 
 from __future__ import annotations
@@ -170,10 +173,52 @@ def native_builds(names) -> list[dict]:
     return rows
 
 
+def simulate_ratio(repeats: int) -> dict:
+    """simulate(seed000, method="fast") end to end against the fastest DOP853 run of end_to_end.py's
+    hand-written four-bar that reaches 1e-8 rad/s, on the 1 ms grid over 2 s."""
+    import crankfmu
+    import end_to_end
+    from crankfmu.scenario import load_scenario
+
+    scenario = load_scenario("seed000")
+    grid = np.linspace(0.0, 2.0, 2001)
+    truth = crankfmu.simulate(scenario, method="reference", rtol=1e-13, output_times=grid).omega1
+    fast = end_to_end.simulate_breakdown("seed000", repeats)
+    error = float(np.max(np.abs(np.interp(grid, fast["time"], fast["omega1"]) - truth)))
+    rtol, peer_error, peer_s = end_to_end.fastest_peer(dict(scenario.values), scenario.build().y0[:2], grid, truth,
+                                                       1e-8, max(2, repeats // 6))
+    return {"ms": 1e3 * fast["total"], "error": error, "peer_ms": 1e3 * peer_s, "peer_error": peer_error,
+            "peer_rtol": rtol, "ratio": peer_s / fast["total"]}
+
+
 def measure(quick: bool) -> dict:
     return {"tabulation": tabulation(5 if quick else 21),
             "sweep": sweep(8 if quick else 22),
-            "builds": native_builds(SCENARIOS[:2] if quick else SCENARIOS)}
+            "builds": native_builds(SCENARIOS[:2] if quick else SCENARIOS),
+            "simulate": simulate_ratio(5 if quick else 31)}
+
+
+def targets(result: dict) -> list[tuple[str, str, bool]]:
+    """(the issue's target, the measured figure, met) for each of issue 38's item 5 and item 2."""
+    tab, sweep_, builds, sim = result["tabulation"], result["sweep"], result["builds"], result["simulate"]
+    worst = min(tab, key=lambda r: r["ratio"])
+    biggest = max(builds, key=lambda r: r["now_mb"])
+    out = [("a design's build and reduced table in C at least 10x the Python engine's, every packaged scenario",
+            f"{worst['ratio']:.1f}x ({worst['scenario']}) to {max(r['ratio'] for r in tab):.1f}x", worst["ratio"] >= 10),
+           ("simulate() of seed000 end to end at least 20x DOP853 on a hand-written right-hand side at the same error",
+            f"{sim['ms']:.2f} ms at {sim['error']:.1e} rad/s against {sim['peer_ms']:.1f} ms at "
+            f"{sim['peer_error']:.1e} rad/s: {sim['ratio']:.1f}x", sim["ratio"] >= 20),
+           (f"steady sweep of {sweep_['c']['designs']} seed000 geometries at least 10x today's code",
+            f"{sweep_['ratio']:.1f}x", sweep_["ratio"] >= 10),
+           ("every packaged scenario's native FMU at most 1 MB", f"{biggest['now_mb']:.2f} MB ({biggest['scenario']})",
+            biggest["now_mb"] <= 1.0)]
+    for key, what in (("cold_s", "on an empty cache"), ("new_design_s", "for a new design (objects cached)"),
+                      ("warm_s", "on a warm cache")):
+        slowest = max(builds, key=lambda r: r[key])
+        out.append((f"`crankfmu fmu NAME --native` in at most 5 s {what}, every packaged scenario",
+                    f"{min(r[key] for r in builds):.1f} to {slowest[key]:.1f} s ({slowest['scenario']})",
+                    slowest[key] <= 5.0))
+    return out
 
 
 def report(result: dict) -> list[str]:
@@ -201,6 +246,8 @@ def report(result: dict) -> list[str]:
     for r in result["builds"]:
         lines.append(f"| {r['scenario']} | {r['cold_s']:.1f} | {r['new_design_s']:.1f} | {r['warm_s']:.1f} | "
                      f"{r['now_mb']:.2f} | {r['before_s']:.1f} | {r['before_mb']:.2f} |")
+    lines += ["", "## Targets (issue 38)", "", "| target | measured | met |", "|---|---|---|"]
+    lines += [f"| {t} | {m} | {'MET' if ok else 'NOT MET'} |" for t, m, ok in targets(result)]
     return lines + [""]
 
 
