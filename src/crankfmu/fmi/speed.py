@@ -7,7 +7,7 @@ speed (Drive.fmu's speed variant, or the user's own). Input ``omega1`` (rad/s) a
 inputs; outputs ``tau_drive`` (N.m), by inverse dynamics from the same tables as the torque-causal
 FMU (J epsilon1 + 0.5 J' omega1^2 - Q - the ports' torque), and phi1, the integral of omega1.
 
-The step is the C kernel's (``ck_speed_advance``, crank_kernel.c; the native FMU runs the same
+The step is the C kernel's (``ck_speed_advance``, crank_speed.c; the native FMU runs the same
 code): omega1 linear in time over a communication step, with the slope of its last step (a
 backward difference) since pythonfmu passes no input derivative; phi1 that line's integral; the
 works Gauss-Legendre sums; a jump of the input at a communication point done by the drive,

@@ -1,5 +1,6 @@
-"""The C kernel (crank_kernel.c, crank_kernel.h, crank_modes.h, crank_tableau.h), the components'
-physics (crank_components.c) and the coupled well (crank_well.c), and their binding.
+"""The C kernel (crank_kernel.c and its drivers, speed-causal step and Model Exchange beside it;
+crank_kernel.h, crank_modes.h, crank_tableau.h), the components' physics (crank_components.c) and
+the coupled well (crank_well.c), and their binding.
 
 The C files are the kernel's one home: the fast path (``integrators.fast``), the batch of steady
 cycles, the pythonfmu FMUs (through this ctypes binding) and the native FMU (compiled in with its

@@ -1,22 +1,16 @@
-/* crankfmu's kernel (crank_kernel.h): the Dormand-Prince step, its error norm, dense output and
- * event location on the tabulated model, and the drivers callers run (an FMU step, a run on an
- * output grid, steady cycles of many designs). Written as the numba kernel it replaced, the same
- * arithmetic in the same order: the two gave the same numbers bit for bit on every case before
- * numba went (commit 3d63bb9). */
-#include "crank_kernel.h"
+/* crankfmu's kernel (crank_kernel.h), its stepper: the Dormand-Prince step, its error norm, dense
+ * output and event location on the tabulated model. The drivers callers run (crank_drivers.c),
+ * the speed-causal step (crank_speed.c) and Model Exchange (crank_me.c) build on it
+ * (crank_kernel_internal.h). Written as the numba kernel it replaced, the same arithmetic in the
+ * same order: the two gave the same numbers bit for bit on every case before numba went (commit
+ * 3d63bb9). */
+#include "crank_kernel_internal.h"
 
 #include <math.h>
 #include <string.h>
 
 static const double SAFETY = 0.9, MIN_FACTOR = 0.2, MAX_FACTOR = 10.0;
 #define ERROR_EXPONENT (-1.0 / (CK_ERROR_ESTIMATOR_ORDER + 1))
-
-/* scratch of one call, on the stack */
-typedef struct {
-    double work[CK_MAX_FUNCTIONS];
-    double Kst[CK_N_STAGES + 1][CK_N_Y];
-    double ynew[CK_N_Y], tmp[CK_N_Y], f[CK_N_Y], g0[CK_N_SLOTS], g1[CK_N_SLOTS], y[CK_N_Y], f0[CK_N_Y];
-} Scratch;
 
 #ifndef CK_SOURCE_DIGEST
 #define CK_SOURCE_DIGEST "unknown"
@@ -173,7 +167,7 @@ int ck_reaction_values(const double* coefficients, int n_reactions, int n_terms,
 
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
  * torque at time t */
-static void coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,
+void kernel_coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,
                          const double* P, double* work, double* J, double* half_dJ, double* Q, double* tau)
 {
     table_values(T, phi, work);
@@ -201,7 +195,7 @@ static double rhs(double t, double phi, double omega, double motor, double direc
                   double* J_out, double* tau_out)
 {
     double J, half_dJ, Q, M, eps, tau;
-    coefficients(t, phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
+    kernel_coefficients(t, phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
     if (direction == 0.0) {
         M = motor_torque(0.0, motor == CK_HIGH, P);
         eps = 0.0;
@@ -247,28 +241,28 @@ static double mode_on_switch(double t, double phi, double direction, double inte
                              const double* P, double* work)
 {
     double ws = P[CK_OMEGA_SWITCH], J, half_dJ, Q, tau;
-    coefficients(t, phi, ws, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
+    kernel_coefficients(t, phi, ws, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
     double rest = Q + tau - half_dJ * ws * ws;
     return ck_motor_on_switch(motor_torque(ws, 0, P), motor_torque(ws, 1, P), rest);
 }
 
 /* the crank's acceleration from rest with the slider forces forward (eps[0]) and backward (eps[1]) */
-static void rest_accelerations(double t, double phi, double motor, double interval, const CkTables* T,
+void kernel_rest_accelerations(double t, double phi, double motor, double interval, const CkTables* T,
                                const double* P, double* work, double* f, double* eps)
 {
     eps[0] = rhs(t, phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL, NULL, NULL, NULL);
     eps[1] = rhs(t, phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL, NULL, NULL, NULL);
 }
 
-static double direction_at_rest(double t, double phi, double motor, double interval, const CkTables* T,
+double kernel_direction_at_rest(double t, double phi, double motor, double interval, const CkTables* T,
                                 const double* P, double* work, double* f)
 {
     double eps[2];
-    rest_accelerations(t, phi, motor, interval, T, P, work, f, eps);
+    kernel_rest_accelerations(t, phi, motor, interval, T, P, work, f, eps);
     return ck_direction_at_rest(eps[0], eps[1]);
 }
 
-static void set_interval(double* S, const CkTables* T, double phi, double direction)
+void kernel_set_interval(double* S, const CkTables* T, double phi, double direction)
 {
     double lo, hi;
     int k = ck_interval_of(T->switch_angles, T->m, phi, direction, &lo, &hi);
@@ -278,23 +272,23 @@ static void set_interval(double* S, const CkTables* T, double phi, double direct
 }
 
 /* the discrete state (motor branch, direction, switch interval) of a start or a restart at (S[CK_T], y) */
-static void set_mode(double* S, const double* y, const CkTables* T, const double* P, Scratch* w)
+void kernel_set_mode(double* S, const double* y, const CkTables* T, const double* P, Scratch* w)
 {
     double t = S[CK_T];
     double omega = y[1], ws = P[CK_OMEGA_SWITCH];
     double motor = ck_motor_of_speed(omega, ws);
     double direction = ck_direction_of_speed(omega);
-    set_interval(S, T, y[0], direction);
+    kernel_set_interval(S, T, y[0], direction);
     if (omega == ws) motor = mode_on_switch(t, y[0], direction, S[CK_INTERVAL], T, P, w->work);
     if (omega == 0.0 && T->n_sliders > 0) {
-        direction = direction_at_rest(t, y[0], motor, S[CK_INTERVAL], T, P, w->work, w->f);
-        set_interval(S, T, y[0], direction != 0.0 ? direction : 1.0);
+        direction = kernel_direction_at_rest(t, y[0], motor, S[CK_INTERVAL], T, P, w->work, w->f);
+        kernel_set_interval(S, T, y[0], direction != 0.0 ? direction : 1.0);
     }
     S[CK_MOTOR] = motor;
     S[CK_DIRECTION] = direction;
 }
 
-static void start(double* S, double t, const double* y, const CkTables* T, const double* P, Scratch* w)
+void kernel_start(double* S, double t, const double* y, const CkTables* T, const double* P, Scratch* w)
 {
     S[CK_T] = t;
     for (int j = 0; j < 5; j++) {
@@ -302,7 +296,7 @@ static void start(double* S, double t, const double* y, const CkTables* T, const
         S[CK_Y_PREV + j] = y[j];
     }
     S[CK_T_PREV] = t;
-    set_mode(S, y, T, P, w);
+    kernel_set_mode(S, y, T, P, w);
     double motor = S[CK_MOTOR], direction = S[CK_DIRECTION];
     rhs(t, y[0], y[1], motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL, NULL);
     for (int j = 0; j < 5; j++) {
@@ -363,14 +357,14 @@ static double error_norm(const double* y, const double* ynew, const Scratch* w, 
 }
 
 /* event functions of S's mode at (t, y) into g; inactive slots get NaN */
-static void events(const double* S, double t, const double* y, const CkTables* T, const double* P, double* work,
+void kernel_events(const double* S, double t, const double* y, const CkTables* T, const double* P, double* work,
                    double* g)
 {
     double motor = S[CK_MOTOR], direction = S[CK_DIRECTION], ws = P[CK_OMEGA_SWITCH];
     double m_low = 0.0, m_high = 0.0, equivalent = 0.0;
     if (motor == CK_SLIDE) {
         double J, half_dJ, Q, tau;
-        coefficients(t, y[0], ws, direction, S[CK_INTERVAL], T, P, work, &J, &half_dJ, &Q, &tau);
+        kernel_coefficients(t, y[0], ws, direction, S[CK_INTERVAL], T, P, work, &J, &half_dJ, &Q, &tau);
         equivalent = ck_equivalent_torque(half_dJ, Q, tau, ws);
         m_low = motor_torque(ws, 0, P);
         m_high = motor_torque(ws, 1, P);
@@ -386,7 +380,7 @@ static void events(const double* S, double t, const double* y, const CkTables* T
 }
 
 /* discrete state after the event in slot at (t, y) (y adjusted onto the surface) */
-static void transition(double* S, int slot, double t, double* y, const CkTables* T, const double* P, double* work,
+void kernel_transition(double* S, int slot, double t, double* y, const CkTables* T, const double* P, double* work,
                        double* f)
 {
     double ws = P[CK_OMEGA_SWITCH];
@@ -403,7 +397,7 @@ static void transition(double* S, int slot, double t, double* y, const CkTables*
     y[1] = slot == CK_REST ? 0.0 : ws;
     if (slot == CK_REST) S[CK_MOTOR] = ck_motor_at_rest(S[CK_MOTOR], ws);
     if (ck_turns_forces(slot, ws, T->n_sliders > 0))
-        S[CK_DIRECTION] = direction_at_rest(t, y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, work, f);
+        S[CK_DIRECTION] = kernel_direction_at_rest(t, y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, work, f);
     if (slot == CK_REST) return;
     if (S[CK_MOTOR] == CK_SLIDE)
         S[CK_MOTOR] = ck_motor_after_sliding(slot);
@@ -412,7 +406,7 @@ static void transition(double* S, int slot, double t, double* y, const CkTables*
 }
 
 /* sign-true slope of omega1 (h domega1/dt) at x in [0, 1] of the last step's interpolant */
-static double omega_slope(const double* S, double x)
+double kernel_omega_slope(const double* S, double x)
 {
     double acc = 0.0;
     for (int s = 0; s < CK_N_STAGES + 1; s++)
@@ -422,7 +416,7 @@ static double omega_slope(const double* S, double x)
 
 /* time in [lo, hi] of the last step where g changes sign, by Illinois on the dense output: g is
  * event slot `slot` of S's mode, phi1 - level for slot -1, the slope of omega1 for slot -2 */
-static double locate(const double* S, int slot, double level, double lo, double hi, double glo, double ghi,
+double kernel_locate(const double* S, int slot, double level, double lo, double hi, double glo, double ghi,
                      const CkTables* T, const double* P, double* work, double* tmp, double* g)
 {
     for (int it = 0; it < 60; it++) {
@@ -431,11 +425,11 @@ static double locate(const double* S, int slot, double level, double lo, double 
         ck_dense(S, tm, tmp);
         double gm;
         if (slot == -2)
-            gm = omega_slope(S, (tm - S[CK_T_PREV]) / (S[CK_T] - S[CK_T_PREV]));
+            gm = kernel_omega_slope(S, (tm - S[CK_T_PREV]) / (S[CK_T] - S[CK_T_PREV]));
         else if (slot == -1)
             gm = tmp[0] - level;
         else {
-            events(S, tm, tmp, T, P, work, g);
+            kernel_events(S, tm, tmp, T, P, work, g);
             gm = g[slot];
         }
         if ((gm < 0.0) == (glo < 0.0)) {
@@ -454,7 +448,7 @@ static double locate(const double* S, int slot, double level, double lo, double 
 
 /* whether S's discrete state is one the kernel can have written: a motor branch, a direction, a
  * switch interval of these tables (a state a host corrupted is refused, never indexed with) */
-static int mode_ok(const double* S, const CkTables* T)
+int kernel_mode_ok(const double* S, const CkTables* T)
 {
     double motor = S[CK_MOTOR], direction = S[CK_DIRECTION], k = S[CK_INTERVAL];
     if (!(motor == CK_LOW || motor == CK_HIGH || motor == CK_SLIDE)) return 0;
@@ -464,9 +458,9 @@ static int mode_ok(const double* S, const CkTables* T)
 }
 
 /* one accepted step, not beyond t_limit, ending on the first event crossed */
-static int step(double* S, double t_limit, const CkTables* T, const double* P, Scratch* w)
+int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, Scratch* w)
 {
-    if (!mode_ok(S, T)) return CK_BAD_STATE;
+    if (!kernel_mode_ok(S, T)) return CK_BAD_STATE;
     double t = S[CK_T];
     for (int j = 0; j < 5; j++) {
         w->y[j] = S[CK_Y + j];
@@ -492,8 +486,8 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
     double h_next = fmin(h * factor, P[CK_H_MAX]);
     double t_new = to_limit ? t_limit : t + h;
 
-    events(S, t, w->y, T, P, w->work, w->g0);
-    events(S, t_new, w->ynew, T, P, w->work, w->g1);
+    kernel_events(S, t, w->y, T, P, w->work, w->g0);
+    kernel_events(S, t_new, w->ynew, T, P, w->work, w->g1);
     S[CK_T_PREV] = t;
     S[CK_T] = t_new;
     for (int j = 0; j < 5; j++) {
@@ -511,7 +505,7 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
         if (!ck_crosses(a, b, ck_event_rising(slot, S[CK_MOTOR], S[CK_DIRECTION]))) continue;
         /* g1 is the search's scratch: a later slot reads its value at the earlier slot's event,
          * which suffices (only a crossing before that event can end the step) */
-        double hi = locate(S, slot, 0.0, t, t_new, a, b, T, P, w->work, w->tmp, w->g1);
+        double hi = kernel_locate(S, slot, 0.0, t, t_new, a, b, T, P, w->work, w->tmp, w->g1);
         if (first_slot < 0 || hi < first_t) {
             first_slot = slot;
             first_t = hi;
@@ -531,7 +525,7 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
     S[CK_T] = first_t;
     for (int j = 0; j < 5; j++)
         for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = w->Kst[s][j];
-    transition(S, first_slot, first_t, w->ynew, T, P, w->work, w->f);
+    kernel_transition(S, first_slot, first_t, w->ynew, T, P, w->work, w->f);
     rhs(first_t, w->ynew[0], w->ynew[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL,
         NULL, NULL);
     for (int j = 0; j < 5; j++) {
@@ -546,7 +540,7 @@ static int step(double* S, double t_limit, const CkTables* T, const double* P, S
 
 /* the rest of an output row whose state row[0:5] at time t is set, in the given mode: epsilon1,
  * M_motor, M_load, J_red, tau_e; f <- dy/dt there */
-static void complete_row(double t, double motor, double direction, double interval, const CkTables* T,
+void kernel_complete_row(double t, double motor, double direction, double interval, const CkTables* T,
                          const double* P, double* work, double* f, double* row)
 {
     double M, Q, J, tau;
@@ -558,7 +552,7 @@ static void complete_row(double t, double motor, double direction, double interv
     row[9] = tau;
 }
 
-static void output_row(const double* S, double t, const CkTables* T, const double* P, double* work, double* f,
+void kernel_output_row(const double* S, double t, const CkTables* T, const double* P, double* work, double* f,
                        double* row)
 {
     ck_dense(S, t, row);
@@ -572,500 +566,5 @@ static void output_row(const double* S, double t, const CkTables* T, const doubl
         direction = S[CK_STEP_DIRECTION];
         interval = S[CK_STEP_INTERVAL];
     }
-    complete_row(t, motor, direction, interval, T, P, work, f, row);
-}
-
-/* ------------------------------------------------------------------------------ the drivers */
-
-/* the output row at t in the last step, NaN for a state the kernel cannot have written */
-static void checked_output_row(const double* S, double t, const CkTables* T, const double* P, double* row)
-{
-    Scratch w;
-    if (!mode_ok(S, T)) {
-        for (int j = 0; j < CK_OUT_SIZE; j++) row[j] = NAN;
-        return;
-    }
-    output_row(S, t, T, P, w.work, w.f, row);
-}
-
-void ck_begin(double* S, double t, const double* y, const CkTables* T, const double* P, double* row)
-{
-    Scratch w;
-    start(S, t, y, T, P, &w);
-    output_row(S, t, T, P, w.work, w.f, row);
-}
-
-int ck_advance(double* S, double t_target, double t_limit, const CkTables* T, const double* P, double* row)
-{
-    Scratch w;
-    for (long n = 0; S[CK_T] < t_target; n++) {
-        if (n >= CK_MAX_STEPS_PER_CALL) return CK_TOO_MANY_STEPS;
-        int slot = step(S, t_limit, T, P, &w);
-        if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return slot;
-    }
-    checked_output_row(S, t_target, T, P, row);
-    return 0;
-}
-
-int ck_advance_to_switch(double* S, double t_target, double t_limit, const CkTables* T, const double* P, double* row,
-                         double* t_switch)
-{
-    Scratch w;
-    for (long n = 0; S[CK_T] < t_target; n++) {
-        if (n >= CK_MAX_STEPS_PER_CALL) return CK_TOO_MANY_STEPS;
-        int slot = step(S, t_limit, T, P, &w);
-        if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return slot;
-        if (slot >= 0) {
-            *t_switch = S[CK_T];
-            checked_output_row(S, fmin(S[CK_T], t_target), T, P, row);
-            return 1;
-        }
-    }
-    checked_output_row(S, t_target, T, P, row);
-    return 0;
-}
-
-int ck_run_chunk(double* S, double t_end, const double* times, int n_times, int* i_out, double* rows,
-                 double* step_store, int store_capacity, int* n_store, double* events_out, int event_capacity,
-                 int* n_events, double* modes, int mode_capacity, int* n_modes, const CkTables* T, const double* P)
-{
-    Scratch w;
-    while (*i_out < n_times && times[*i_out] <= S[CK_T]) {
-        output_row(S, times[*i_out], T, P, w.work, w.f, rows + (size_t)(*i_out) * CK_OUT_SIZE);
-        (*i_out)++;
-    }
-    while (S[CK_T] < t_end) {
-        if (*n_store >= store_capacity || *n_events >= event_capacity || *n_modes >= mode_capacity) return 1;
-        int slot = step(S, t_end, T, P, &w);
-        if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return slot;
-        while (*i_out < n_times && times[*i_out] <= S[CK_T]) {
-            output_row(S, times[*i_out], T, P, w.work, w.f, rows + (size_t)(*i_out) * CK_OUT_SIZE);
-            (*i_out)++;
-        }
-        memcpy(step_store + (size_t)(*n_store) * CK_STATE_SIZE, S, CK_STATE_SIZE * sizeof(double));
-        (*n_store)++;
-        if (slot >= 0) {
-            double* e = events_out + (size_t)(*n_events) * 3;
-            e[0] = S[CK_T];
-            e[1] = slot;
-            e[2] = S[CK_STEP_MOTOR];
-            (*n_events)++;
-            if (S[CK_MOTOR] != S[CK_STEP_MOTOR] || S[CK_DIRECTION] != S[CK_STEP_DIRECTION]) {
-                double* md = modes + (size_t)(*n_modes) * 4;
-                md[0] = S[CK_T];
-                md[1] = S[CK_MOTOR];
-                md[2] = S[CK_DIRECTION];
-                md[3] = S[CK_INTERVAL];
-                (*n_modes)++;
-            }
-        }
-    }
-    return 0;
-}
-
-void ck_dense_many(const double* store, int n_store, const double* times, int n_times, double* out)
-{
-    int last = n_store - 1;
-    for (int i = 0; i < n_times; i++) {
-        /* the first stored step ending at or after t (numpy's searchsorted, side left) */
-        int lo = 0, hi = n_store;
-        while (lo < hi) {
-            int mid = (lo + hi) / 2;
-            if (store[(size_t)mid * CK_STATE_SIZE + CK_T] < times[i]) lo = mid + 1; else hi = mid;
-        }
-        int k = lo < 1 ? 1 : lo;
-        if (k > last) k = last;
-        ck_dense(store + (size_t)k * CK_STATE_SIZE, times[i], out + (size_t)i * CK_N_Y);
-    }
-}
-
-/* lowest and highest omega1 of the last step up to t_end: at the ends, or where the
- * interpolant's slope changes sign between samples (located) */
-static void step_extremes(const double* S, double t_end, const CkTables* T, const double* P, double* work,
-                          double* tmp, double* g, double* extremes)
-{
-    ck_dense(S, S[CK_T_PREV], tmp);
-    double lowest = tmp[1], highest = tmp[1];
-    ck_dense(S, t_end, tmp);
-    lowest = fmin(lowest, tmp[1]);
-    highest = fmax(highest, tmp[1]);
-    double h = S[CK_T] - S[CK_T_PREV];
-    if (h > 0.0) {
-        double ta = S[CK_T_PREV];
-        double da = omega_slope(S, 0.0);
-        for (int i = 1; i <= CK_SLOPE_SAMPLES; i++) {
-            double tb = S[CK_T_PREV] + (t_end - S[CK_T_PREV]) * i / CK_SLOPE_SAMPLES;
-            double db = omega_slope(S, (tb - S[CK_T_PREV]) / h);
-            if ((da > 0.0 && 0.0 >= db) || (da < 0.0 && 0.0 <= db)) {
-                ck_dense(S, locate(S, -2, 0.0, ta, tb, da, db, T, P, work, tmp, g), tmp);
-                lowest = fmin(lowest, tmp[1]);
-                highest = fmax(highest, tmp[1]);
-            }
-            ta = tb;
-            da = db;
-        }
-    }
-    extremes[0] = lowest;
-    extremes[1] = highest;
-}
-
-/* one crank turn from (phi_start, omega_start) at t = 0: stats <- (omega1 at its end, min, max,
- * period). 0, 2 when the crank stops or turns back first (or passes t_max), 3 on underflow. */
-static int one_turn(double* S, double phi_start, double omega_start, double t_max, const CkTables* T,
-                    const double* P, Scratch* w, double* stats, double* extremes)
-{
-    for (int j = 0; j < 5; j++) w->y[j] = 0.0;
-    w->y[0] = phi_start;
-    w->y[1] = omega_start;
-    for (int j = 0; j < CK_STATE_SIZE; j++) S[j] = 0.0;
-    double y0[CK_N_Y];
-    memcpy(y0, w->y, sizeof y0);
-    start(S, 0.0, y0, T, P, w);
-    double phi_end = phi_start + CK_TWO_PI;
-    double w_min = omega_start, w_max = omega_start;
-    for (;;) {
-        int slot = step(S, t_max, T, P, w);
-        if (slot == CK_UNDERFLOW || slot == CK_BAD_STATE) return 3;
-        int done = S[CK_Y] >= phi_end;
-        double t_end = S[CK_T];
-        if (done)
-            t_end = locate(S, -1, phi_end, S[CK_T_PREV], S[CK_T], S[CK_Y_PREV] - phi_end, S[CK_Y] - phi_end, T, P,
-                           w->work, w->tmp, w->g0);
-        step_extremes(S, t_end, T, P, w->work, w->tmp, w->g0, extremes);
-        w_min = fmin(w_min, extremes[0]);
-        w_max = fmax(w_max, extremes[1]);
-        if (done) {
-            ck_dense(S, t_end, w->tmp);
-            stats[0] = w->tmp[1];
-            stats[1] = w_min;
-            stats[2] = w_max;
-            stats[3] = t_end;
-            return 0;
-        }
-        if (S[CK_Y + 1] <= 0.0 || S[CK_T] >= t_max) return 2;
-    }
-}
-
-void ck_steady_batch(const double* params, int n_designs, double phi_start, const double* omega_guess,
-                     double rtol_shoot, int max_turns, const CkTables* T, double* out)
-{
-    double S[CK_STATE_SIZE] = {0.0}, stats[4] = {0.0}, extremes[2] = {0.0};
-    Scratch w;
-    for (int d = 0; d < n_designs; d++) {
-        const double* P = params + (size_t)d * CK_PARAM_SIZE;
-        double wv = omega_guess[d], w_prev = 0.0, r_prev = 0.0;
-        double status = CK_STEADY_NOT_CONVERGED;
-        int turns = 0;
-        for (int it = 0; it < max_turns; it++) {
-            double t_max = 1000.0 * CK_TWO_PI / fmax(fabs(wv), 1e-3);
-            int code = one_turn(S, phi_start, wv, t_max, T, P, &w, stats, extremes);
-            turns++;
-            if (code == 2) {
-                status = CK_STEADY_STALLS;
-                break;
-            }
-            if (code == 3) {
-                status = CK_STEADY_UNDERFLOW;
-                break;
-            }
-            double r = stats[0] - wv;
-            if (fabs(r) <= rtol_shoot * fabs(wv)) {
-                status = CK_STEADY_OK;
-                break;
-            }
-            double w_next;
-            if (it == 0 || r == r_prev)
-                w_next = stats[0];
-            else
-                w_next = wv - r * (wv - w_prev) / (r - r_prev);
-            if (!(w_next > 0.0)) w_next = 0.5 * wv;
-            w_prev = wv;
-            r_prev = r;
-            wv = w_next;
-        }
-        double period = stats[3];
-        double mean = period > 0.0 ? CK_TWO_PI / period : NAN;
-        double* o = out + (size_t)d * CK_STEADY_SIZE;
-        o[0] = mean;
-        o[1] = stats[1];
-        o[2] = stats[2];
-        o[3] = (stats[2] - stats[1]) / mean;
-        o[4] = period;
-        o[5] = turns;
-        o[6] = status;
-    }
-}
-
-/* ------------------------------------------------------------------ speed causality
- *
- * The drive imposes omega1 (crank_kernel.h). Over a communication step omega1 is a line in time:
- * from the input at the step's start, with the host's input derivative where it gave one, else
- * with the input's change over the last step (a backward difference: without a slope the
- * mechanism's own inertia J epsilon1 would vanish from the coupling, and the co-simulation would
- * not converge as the step shrinks). phi1 is the line's integral, exact. The works are
- * Gauss-Legendre sums, 5 nodes (exact for polynomials of degree 9) on each piece of at most one
- * degree of crank angle. The pieces end where the powers are not smooth: where the line crosses a
- * switch angle of the slider forces (their value jumps there) and where omega1 changes sign
- * (their side does), so every piece integrates a smooth function. */
-
-/* 5-point Gauss-Legendre on [0, 1]: nodes (1 +- x) / 2, x = sqrt(5 -+ 2 sqrt(10/7)) / 3, and
- * weights (322 +- 13 sqrt(70)) / 1800, from their closed forms */
-static void gauss_legendre5(double* nodes, double* weights)
-{
-    double inner = sqrt(5.0 - 2.0 * sqrt(10.0 / 7.0)) / 3.0, outer = sqrt(5.0 + 2.0 * sqrt(10.0 / 7.0)) / 3.0;
-    double w_inner = (322.0 + 13.0 * sqrt(70.0)) / 1800.0, w_outer = (322.0 - 13.0 * sqrt(70.0)) / 1800.0;
-    const double x[5] = {-outer, -inner, 0.0, inner, outer};
-    const double w[5] = {w_outer, w_inner, 128.0 / 450.0, w_inner, w_outer};
-    for (int i = 0; i < 5; i++) {
-        nodes[i] = 0.5 * (1.0 + x[i]);
-        weights[i] = w[i];
-    }
-}
-
-/* (J, 0.5 J', Q, tau_e) at an imposed (phi1, omega1) and time t: the slider forces on the side
- * omega1's sign gives (ck_direction_imposed), in the switch interval holding phi1 */
-static void imposed_coefficients(double t, double phi, double omega, const CkTables* T, const double* P,
-                                 double* work, double* J, double* half_dJ, double* Q, double* tau)
-{
-    double direction = ck_direction_imposed(omega), lo, hi;
-    int k = ck_interval_of(T->switch_angles, T->m, phi, direction != 0.0 ? direction : 1.0, &lo, &hi);
-    coefficients(t, phi, omega, direction, (double)k, T, P, work, J, half_dJ, Q, tau);
-}
-
-/* the state's mode and the output row at S's time and state, epsilon1 = S[CK_F + 1] */
-static void speed_row(double* S, const CkTables* T, const double* P, double* work, double* row)
-{
-    double t = S[CK_T], phi = S[CK_Y], omega = S[CK_Y + 1], epsilon = S[CK_F + 1], lo, hi;
-    double direction = ck_direction_imposed(omega);
-    S[CK_DIRECTION] = direction;
-    S[CK_INTERVAL] = (double)ck_interval_of(T->switch_angles, T->m, phi, direction != 0.0 ? direction : 1.0, &lo, &hi);
-    S[CK_PHI_LO] = lo;
-    S[CK_PHI_HI] = hi;
-    double J, half_dJ, Q, tau;
-    coefficients(t, phi, omega, direction, S[CK_INTERVAL], T, P, work, &J, &half_dJ, &Q, &tau);
-    for (int j = 0; j < CK_N_Y; j++) row[j] = S[CK_Y + j];
-    row[5] = epsilon;
-    row[6] = ck_drive_torque(J, half_dJ, Q, tau, omega, epsilon);
-    row[7] = Q;
-    row[8] = J;
-    row[9] = tau;
-}
-
-void ck_speed_begin(double* S, double t, double phi, double omega, const CkTables* T, const double* P, double* row)
-{
-    Scratch w;
-    memset(S, 0, CK_STATE_SIZE * sizeof(double));
-    S[CK_T] = S[CK_T_PREV] = t;
-    S[CK_Y] = S[CK_Y_PREV] = phi;
-    S[CK_Y + 1] = S[CK_Y_PREV + 1] = omega;
-    S[CK_F] = omega;
-    speed_row(S, T, P, w.work, row);
-}
-
-/* phi1 on the step's line at s from its start */
-static double line_angle(double phi0, double omega, double slope, double s)
-{
-    return phi0 + omega * s + 0.5 * slope * s * s;
-}
-
-/* the time in [sa, sb] where the line, monotone there, reaches the angle theta: the root of the
- * quadratic (in its cancellation-free form) that lies in the segment, or the nearer to it */
-static double line_time(double phi0, double omega, double slope, double theta, double sa, double sb)
-{
-    double s;
-    if (slope == 0.0) {
-        s = (theta - phi0) / omega;
-    } else {
-        double a = 0.5 * slope, b = omega, c = phi0 - theta;
-        double q = -0.5 * (b + copysign(sqrt(fmax(b * b - 4.0 * a * c, 0.0)), b));
-        double r1 = q / a, r2 = q != 0.0 ? c / q : r1;
-        double d1 = fmax(fmax(sa - r1, r1 - sb), 0.0), d2 = fmax(fmax(sa - r2, r2 - sb), 0.0);
-        s = d1 <= d2 ? r1 : r2;
-    }
-    return fmin(fmax(s, sa), sb);
-}
-
-/* the works over [sa, sb] of the step from (t, phi0), where the powers are smooth (the slider
- * forces' side and switch interval k hold: the caller found them): W[0..2] += the drive's, the
- * loads' and the external torque's */
-static void smooth_works(double t, double phi0, double omega, double slope, double sa, double sb, double direction,
-                         int k, const CkTables* T, const double* P, const double* nodes, const double* weights,
-                         double* work, double* W)
-{
-    double turned = fabs(line_angle(phi0, omega, slope, sb) - line_angle(phi0, omega, slope, sa));
-    double per_piece = CK_TWO_PI / 360.0;
-    long pieces = turned > per_piece ? (long)ceil(turned / per_piece) : 1;
-    double hp = (sb - sa) / (double)pieces, J, half_dJ, Q, tau;
-    for (long p = 0; p < pieces; p++)
-        for (int i = 0; i < 5; i++) {
-            double s = sa + ((double)p + nodes[i]) * hp, wq = weights[i] * hp;
-            double w_s = omega + slope * s, phi = line_angle(phi0, omega, slope, s);
-            coefficients(t + s, phi, w_s, direction, (double)k, T, P, work, &J, &half_dJ, &Q, &tau);
-            W[0] += wq * ck_drive_torque(J, half_dJ, Q, tau, w_s, slope) * w_s;
-            W[1] += wq * Q * w_s;
-            W[2] += wq * tau * w_s;
-        }
-}
-
-int ck_speed_advance(double* S, double t_target, double omega, double rate, int rate_given, const CkTables* T,
-                     const double* P, double* row)
-{
-    Scratch w;
-    double t = S[CK_T], h = t_target - t, last = t - S[CK_T_PREV];
-    if (!(h > 0.0) || !isfinite(t_target) || !isfinite(omega) || !isfinite(rate)) return CK_BAD_STATE;
-    double slope = rate_given ? rate : (last > 0.0 ? (omega - S[CK_Y_PREV + 1]) / last : 0.0);
-    double phi0 = S[CK_Y], J, half_dJ, Q, tau;
-    double W[3] = {S[CK_Y + 2], S[CK_Y + 3], S[CK_Y + 4]};
-    /* the step's segments where phi1 is monotone: split where omega1 changes sign */
-    double s_turn = slope != 0.0 ? -omega / slope : -1.0;
-    double ends[3] = {0.0, h, h};
-    int segments = s_turn > 0.0 && s_turn < h ? 2 : 1;
-    if (segments == 2) ends[1] = s_turn;
-    double travel = 0.0;
-    for (int g = 0; g < segments; g++)
-        travel += fabs(line_angle(phi0, omega, slope, ends[g + 1]) - line_angle(phi0, omega, slope, ends[g]));
-    if (!isfinite(travel) || travel > 1e9 * (CK_TWO_PI / 360.0)) return CK_BAD_STATE;    /* a billion degrees */
-    if (omega != S[CK_Y + 1]) {
-        /* the input differs from the last step's line at this point: the speed jumps, and the
-         * drive does the jump's work, 0.5 J (omega1'^2 - omega1^2), J at phi0 */
-        imposed_coefficients(t, phi0, omega, T, P, w.work, &J, &half_dJ, &Q, &tau);
-        W[0] += ck_kinetic_energy(J, omega) - ck_kinetic_energy(J, S[CK_Y + 1]);
-    }
-    double nodes[5], weights[5];
-    gauss_legendre5(nodes, weights);
-    for (int g = 0; g < segments; g++) {
-        double sa = ends[g], sb = ends[g + 1];
-        double phi_a = line_angle(phi0, omega, slope, sa), phi_b = line_angle(phi0, omega, slope, sb);
-        int forward = phi_b >= phi_a;
-        /* omega1's sign holds inside the segment: the side of its middle */
-        double direction = ck_direction_imposed(omega + slope * 0.5 * (sa + sb)), lo, hi, s_from = sa;
-        int k = ck_interval_of(T->switch_angles, T->m, phi_a, forward ? 1.0 : -1.0, &lo, &hi);
-        /* each switch angle the segment crosses ends a piece */
-        while (T->m > 0 && (forward ? hi < phi_b : lo > phi_b)) {
-            double s_cross = fmax(line_time(phi0, omega, slope, forward ? hi : lo, sa, sb), s_from);
-            smooth_works(t, phi0, omega, slope, s_from, s_cross, direction, k, T, P, nodes, weights, w.work, W);
-            s_from = s_cross;
-            k = ck_next_interval(T->switch_angles, T->m, k, &lo, &hi, forward);
-        }
-        smooth_works(t, phi0, omega, slope, s_from, sb, direction, k, T, P, nodes, weights, w.work, W);
-    }
-    S[CK_T_PREV] = t;
-    S[CK_Y_PREV] = phi0;
-    S[CK_Y_PREV + 1] = omega;
-    S[CK_T] = t_target;
-    S[CK_Y] = line_angle(phi0, omega, slope, h);
-    S[CK_Y + 1] = omega + slope * h;
-    S[CK_Y + 2] = W[0];
-    S[CK_Y + 3] = W[1];
-    S[CK_Y + 4] = W[2];
-    S[CK_F] = S[CK_Y + 1];
-    S[CK_F + 1] = slope;
-    S[CK_N_STEPS] += 1.0;
-    speed_row(S, T, P, w.work, row);
-    for (int j = 0; j < CK_OUT_SIZE; j++)
-        if (!isfinite(row[j])) return CK_BAD_STATE;
-    return 0;
-}
-
-/* ------------------------------------------------------------------ Model Exchange
- *
- * The same model for a host's integrator: S holds the discrete state (the mode) only, the host
- * holds y. A mode ends where the Co-Simulation step would locate an event; the host finds the
- * crossing of an event indicator, and ck_me_update applies the kernel's own transitions there.
- *
- * Hysteresis: a transition puts the state on the switching surface (transition() projects it,
- * as the Co-Simulation step does), where the surface that would undo it has g = 0 exactly. Each
- * indicator is therefore g moved by a small band towards the side where its mode lives, so no
- * indicator is zero after event mode, and a mode ends once g is across by the band (ck_me_update
- * accepts half of it, so a crossing the host located a little early still counts). The band is
- * CK_HYSTERESIS relative to the surface's own scale: far below any tolerance a host can ask of
- * its integrator, so it does not show in the results. */
-
-#define CK_HYSTERESIS 1e-10
-
-static double band(int slot, const double* S, const double* P)
-{
-    if (slot == CK_INTERVAL_END || slot == CK_INTERVAL_START)
-        return CK_HYSTERESIS * (1.0 + fmax(fabs(S[CK_PHI_LO]), fabs(S[CK_PHI_HI])));
-    if (slot == CK_REST) return CK_HYSTERESIS * (1.0 + fabs(P[CK_OMEGA_SWITCH]));
-    if (S[CK_MOTOR] == CK_SLIDE || slot == CK_SLIDE_HIGH)           /* torques, N.m */
-        return CK_HYSTERESIS * (1.0 + fabs(P[CK_A_]) + fabs(P[CK_A_LOW]));
-    return CK_HYSTERESIS * (1.0 + fabs(P[CK_OMEGA_SWITCH]));
-}
-
-void ck_me_mode(double* S, const double* y, const CkTables* T, const double* P)
-{
-    Scratch w;
-    set_mode(S, y, T, P, &w);
-}
-
-int ck_me_derivatives(const double* S, const double* y, const CkTables* T, const double* P, double* dydt,
-                      double* row)
-{
-    Scratch w;
-    double own[CK_OUT_SIZE];
-    if (!mode_ok(S, T)) return CK_BAD_STATE;
-    if (!row) row = own;
-    for (int j = 0; j < CK_N_Y; j++) row[j] = y[j];
-    complete_row(S[CK_T], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w.work, w.f, row);
-    if (dydt)
-        for (int j = 0; j < CK_N_Y; j++) dydt[j] = w.f[j];
-    return 0;
-}
-
-/* stuck at rest: max(eps forward, -eps backward) > 0 once the crank would move (an input or a
- * parameter changed); a surface the Co-Simulation step needs not, as it restarts on any change */
-static double unstick_value(const double* S, const double* y, const CkTables* T, const double* P, Scratch* w)
-{
-    double eps[2];
-    rest_accelerations(S[CK_T], y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, w->work, w->f, eps);
-    return fmax(eps[0], -eps[1]);
-}
-
-int ck_me_indicators(const double* S, const double* y, const CkTables* T, const double* P, double* z)
-{
-    Scratch w;
-    if (!mode_ok(S, T)) return CK_BAD_STATE;
-    events(S, S[CK_T], y, T, P, w.work, w.g0);
-    for (int slot = 0; slot < CK_N_SLOTS; slot++) {
-        double g = w.g0[slot];
-        if (!isfinite(g)) {
-            z[slot] = 1.0;             /* inactive in this mode: a constant, never crossed */
-            continue;
-        }
-        double b = band(slot, S, P);
-        z[slot] = ck_event_rising(slot, S[CK_MOTOR], S[CK_DIRECTION]) ? g - b : g + b;
-    }
-    if (S[CK_DIRECTION] == 0.0 && T->n_sliders > 0)
-        z[CK_REST] = unstick_value(S, y, T, P, &w) - CK_HYSTERESIS;
-    return 0;
-}
-
-int ck_me_update(double* S, double* y, const CkTables* T, const double* P)
-{
-    Scratch w;
-    if (!mode_ok(S, T)) return CK_BAD_STATE;
-    int transitions = 0;
-    for (int round = 0; round < 4 * CK_N_SLOTS; round++) {
-        if (S[CK_DIRECTION] == 0.0) {
-            if (T->n_sliders == 0) return transitions;
-            double direction = direction_at_rest(S[CK_T], y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, w.work, w.f);
-            if (direction == 0.0) return transitions;
-            S[CK_DIRECTION] = direction;
-            set_interval(S, T, y[0], direction);
-            transitions++;
-            continue;
-        }
-        events(S, S[CK_T], y, T, P, w.work, w.g0);
-        int ended = -1;
-        for (int slot = 0; slot < CK_N_SLOTS && ended < 0; slot++) {
-            double g = w.g0[slot], half = 0.5 * band(slot, S, P);
-            if (!isfinite(g)) continue;
-            if (ck_event_rising(slot, S[CK_MOTOR], S[CK_DIRECTION]) ? g >= half : g <= -half) ended = slot;
-        }
-        if (ended < 0) return transitions;
-        transition(S, ended, S[CK_T], y, T, P, w.work, w.f);
-        transitions++;
-    }
-    return CK_NO_FIXED_POINT;
+    kernel_complete_row(t, motor, direction, interval, T, P, work, f, row);
 }

@@ -1,0 +1,54 @@
+/* What the kernel's files share, and nothing outside them includes: the stepper on the tabulated
+ * model (crank_kernel.c) that the drivers (crank_drivers.c), the speed-causal step
+ * (crank_speed.c) and Model Exchange (crank_me.c) run. The public interface is crank_kernel.h. */
+#ifndef CRANK_KERNEL_INTERNAL_H
+#define CRANK_KERNEL_INTERNAL_H
+
+#include "crank_kernel.h"
+
+/* scratch of one call, on the stack */
+typedef struct {
+    double work[CK_MAX_FUNCTIONS];
+    double Kst[CK_N_STAGES + 1][CK_N_Y];
+    double ynew[CK_N_Y], tmp[CK_N_Y], f[CK_N_Y], g0[CK_N_SLOTS], g1[CK_N_SLOTS], y[CK_N_Y], f0[CK_N_Y];
+} Scratch;
+
+/* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
+ * torque at time t */
+void kernel_coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,
+                         const double* P, double* work, double* J, double* half_dJ, double* Q, double* tau);
+/* the crank's acceleration from rest with the slider forces forward (eps[0]) and backward (eps[1]) */
+void kernel_rest_accelerations(double t, double phi, double motor, double interval, const CkTables* T,
+                               const double* P, double* work, double* f, double* eps);
+/* the slider forces' side for a crank at rest (crank_modes.h's rule on those accelerations) */
+double kernel_direction_at_rest(double t, double phi, double motor, double interval, const CkTables* T,
+                                const double* P, double* work, double* f);
+/* the switch interval of phi in the given direction into S */
+void kernel_set_interval(double* S, const CkTables* T, double phi, double direction);
+/* the discrete state (motor branch, direction, switch interval) of a start or a restart at (S[CK_T], y) */
+void kernel_set_mode(double* S, const double* y, const CkTables* T, const double* P, Scratch* w);
+/* a start at (t, y): the mode, the first step size */
+void kernel_start(double* S, double t, const double* y, const CkTables* T, const double* P, Scratch* w);
+/* event functions of S's mode at (t, y) into g; inactive slots get NaN */
+void kernel_events(const double* S, double t, const double* y, const CkTables* T, const double* P, double* work,
+                   double* g);
+/* discrete state after the event in slot at (t, y) (y adjusted onto the surface) */
+void kernel_transition(double* S, int slot, double t, double* y, const CkTables* T, const double* P, double* work,
+                       double* f);
+/* sign-true slope of omega1 (h domega1/dt) at x in [0, 1] of the last step's interpolant */
+double kernel_omega_slope(const double* S, double x);
+/* time in [lo, hi] of the last step where g changes sign, by Illinois on the dense output */
+double kernel_locate(const double* S, int slot, double level, double lo, double hi, double glo, double ghi,
+                     const CkTables* T, const double* P, double* work, double* tmp, double* g);
+/* whether S's discrete state is one the kernel can have written */
+int kernel_mode_ok(const double* S, const CkTables* T);
+/* one accepted step, not beyond t_limit, ending on the first event crossed */
+int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, Scratch* w);
+/* the rest of an output row whose state row[0:5] at time t is set, in the given mode */
+void kernel_complete_row(double t, double motor, double direction, double interval, const CkTables* T,
+                         const double* P, double* work, double* f, double* row);
+/* the output row at t in the last step */
+void kernel_output_row(const double* S, double t, const CkTables* T, const double* P, double* work, double* f,
+                       double* row);
+
+#endif
