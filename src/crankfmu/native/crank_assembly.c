@@ -123,7 +123,7 @@ static int refuse_jumps(mm_model *m, int coarse)
                 if ((status = mm_closed_positions(m, fine[k], row)) == MM_OK) status = rates_at(m, row, fine_dq + k * nq);
                 if (status) { m->error_angle = fine[k]; break; }
                 for (int c = 1; c < nq && k > 0; ++c)          /* unwrapped along the fine angles */
-                    if (p->angle_column[c]) row[c] += TWO_PI * nearbyint((row[c - nq] - row[c]) / TWO_PI);
+                    if (p->angle_column[c]) row[c] = mm_nearest_turn(row[c - nq], row[c]);
             }
             if (status) break;
             gaps[n_gaps++] = worst_miss(nq, j, 64, fine, q, fine_dq, &i);

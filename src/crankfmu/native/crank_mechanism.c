@@ -280,7 +280,7 @@ static void count_turns(const mm_model *m, double *q)
     for (int j = 1; j < p->n_q; ++j) {
         if (!p->angle_column[j]) continue;
         double near = row[j] + TWO_PI * turns * m->winding[j];
-        q[j] += TWO_PI * nearbyint((near - q[j]) / TWO_PI);
+        q[j] = mm_nearest_turn(near, q[j]);
     }
 }
 
@@ -331,7 +331,7 @@ static int build_turn(mm_model *m)
             for (int j = 1; j < nq; ++j) {
                 if (!p->angle_column[j]) continue;
                 double *now = m->turn + i * nq + j, before = now[-nq];
-                *now += TWO_PI * nearbyint((before - *now) / TWO_PI);     /* numpy.unwrap's rule */
+                *now = mm_nearest_turn(before, *now);
             }
         }
     } else {

@@ -7,6 +7,8 @@
 
 #include "crank_mechanism.h"
 
+#include <math.h>
+
 #define TWO_PI 6.283185307179586
 #define MAX_Q 24
 #define MAX_LINKS 21
@@ -39,6 +41,13 @@ int mm_kinematics_of(mm_model *m, double phi1, const double *q, double *cond, do
 int mm_kinematics(mm_model *m, double phi1, double *cond);
 /* the per-angle registers phi1 .. the last point's: what a scan angle's kinematics leave */
 int mm_kinematics_width(const mm_program *p);
+
+/* value moved by whole turns to the one nearest reference: how an angle is made continuous along
+ * the turn (numpy.unwrap's rule) and put on the turn table's branch */
+static inline double mm_nearest_turn(double reference, double value)
+{
+    return value + TWO_PI * nearbyint((reference - value) / TWO_PI);
+}
 
 /* qsort's order of doubles */
 static inline int mm_ascending(const void *a, const void *b)
