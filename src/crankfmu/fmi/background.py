@@ -12,6 +12,7 @@ needs it, and says why it cannot as it always did.
 
 from __future__ import annotations
 
+import functools
 import multiprocessing
 import warnings
 from contextlib import contextmanager
@@ -20,14 +21,15 @@ from contextlib import contextmanager
 @contextmanager
 def reference_beside(run):
     """Start ``run()`` (the reference CSV's text, or None) in a forked process; yield a function
-    that waits for it and returns its text. The child is stopped if the build fails first."""
+    that waits for it and returns its text, the same text however often it is called. The child is
+    stopped if the build fails first."""
     if run is None:
         yield lambda: None
         return
     try:
         context = multiprocessing.get_context("fork")
-    except ValueError:                          # no fork here: run in process, when asked
-        yield run
+    except ValueError:                          # no fork here: run in process, once, when asked
+        yield functools.cache(run)
         return
     receive, send = context.Pipe(duplex=False)
 

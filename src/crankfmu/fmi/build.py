@@ -634,13 +634,10 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
             slave_units, slave_parameters = declared.units, {p.name: p for p in declared.parameters}
         with stage(name, "compiling the linux64 shim"):
             shim = compile_shim(name, Path(tmp) / f"{name}.so")
-        waited = []
 
         def reference_run():            # the documentation waits for it once it has drawn the mechanism
-            if not waited:
-                with stage(name, "the reference run of the default experiment"):
-                    waited.append(reference_text())
-            return waited[0]
+            with stage(name, "the reference run of the default experiment"):
+                return reference_text()
         with stage(name, "finding pythonfmu's platform binaries"):
             platform_binaries = pythonfmu_binaries()
         binary = f"binaries/linux64/{name}.so"
