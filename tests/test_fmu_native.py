@@ -318,6 +318,36 @@ def test_a_second_build_takes_the_kernel_and_the_mechanism_model_compiled_from_t
     assert os.listdir(tmp_path / "cache" / "objects") == [objects[0].name]
 
 
+def test_the_include_scan_lists_what_gcc_lists(tmp_path):
+    """The object cache names an object by the files its source includes, read by a scan of the
+    "name" includes instead of one `gcc -MM` per source and platform: for every C file of the
+    native FMUs (kernel, mechanism model, shells of both FMI versions, components, a generated
+    file that includes the model) the scan gives gcc's list exactly, generated headers included."""
+    import subprocess
+
+    import fmpy
+
+    from crankfmu.fmi import native_build
+    from crankfmu.native.sources import HERE as NATIVE
+
+    folder = tmp_path / "sources"
+    folder.mkdir()
+    for path in [*NATIVE.glob("*.[ch]"), *(NATIVE / "fmu").glob("*.[ch]")]:
+        shutil.copy2(path, folder / path.name)
+    (folder / "model_config.h").write_text("/* generated per FMU */\n")
+    (folder / "component_config.h").write_text("#define COMPONENT_DRIVE 1\n")
+    (folder / "model_data.c").write_text('#include "crank_model.h"\n')
+    headers = Path(fmpy.__file__).parent / "c-code"
+    sources = sorted(folder.glob("*.c"))
+    assert len(sources) > 15
+    for source in sources:
+        listed = subprocess.run(["gcc", "-std=c99", f"-I{folder}", f"-I{headers}", "-MM", str(source)],
+                                capture_output=True, text=True, check=True).stdout
+        by_gcc = {Path(p).resolve() for p in listed.replace("\\\n", " ").split()[1:]}
+        scanned = {p.resolve() for p in [source, *native_build._includes(source, [folder, headers])]}
+        assert scanned == by_gcc, source.name
+
+
 def test_a_missing_compiler_is_named():
     """The compilers run under nice (a lower priority beside the reference run): a compiler that is
     not installed is still named as missing, not reported as nice's failure."""
