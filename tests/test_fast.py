@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import crankfmu
+from crankfmu.scenario import load_scenario
 from crankfmu.studies.batch import steady_cycles
 from crankfmu.dynamics.tabulated import tabulate
 from crankfmu.errors import ParameterError
@@ -162,6 +163,28 @@ def test_steady_cycles_list_failed_designs_with_their_reason():
     assert len(batch.failed) == 3
     text = " | ".join(f["reason"] for f in batch.failed)
     assert "J_flywheel" in text and "stalls" in text and "l1" in text
+
+
+def test_a_batch_of_geometries_reads_the_mechanism_file_once(monkeypatch):
+    """Every design of a sweep is a with_params copy of one scenario: they share the mechanism's
+    definition, read once (the file is not read and looked up again per design); a copy pickled
+    for a Dask worker reads it again there and gives the same steady cycle."""
+    import pickle
+
+    from crankfmu import scenario as scenario_module
+
+    reads = []
+    load = scenario_module.load_mechanism
+    monkeypatch.setattr(scenario_module, "load_mechanism", lambda source: (reads.append(source), load(source))[1])
+    designs = [{"l1": l1} for l1 in (0.19, 0.2, 0.21)]
+    batch = steady_cycles("seed000", designs)
+    assert len(batch.rows) == 3 and len(reads) == 1
+    base = load_scenario("seed000")
+    base.mechanism_definition()
+    copy = pickle.loads(pickle.dumps(base.with_params(l1=0.21)))
+    assert copy.mechanism_definition() is not None and len(reads) == 3      # base's read, then the copy's
+    again = steady_cycles(copy, [{}])
+    assert again.rows[0]["delta"] == batch.rows[2]["delta"]
 
 
 def test_sweep_on_a_local_dask_cluster_writes_rows_lists_failures_and_resumes(tmp_path):

@@ -58,6 +58,8 @@ class Scenario:
         if missing:
             raise DefinitionError(f"{where}: missing contract parameter(s) {', '.join(missing)}")
         self.parameters: dict[str, Parameter] = params
+        #: what the scenario and its with_params copies share, read once (the mechanism's definition)
+        self._kept: dict = {}
         self.overrides: dict[str, float] = {}
         for k, v in (overrides or {}).items():
             self.overrides[k] = self._param(k).check(v)
@@ -110,7 +112,18 @@ class Scenario:
         return name
 
     def mechanism_definition(self) -> MechanismDefinition:
-        return load_mechanism(self.mechanism_source())
+        """The mechanism file's definition, read the first time this scenario or any of its
+        with_params copies asks for it, then kept by all of them (a sweep's designs are copies:
+        the file is read once, not once per design)."""
+        kept = self.__dict__.setdefault("_kept", {})
+        if "definition" not in kept:
+            kept["definition"] = load_mechanism(self.mechanism_source())
+        return kept["definition"]
+
+    def __getstate__(self):
+        # a pickled scenario (a Dask worker's) reads its mechanism again where it is unpickled: a
+        # definition holds compiled expressions, which do not pickle
+        return {**self.__dict__, "_kept": {}}
 
     @property
     def quantities(self):
