@@ -47,8 +47,9 @@ def _omega_guess(table, J_flywheel, motor: MotorLine, phi_grid):
     """Mean speed at which the motor line balances the mean load torque (a start for shooting)."""
     A, B, A_low, B_low, ws = motor.A, motor.B, motor.A_low, motor.B_low, motor.omega_switch
     w = max(ws, 1.0) * 2.0
+    values = table.evaluate(phi_grid)           # the table's functions do not depend on the speed
     for _ in range(3):
-        Q = float(np.mean(table.coefficients_at(phi_grid, np.full_like(phi_grid, w), J_flywheel)[2]))
+        Q = float(np.mean(table.coefficients_at(phi_grid, np.full_like(phi_grid, w), J_flywheel, values)[2]))
         high = (A + Q) / B if B > 0 else math.inf
         w_new = high if high > ws else ((A_low + Q) / B_low if B_low > 0 else ws)
         if not (math.isfinite(w_new) and w_new > 0):
