@@ -556,17 +556,12 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
                 binaries[folder] = Path(tmp) / folder / f"{fmu}{'.dll' if windows else '.so'}"
                 binaries[folder].parent.mkdir()
                 compiling.append((folder, pool.submit(compile_binary, cc, src, binaries[folder], windows, generated)))
-            try:
-                with stage(fmu, "the modelDescription"):
-                    md = describe(sources)
-                with stage(fmu, "the documentation"):
-                    # a mechanism's documentation draws it before it waits for the reference run to plot
-                    docs = source.documentation(fmu, md, parameters, reference, build="native",
-                                                platforms=list(binaries), **about)
-            except BaseException:
-                for _, job in compiling:        # the failure is reported now, not after the compilers
-                    job.cancel()
-                raise
+            with stage(fmu, "the modelDescription"):
+                md = describe(sources)
+            with stage(fmu, "the documentation"):
+                # a mechanism's documentation draws it before it waits for the reference run to plot
+                docs = source.documentation(fmu, md, parameters, reference, build="native",
+                                            platforms=list(binaries), **about)
             for folder, job in compiling:
                 with stage(fmu, f"compiling the {folder} binary"):
                     job.result()
