@@ -348,6 +348,35 @@ def test_the_include_scan_lists_what_gcc_lists(tmp_path):
         assert scanned == by_gcc, source.name
 
 
+def test_a_build_on_a_terminal_shows_its_stage_and_time_then_clears_the_line(tmp_path):
+    """`crankfmu fmu` on a terminal says which stage the build is in and for how long (the build
+    takes seconds); the line is cleared before "built", and a pipe (a log, CI) gets none of it."""
+    import os
+    import pty
+    import sys
+
+    command = [sys.executable, "-m", "crankfmu", "fmu", "seed000", "--native", "--out", str(tmp_path / "tty")]
+    main_fd, terminal = pty.openpty()
+    done = subprocess.run(command, stdout=subprocess.PIPE, stderr=terminal, text=True)
+    os.close(terminal)
+    seen = b""
+    while True:
+        try:
+            chunk = os.read(main_fd, 65536)
+        except OSError:                 # the terminal's other end is closed: all read
+            break
+        if not chunk:
+            break
+        seen += chunk
+    os.close(main_fd)
+    assert done.returncode == 0 and done.stdout.startswith("built ")
+    shown = seen.decode()
+    assert re.search(r"FourBar\.fmu: [a-zA-Z ]+ \(\d+\.\d s\)", shown), shown
+    assert shown.endswith("\r"), shown                  # cleared: "built" starts a clean line
+    piped = subprocess.run([*command[:-1], str(tmp_path / "pipe")], capture_output=True, text=True)
+    assert piped.returncode == 0 and piped.stderr == ""
+
+
 def test_a_missing_compiler_is_named():
     """The compilers run under nice (a lower priority beside the reference run): a compiler that is
     not installed is still named as missing, not reported as nice's failure."""

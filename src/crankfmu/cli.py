@@ -307,6 +307,21 @@ def cmd_fmu(args) -> int:
                             f"of a{' native' if args.native else ' Python'} {kind} FMU is set by its host")
     if args.fmi_version == "3" and not args.native:
         raise CrankfmuError("--fmi-version 3: native FMUs only (--native); the Python FMUs (pythonfmu) are FMI 2.0")
+    from .fmi.build import watching_stages
+    from .progress import StageLine
+
+    line = StageLine()
+    try:
+        with watching_stages(line):
+            path = _build_fmu(args, kind, values)
+    finally:
+        line.close()
+    print(f"built {path}")
+    return 0
+
+
+def _build_fmu(args, kind: str, values: dict) -> Path:
+    """The FMU cmd_fmu asked for: native or Python, a mechanism's or a component's."""
     if args.native and kind != "scenario":
         from .fmi.native_components import build_native_component
 
@@ -321,8 +336,7 @@ def cmd_fmu(args) -> int:
         from .fmi.build import build
 
         path = build(kind, args.source, Path(args.out), args.name, args.causality)
-    print(f"built {path}")
-    return 0
+    return path
 
 
 def _parser_class():

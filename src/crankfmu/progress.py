@@ -1,8 +1,9 @@
-"""A progress bar on stderr for runs longer than a few seconds."""
+"""A progress bar on stderr for runs longer than a few seconds, and a build's stage line."""
 
 from __future__ import annotations
 
 import sys
+import threading
 import time
 
 
@@ -38,4 +39,52 @@ class ProgressBar:
     def close(self):
         if self.shown and self.tty:
             self.stream.write("\n")
+            self.stream.flush()
+
+
+class StageLine:
+    """A build's progress on a terminal: the FMU, the stage it is in and the time so far on one
+    line, redrawn four times a second from ``delay`` s on (a build takes 2 to 10 s; a warm one
+    says nothing). Called with (fmu, stage) as each stage starts (fmi.build.watching_stages); a
+    stream that is not a terminal (a log, a pipe, a test) gets nothing, so an error stays the
+    only line there."""
+
+    def __init__(self, stream=None, delay: float = 1.0):
+        self.stream = sys.stderr if stream is None else stream
+        self.delay, self.t0 = delay, time.perf_counter()
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.text, self.width = "", 0
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._ticker = None
+        if self.tty:
+            self._ticker = threading.Thread(target=self._tick, daemon=True)
+            self._ticker.start()
+
+    def __call__(self, fmu: str, what: str):
+        with self._lock:
+            self.text = f"{fmu}.fmu: {what}"
+
+    def _draw(self):
+        elapsed = time.perf_counter() - self.t0
+        if elapsed < self.delay or not self.text:
+            return
+        line = f"{self.text} ({elapsed:.1f} s)"
+        self.stream.write("\r" + line.ljust(self.width))
+        self.stream.flush()
+        self.width = max(self.width, len(line))
+
+    def _tick(self):
+        while not self._stop.wait(0.25):
+            with self._lock:
+                self._draw()
+
+    def close(self):
+        """Stop, and clear the line for what the command prints next."""
+        if self._ticker is None:
+            return
+        self._stop.set()
+        self._ticker.join()
+        if self.width:
+            self.stream.write("\r" + " " * self.width + "\r")
             self.stream.flush()
