@@ -27,6 +27,27 @@ def test_reduced_inertia_equals_link_kinetic_energy(model):
     assert np.max(np.abs(0.5 * J * omega**2 - E_links)) < 1e-12 * np.max(E_links)
 
 
+@pytest.mark.parametrize("name", ["seed000", "seed001", "seed003", "pumpjack"])
+def test_one_angle_sums_the_links_on_floats_to_the_bit_of_numpy(name):
+    """The reference integrator asks for J and 0.5 J' at one crank angle at a time, and those link
+    sums then run on Python floats: the same IEEE operations in the same order as numpy's on
+    one-element arrays (eq. 13-14 written out below with numpy), so the same numbers to the bit."""
+    from crankfmu.scenario import load_scenario
+
+    red = load_scenario(name).build().reduced
+    for a in ANGLES[::7]:
+        kin = red.mechanism.kinematics(np.array([a]))
+        J, half_dJ = red.coefficients(None, kin)[:2]
+        J_numpy, half_dJ_numpy = np.full(1, red.J_flywheel), np.zeros(1)
+        for link in red.links:
+            _, _, t, p, tt, pp = kin.point(link.centre)
+            _, q, qq = kin.link_angle(link.name)
+            J_numpy += link.mass * (t * t + p * p) + link.inertia * q * q
+            half_dJ_numpy += link.mass * (t * tt + p * pp) + link.inertia * q * qq
+        assert J.shape == half_dJ.shape == (1,)
+        assert J[0] == J_numpy[0] and half_dJ[0] == half_dJ_numpy[0], (name, a)
+
+
 def test_flywheel_adds_a_constant(scenario):
     J1 = scenario.build().reduced.coefficients(ANGLES)[0]
     J0 = scenario.with_params(J_flywheel=0.0).build().reduced.coefficients(ANGLES)[0]
