@@ -1,7 +1,7 @@
 """The reference run of an FMU's default experiment beside the rest of its build.
 
 The reference (DOP853 on the Python contour engine, the FMU's ``<model>_ref.csv``) is the longest
-single task of a build on an empty cache: 3.4 s of CPU for the Shaper's and the pumping unit's.
+single task of a build on an empty cache: about 3.2 s of CPU for the Shaper's and the pumping unit's.
 It is Python under the GIL, so a thread would not run it beside the build's own Python work (the
 C model's tables, the generated sources, pythonfmu's packing, the drawing of the mechanism); a
 forked process does, from the moment the build starts until the documentation plots its result
