@@ -7,6 +7,11 @@ import threading
 import time
 
 
+def is_terminal(stream) -> bool:
+    """Whether ``stream`` is a terminal (a line can be redrawn in place) rather than a log or pipe."""
+    return bool(getattr(stream, "isatty", lambda: False)())
+
+
 class ProgressBar:
     """Call with the quantity reached (e.g. simulated time); shows itself after ``delay`` s."""
 
@@ -19,7 +24,7 @@ class ProgressBar:
         self.shown = False
         self.last = -1.0
         # a log file (CI) gets a line every 10 %, a terminal every 1 %
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.tty = is_terminal(self.stream)
         self.granularity = 0.01 if self.tty else 0.1
 
     def __call__(self, value: float):
@@ -52,32 +57,25 @@ class StageLine:
     def __init__(self, stream=None, delay: float = 1.0):
         self.stream = sys.stderr if stream is None else stream
         self.delay, self.t0 = delay, time.perf_counter()
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.text, self.width = "", 0
+        self.text, self.width = "", 0          # the stage (one assignment: the ticker reads it whole)
         self._stop = threading.Event()
-        self._lock = threading.Lock()
         self._ticker = None
-        if self.tty:
+        if is_terminal(self.stream):
             self._ticker = threading.Thread(target=self._tick, daemon=True)
             self._ticker.start()
 
     def __call__(self, fmu: str, what: str):
-        with self._lock:
-            self.text = f"{fmu}.fmu: {what}"
-
-    def _draw(self):
-        elapsed = time.perf_counter() - self.t0
-        if elapsed < self.delay or not self.text:
-            return
-        line = f"{self.text} ({elapsed:.1f} s)"
-        self.stream.write("\r" + line.ljust(self.width))
-        self.stream.flush()
-        self.width = max(self.width, len(line))
+        self.text = f"{fmu}.fmu: {what}"
 
     def _tick(self):
         while not self._stop.wait(0.25):
-            with self._lock:
-                self._draw()
+            elapsed, text = time.perf_counter() - self.t0, self.text
+            if elapsed < self.delay or not text:
+                continue
+            line = f"{text} ({elapsed:.1f} s)"
+            self.stream.write("\r" + line.ljust(self.width))
+            self.stream.flush()
+            self.width = max(self.width, len(line))
 
     def close(self):
         """Stop, and clear the line for what the command prints next."""

@@ -115,10 +115,9 @@ class Scenario:
         """The mechanism file's definition, read the first time this scenario or any of its
         with_params copies asks for it, then kept by all of them (a sweep's designs are copies:
         the file is read once, not once per design)."""
-        kept = self.__dict__.setdefault("_kept", {})
-        if "definition" not in kept:
-            kept["definition"] = load_mechanism(self.mechanism_source())
-        return kept["definition"]
+        if "definition" not in self._kept:
+            self._kept["definition"] = load_mechanism(self.mechanism_source())
+        return self._kept["definition"]
 
     def __getstate__(self):
         # a pickled scenario (a Dask worker's) reads its mechanism again where it is unpickled: a

@@ -389,8 +389,9 @@ def c_table(scenario, values: dict, tolerance: float = 1e-11, model=None) -> Red
     native/crank_tabulator.c) from the scenario's compiled program at ``values`` (or by ``model``, a
     c_model of them), with the same constructions and checked bound as :func:`tabulate`; None
     where the scenario does not compile to it or the C model refuses the values (the Python engine
-    then builds the table, or says why it cannot). With the environment variable CRANKFMU_TABLES=python every table is the Python
-    engine's (the reference path; make bench times a sweep both ways)."""
+    then builds the table, or says why it cannot). With the environment variable
+    CRANKFMU_TABLES=python every table is the Python engine's (the reference path; make bench times
+    a sweep both ways)."""
     from ..native.mechanism import MechanismError
 
     started = time.perf_counter()
