@@ -54,6 +54,9 @@ $(DEV_STAMP): $(STAMP)
 	  || echo "make: could not install gcc-aarch64-linux-gnu (apt-get, as root): FMI 3.0 FMUs get no aarch64-linux binary"
 	@command -v qemu-aarch64 >/dev/null || { apt-get update -qq && apt-get install -y -qq qemu-user; } \
 	  || echo "make: could not install qemu-user (apt-get, as root): the aarch64-linux checks will fail"
+	@# the kernel's objects for the cross compilers just installed (the installation compiled them
+	@# for those it found): a first native build then compiles only its own files
+	@$(BIN)/python src/crankfmu/native/sources.py --prebuild
 	@# the coverage-guided fuzzer of the native FMU's FMI API: Debian's clang (libFuzzer, sanitizers)
 	@command -v clang >/dev/null || { apt-get update -qq && apt-get install -y -qq clang; } \
 	  || echo "make: could not install clang (apt-get, as root): the FMI fuzzer's test will fail"

@@ -1,5 +1,6 @@
 """Builds crankfmu's C kernel (src/crankfmu/native) with the package: a plain shared library that
-Python loads through ctypes and the native FMU compiles in. Everything else is in pyproject.toml."""
+Python loads through ctypes, and the objects native FMUs link (for each FMU compiler installed), so
+a first native build compiles only its own files. Everything else is in pyproject.toml."""
 
 import runpy
 import sys
@@ -21,6 +22,19 @@ class PlainLibrary(build_ext):
 
     def get_export_symbols(self, ext):
         return []
+
+    def run(self):
+        super().run()
+        # beside the library, where the installed package looks for them (native/sources.PREBUILT);
+        # a native build without them compiles them into the per-user cache instead
+        folder = Path(self.get_ext_fullpath("crankfmu.native.crank_kernel")).parent / "objects"
+        try:
+            used = native["prebuild"](folder)
+        except (OSError, RuntimeError) as error:
+            print(f"crankfmu: the native FMUs' objects were not compiled ({error}); each is compiled "
+                  "at its first native build instead", file=sys.stderr)
+        else:
+            print(f"crankfmu: native FMU objects compiled for {', '.join(used)}")
 
 
 setup(

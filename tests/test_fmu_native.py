@@ -292,15 +292,17 @@ def test_third_party_masters_run_it(master, native, reference):
 
 
 def test_a_second_build_takes_the_kernel_and_the_mechanism_model_compiled_from_the_cache(tmp_path, monkeypatch):
-    """The kernel and the mechanism model are the same C for every scenario: compiled once into the
-    per-user cache, then linked into every FMU, though each build copies its sources to a new
-    temporary folder (the object's name is its compiler, flags and content, not that folder's)."""
+    """The kernel and the mechanism model are the same C for every scenario: without the objects
+    of the installation, compiled once into the per-user cache, then linked into every FMU, though
+    each build copies its sources to a new temporary folder (the object's name is its compiler,
+    flags and content, not that folder's)."""
     import os
 
     from crankfmu.fmi import native_build
-    from crankfmu.native.sources import HERE as NATIVE, KERNEL
+    from crankfmu.native.sources import HERE as NATIVE, KERNEL, fmu_flags
 
     monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(native_build, "PREBUILT", tmp_path / "not installed")
     compiled = []
     run = native_build._run
     monkeypatch.setattr(native_build, "_run", lambda cmd, cc: (compiled.append(cmd), run(cmd, cc))[1])
@@ -310,12 +312,36 @@ def test_a_second_build_takes_the_kernel_and_the_mechanism_model_compiled_from_t
         folder.mkdir(parents=True)
         for name in ("crank_kernel.c", *(n for n in KERNEL if n.endswith(".h"))):
             shutil.copy2(NATIVE / name, folder / name)
-        flags = ["-std=c99", "-O2", "-ffp-contract=off", "-fPIC", "-DCK_API=", f"-I{folder}"]
         compiled.clear()
-        objects.append(native_build._cached_object("gcc", flags, folder / "crank_kernel.c", ()))
+        objects.append(native_build._cached_object("gcc", fmu_flags(False) + [f"-I{folder}"],
+                                                   folder / "crank_kernel.c", ()))
     assert objects[0] == objects[1] and objects[0].is_file()
     assert not any("-c" in cmd for cmd in compiled)          # the second build compiled nothing
     assert os.listdir(tmp_path / "cache" / "objects") == [objects[0].name]
+
+
+def test_a_first_build_links_the_objects_the_installation_compiled(tmp_path, monkeypatch):
+    """The installation compiles the kernel and the mechanism model for every FMU compiler there
+    (setup.py, and make test's set-up once MinGW and the aarch64 compiler are installed): a first
+    native build on an empty per-user cache compiles none of them, only the FMU's own files (its
+    generated model, its shell), for each platform it builds."""
+    from crankfmu.fmi import native_build
+    from crankfmu.native.sources import C_FILES, FMU_COMPILERS, PREBUILT
+
+    monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path / "cache"))
+    commands = []
+    run = native_build._run
+    monkeypatch.setattr(native_build, "_run", lambda cmd, cc: (commands.append(cmd), run(cmd, cc))[1])
+    native_build.build_native("seed000", tmp_path / "out", fmi_version="3.0")
+    compilers = {cmd[0] for cmd in commands}
+    assert "gcc" in compilers and compilers <= set(FMU_COMPILERS)
+    for cc in compilers:
+        compiled = {Path(a).name for cmd in commands if cmd[0] == cc for a in cmd if a.endswith(".c")}
+        assert compiled and not compiled & set(C_FILES), (cc, compiled)
+        linked = [Path(a) for cmd in commands if cmd[0] == cc and "-shared" in cmd for a in cmd if a.endswith(".o")]
+        assert {a.parent for a in linked} >= {PREBUILT}, cc
+        assert {a.name.rsplit("_", 1)[0] + ".c" for a in linked if a.parent == PREBUILT} == set(C_FILES) & set(
+            native_build.KERNEL_SOURCES + native_build.MECHANISM_SOURCES), cc
 
 
 def test_the_include_scan_lists_what_gcc_lists(tmp_path):
@@ -327,8 +353,7 @@ def test_the_include_scan_lists_what_gcc_lists(tmp_path):
 
     import fmpy
 
-    from crankfmu.fmi import native_build
-    from crankfmu.native.sources import HERE as NATIVE
+    from crankfmu.native.sources import HERE as NATIVE, includes
 
     folder = tmp_path / "sources"
     folder.mkdir()
@@ -344,7 +369,7 @@ def test_the_include_scan_lists_what_gcc_lists(tmp_path):
         listed = subprocess.run(["gcc", "-std=c99", f"-I{folder}", f"-I{headers}", "-MM", str(source)],
                                 capture_output=True, text=True, check=True).stdout
         by_gcc = {Path(p).resolve() for p in listed.replace("\\\n", " ").split()[1:]}
-        scanned = {p.resolve() for p in [source, *native_build._includes(source, [folder, headers])]}
+        scanned = {p.resolve() for p in [source, *includes(source, [folder, headers])]}
         assert scanned == by_gcc, source.name
 
 

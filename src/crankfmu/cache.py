@@ -9,9 +9,13 @@ imported anything of the package it carries.
                      library does not match them (crankfmu.native)
   fmu_<digest>/      the package an FMU carries, unpacked from the archive in its resources
                      (fmi/slave_script.py.in)
+  objects/           native FMUs' objects the installation did not compile (native/sources.py's
+                     PREBUILT), each named by its compiler, flags and content
+  references/        each design's reference run (fmi.build.reference_result)
 
-Each folder is named by the content hash of what it holds and written whole under a temporary
-name, then renamed: a process sees a complete folder or none, and a changed content gets a new one.
+Each folder and file is named by the content hash of what it holds and written whole under a
+temporary name, then renamed: a process sees a complete one or none, and a changed content gets a new
+one.
 """
 
 from __future__ import annotations

@@ -27,11 +27,8 @@ phi1_start sets the initial state; Co-Simulation only.
 from __future__ import annotations
 
 import hashlib
-import os
-import re
 import shutil
 import subprocess
-import threading
 import tempfile
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
@@ -49,7 +46,8 @@ from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
 from ..dynamics.program import MIN_CONDITIONING
 from ..errors import CrankfmuError
 from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
-from ..native.sources import CFLAGS, HERE as NATIVE, KERNEL as KERNEL_SOURCES, MECHANISM as MECHANISM_SOURCES
+from ..native.sources import (AARCH64_CC, WIN64_CC, HERE as NATIVE, KERNEL as KERNEL_SOURCES, MECHANISM as MECHANISM_SOURCES,
+                               PREBUILT, compile_object, fmu_flags, includes, object_name)
 from .background import reference_beside
 from .build import (LS_REF, LS_REF_MANIFEST, NATIVE_USER_FILES, cross_check_options, preflight, stage,
                     vendor_annotations)
@@ -66,8 +64,6 @@ TUNABLE = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel", "phi1_start
 SPEED_TUNABLE = ("J_flywheel", "phi1_start")
 #: set before initialisation only: they are the initial state
 INITIAL = ("phi1_start", "omega1_start")
-WIN64_CC = "x86_64-w64-mingw32-gcc"
-AARCH64_CC = "aarch64-linux-gnu-gcc"
 #: each FMI version's binaries: (platform folder, compiler, a Windows DLL); the first is always built,
 #: the others where their cross compiler is installed (Windows: or where asked for)
 PLATFORMS = {"2.0": (("linux64", "gcc", False), ("win64", WIN64_CC, True)),
@@ -447,61 +443,35 @@ def _run(cmd: list, compiler: str) -> str:
     return done.stdout
 
 
-_INCLUDE = re.compile(rb'^[ \t]*#[ \t]*include[ \t]*"([^"]+)"', re.MULTILINE)
-
-
-def _includes(source: Path, folders: list) -> set:
-    """The files ``source`` includes by "name", each found first beside the file that includes it,
-    then in ``folders`` (the -I folders), and what they include in turn: the list gcc -MM gives,
-    read here instead of by one compiler process per source and platform (0.03 s each, in series
-    with the compiles). An include under an #if counts either way: one dependency too many costs at
-    most a cache miss, never a stale object."""
-    found, todo = set(), [source]
-    while todo:
-        including = todo.pop()
-        for name in _INCLUDE.findall(including.read_bytes()):
-            for folder in (including.parent, *folders):
-                candidate = folder / name.decode()
-                if candidate.is_file():
-                    if candidate not in found:
-                        found.add(candidate)
-                        todo.append(candidate)
-                    break
-    return found
-
-
 def _cached_object(compiler: str, flags: list, source: Path, generated) -> Path | None:
-    """The object of ``source`` from the per-user cache (compiled into it the first time), where
-    nothing it includes is generated per FMU (the kernel and the mechanism model are the same for
-    every scenario: only their compiler, flags and content name the object); None otherwise."""
+    """The object of ``source``: the one installed with the package (sources.PREBUILT), else the
+    per-user cache's (compiled into it the first time), where nothing it includes is generated per
+    FMU (the kernel and the mechanism model are the same for every scenario: only their compiler,
+    flags and content name the object); None otherwise."""
     from ..cache import cache_root
 
-    made = [source, *_includes(source, [Path(f[2:]) for f in flags if f.startswith("-I")])]
+    made = [source, *includes(source, [Path(f[2:]) for f in flags if f.startswith("-I")])]
     if any(Path(dep).name in generated for dep in made):
         return None
-    # not the build's own temporary folder of sources (-I): it differs every build, and what the
-    # object depends on in it is hashed below by name and content
-    digest = hashlib.sha256(repr((compiler, [f for f in flags if f != f"-I{source.parent}"])).encode())
-    for dep in sorted(made):
-        digest.update(Path(dep).name.encode() + b"\0" + Path(dep).read_bytes())
-    obj = cache_root() / "objects" / f"{source.stem}_{digest.hexdigest()[:20]}.o"
+    name = object_name(compiler, flags, made)
+    if (PREBUILT / name).is_file():
+        return PREBUILT / name
+    obj = cache_root() / "objects" / name
     if not obj.is_file():
         obj.parent.mkdir(parents=True, exist_ok=True)
-        partial = obj.with_name(f"{obj.name}.{os.getpid()}.{threading.get_ident()}")
-        _run([compiler, *flags, "-c", "-o", str(partial), str(source)], compiler)
-        os.replace(partial, obj)
+        compile_object(compiler, flags, source, obj, run=lambda command: _run(command, compiler))
     return obj
 
 
 def compile_binary(compiler: str, folder: Path, out: Path, windows: bool, generated=()):
     """The FMU's binary from the sources in ``folder``: C99, libgcc linked statically, nothing beyond
     the C library (and libm on Linux); the FMI headers come with fmpy. The sources that include
-    nothing ``generated`` (the kernel, the mechanism model) come compiled from the per-user cache."""
+    nothing ``generated`` (the kernel, the mechanism model) come compiled: installed with the
+    package, else from the per-user cache."""
     import fmpy
 
     headers = Path(fmpy.__file__).parent / "c-code"
-    flags = [f for f in CFLAGS if not (windows and f == "-fPIC")] + ["-DCK_API=", f"-I{folder}", f"-I{headers}"]
-    flags += [] if windows else ["-fvisibility=hidden"]
+    flags = fmu_flags(windows) + [f"-I{folder}", f"-I{headers}"]
     inputs = []
     for source in sorted(folder.glob("*.c")):
         try:
