@@ -344,6 +344,32 @@ def test_a_first_build_links_the_objects_the_installation_compiled(tmp_path, mon
             native_build.KERNEL_SOURCES + native_build.MECHANISM_SOURCES), cc
 
 
+def test_a_compiler_that_fails_at_installation_is_one_line_and_leaves_no_object(tmp_path):
+    """sources.py --prebuild (make test's set-up, after it installs the cross compilers) where a
+    compiler fails: one line naming the compiler, the file and its message, no traceback, a
+    non-zero exit, and no object (whole or partial) in the folder a build would link from."""
+    import os
+    import sys
+
+    from crankfmu.native.sources import HERE as NATIVE
+
+    copy = tmp_path / "native"
+    copy.mkdir()
+    for path in [NATIVE / "sources.py", *NATIVE.glob("*.[ch]")]:
+        shutil.copy2(path, copy / path.name)
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    (fake / "gcc").write_text("#!/bin/sh\necho 'crank_kernel.c:1: error: the disk is full' >&2\nexit 1\n")
+    os.chmod(fake / "gcc", 0o755)
+    done = subprocess.run([sys.executable, str(copy / "sources.py"), "--prebuild"], capture_output=True, text=True,
+                          env={"PATH": str(fake)})
+    assert done.returncode != 0
+    assert "Traceback" not in done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "gcc failed on crank_" in lines[0] and "the disk is full" in lines[0], lines
+    assert list((copy / "objects").iterdir()) == []
+
+
 def test_the_include_scan_lists_what_gcc_lists(tmp_path):
     """The object cache names an object by the files its source includes, read by a scan of the
     "name" includes instead of one `gcc -MM` per source and platform: for every C file of the

@@ -29,6 +29,9 @@ MECHANISM = ("crank_mechanism.c", "crank_assembly.c", "crank_engine.c", "crank_t
 SOURCES = KERNEL + COMPONENTS + WELL + MECHANISM
 #: the C files the library is compiled from (the mechanism's kernel, the components' physics, the well)
 C_FILES = tuple(name for name in SOURCES if name.endswith(".c"))
+#: the C files native FMUs link: the mechanism's kernel and model, the components' physics (the
+#: well's coupling runs in process only)
+FMU_C_FILES = tuple(name for name in KERNEL + COMPONENTS + MECHANISM if name.endswith(".c"))
 #: how the library is compiled, by setup.py and by the fallback: C99, no FMA contraction (the
 #: numbers do not depend on the CPU the library was compiled for)
 CFLAGS = ["-std=c99", "-O2", "-ffp-contract=off", "-fPIC"]
@@ -115,15 +118,15 @@ def _run(command: list) -> None:
 
 
 def prebuild(folder: Path = PREBUILT) -> list:
-    """The native FMUs' objects of this folder's C files, compiled into ``folder`` for every FMU
-    compiler installed, both at once: a first native build then compiles only its own generated
-    files. Objects of earlier sources are removed. Returns the compilers used."""
+    """The objects of FMU_C_FILES compiled into ``folder`` for every FMU compiler installed, all at
+    once: a first native build then compiles only its own generated files. Objects of earlier
+    sources are removed. Returns the compilers used."""
     compilers = [cc for cc in FMU_COMPILERS if shutil.which(cc)]
     folder.mkdir(parents=True, exist_ok=True)
     jobs = {}
     for cc in compilers:
         flags = fmu_flags(FMU_COMPILERS[cc]) + [f"-I{HERE}"]
-        for name in C_FILES:
+        for name in FMU_C_FILES:
             source = HERE / name
             obj = folder / object_name(cc, flags, [source, *includes(source, [HERE])])
             jobs[obj] = (cc, flags, source)
@@ -137,9 +140,12 @@ def prebuild(folder: Path = PREBUILT) -> list:
 
 
 if __name__ == "__main__":
-    # python src/crankfmu/native/sources.py --prebuild (by its path, as setup.py runs it): the
+    # python src/crankfmu/native/sources.py --prebuild (by its path, as setup.py reads it): the
     # objects again once a cross compiler is installed
     if sys.argv[1:] != ["--prebuild"]:
         sys.exit("usage: python sources.py --prebuild")
-    used = prebuild()
+    try:
+        used = prebuild()
+    except (OSError, RuntimeError) as error:
+        sys.exit(f"sources.py --prebuild: {error}")
     print(f"native FMU objects compiled for {', '.join(used) or 'no compiler found'} in {PREBUILT}")
