@@ -16,6 +16,7 @@ from crankfmu.dynamics.loads import SliderForce
 from crankfmu.dynamics.reactions import joint_reactions
 from crankfmu.studies.equilibrium import equilibrium_study
 from crankfmu.errors import AssemblyError, ParameterError
+from crankfmu.mechanisms import Mechanism
 
 SPEEDS = (15.0, 10.0, 7.0, 5.0)
 ANGLES = np.radians(np.arange(360.0))
@@ -64,7 +65,7 @@ def extremes(f):
 def test_positions_match_the_closed_form_written_here(seed001):
     p = seed001.values
     for use_closed_form in (True, False):                # the file's closed form and the Newton engine
-        kin = seed001.mechanism_definition().bind(p, use_closed_form=use_closed_form).kinematics(ANGLES)
+        kin = Mechanism(seed001.mechanism_definition(), p, use_closed_form=use_closed_form).kinematics(ANGLES)
         ref = closed_form(ANGLES, p)
         for name in ("s3", "s7", "phi5"):
             assert np.max(np.abs(kin.q[name] - ref[name])) < 1e-12, name
@@ -72,7 +73,7 @@ def test_positions_match_the_closed_form_written_here(seed001):
 
 def test_strokes_and_rocker_swing_from_the_engine(seed001, model001):
     p = seed001.values
-    newton = seed001.mechanism_definition().bind(p, use_closed_form=False)
+    newton = Mechanism(seed001.mechanism_definition(), p, use_closed_form=False)
     forces = {f.point: f for f in model001.reduced.loads if isinstance(f, SliderForce)}
     for point, unknown in (("C", "s3"), ("G", "s7")):
         lo, hi = extremes(lambda a: closed_form(a, p)[unknown])

@@ -8,7 +8,7 @@ import pytest
 
 from crankfmu.dynamics import rocker_extremes
 from crankfmu.errors import AssemblyError
-from crankfmu.mechanisms import load_mechanism
+from crankfmu.mechanisms import Mechanism, load_mechanism
 
 GEOMETRY = dict(l0=0.75, l1=0.2, l2=0.5, l3=0.55, q1=5.5, q2=4.0, q3=3.75)
 ANGLES = np.radians(np.arange(360) + 0.5)   # 360 angles, none exactly on a grid point of the engine
@@ -16,7 +16,7 @@ ANGLES = np.radians(np.arange(360) + 0.5)   # 360 angles, none exactly on a grid
 
 @pytest.fixture(scope="module")
 def fourbar():
-    return load_mechanism("fourbar").bind(GEOMETRY)
+    return Mechanism(load_mechanism("fourbar"), GEOMETRY)
 
 
 def independent_fourbar(phi1, l0=0.75, l1=0.2, l2=0.5, l3=0.55):
@@ -114,8 +114,8 @@ def test_newton_path_equals_closed_form():
     """The engine without the file's closed form (Newton continuation from the assembly guess)
     lands on the same branch and the same transfer functions."""
     definition = load_mechanism("fourbar")
-    closed = definition.bind(GEOMETRY).kinematics(ANGLES)
-    newton = definition.bind(GEOMETRY, use_closed_form=False).kinematics(ANGLES)
+    closed = Mechanism(definition, GEOMETRY).kinematics(ANGLES)
+    newton = Mechanism(definition, GEOMETRY, use_closed_form=False).kinematics(ANGLES)
     wrap = lambda a: (a + np.pi) % (2 * np.pi) - np.pi  # noqa: E731
     for u in ("phi2", "phi3"):
         assert np.max(np.abs(wrap(closed.q[u] - newton.q[u]))) < 1e-12
@@ -148,4 +148,4 @@ def test_a_closed_form_that_jumps_between_branches_is_refused_where_it_jumps(tmp
             .replace("branch*acos", "sign(radians(100.1) - phi1)*acos"))
     (tmp_path / "jumping.toml").write_text(text)
     with pytest.raises(AssemblyError, match=r"at phi1 = 100\.100 deg the mechanism passes a dead point"):
-        load_mechanism(str(tmp_path / "jumping.toml")).bind(GEOMETRY).check_assembly()
+        Mechanism(load_mechanism(str(tmp_path / "jumping.toml")), GEOMETRY).check_assembly()

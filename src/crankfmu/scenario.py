@@ -157,7 +157,7 @@ class Scenario:
         assembly checked over the whole turn; AssemblyError names the bound of each changed parameter.
         ``definition``: the scenario's mechanism definition, when the caller has it already."""
         definition = definition or self.mechanism_definition()
-        mechanism = definition.bind(self.values)
+        mechanism = Mechanism(definition, self.values)
         try:
             worst, at = mechanism.check_assembly()
         except AssemblyError as exc:
@@ -187,7 +187,7 @@ class Scenario:
             mechanism, worst, at = self.assembled_mechanism(definition)
             found = {}
         else:
-            mechanism = definition.bind(values)
+            mechanism = Mechanism(definition, values)
             (worst, at), found = prepared.worst_conditioning, prepared.found()
         links = []
         for lname, ld in definition.links.items():
@@ -311,7 +311,7 @@ class Scenario:
 
         def assembles(v):
             try:
-                definition.bind({**self.values, name: v}).check_assembly(coarse=True)
+                Mechanism(definition, {**self.values, name: v}).check_assembly(coarse=True)
                 return True
             except (AssemblyError, DefinitionError):  # a closed form that misses the contours or jumps
                 return False                          # does not assemble either (the C model's bound: the same)

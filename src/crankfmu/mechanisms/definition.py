@@ -294,12 +294,6 @@ class MechanismDefinition:
             contour_sources=contour_sources,
         )
 
-    def bind(self, parameters: Mapping[str, float], *, use_closed_form: bool = True):
-        """The contour engine's Mechanism of this definition at these parameter values."""
-        from .contour import Mechanism
-
-        return Mechanism(self, parameters, use_closed_form=use_closed_form)
-
 
 def _parse_joints(entries, where, variables, points, links) -> list[JointDefinition]:
     """Check the ``[[joints]]`` list: known links and points, and as many reaction unknowns (two per
