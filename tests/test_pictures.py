@@ -208,7 +208,7 @@ def test_draw_and_animate_commands_write_their_files(tmp_path, capsys):
 
 
 def test_velocity_plan_has_no_overlapping_labels_and_a_square_frame_around_the_polygon(tmp_path):
-    from crankfmu.plots import plot_velocity_plan
+    from crankfmu.pictures.velocity_plan import plot_velocity_plan
     from crankfmu.studies.kinematics import values_at
 
     scenario = load_scenario("seed002")

@@ -89,7 +89,8 @@ def cmd_kinematics(args) -> int:
     import json
     from pathlib import Path
 
-    from .plots import plot_time_series, plot_velocity_plan
+    from .pictures.velocity_plan import plot_velocity_plan
+    from .plots import plot_time_series
     from .studies.kinematics import compare_with_paper, time_series, values_at
     from .scenario import load_scenario
 

@@ -1,6 +1,6 @@
 """Every figure crankfmu draws from numbers, in one module (the mechanism drawings and animations
-are ``pictures``): a run's crank speed (paper Figs. 3 and 4), the kinematic studies (seed 002
-Figs. 6-9, the velocity plan, seed 004's families and delta map), the equilibrium moments and joint
+and the velocity plan are ``pictures``): a run's crank speed (paper Figs. 3 and 4), the kinematic
+studies (seed 002 Figs. 6-9, seed 004's families and delta map), the equilibrium moments and joint
 reactions (seed 001 Figs. 2-5), the flywheel study (seed 003 Figs. 3, 5-7 and the eq. 3 step
 study) and the scheme study's start-up. Each takes a study's result and a path and returns the
 path(s) written; axes carry their units. matplotlib is imported only when a figure is drawn.
@@ -172,48 +172,6 @@ def plot_time_series(ts: dict, out: Path, title: str) -> list[Path]:
                             "formulas.")
         plt.close(fig)
     return paths
-
-
-def plot_velocity_plan(detail: dict, relative, path: Path, title: str, scenario: str = "") -> Path:
-    """Pole p at the origin, each point's velocity drawn from it to scale, the relative velocities
-    joining their heads (the paper's Fig. 5b, from the computed velocities). The frame is square
-    around the polygon (pole included) with a margin for the labels, and the labels are placed
-    where they cover no other text, arrow or point (pictures.labels)."""
-    from .pictures.labels import label, obstacle_boxes, place_labels, renderer_of
-
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.5, 6.5))
-    vel = {p: np.array(v) for p, v in detail["velocities"].items()}
-    labels, paths = [], []
-    for i, (p, v) in enumerate(vel.items()):
-        ax.annotate("", xy=v, xytext=(0, 0), arrowprops=dict(arrowstyle="->", color=f"C{i}", lw=1.8))
-        paths.append(np.array([[0.0, 0.0], v]))
-        labels.append(label(ax, f"{p.lower()}: |v_{p}| = {np.hypot(*v):.3f} m/s", tuple(v), color=f"C{i}", fontsize=9))
-    for a, b in relative:
-        ax.annotate("", xy=vel[a], xytext=vel[b], arrowprops=dict(arrowstyle="->", color="0.4", ls="--"))
-        paths.append(np.array([vel[b], vel[a]]))
-        labels.append(label(ax, f"v_{a}{b} = {np.hypot(*(vel[a] - vel[b])):.3f} m/s", tuple(0.5 * (vel[a] + vel[b])),
-                            color="0.3", fontsize=8))
-    ax.plot(0, 0, "ko")
-    labels.append(label(ax, "p (pole)", (0.0, 0.0), fontsize=9))
-    corners = np.array([[0.0, 0.0], *vel.values()])
-    lo, hi = corners.min(axis=0), corners.max(axis=0)
-    centre, half = 0.5 * (lo + hi), 0.5 * max(hi - lo) * 1.45
-    ax.set_xlim(centre[0] - half, centre[0] + half)
-    ax.set_ylim(centre[1] - half, centre[1] + half)
-    ax.set_aspect("equal")
-    ax.set_xlabel("v_x [m/s]")
-    ax.set_ylabel("v_y [m/s]")
-    ax.set_title(title)
-    ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    renderer = renderer_of(fig)
-    place_labels(fig, ax, labels, obstacle_boxes(ax, corners, paths), renderer=renderer)
-    save_figure(fig, path, dpi=110, scenario=scenario,
-                caption="The velocity plan (the paper's Fig. 5b) drawn from the computed velocities: each point's "
-                        "velocity from the pole p, the relative velocities joining their heads.")
-    plt.close(fig)
-    return path
 
 
 def plot_families(result, scenario, units: dict, out: Path) -> list[Path]:
