@@ -249,8 +249,8 @@ def check_scenario(source) -> Report:
 
 def native_tables_check(report: Report, scenario, path):
     """What ``crankfmu fmu --native`` would refuse: its program and tables, built and checked by the
-    same function (fmi.native_build.native_program), so check refuses exactly what the build would."""
-    from .fmi.native_build import native_program
+    same function (fmi.native_model.native_program), so check refuses exactly what the build would."""
+    from .fmi.native_model import native_program
 
     try:
         _, tables = native_program(scenario)

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..expressions import CONSTANTS, Expression
+from ..mechanisms.contour import MIN_CONDITIONING
 
 #: the evaluator's operations, in crank_mechanism.h's order (enum mm_op)
 OPS = ("literal", "copy", "add", "sub", "mul", "div", "pow", "neg",
@@ -35,8 +36,6 @@ OP = {name: i for i, name in enumerate(OPS)}
 _BINARY = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div", ast.Pow: "pow"}
 SETUP, CLOSED, ROWS, VALUES, OUTPUTS, REACTIONS, FIRST_SEARCH = range(7)
 ROCKER, REVERSALS, BAND = range(3)
-#: the slowest conditioning the assembly check accepts (Mechanism.check_assembly's default)
-MIN_CONDITIONING = 1e-6
 
 
 class Unsupported(Exception):
@@ -90,6 +89,8 @@ class Program:
     term_inertia: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int32))
     applied: np.ndarray = field(default_factory=lambda: np.zeros((0, 6), np.int32))
     reaction_names: tuple[str, ...] = ()
+    #: the slowest conditioning the assembly check accepts: the engine's (Mechanism.check_assembly)
+    min_conditioning: float = MIN_CONDITIONING
 
 
 class _Code:

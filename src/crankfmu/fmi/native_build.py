@@ -1,391 +1,47 @@
-"""``crankfmu fmu SCENARIO --native``: a native FMI 2.0 Co-Simulation FMU that needs nothing on the
-host machine, no Python and no numpy.
+"""``crankfmu fmu SCENARIO --native``: a native FMI 2.0 (or 3.0) FMU that needs nothing on the host
+machine, no Python and no numpy: its model (fmi.native_model, fmi.native_fmi3) compiled and packaged.
 
 The FMU is the C kernel (``native/crank_kernel.c``) and the C mechanism model
 (``native/crank_mechanism.c``) behind one FMI shell (``native/fmu/crank_fmi2.c``), and the scenario as
-data, generated here: ``model_config.h`` (identifier, GUID, counts) and ``model_data.c`` (the
-scenario compiled into the C model's program, dynamics/program_scenario.py, and the table of
-variables). The FMU builds its tables when initialisation ends, at the values the host set; the
-build checks that the file's values give them. It is compiled for linux64 with gcc and, where Debian's
-``x86_64-w64-mingw32-gcc`` is installed, for win64; both link libgcc statically and nothing
-beyond the C library. The FMU carries its C sources (``sources/``, with the modelDescription's
-SourceFiles and a ``buildDescription.xml``) so that ``fmpy compile`` or a tool on another
+data (``model_config.h`` and ``model_data.c``, fmi.native_model). The FMU builds its tables when
+initialisation ends, at the values the host set; the build checks that the file's values give
+them. It is compiled for linux64 with gcc and, where Debian's ``x86_64-w64-mingw32-gcc`` is
+installed, for win64; both link libgcc statically and nothing beyond the C library. The kernel's and
+the mechanism model's objects come from the installation (native/sources.py) or the per-user cache.
+The FMU carries its C sources (``sources/``, with the modelDescription's SourceFiles, a
+``buildDescription.xml`` and a ``CMakeLists.txt``) so that ``fmpy compile`` or a tool on another
 platform builds it.
-
-The geometry, masses, loads and gravity are fixed parameters: a host sets them before the end of
-initialisation (and again after a reset), each in its range; a design that does not assemble over
-the turn is refused when initialisation ends, with the engine's message. A, B, A_low, B_low,
-omega_switch, J_flywheel and rtol are tunable, tau_ext is the input, phi1_start and omega1_start
-set the initial state.
-
-In speed causality (``--causality speed``, or the file's ``[crank] causality``) the same shell is
-compiled with CAUSALITY_SPEED: the input is omega1 (its derivative taken where the host gives
-one), the outputs are fmi.speed's (tau_drive, W_drive, ...), J_flywheel is tunable and
-phi1_start sets the initial state; Co-Simulation only.
 """
 
 from __future__ import annotations
 
-import hashlib
 import shutil
 import subprocess
 import tempfile
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import ExitStack
-from dataclasses import dataclass, replace
 from pathlib import Path
-from xml.dom.minidom import parseString
-from xml.etree import ElementTree as ET
 
-import numpy as np
-
-from .. import units as si
 from ..atomic import replacing
-from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
-from ..dynamics.program import MIN_CONDITIONING
 from ..errors import CrankfmuError
-from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
 from ..native.sources import (AARCH64_CC, WIN64_CC, HERE as NATIVE, KERNEL as KERNEL_SOURCES, MECHANISM as MECHANISM_SOURCES,
                                PREBUILT, compile_object, fmu_flags, includes, object_name)
 from .background import reference_beside
-from .build import (LS_REF, LS_REF_MANIFEST, NATIVE_USER_FILES, cross_check_options, preflight, stage,
-                    vendor_annotations)
-from .speed import NOT_DECLARED
+from .build import LS_REF, LS_REF_MANIFEST, NATIVE_USER_FILES, cross_check_options, preflight, stage
+from .native_model import NativeModel
 
 SHELL = NATIVE / "fmu"
 #: the model behind either FMI shell (crank_model.h), and each version's shell
 MODEL_SOURCES = ("crank_model.c", "crank_model.h", "crank_variables.h")
 SHELL_SOURCES = {"2.0": ("crank_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
                  "3.0": ("crank_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}
-#: the parameters the tables do not depend on, in the shell's value-reference order
-TUNABLE = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel", "phi1_start", "omega1_start", "rtol")
-#: speed causality's tunables, in the shell's order (the motor line is outside, omega1 is the input)
-SPEED_TUNABLE = ("J_flywheel", "phi1_start")
-#: set before initialisation only: they are the initial state
-INITIAL = ("phi1_start", "omega1_start")
 #: each FMI version's binaries: (platform folder, compiler, a Windows DLL); the first is always built,
 #: the others where their cross compiler is installed (Windows: or where asked for)
 PLATFORMS = {"2.0": (("linux64", "gcc", False), ("win64", WIN64_CC, True)),
              "3.0": (("x86_64-linux", "gcc", False), ("x86_64-windows", WIN64_CC, True),
                      ("aarch64-linux", AARCH64_CC, False))}
 FMI_VERSIONS = tuple(PLATFORMS)
-#: the Model Exchange states: the kernel's y (phi1, omega1, W_motor, W_load, W_ext)
-N_STATES = N_Y
-#: event indicators: the kernel's event slots (crank_modes.h: the motor kink, its sliding mode,
-#: the two ends of the switch interval, omega1 = 0)
-N_EVENT_INDICATORS = layout()["N_SLOTS"]
-
-
-def _c_string(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
-
-
-def _c_ints(values) -> str:
-    items = [str(int(v)) for v in np.asarray(values).ravel()] or ["0"]
-    lines = [", ".join(items[i:i + 16]) for i in range(0, len(items), 16)]
-    return "{\n    " + ",\n    ".join(lines) + "\n}"
-
-
-def _c_doubles(values) -> str:
-    """Hexadecimal float literals: the exact binary values, whatever the compiler's parsing."""
-    items = [float(v).hex() if v == v and abs(v) != float("inf") else ("NAN" if v != v else
-             ("INFINITY" if v > 0 else "-INFINITY")) for v in values] or ["0.0"]
-    lines = [", ".join(items[i:i + 4]) for i in range(0, len(items), 4)]
-    return "{\n    " + ",\n    ".join(lines) + "\n}"
-
-
-def native_program(scenario):
-    """(the scenario's program, {table: (checked error bound, construction)}): what a native FMU of
-    ``scenario`` carries, and its tables built by the C model at the file's values, as the FMU
-    builds them when it initialises. ``crankfmu check`` builds them too, so it refuses exactly what
-    the build would; a refusal is the engine's message (the Python build names the cause)."""
-    from ..dynamics.program import parameter_values
-    from ..dynamics.program_scenario import compile_scenario
-    from ..native.mechanism import QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
-    from .slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
-
-    program = compile_scenario(scenario)
-    if program is None:
-        raise CrankfmuError(f"{scenario.name}: a load or port of this scenario is not one the C mechanism model "
-                            "evaluates: use the Python FMU (crankfmu fmu without --native)")
-    tables = {}
-    try:
-        model = CModel(program, parameter_values(program, scenario.values))
-        for table, tolerance, needed in ((REDUCED, TABLE_TOLERANCE, True),
-                                         (QUANTITIES, TABLE_TOLERANCE, len(program.coordinates) > 0),
-                                         (REACTIONS, REACTION_TOLERANCE, len(program.joints) > 0)):
-            if needed:
-                tables[table] = model.cubics(table, tolerance)[1:]
-    except MechanismError as exc:
-        build_design(scenario, dict(scenario.values))       # the engine's message, where it refuses too
-        raise CrankfmuError(f"{scenario.name}: the C mechanism model cannot build the tables: {exc}") from None
-    return program, tables
-
-
-@dataclass
-class NativeVariable:
-    """One variable of a native mechanism FMU, as either FMI version declares it (values as text)."""
-
-    name: str
-    unit: str
-    description: str
-    causality: str                  # "output", "input", "parameter", "local"
-    variability: str                # "continuous", "fixed", "tunable"
-    initial: str | None = None
-    start: str | None = None
-    min: str | None = None
-    max: str | None = None
-    derivative_of: str | None = None    # a Model Exchange derivative: its state's name
-
-
-class NativeModel:
-    """What a native FMU is generated from: the scenario, its tables and its variables."""
-
-    def __init__(self, source, scenario_name, causality: str = "torque"):
-        from .slave import output_quantities, reaction_variables, rtol_parameter
-        from ..scenario import load_scenario
-
-        self.source = source
-        self.speed = causality == "speed"
-        self.scenario = source.scenario if source.scenario is not None else load_scenario(scenario_name)
-        self.program, self.table_errors = native_program(self.scenario)
-        definition = self.definition = self.scenario.mechanism_definition()
-        self.quantities = output_quantities(self.scenario)
-        self.ports = self.scenario.ports
-        self.quantity_units = [q.unit(definition) for q in self.quantities]
-        self.reactions = reaction_variables(self.scenario)
-        assert self.program.reaction_names == tuple(v.name for v in self.reactions)
-        assert len(self.program.rows) == 4 + len(self.program.columns) + len(self.ports)
-        # the file's parameters at the values it is built for (its --set overrides)
-        params = {n: replace(p, value=self.scenario.values[n]) for n, p in self.scenario.parameters.items()}
-        params["rtol"] = rtol_parameter(self.scenario.experiment.tolerance, tunable=True)
-        missing = [n for n in TUNABLE if n not in params]
-        if missing:
-            raise CrankfmuError(f"{self.scenario.name}: missing parameter(s) {', '.join(missing)}")
-        tunable = SPEED_TUNABLE if self.speed else TUNABLE
-        self.outputs = list(SPEED_OUTPUTS if self.speed else OUTPUTS)
-        self.input = SPEED_INPUTS[0] if self.speed else INPUTS[0]
-        # the speed's start is the scenario's start speed, as the Python FMU's
-        self.input_start = float(params["omega1_start"].value) if self.speed else 0.0
-        self.tunable = [params[n] for n in tunable]
-        # a speed-causal FMU declares what the Python one does (fmi.speed.NOT_DECLARED), and no rtol:
-        # its step has no error control to tune (the line's integral is exact, the works quadratures)
-        undeclared = (*NOT_DECLARED, "rtol") if self.speed else ()
-        self.fixed = [p for n, p in params.items() if n not in (*tunable, *undeclared)]
-        text = repr((self.source.fmu, causality, self.program.code.tobytes(), self.program.literals.tobytes(),
-                     [(p.name, p.value) for p in (*self.tunable, *self.fixed)], [q.name for q in self.quantities],
-                     [v.name for v in self.reactions]))
-        digest = hashlib.sha256(text.encode()).hexdigest()
-        self.guid = "{" + f"{digest[:8]}-{digest[8:12]}-{digest[12:16]}-{digest[16:20]}-{digest[20:32]}" + "}"
-
-    # ------------------------------------------------------------------ generated C
-    def config_h(self) -> str:
-        from .slave import REACTION_TOLERANCE, TABLE_TOLERANCE
-
-        exp, program = self.scenario.experiment, self.program
-        return (f"/* generated by crankfmu fmu --native for scenario {self.scenario.name}: do not edit */\n"
-                "#ifndef MODEL_CONFIG_H\n#define MODEL_CONFIG_H\n"
-                f"#define MODEL_IDENTIFIER {_c_string(self.source.fmu)}\n"
-                f"#define MODEL_GUID {_c_string(self.guid)}\n"
-                f"#define MODEL_GUID_PREFIX16 {_c_string(self.guid[1:17])}\n"
-                f"#define CAUSALITY_SPEED {int(self.speed)}\n"
-                f"#define N_OUTPUTS {len(self.outputs)}\n"
-                f"#define N_FIXED {len(self.fixed)}\n"
-                f"#define N_QUANTITIES {len(self.quantities)}\n"
-                f"#define N_PORTS {len(self.ports)}\n"
-                f"#define N_REACTIONS {len(self.reactions)}\n"
-                f"#define REACTION_TERMS {max(len(program.term_inertia), 1)}\n"
-                f"#define N_QUANTITY_COORDINATES {len(program.coordinates)}\n"
-                f"#define VR_E_KIN {[v.name for v in self.outputs].index('E_kin')}\n"
-                + "".join(f"#define ROW_{name.upper()} {i}\n" for i, name in enumerate(ROW_FIELDS)) +
-                f"#define STATE_NAMES {{{', '.join(_c_string(n) for n in ROW_FIELDS[:N_STATES])}}}\n"
-                f"#define DEFAULT_START_TIME {float(exp.start_time).hex()}\n"
-                f"#define TABLE_FUNCTIONS {len(program.rows)}\n"
-                f"#define TABLE_SLIDERS {len(program.columns)}\n"
-                f"#define TABLE_TOLERANCE {float(TABLE_TOLERANCE).hex()}\n"
-                f"#define REACTION_TOLERANCE {float(REACTION_TOLERANCE).hex()}\n"
-                f"#define N_PROGRAM_PARAMETERS {len(program.parameters)}\n"
-                f"#define N_TABLE_PARAMETERS {len(program.table_parameters)}\n"
-                f"#define N_GEOMETRY_PARAMETERS {len(self.geometry_parameters())}\n"
-                f"#define MECHANISM_NAME {_c_string(self.definition.name)}\n"
-                f"#define MECHANISM_BRANCH {_c_string(self.definition.branch)}\n"
-                "#endif\n")
-
-    def geometry_parameters(self) -> list[int]:
-        """The program's indices of the parameters the positions depend on (an assembly refusal names them)."""
-        return [self.program.parameters.index(p) for p in self.definition.geometry_parameters
-                if p in self.program.parameters]
-
-    def data_c(self) -> str:
-        def variable(name, kind, start=0.0, p=None, unit=""):
-            if p is None:
-                return f"    {{{_c_string(name)}, {kind}, {float(start).hex()}, 0, 1, 0, 0.0, 0.0, \"\", {_c_string(unit)}}},"
-            return (f"    {{{_c_string(name)}, {kind}, {float(p.value).hex()}, {int(p.min is not None)}, "
-                    f"{int(p.min_inclusive)}, {int(p.max is not None)}, {float(p.min or 0.0).hex()}, "
-                    f"{float(p.max or 0.0).hex()}, {_c_string(p.range_text())}, {_c_string(p.unit)}}},")
-
-        rows = [variable(v.name, "KIND_OUTPUT", unit=v.unit) for v in self.outputs]
-        rows.append(variable(self.input.name, "KIND_INPUT", self.input_start, unit=self.input.unit))
-        rows += [variable(p.name, "KIND_TUNABLE", p=p) for p in self.tunable]
-        rows += [variable(p.name, "KIND_FIXED", p=p) for p in self.fixed]
-        rows += [variable(q.name, "KIND_QUANTITY", unit=u) for q, u in zip(self.quantities, self.quantity_units)]
-        rows += [variable(f"der({name})", "KIND_DERIVATIVE", unit=unit) for name, unit in self.derivatives()]
-        rows += [variable(p.input_name, "KIND_INPUT", 0.0, unit=p.input_unit) for p in self.ports]
-        rows += [variable(v.name, "KIND_REACTION", unit=v.unit) for v in self.reactions]
-        program = self.program
-        vr_of = {v.name: vr for vr, v in enumerate(self.variables())}
-        coordinates = program.coordinate_names
-        errors = "; ".join(f"{what}: {construction}, checked error bound {error:.3g} at the file's values"
-                           for what, (error, construction) in zip(("the movement equation", "[[outputs]] and ports",
-                                                                   "joint reactions"), self.table_errors.values()))
-        ints = lambda name, a: f"static const int {name}[] = {_c_ints(a)};\n"      # noqa: E731
-        fields = {"code": "CODE", "sections": "SECTIONS", "terms": "TERMS", "angles": "ANGLES",
-                  "chain_constants": "CHAIN_CONSTANTS", "angle_column": "ANGLE_COLUMN", "rows": "ROWS",
-                  "columns": "COLUMNS", "searches": "SEARCHES", "checks": "CHECKS", "coordinates": "COORDINATES",
-                  "links": "LINKS", "joints": "JOINTS", "term_inertia": "TERM_INERTIA", "applied": "APPLIED"}
-        counts = {"code": "n_code", "sections": "n_sections", "terms": "n_terms", "angles": "n_angles",
-                  "rows": "n_rows", "columns": "n_columns", "searches": "n_searches", "checks": "n_checks",
-                  "coordinates": "n_coordinates", "links": "n_links", "joints": "n_joints",
-                  "term_inertia": "n_terms_reaction", "applied": "n_applied"}
-        arrays = "".join(ints(fields[k], getattr(program, k)) for k in fields)
-        initializer = ",\n".join(
-            [f"    .n_registers = {program.n_registers}", "    .literals = LITERALS"]
-            + [f"    .{k} = {fields[k]}" for k in fields]
-            + [f"    .{counts[k]} = {len(getattr(program, k))}" for k in counts]
-            + [f"    .{k} = {getattr(program, k)}" for k in ("n_q", "n_contours", "n_chains", "closed_form", "guess",
-                                                           "phi1", "kinematics", "n_points", "omega1", "crank")]
-            + [f"    .min_conditioning = {MIN_CONDITIONING.hex()}"])
-        parameter_vr = [vr_of.get(name, -1) for name in program.parameters]
-        return (f"/* generated by crankfmu fmu --native for scenario {self.scenario.name}: do not edit.\n"
-                f" * The tables are built from the program when the FMU initialises; {errors}. */\n"
-                '#include "crank_variables.h"\n\n'
-                f"const Variable VARIABLES[N_VARIABLES] = {{\n" + "\n".join(rows) + "\n};\n\n"
-                f"const int OUTPUT_ROW[N_OUTPUTS] = {{{', '.join(str(i) for i in self.output_rows())}}};\n\n"
-                f"const int QUANTITY_COORDINATE[] = {{{', '.join(str(coordinates.index(q.of)) for q in self.quantities) or '0'}}};\n"
-                f"const int QUANTITY_ORDER[] = {{{', '.join(str(q.order) for q in self.quantities) or '0'}}};\n\n"
-                f"/* the scenario's program (dynamics/program_scenario.py) */\n"
-                f"static const double LITERALS[] = {_c_doubles(program.literals)};\n" + arrays +
-                f"const mm_program PROGRAM = {{\n{initializer}\n}};\n\n"
-                f"const int PROGRAM_PARAMETER_VR[N_PROGRAM_PARAMETERS] = {_c_ints(parameter_vr)};\n"
-                f"const double PROGRAM_PARAMETER_VALUE[N_PROGRAM_PARAMETERS] = "
-                f"{_c_doubles([self.scenario.values[n] for n in program.parameters])};\n"
-                f"const char* const PROGRAM_PARAMETER_NAME[N_PROGRAM_PARAMETERS] = "
-                f"{{{', '.join(_c_string(n) for n in program.parameters)}}};\n"
-                f"const char* const PROGRAM_CHECK_NAME[] = {{{', '.join(_c_string(n) for n in program.check_names) or '0'}}};\n"
-                f"const int GEOMETRY_PARAMETERS[] = {_c_ints(self.geometry_parameters())};\n"
-                f"const int TABLE_PARAMETERS[] = {_c_ints(program.table_parameters)};\n"
-                f"const char* const UNKNOWN_NAMES[] = {{{', '.join(_c_string(u) for u in self.definition.unknowns) or '0'}}};\n")
-
-    def derivatives(self) -> list[tuple[str, str]]:
-        """(state, unit of its derivative) of the Model Exchange states: the kernel's y (none in
-        speed causality: Co-Simulation only)."""
-        if self.speed:
-            return []
-        per_second = {"rad": "rad/s", "rad/s": "rad/s2", "J": "W"}
-        units = {v.name: v.unit for v in self.outputs}
-        return [(name, per_second[units[name]]) for name in ROW_FIELDS[:N_STATES]]
-
-    def output_rows(self) -> list[int]:
-        """Each contract output's place in the kernel's output row; -1 for E_kin (from J_red, omega1)."""
-        fields = SPEED_ROW_FIELDS if self.speed else ROW_FIELDS
-        return [fields.index(v.name) if v.name in fields else -1 for v in self.outputs]
-
-    # ------------------------------------------------------------------ modelDescription
-    def variables(self) -> list[NativeVariable]:
-        """Every variable in value-reference order (the order of data_c's table, crank_variables.h's):
-        what the FMI 2.0 and 3.0 modelDescriptions both declare."""
-        table = [NativeVariable(v.name, v.unit, v.description, "output", "continuous", initial="calculated")
-                 for v in self.outputs]
-        table.append(NativeVariable(self.input.name, self.input.unit, self.input.description, "input", "continuous",
-                                    start=repr(self.input_start)))
-        for p in (*self.tunable, *self.fixed):
-            fixed = p in self.fixed
-            note = (f" (valid range {p.range_text()}; set before the end of initialisation: the FMU tabulates "
-                    "its model then)" if fixed else f" (valid range {p.range_text()})")
-            table.append(NativeVariable(
-                p.name, p.unit, (p.description + note).strip(), "parameter",
-                "fixed" if fixed or p.name in INITIAL else "tunable", start=repr(float(p.value)),
-                min=None if p.min is None else repr(float(p.min)), max=None if p.max is None else repr(float(p.max))))
-        table += [NativeVariable(q.name, unit, q.description, "output", "continuous", initial="calculated")
-                  for q, unit in zip(self.quantities, self.quantity_units)]
-        table += [NativeVariable(f"der({name})", unit, f"time derivative of {name} (Model Exchange)", "local",
-                                 "continuous", initial="calculated", derivative_of=name)
-                  for name, unit in self.derivatives()]
-        table += [NativeVariable(p.input_name, p.input_unit, p.input_description, "input", "continuous", start="0.0")
-                  for p in self.ports]
-        table += [NativeVariable(v.name, v.unit, v.description, "output", "continuous", initial="calculated")
-                  for v in self.reactions]
-        return table
-
-    def units_used(self) -> list[str]:
-        return sorted({v.unit for v in self.variables() if v.unit != "1"})
-
-    def model_description(self, sources: list[str]) -> bytes:
-        exp = self.scenario.experiment
-        root = ET.Element("fmiModelDescription", fmiVersion="2.0", modelName=self.source.fmu, guid=self.guid,
-                          description=self.scenario.title, generationTool="crankfmu (native)",
-                          variableNamingConvention="structured",
-                          numberOfEventIndicators=str(0 if self.speed else N_EVENT_INDICATORS))
-        common = dict(modelIdentifier=self.source.fmu, canGetAndSetFMUstate="true", canSerializeFMUstate="true",
-                      canNotUseMemoryManagementFunctions="false")
-        interfaces = (("ModelExchange", {"completedIntegratorStepNotNeeded": "true"}),
-                      ("CoSimulation", {"canHandleVariableCommunicationStepSize": "true",
-                                        "canInterpolateInputs": "true"}))
-        for kind, extra in interfaces[1:] if self.speed else interfaces:
-            files = ET.SubElement(ET.SubElement(root, kind, **common, **extra), "SourceFiles")
-            for name in sources:
-                if name.endswith(".c"):
-                    ET.SubElement(files, "File", name=name)
-        unit_definitions(root, self.units_used())
-        default_experiment(root, exp)
-        root.append(vendor_annotations(self.source, "native"))
-        variables = ET.SubElement(root, "ModelVariables")
-        table = self.variables()
-        index_of = {v.name: i + 1 for i, v in enumerate(table)}          # FMI 2.0 indices count from 1
-        for vr, v in enumerate(table):
-            attributes = {k: getattr(v, k) for k in ("initial",) if getattr(v, k) is not None}
-            sv = ET.SubElement(variables, "ScalarVariable", name=v.name, valueReference=str(vr),
-                               description=v.description, causality=v.causality, variability=v.variability,
-                               **attributes)
-            real = {k: getattr(v, k) for k in ("start", "min", "max") if getattr(v, k) is not None}
-            if v.derivative_of:
-                real["derivative"] = str(index_of[v.derivative_of])
-            r = ET.SubElement(sv, "Real", **real)
-            if v.unit != "1":
-                r.set("unit", si.fmi_name(v.unit))
-        outputs = [i + 1 for i, v in enumerate(table) if v.causality == "output"]
-        derivative_indices = [i + 1 for i, v in enumerate(table) if v.derivative_of]
-        inputs = [i + 1 for i, v in enumerate(table) if v.causality in ("input", "parameter")]
-        structure = ET.SubElement(root, "ModelStructure")
-        for tag, indices in (("Outputs", outputs), ("Derivatives", derivative_indices)):
-            if not indices:
-                continue           # (speed causality: no states; an empty element is not allowed)
-            element = ET.SubElement(structure, tag)
-            for i in indices:
-                ET.SubElement(element, "Unknown", index=str(i))
-        initial = ET.SubElement(structure, "InitialUnknowns")
-        everything = " ".join(str(i) for i in inputs)
-        for i in sorted(outputs + derivative_indices):
-            ET.SubElement(initial, "Unknown", index=str(i), dependencies=everything)
-        return parseString(ET.tostring(root, encoding="UTF-8")).toprettyxml(encoding="UTF-8", indent="  ")
-
-    def parameters(self) -> dict:
-        return {p.name: p for p in (*self.tunable, *self.fixed)}
-
-
-def unit_definitions(root: ET.Element, units) -> None:
-    """<UnitDefinitions>: each unit of ``units`` (crankfmu's names; "1" has none) with its SI base units."""
-    element = ET.SubElement(root, "UnitDefinitions")
-    for unit in sorted({si.fmi_name(u) for u in units if u != "1"}):
-        ET.SubElement(ET.SubElement(element, "Unit", name=unit), "BaseUnit",
-                      {k: str(v) for k, v in si.base_units(unit).items()})
-
-
-def default_experiment(root: ET.Element, exp) -> None:
-    """<DefaultExperiment> from a data file's [experiment] (parameters.Experiment)."""
-    ET.SubElement(root, "DefaultExperiment", startTime=repr(exp.start_time), stopTime=repr(exp.stop_time),
-                  tolerance=repr(exp.tolerance), stepSize=repr(exp.output_interval))
 
 
 def build_description(identifier: str, sources: list[str]) -> str:

@@ -23,7 +23,7 @@ from xml.etree import ElementTree as ET
 
 from .. import units as si
 from .build import fmi3_annotations
-from .native_build import N_EVENT_INDICATORS, NativeModel, default_experiment, unit_definitions
+from .native_model import N_EVENT_INDICATORS, NativeModel, default_experiment, unit_definitions
 
 #: a unit's quantity, the name of its Float64Type (a unit not listed gets a type named after it)
 QUANTITIES = {

@@ -49,6 +49,9 @@ TWO_PI = 2.0 * math.pi
 SCAN_POINTS = 1440
 #: angles of the turn table (Mechanism.turn_table) that positions are made continuous by
 TURN_POINTS = 720
+#: the slowest conditioning the assembly check accepts (the contour Jacobian's determinant over its
+#: scale): below it the mechanism locks
+MIN_CONDITIONING = 1e-6
 
 
 # --------------------------------------------------------------------------------------------
@@ -578,7 +581,7 @@ class Mechanism:
         return sorted((float(root) % TWO_PI, bool(rising), float(v))
                       for root, rising, v in zip(roots, values[i + 1] > level, level))
 
-    def check_assembly(self, coarse: bool = False, min_conditioning: float = 1e-6):
+    def check_assembly(self, coarse: bool = False, min_conditioning: float = MIN_CONDITIONING):
         """Refuse a geometry that cannot be assembled over the whole turn, or locks at a dead point.
 
         The conditioning's sign is followed over the turn scan (every 0.25 deg; every 0.5 deg if

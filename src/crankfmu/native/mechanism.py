@@ -121,11 +121,9 @@ class CModel:
     """A compiled scenario at parameter values: assembly checked, loads' switch angles found."""
 
     def __init__(self, program, parameters: np.ndarray, min_conditioning: float | None = None):
-        from ..dynamics.program import MIN_CONDITIONING
-
         self.program = program
         lib = LIBRARY
-        s, keep = _struct(program, MIN_CONDITIONING if min_conditioning is None else min_conditioning)
+        s, keep = _struct(program, program.min_conditioning if min_conditioning is None else min_conditioning)
         self._keep, self._struct, self._lib = keep, s, lib
         self._model = MMModel()
         self._parameters = np.ascontiguousarray(parameters, dtype=float)
