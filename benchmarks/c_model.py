@@ -185,13 +185,13 @@ def native_builds(names) -> list[dict]:
 
 
 def reference_alone(name: str, env: dict) -> float:
-    """Seconds of the scenario's reference run by itself (fmi.build.reference_result: DOP853 on the
+    """Seconds of the scenario's reference run by itself (fmi.reference.reference_result: DOP853 on the
     Python engine over the default experiment), in a fresh process on an empty cache, its imports
     not counted: the longest single task of a native build, which the build runs beside the rest
     and cannot end before."""
     import subprocess
 
-    code = ("import sys, time; from crankfmu.fmi.build import reference_result; "
+    code = ("import sys, time; from crankfmu.fmi.reference import reference_result; "
             "from crankfmu.scenario import load_scenario; s = load_scenario(sys.argv[1]); "
             "t = time.perf_counter(); reference_result(s); print(time.perf_counter() - t)")
     done = subprocess.run([sys.executable, "-c", code, name], capture_output=True, text=True, env=env, check=True)

@@ -11,7 +11,7 @@ import pytest
 
 from crankfmu.cli import main
 from crankfmu.contract import COLUMNS
-from crankfmu.fmi import build as fmu_build
+from crankfmu.fmi import build as fmu_build, documentation, source
 
 # a stage: (where the build calls it, what the error line names)
 STAGES = {
@@ -49,13 +49,15 @@ def test_a_failure_at_each_stage_is_one_line_and_leaves_the_folder_as_it_was(sta
         def short_reference(scenario):
             return ",".join(f'"{c}"' for c in COLUMNS) + "\n" + "\n".join(
                 ",".join(str(t if c == "time" else 1.0) for c in COLUMNS) for t in (0.0, 1.0)) + "\n"
-        monkeypatch.setattr(fmu_build, "reference_result", short_reference)
+        monkeypatch.setattr(source, "reference_result", short_reference)
 
     def boom(*args, **kwargs):
         raise RuntimeError(f"provoked failure in {stage}")
 
     owner, _, name = stage.rpartition(".")
-    target = {"": fmu_build, "FmuBuilder": pythonfmu.FmuBuilder, "documentation": fmu_build.documentation}[owner]
+    # where the build looks each up when it calls it: the reference run is the Source's (fmi.source)
+    target = {"": source if name == "reference_result" else fmu_build, "FmuBuilder": pythonfmu.FmuBuilder,
+              "documentation": documentation}[owner]
     monkeypatch.setattr(target, name, boom)
     before = folder_state(built_before)
     assert main(["fmu", "seed000", "--out", str(built_before)]) == 1

@@ -9,7 +9,7 @@ import pytest
 
 from crankfmu.errors import CrankfmuError
 from crankfmu.fmi.background import reference_beside
-from crankfmu.fmi.build import reference_result
+from crankfmu.fmi.reference import reference_result
 from crankfmu.scenario import load_scenario
 
 pytestmark = pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="no fork here")

@@ -20,7 +20,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from crankfmu.errors import CrankfmuError
-from crankfmu.fmi.build import crankfmu_annotation
+from crankfmu.fmi.source import crankfmu_annotation
 from crankfmu.progress import ProgressBar
 
 
@@ -140,8 +140,8 @@ class FmuUnderTest:
         inside = self.kind.file
         if not inside:
             return self.scenario_name
-        if self.native:           # carried as plain files (fmi.build.NATIVE_USER_FILES)
-            from crankfmu.fmi.build import NATIVE_USER_FILES
+        if self.native:           # carried as plain files (fmi.source.NATIVE_USER_FILES)
+            from crankfmu.fmi.source import NATIVE_USER_FILES
 
             path = Path(self.unzipdir) / NATIVE_USER_FILES / inside
             if not path.is_file():

@@ -11,7 +11,7 @@ imported anything of the package it carries.
                      (fmi/slave_script.py.in)
   objects/           native FMUs' objects the installation did not compile (native/sources.py's
                      PREBUILT), each named by its compiler, flags and content
-  references/        each design's reference run (fmi.build.reference_result)
+  references/        each design's reference run (fmi.reference.reference_result)
 
 Each folder and file is named by the content hash of what it holds and written whole under a
 temporary name, then renamed: a process sees a complete one or none, and a changed content gets a new

@@ -265,9 +265,9 @@ def native_tables_check(report: Report, scenario, path):
 
 
 def fmu_declarations(report: Report, source, scenario, path):
-    """What ``crankfmu fmu`` would refuse in the files (fmi.build.preflight, the same function):
+    """What ``crankfmu fmu`` would refuse in the files (fmi.source.preflight, the same function):
     the model identifier, each variable's name and unit, the DefaultExperiment."""
-    from .fmi.build import preflight
+    from .fmi.source import preflight
 
     name = scenario.data.get("fmu")
     if not name:

@@ -308,7 +308,7 @@ def cmd_fmu(args) -> int:
                             f"of a{' native' if args.native else ' Python'} {kind} FMU is set by its host")
     if args.fmi_version == "3" and not args.native:
         raise CrankfmuError("--fmi-version 3: native FMUs only (--native); the Python FMUs (pythonfmu) are FMI 2.0")
-    from .fmi.build import watching_stages
+    from .fmi.stages import watching_stages
     from .progress import StageLine
 
     line = StageLine()

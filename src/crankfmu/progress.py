@@ -50,7 +50,7 @@ class ProgressBar:
 class StageLine:
     """A build's progress on a terminal: the FMU, the stage it is in and the time so far on one
     line, redrawn four times a second from ``delay`` s on (a build takes 2 to 10 s; a warm one
-    says nothing). Called with (fmu, stage) as each stage starts (fmi.build.watching_stages); a
+    says nothing). Called with (fmu, stage) as each stage starts (fmi.stages.watching_stages); a
     stream that is not a terminal (a log, a pipe, a test) gets nothing, so an error stays the
     only line there."""
 

@@ -28,7 +28,9 @@ from ..errors import CrankfmuError
 from ..native.sources import (AARCH64_CC, WIN64_CC, HERE as NATIVE, KERNEL as KERNEL_SOURCES, MECHANISM as MECHANISM_SOURCES,
                                PREBUILT, compile_object, fmu_flags, includes, object_name)
 from .background import reference_beside
-from .build import LS_REF, LS_REF_MANIFEST, NATIVE_USER_FILES, cross_check_options, preflight, stage
+from .reference import LS_REF, LS_REF_MANIFEST, cross_check_options
+from .source import NATIVE_USER_FILES, preflight
+from .stages import stage
 from .native_model import NativeModel
 
 SHELL = NATIVE / "fmu"

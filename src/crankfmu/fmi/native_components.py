@@ -3,7 +3,7 @@ with ``--causality speed``), ``crankfmu fmu die_cushion --cushion --native`` (Di
 ``crankfmu fmu rp11l_guo --well --native`` (RodString.fmu).
 
 The same data files, variables (names, order, units, ranges, starts, descriptions), DefaultExperiment
-and documentation as the Python FMU of the file (fmi.build's Source and Declared), but C: one
+and documentation as the Python FMU of the file (fmi.source's Source and Declared), but C: one
 model for every component (native/fmu/component_model.c) behind an FMI 2.0 or 3.0 shell
 (component_fmi2.c, component_fmi3.c), the components' models (native/fmu/component_models.c) on
 the components' physics (native/crank_components.c, which the Python FMUs call too), and the
@@ -28,7 +28,7 @@ from ..native.sources import COMPONENTS, HERE as NATIVE
 
 #: the components' physics and the numbers of their messages
 PHYSICS_SOURCES = (*COMPONENTS, "crank_numbers.c", "crank_numbers.h")
-from .build import preflight, vendor_annotations
+from .source import preflight, vendor_annotations
 from .native_build import SHELL, package_native
 from .native_model import c_string, default_experiment, unit_definitions
 

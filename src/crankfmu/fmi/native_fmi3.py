@@ -22,7 +22,7 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from .. import units as si
-from .build import fmi3_annotations
+from .source import fmi3_annotations
 from .native_model import N_EVENT_INDICATORS, NativeModel, default_experiment, unit_definitions
 
 #: a unit's quantity, the name of its Float64Type (a unit not listed gets a type named after it)

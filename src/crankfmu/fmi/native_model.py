@@ -29,7 +29,7 @@ from .. import units as si
 from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
 from ..errors import CrankfmuError
 from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
-from .build import vendor_annotations
+from .source import vendor_annotations
 from .speed import NOT_DECLARED
 
 #: the parameters the tables do not depend on, in the shell's value-reference order

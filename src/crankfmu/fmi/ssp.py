@@ -205,7 +205,7 @@ def built_from(fmu: Path) -> dict[str, str]:
     """What crankfmu built the FMU from, as its annotations say (build.vendor_annotations, and FMI 3.0's):
     kind ("scenario", "drive", ...), name, build, and a user's file and the causality where given;
     {} for an FMU crankfmu did not build."""
-    from .build import crankfmu_annotation
+    from .source import crankfmu_annotation
 
     tool = crankfmu_annotation(_model_description(fmu))
     element = next(iter(tool), None) if tool is not None else None

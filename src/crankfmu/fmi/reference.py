@@ -1,0 +1,109 @@
+"""An FMU's reference result, as the Reference FMUs carry theirs: the default experiment's outputs
+from an independent method (the in-process reference integrator; for speed causality the power
+balance on the contour engine), in the FMU under the fmi-ls-ref layered standard and beside it as
+the cross-check files ``<model>_ref.csv`` and ``<model>_ref.opt``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+#: the crankfmu package: its Python sources name a reference run in the cache
+PACKAGE = Path(__file__).resolve().parents[1]
+
+
+LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
+LS_REF_MANIFEST = """<?xml version="1.0" encoding="UTF-8"?>
+<fmiReferences xmlns:fmi-ls="http://fmi-standard.org/fmi-ls-manifest"
+    fmi-ls:fmi-ls-name="org.fmi-standard.fmi-ls-ref" fmi-ls:fmi-ls-version="1.0.0-alpha.1"
+    fmi-ls:fmi-ls-description="Layered Standard providing information on related files included in an FMU.">
+  <Related type="text/csv" source="{name}_out.csv" role="result"
+      description="Outputs of the default experiment, from crankfmu's in-process reference integrator (DOP853, rtol = atol = 1e-12)"/>
+</fmiReferences>
+"""
+
+
+def reference_result(scenario) -> str:
+    """The default experiment's outputs (CSV, quoted header) from the in-process reference: run once
+    per design and code (``make fmu`` builds three FMUs of each scenario), then read from the
+    per-user cache under the hash of the scenario's data, its mechanism, its values and crankfmu's
+    Python sources."""
+    import hashlib
+
+    import numpy as np
+
+    from crankfmu import COLUMNS, simulate
+
+    from ..cache import cache_root
+
+    key = hashlib.sha256(repr((scenario.data, scenario.mechanism_definition(), sorted(scenario.values.items()),
+                               _code_digest())).encode()).hexdigest()[:24]
+    cached = cache_root() / "references" / f"{key}.csv"
+    try:
+        return cached.read_text(encoding="utf-8")
+    except OSError:
+        pass
+    exp = scenario.experiment
+    n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
+    times = exp.start_time + exp.output_interval * np.arange(n + 1)
+    result = simulate(scenario, t_end=exp.stop_time, output_times=times)
+    lines = [",".join(f'"{c}"' for c in COLUMNS)]
+    lines += [",".join(f"{getattr(result, c)[i]:.17g}" for c in COLUMNS) for i in range(times.size)]
+    text = "\n".join(lines) + "\n"
+    try:
+        cached.parent.mkdir(parents=True, exist_ok=True)
+        partial = cached.with_name(f"{cached.name}.{os.getpid()}")
+        partial.write_text(text, encoding="utf-8")
+        os.replace(partial, cached)
+    except OSError:                   # a cache that cannot be written: the run is not kept
+        pass
+    return text
+
+
+_CODE_DIGEST = []
+
+
+def _code_digest() -> str:
+    """The hash of crankfmu's Python sources (what the reference run's numbers depend on), once per process."""
+    import hashlib
+
+    if not _CODE_DIGEST:
+        digest = hashlib.sha256()
+        for path in sorted(PACKAGE.rglob("*.py")):
+            digest.update(path.relative_to(PACKAGE).as_posix().encode() + b"\0" + path.read_bytes())
+        _CODE_DIGEST.append(digest.hexdigest())
+    return _CODE_DIGEST[0]
+
+
+def speed_reference(scenario) -> str:
+    """The speed-causal FMU's default experiment (omega1 held at omega1_start) by another method:
+    phi1 = phi1_start + omega1 t, and the drive torque as the equilibrium moment M_e of the power
+    balance (dynamics.inverse, seed 001 eq. 1) on the contour engine, not the tables."""
+    import numpy as np
+
+    from ..dynamics.inverse import equilibrium_moment
+
+    exp = scenario.experiment
+    n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
+    times = exp.start_time + exp.output_interval * np.arange(n + 1)
+    values = scenario.values
+    omega = values["omega1_start"]
+    if omega == 0.0:
+        return ""
+    model = scenario.build()
+    phi = values["phi1_start"] + omega * (times - exp.start_time)
+    m = equilibrium_moment(model.reduced, phi, omega)
+    J = model.reduced.coefficients(phi)[0]
+    columns = {"time": times, "phi1": phi, "epsilon1": np.zeros_like(phi), "tau_drive": m.total,
+               "M_load": -(m.weights + m.technological), "J_red": J, "E_kin": 0.5 * J * omega * omega}
+    lines = [",".join(f'"{c}"' for c in columns)]
+    lines += [",".join(f"{columns[c][i]:.17g}" for c in columns) for i in range(times.size)]
+    return "\n".join(lines) + "\n"
+
+
+def cross_check_options(source) -> str:
+    """The cross-check file ``<model>_ref.opt``: the default experiment of ``source`` (fmi.source.Source)."""
+    exp = source.experiment
+    return (f"StartTime, {exp.start_time!r}\nStopTime, {exp.stop_time!r}\n"
+            f"StepSize, {exp.output_interval!r}\nRelTol, {exp.tolerance!r}\n")
