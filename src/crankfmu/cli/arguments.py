@@ -1,0 +1,22 @@
+"""What the commands share in reading their arguments: ``--set NAME=VALUE`` and a list of points."""
+
+from __future__ import annotations
+
+from ..errors import CrankfmuError
+
+
+def parse_sets(items: list[str]) -> dict[str, float]:
+    values = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise CrankfmuError(f"--set expects NAME=VALUE, got {item!r}")
+        try:
+            values[name.strip()] = float(value)
+        except ValueError:
+            raise CrankfmuError(f"--set {name.strip()}: {value!r} is not a number") from None
+    return values
+
+
+def parse_points(text: str | None):
+    return None if text is None else [p.strip() for p in text.split(",") if p.strip()]
