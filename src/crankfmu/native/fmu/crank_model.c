@@ -10,16 +10,17 @@
  * Co-Simulation: the kernel steps with rtol and locates every switch inside the step (ck_advance),
  * or stops at the first (ck_advance_to_switch) where the host handles events (FMI 3's event mode
  * and early return).
- * Model Exchange: the host integrates the kernel's y (phi1, omega1 and the three works); the model
- * keeps the mode in the kernel's state array and hands the host the kernel's derivatives, event
- * indicators (with hysteresis) and event update (crank_kernel.h).
+ * Model Exchange (crank_model_me.c): the host integrates the kernel's y (phi1, omega1 and the three
+ * works); the model keeps the mode in the kernel's state array and hands the host the kernel's
+ * derivatives, event indicators (with hysteresis) and event update (crank_kernel.h).
+ * The variables as a host reads and sets them, and the FMU state as bytes: crank_model_variables.c.
  * Speed causality (model_config.h's CAUSALITY_SPEED): the host imposes omega1, with its derivative
  * where it gives one, and the kernel answers with tau_drive (ck_speed_advance); Co-Simulation only.
  *
  * Failures are loud: every refusal is logged with its reason, NaN and out-of-range values are
  * refused, and a model that failed refuses further steps. Only the tables allocate (their size
  * depends on the design), once per design. */
-#include "crank_model.h"
+#include "crank_model_internal.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -203,7 +204,7 @@ static int refuse_design(const Model* m, const char* call, int status, const dou
 }
 
 /* the tables at the values set now: built once per design, again where the values changed */
-static int ensure_tables(Model* m, const char* call)
+int cm_ensure_tables(Model* m, const char* call)
 {
     if (m->have_tables && !m->tables_stale) return CM_OK;       /* the step's path: one test */
     double values[N_PROGRAM_PARAMETERS + 1];
@@ -265,7 +266,7 @@ int cm_enter_initialization(Model* m, const char* call)
 }
 
 /* the kernel's parameter array from the variables */
-static void load_parameters(Model* m)
+void cm_load_parameters(Model* m)
 {
     const double* v = m->now.values;
     double* P = m->now.P;
@@ -310,7 +311,7 @@ static double start_speed(const Model* m)
 }
 
 /* whether a variable sets the initial state (variability fixed: before the end of initialisation) */
-static int sets_initial_state(int vr)
+int cm_sets_initial_state(int vr)
 {
 #if CAUSALITY_SPEED
     return vr == VR_PHI1_START;
@@ -327,9 +328,9 @@ static int outputs_finite(const Model* m)
 }
 
 /* Model Exchange: the state and mode at the start (the initial state is the start values) */
-static void me_start(Model* m)
+void cm_me_start(Model* m)
 {
-    load_parameters(m);
+    cm_load_parameters(m);
     double* S = m->now.S;
     memset(S, 0, sizeof m->now.S);
     S[CK_T] = m->now.time;
@@ -339,7 +340,7 @@ static void me_start(Model* m)
 }
 
 /* Model Exchange: derivatives and outputs at the current state; 1 when they are finite */
-static int me_evaluate(Model* m)
+int cm_me_evaluate(Model* m)
 {
     if (ck_me_derivatives(m->now.S, m->now.S + CK_Y, &m->tables, m->now.P, m->now.dydt, m->now.row) != 0) return 0;
     for (int j = 0; j < N_STATES; j++)
@@ -348,9 +349,9 @@ static int me_evaluate(Model* m)
 }
 
 /* Co-Simulation: the kernel's state and the output row at the start */
-static void cs_start(Model* m)
+void cm_cs_start(Model* m)
 {
-    load_parameters(m);
+    cm_load_parameters(m);
     memset(m->now.S, 0, sizeof m->now.S);
     m->now.event_ahead = -INFINITY;
 #if CAUSALITY_SPEED
@@ -366,15 +367,15 @@ int cm_exit_initialization(Model* m, const char* call)
 {
     if (m->now.phase != CM_INITIALIZATION) return cm_fail(m, "%s without entering initialisation mode", call);
     /* refused: the instance stays in initialisation, for other values or a reset */
-    if (ensure_tables(m, call) != CM_OK) return CM_ERROR;
+    if (cm_ensure_tables(m, call) != CM_OK) return CM_ERROR;
     if (m->model_exchange) {
-        me_start(m);
-        if (!me_evaluate(m)) {
+        cm_me_start(m);
+        if (!cm_me_evaluate(m)) {
             m->now.phase = CM_FAILED;
             return cm_fail(m, "%s", "the initial state gives non-finite derivatives or outputs");
         }
     } else {
-        cs_start(m);
+        cm_cs_start(m);
         if (!outputs_finite(m)) {
             m->now.phase = CM_FAILED;
             return cm_fail(m, "%s", "the initial state gives non-finite outputs");
@@ -394,7 +395,7 @@ static void restart(Model* m)
     double y[CK_N_Y];
     ck_dense(m->now.S, m->now.time, y);
     double h = m->now.S[CK_H], n_rhs = m->now.S[CK_N_RHS], n_steps = m->now.S[CK_N_STEPS];
-    load_parameters(m);
+    cm_load_parameters(m);
     memset(m->now.S, 0, sizeof m->now.S);
     ck_begin(m->now.S, m->now.time, y, &m->tables, m->now.P, m->now.row);
     m->now.S[CK_H] = h;
@@ -416,7 +417,7 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
                                                  : "not allowed before the end of initialisation or after terminating");
     if (!isfinite(t_host) || !isfinite(h) || !(h > 0.0))
         return cm_fail(m, "%s needs a finite current time and a finite step size > 0", call);
-    if (ensure_tables(m, call) != CM_OK) {                    /* an FMU state of another design */
+    if (cm_ensure_tables(m, call) != CM_OK) {                    /* an FMU state of another design */
         m->now.phase = CM_FAILED;
         return CM_ERROR;
     }
@@ -431,7 +432,7 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
 #if CAUSALITY_SPEED
     (void)switches;
     /* the inputs as set now: the ports' held (or linear, with their rates) from t, omega1 a line */
-    load_parameters(m);
+    cm_load_parameters(m);
     int status = ck_speed_advance(m->now.S, target, m->now.values[VR_CRANK_INPUT], m->now.input_rate[0],
                                   m->now.rate_given[0], &m->tables, m->now.P, m->now.row);
 #else
@@ -485,300 +486,5 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
     }
     m->now.time = target;
     *t_end = target;
-    return CM_OK;
-}
-
-/* ------------------------------------------------------------------------------ variables */
-
-/* what one read evaluates once for all the variables it reads */
-typedef struct {
-    double quantities[N_QUANTITIES + 1], quantity_scratch[3 * N_QUANTITY_COORDINATES + 1];
-    int have_quantities;
-    double reactions[N_REACTIONS + 1], reaction_scratch[N_REACTIONS * REACTION_TERMS + REACTION_TERMS + 1];
-    int have_reactions;
-} Reads;
-
-/* the outputs of the output row: the contract's, the scenario's [[outputs]] and the joint
- * reactions (all of each kind at once, from their tables, by the kernel's ck_quantity_values and
- * ck_reaction_values: the rules the Python FMU runs too) and the states' derivatives */
-static double output_value(const Model* m, int vr, Reads* reads)
-{
-    const double* row = m->now.row;
-    const Variable* v = &VARIABLES[vr];
-    if (v->kind == KIND_REACTION) {
-        if (!reads->have_reactions) {
-            ck_reaction_values(m->cubics[CM_REACTIONS], N_REACTIONS, REACTION_TERMS, m->intervals[CM_REACTIONS], m->now.S,
-                               m->now.time, row[ROW_PHI1], row[ROW_OMEGA1], row[ROW_EPSILON1], &m->tables, m->now.P,
-                               reads->reaction_scratch, reads->reactions);
-            reads->have_reactions = 1;
-        }
-        return reads->reactions[vr - VR_FIRST_REACTION];
-    }
-    if (v->kind == KIND_DERIVATIVE) {
-        double omega = row[ROW_OMEGA1];
-        switch (vr - VR_FIRST_DERIVATIVE) {
-        case 0: return omega;
-        case 1: return row[ROW_EPSILON1];
-        case 2: return row[ROW_M_MOTOR] * omega;
-        case 3: return row[ROW_M_LOAD] * omega;
-        default: return row[ROW_TAU_E] * omega;
-        }
-    }
-    if (v->kind == KIND_QUANTITY) {
-        if (!reads->have_quantities) {
-            ck_quantity_values(m->cubics[CM_QUANTITIES], N_QUANTITY_COORDINATES, m->intervals[CM_QUANTITIES],
-                               m->mechanism.coordinate_winding,
-                               N_QUANTITIES, QUANTITY_COORDINATE, QUANTITY_ORDER, row[ROW_PHI1], row[ROW_OMEGA1],
-                               row[ROW_EPSILON1], reads->quantity_scratch, reads->quantities);
-            reads->have_quantities = 1;
-        }
-        return reads->quantities[vr - VR_FIRST_QUANTITY];
-    }
-    if (vr == VR_E_KIN) return ck_kinetic_energy(row[ROW_J_RED], row[ROW_OMEGA1]);
-    return row[OUTPUT_ROW[vr]];
-}
-
-static int is_computed(int kind)
-{
-    return kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_DERIVATIVE || kind == KIND_REACTION;
-}
-
-/* an input's place among the inputs: the crank's 0, port i 1 + i */
-static int input_index(int vr) { return vr == VR_CRANK_INPUT ? 0 : 1 + (vr - VR_FIRST_PORT); }
-
-int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* value)
-{
-    if (n > 0 && (!vr || !value)) return cm_fail(m, "%s: null arrays", call);
-    Reads reads;
-    reads.have_quantities = reads.have_reactions = 0;
-    const Model* source = m;
-    Model preview;
-    int tables_checked = 0;                 /* once per call, at its first computed variable */
-    for (size_t i = 0; i < n; i++) {
-        if (vr[i] >= N_VARIABLES) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
-        int k = (int)vr[i];
-        if (!is_computed(VARIABLES[k].kind)) {
-            value[i] = m->now.values[k];
-            continue;
-        }
-        if (m->now.phase == CM_INSTANTIATED) {
-            value[i] = VARIABLES[k].start;
-            continue;
-        }
-        /* the tables of the values the state holds (an FMU state of another design, a design
-         * refused since, or in initialisation the start values): built again, or the read refused */
-        if (!tables_checked && (m->now.phase >= CM_STEPPING || m->now.phase == CM_INITIALIZATION)) {
-            if (ensure_tables(m, call) != CM_OK) return CM_ERROR;
-            tables_checked = 1;
-        }
-        if (m->now.phase == CM_INITIALIZATION && source == m) {
-            /* what the start values give, computed on a copy: they may still change */
-            preview = *m;
-            if (m->model_exchange) {
-                me_start(&preview);
-                me_evaluate(&preview);
-            } else {
-                cs_start(&preview);
-            }
-            source = &preview;
-        }
-        value[i] = output_value(source, k, &reads);
-    }
-    return CM_OK;
-}
-
-int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const double* value)
-{
-    if (n > 0 && (!vr || !value)) return cm_fail(m, "%s: null arrays", call);
-    int changed = 0;
-    for (size_t i = 0; i < n; i++) {
-        if (vr[i] >= N_VARIABLES) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
-        const Variable* v = &VARIABLES[vr[i]];
-        double x = value[i];
-        if (is_computed(v->kind)) return cm_fail(m, "%s is computed by the FMU: it cannot be set", v->name);
-        int fixed_variability = v->kind == KIND_FIXED || sets_initial_state((int)vr[i]);
-        if (fixed_variability && m->now.phase >= CM_STEPPING)
-            return cm_fail(m, "%s is a fixed parameter: it can be set before the end of initialisation only (reset, "
-                           "then set it)", v->name);
-        if (v->kind == KIND_INPUT && !isfinite(x))
-            return cm_fail(m, "input %s = %s: an input must be finite (%s)", v->name, shortest(x).text, v->unit);
-        if (!isfinite(x) || (v->has_min && (v->min_inclusive ? x < v->min : x <= v->min)) ||
-            (v->has_max && x > v->max))
-            return cm_fail(m, "parameter %s = %s is out of range: valid range %s", v->name, shortest(x).text, v->range);
-        if (v->kind == KIND_INPUT) m->now.rate_given[input_index((int)vr[i])] = 0;
-        /* the value it has (an input also held, no derivative given): nothing changes, no restart */
-        if (x == m->now.values[vr[i]] && (v->kind != KIND_INPUT || m->now.input_rate[input_index((int)vr[i])] == 0.0))
-            continue;
-        m->now.values[vr[i]] = x;
-        if (v->kind == KIND_FIXED || v->kind == KIND_TUNABLE) m->tables_stale = 1;
-        if (v->kind == KIND_INPUT) m->now.input_rate[input_index((int)vr[i])] = 0.0;   /* held, unless a derivative follows */
-        if (m->now.phase < CM_STEPPING) continue;
-        changed = 1;
-        /* Co-Simulation: takes effect from the next step. Model Exchange: a tunable also
-         * re-derives the mode at the next event update, as a Co-Simulation restart does */
-        if (!m->model_exchange || v->kind == KIND_TUNABLE) m->now.pending = 1;
-    }
-    if (changed && m->model_exchange) {           /* Model Exchange: the values hold from now on */
-        load_parameters(m);
-        me_evaluate(m);
-    }
-    return CM_OK;
-}
-
-int cm_set_input_derivatives(Model* m, const char* call, const unsigned* vr, size_t n, const int* order,
-                             const double* value)
-{
-    if (m->model_exchange)
-        return cm_fail(m, "%s: Co-Simulation only (a Model Exchange host sets the inputs at every time it evaluates)",
-                       call);
-    if (n > 0 && (!vr || !order || !value)) return cm_fail(m, "%s: null arrays", call);
-    for (size_t i = 0; i < n; i++) {
-        if (vr[i] >= N_VARIABLES || VARIABLES[vr[i]].kind != KIND_INPUT)
-            return cm_fail(m, "%s: value reference %u is not an input of this FMU", call, vr[i]);
-        if (order[i] != 1)
-            return cm_fail(m, "%s: %s: order %d; this FMU takes the first derivative only", call, VARIABLES[vr[i]].name,
-                           order[i]);
-        if (!isfinite(value[i]))
-            return cm_fail(m, "%s: %s: the derivative %s must be finite", call, VARIABLES[vr[i]].name,
-                           shortest(value[i]).text);
-    }
-    for (size_t i = 0; i < n; i++) {
-        double* rate = &m->now.input_rate[input_index((int)vr[i])];
-        if (*rate != value[i] && m->now.phase >= CM_STEPPING) m->now.pending = 1;
-        *rate = value[i];
-        m->now.rate_given[input_index((int)vr[i])] = 1;
-    }
-    return CM_OK;
-}
-
-/* ------------------------------------------------------------------------------ FMU state */
-
-/* a serialized state: a tag, then the snapshot's bytes */
-static const char STATE_TAG[16] = MODEL_GUID_PREFIX16;
-
-size_t cm_serialized_size(void) { return sizeof STATE_TAG + sizeof(Snapshot); }
-
-void cm_serialize(const Snapshot* s, unsigned char* bytes)
-{
-    memcpy(bytes, STATE_TAG, sizeof STATE_TAG);
-    memcpy(bytes + sizeof STATE_TAG, s, sizeof(Snapshot));
-}
-
-int cm_deserialize(const Model* m, const char* call, const unsigned char* bytes, size_t size, Snapshot* s)
-{
-    Snapshot read;
-    if (size != cm_serialized_size() || memcmp(bytes, STATE_TAG, sizeof STATE_TAG) != 0)
-        return cm_fail(m, "%s: not a serialized state of this FMU", call);
-    memcpy(&read, bytes + sizeof STATE_TAG, sizeof read);
-    if (read.phase < CM_INSTANTIATED || read.phase > CM_FAILED)
-        return cm_fail(m, "%s: not a serialized state of this FMU", call);
-    *s = read;
-    return CM_OK;
-}
-
-/* ------------------------------------------------------------------------------ Model Exchange */
-
-int cm_me_ready(Model* m, const char* call, int initialization_too)
-{
-    if (!m->model_exchange) return cm_fail(m, "%s: this instance is Co-Simulation", call);
-    if (m->now.phase == CM_STEPPING || (initialization_too && m->now.phase == CM_INITIALIZATION))
-        return ensure_tables(m, call);
-    return cm_fail(m, "%s: %s", call,
-                   m->now.phase == CM_FAILED ? "an earlier error stopped this instance: reset it or make a new instance"
-                                             : "not allowed before the end of initialisation or after terminating");
-}
-
-/* in initialisation, the values the start values give */
-static void me_current(Model* m)
-{
-    if (m->now.phase == CM_INITIALIZATION) {
-        me_start(m);
-        me_evaluate(m);
-    }
-}
-
-int cm_me_update(Model* m, const char* call, int* states_changed)
-{
-    if (cm_me_ready(m, call, 0) != CM_OK) return CM_ERROR;
-    double* S = m->now.S;
-    double before[CK_N_Y];
-    memcpy(before, S + CK_Y, sizeof before);
-    if (m->now.pending) {           /* a tunable changed (cm_set loaded it): the mode as a restart finds it */
-        ck_me_mode(S, S + CK_Y, &m->tables, m->now.P);
-        m->now.pending = 0;
-    }
-    int transitions = ck_me_update(S, S + CK_Y, &m->tables, m->now.P);
-    if (transitions < 0 || !me_evaluate(m)) {
-        m->now.phase = CM_FAILED;
-        return cm_fail(m, "the event update failed at t = %.9g s (%s)", m->now.time,
-                       transitions == CK_NO_FIXED_POINT ? "the mode transitions do not settle"
-                       : transitions == CK_BAD_STATE    ? "a corrupted state"
-                                                        : "non-finite derivatives or outputs");
-    }
-    *states_changed = memcmp(before, S + CK_Y, sizeof before) != 0;
-    return CM_OK;
-}
-
-int cm_me_set_time(Model* m, const char* call, double time)
-{
-    if (cm_me_ready(m, call, 1) != CM_OK) return CM_ERROR;
-    if (!isfinite(time)) return cm_fail(m, "%s: the time must be finite", call);
-    m->now.time = time;               /* the inputs' rates are 0 here: the right-hand side does not depend on t */
-    m->now.S[CK_T] = time;
-    return CM_OK;
-}
-
-/* a call that passes one value per continuous state; in initialisation (where allowed), the
- * values brought to what the start values give */
-static int states_call(Model* m, const char* call, int initialization_too, const void* array, size_t n)
-{
-    if (cm_me_ready(m, call, initialization_too) != CM_OK) return CM_ERROR;
-    if (n != N_STATES) return cm_fail(m, "%s: this FMU has %d continuous states, not %u", call, N_STATES, (unsigned)n);
-    if (!array) return cm_fail(m, "%s: null array", call);
-    me_current(m);
-    return CM_OK;
-}
-
-int cm_me_set_states(Model* m, const char* call, const double* x, size_t n)
-{
-    if (states_call(m, call, 0, x, n) != CM_OK) return CM_ERROR;
-    static const char* const names[N_STATES] = STATE_NAMES;
-    for (size_t j = 0; j < n; j++)
-        if (!isfinite(x[j])) return cm_fail(m, "%s: state %u (%s) is not finite", call, (unsigned)j, names[j]);
-    memcpy(m->now.S + CK_Y, x, N_STATES * sizeof(double));
-    if (!me_evaluate(m))
-        return cm_fail(m, "%s: the state at t = %.9g s gives non-finite derivatives", call, m->now.time);
-    return CM_OK;
-}
-
-int cm_me_get_states(Model* m, const char* call, double* x, size_t n)
-{
-    if (states_call(m, call, 1, x, n) != CM_OK) return CM_ERROR;
-    memcpy(x, m->now.S + CK_Y, N_STATES * sizeof(double));
-    return CM_OK;
-}
-
-int cm_me_get_derivatives(Model* m, const char* call, double* dx, size_t n)
-{
-    if (states_call(m, call, 1, dx, n) != CM_OK) return CM_ERROR;
-    memcpy(dx, m->now.dydt, N_STATES * sizeof(double));
-    return CM_OK;
-}
-
-int cm_me_get_indicators(Model* m, const char* call, double* z, size_t n)
-{
-    if (cm_me_ready(m, call, 1) != CM_OK) return CM_ERROR;
-    if (n != CK_N_SLOTS) return cm_fail(m, "%s: this FMU has %d event indicators, not %u", call, CK_N_SLOTS, (unsigned)n);
-    if (!z) return cm_fail(m, "%s: null array", call);
-    me_current(m);
-    if (ck_me_indicators(m->now.S, m->now.S + CK_Y, &m->tables, m->now.P, z) != 0)
-        return cm_fail(m, "%s: a corrupted state", call);
-    return CM_OK;
-}
-
-int cm_me_get_nominals(Model* m, const char* call, double* nominals, size_t n)
-{
-    if (states_call(m, call, 1, nominals, n) != CM_OK) return CM_ERROR;
-    for (size_t j = 0; j < n; j++) nominals[j] = 1.0;
     return CM_OK;
 }

@@ -1,0 +1,22 @@
+/* What crank_model.c, crank_model_variables.c and crank_model_me.c share of the native mechanism
+ * FMU's model (crank_model.h is what the FMI shells see). */
+#ifndef CRANK_MODEL_INTERNAL_H
+#define CRANK_MODEL_INTERNAL_H
+
+#include "crank_model.h"
+
+/* the tables of the values the model holds: built (again) where they are missing or stale, or the
+ * design refused with the CLI's message (CM_ERROR) */
+int cm_ensure_tables(Model* m, const char* call);
+/* the kernel's parameters from the variables' values */
+void cm_load_parameters(Model* m);
+/* whether setting this variable sets the initial state (phi1_start, omega1_start) */
+int cm_sets_initial_state(int vr);
+/* Model Exchange: the state and mode at the start; the derivatives and outputs there (1 when
+ * finite) */
+void cm_me_start(Model* m);
+int cm_me_evaluate(Model* m);
+/* Co-Simulation: the kernel's state and the output row at the start */
+void cm_cs_start(Model* m);
+
+#endif

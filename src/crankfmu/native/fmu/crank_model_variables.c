@@ -1,0 +1,197 @@
+/* The native mechanism FMU's variables as a host reads and sets them (crank_model.h's cm_get,
+ * cm_set, cm_set_input_derivatives), and its FMU state as bytes: the model's values, its outputs
+ * from the output row and the [[outputs]] and joint reactions' tables, each set checked against
+ * the variable's range and when it may change. */
+#include "crank_model_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "crank_numbers.h"
+
+/* what one read evaluates once for all the variables it reads */
+typedef struct {
+    double quantities[N_QUANTITIES + 1], quantity_scratch[3 * N_QUANTITY_COORDINATES + 1];
+    int have_quantities;
+    double reactions[N_REACTIONS + 1], reaction_scratch[N_REACTIONS * REACTION_TERMS + REACTION_TERMS + 1];
+    int have_reactions;
+} Reads;
+
+/* the outputs of the output row: the contract's, the scenario's [[outputs]] and the joint
+ * reactions (all of each kind at once, from their tables, by the kernel's ck_quantity_values and
+ * ck_reaction_values: the rules the Python FMU runs too) and the states' derivatives */
+static double output_value(const Model* m, int vr, Reads* reads)
+{
+    const double* row = m->now.row;
+    const Variable* v = &VARIABLES[vr];
+    if (v->kind == KIND_REACTION) {
+        if (!reads->have_reactions) {
+            ck_reaction_values(m->cubics[CM_REACTIONS], N_REACTIONS, REACTION_TERMS, m->intervals[CM_REACTIONS], m->now.S,
+                               m->now.time, row[ROW_PHI1], row[ROW_OMEGA1], row[ROW_EPSILON1], &m->tables, m->now.P,
+                               reads->reaction_scratch, reads->reactions);
+            reads->have_reactions = 1;
+        }
+        return reads->reactions[vr - VR_FIRST_REACTION];
+    }
+    if (v->kind == KIND_DERIVATIVE) {
+        double omega = row[ROW_OMEGA1];
+        switch (vr - VR_FIRST_DERIVATIVE) {
+        case 0: return omega;
+        case 1: return row[ROW_EPSILON1];
+        case 2: return row[ROW_M_MOTOR] * omega;
+        case 3: return row[ROW_M_LOAD] * omega;
+        default: return row[ROW_TAU_E] * omega;
+        }
+    }
+    if (v->kind == KIND_QUANTITY) {
+        if (!reads->have_quantities) {
+            ck_quantity_values(m->cubics[CM_QUANTITIES], N_QUANTITY_COORDINATES, m->intervals[CM_QUANTITIES],
+                               m->mechanism.coordinate_winding,
+                               N_QUANTITIES, QUANTITY_COORDINATE, QUANTITY_ORDER, row[ROW_PHI1], row[ROW_OMEGA1],
+                               row[ROW_EPSILON1], reads->quantity_scratch, reads->quantities);
+            reads->have_quantities = 1;
+        }
+        return reads->quantities[vr - VR_FIRST_QUANTITY];
+    }
+    if (vr == VR_E_KIN) return ck_kinetic_energy(row[ROW_J_RED], row[ROW_OMEGA1]);
+    return row[OUTPUT_ROW[vr]];
+}
+
+static int is_computed(int kind)
+{
+    return kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_DERIVATIVE || kind == KIND_REACTION;
+}
+
+/* an input's place among the inputs: the crank's 0, port i 1 + i */
+static int input_index(int vr) { return vr == VR_CRANK_INPUT ? 0 : 1 + (vr - VR_FIRST_PORT); }
+
+int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* value)
+{
+    if (n > 0 && (!vr || !value)) return cm_fail(m, "%s: null arrays", call);
+    Reads reads;
+    reads.have_quantities = reads.have_reactions = 0;
+    const Model* source = m;
+    Model preview;
+    int tables_checked = 0;                 /* once per call, at its first computed variable */
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] >= N_VARIABLES) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
+        int k = (int)vr[i];
+        if (!is_computed(VARIABLES[k].kind)) {
+            value[i] = m->now.values[k];
+            continue;
+        }
+        if (m->now.phase == CM_INSTANTIATED) {
+            value[i] = VARIABLES[k].start;
+            continue;
+        }
+        /* the tables of the values the state holds (an FMU state of another design, a design
+         * refused since, or in initialisation the start values): built again, or the read refused */
+        if (!tables_checked && (m->now.phase >= CM_STEPPING || m->now.phase == CM_INITIALIZATION)) {
+            if (cm_ensure_tables(m, call) != CM_OK) return CM_ERROR;
+            tables_checked = 1;
+        }
+        if (m->now.phase == CM_INITIALIZATION && source == m) {
+            /* what the start values give, computed on a copy: they may still change */
+            preview = *m;
+            if (m->model_exchange) {
+                cm_me_start(&preview);
+                cm_me_evaluate(&preview);
+            } else {
+                cm_cs_start(&preview);
+            }
+            source = &preview;
+        }
+        value[i] = output_value(source, k, &reads);
+    }
+    return CM_OK;
+}
+
+int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const double* value)
+{
+    if (n > 0 && (!vr || !value)) return cm_fail(m, "%s: null arrays", call);
+    int changed = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] >= N_VARIABLES) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
+        const Variable* v = &VARIABLES[vr[i]];
+        double x = value[i];
+        if (is_computed(v->kind)) return cm_fail(m, "%s is computed by the FMU: it cannot be set", v->name);
+        int fixed_variability = v->kind == KIND_FIXED || cm_sets_initial_state((int)vr[i]);
+        if (fixed_variability && m->now.phase >= CM_STEPPING)
+            return cm_fail(m, "%s is a fixed parameter: it can be set before the end of initialisation only (reset, "
+                           "then set it)", v->name);
+        if (v->kind == KIND_INPUT && !isfinite(x))
+            return cm_fail(m, "input %s = %s: an input must be finite (%s)", v->name, shortest(x).text, v->unit);
+        if (!isfinite(x) || (v->has_min && (v->min_inclusive ? x < v->min : x <= v->min)) ||
+            (v->has_max && x > v->max))
+            return cm_fail(m, "parameter %s = %s is out of range: valid range %s", v->name, shortest(x).text, v->range);
+        if (v->kind == KIND_INPUT) m->now.rate_given[input_index((int)vr[i])] = 0;
+        /* the value it has (an input also held, no derivative given): nothing changes, no restart */
+        if (x == m->now.values[vr[i]] && (v->kind != KIND_INPUT || m->now.input_rate[input_index((int)vr[i])] == 0.0))
+            continue;
+        m->now.values[vr[i]] = x;
+        if (v->kind == KIND_FIXED || v->kind == KIND_TUNABLE) m->tables_stale = 1;
+        if (v->kind == KIND_INPUT) m->now.input_rate[input_index((int)vr[i])] = 0.0;   /* held, unless a derivative follows */
+        if (m->now.phase < CM_STEPPING) continue;
+        changed = 1;
+        /* Co-Simulation: takes effect from the next step. Model Exchange: a tunable also
+         * re-derives the mode at the next event update, as a Co-Simulation restart does */
+        if (!m->model_exchange || v->kind == KIND_TUNABLE) m->now.pending = 1;
+    }
+    if (changed && m->model_exchange) {           /* Model Exchange: the values hold from now on */
+        cm_load_parameters(m);
+        cm_me_evaluate(m);
+    }
+    return CM_OK;
+}
+
+int cm_set_input_derivatives(Model* m, const char* call, const unsigned* vr, size_t n, const int* order,
+                             const double* value)
+{
+    if (m->model_exchange)
+        return cm_fail(m, "%s: Co-Simulation only (a Model Exchange host sets the inputs at every time it evaluates)",
+                       call);
+    if (n > 0 && (!vr || !order || !value)) return cm_fail(m, "%s: null arrays", call);
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] >= N_VARIABLES || VARIABLES[vr[i]].kind != KIND_INPUT)
+            return cm_fail(m, "%s: value reference %u is not an input of this FMU", call, vr[i]);
+        if (order[i] != 1)
+            return cm_fail(m, "%s: %s: order %d; this FMU takes the first derivative only", call, VARIABLES[vr[i]].name,
+                           order[i]);
+        if (!isfinite(value[i]))
+            return cm_fail(m, "%s: %s: the derivative %s must be finite", call, VARIABLES[vr[i]].name,
+                           shortest(value[i]).text);
+    }
+    for (size_t i = 0; i < n; i++) {
+        double* rate = &m->now.input_rate[input_index((int)vr[i])];
+        if (*rate != value[i] && m->now.phase >= CM_STEPPING) m->now.pending = 1;
+        *rate = value[i];
+        m->now.rate_given[input_index((int)vr[i])] = 1;
+    }
+    return CM_OK;
+}
+
+/* ------------------------------------------------------------------------------ FMU state */
+
+/* a serialized state: a tag, then the snapshot's bytes */
+static const char STATE_TAG[16] = MODEL_GUID_PREFIX16;
+
+size_t cm_serialized_size(void) { return sizeof STATE_TAG + sizeof(Snapshot); }
+
+void cm_serialize(const Snapshot* s, unsigned char* bytes)
+{
+    memcpy(bytes, STATE_TAG, sizeof STATE_TAG);
+    memcpy(bytes + sizeof STATE_TAG, s, sizeof(Snapshot));
+}
+
+int cm_deserialize(const Model* m, const char* call, const unsigned char* bytes, size_t size, Snapshot* s)
+{
+    Snapshot read;
+    if (size != cm_serialized_size() || memcmp(bytes, STATE_TAG, sizeof STATE_TAG) != 0)
+        return cm_fail(m, "%s: not a serialized state of this FMU", call);
+    memcpy(&read, bytes + sizeof STATE_TAG, sizeof read);
+    if (read.phase < CM_INSTANTIATED || read.phase > CM_FAILED)
+        return cm_fail(m, "%s: not a serialized state of this FMU", call);
+    *s = read;
+    return CM_OK;
+}
+
