@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..expressions import CONSTANTS, Expression
-from ..mechanisms.contour import MIN_CONDITIONING
+from ..mechanisms.assembly import MIN_CONDITIONING
 
 #: the evaluator's operations, in crank_mechanism.h's order (enum mm_op)
 OPS = ("literal", "copy", "add", "sub", "mul", "div", "pow", "neg",

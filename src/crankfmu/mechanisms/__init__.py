@@ -6,7 +6,8 @@ from importlib import resources
 from pathlib import Path
 
 from ..datafiles import packaged, read_toml
-from .contour import Kinematics, Mechanism
+from .contour import Mechanism
+from .kinematics import Kinematics
 from .definition import MechanismDefinition
 
 __all__ = ["Kinematics", "Mechanism", "MechanismDefinition", "load_mechanism", "available_mechanisms"]
