@@ -25,7 +25,7 @@ from pathlib import Path
 
 from ..atomic import replacing
 from ..errors import CrankfmuError
-from ..native.sources import (AARCH64_CC, WIN64_CC, HERE as NATIVE, KERNEL as KERNEL_SOURCES, MECHANISM as MECHANISM_SOURCES,
+from ..native.sources import (AARCH64_CC, FMU_COMPILERS, WIN64_CC, HERE as NATIVE, KERNEL as KERNEL_SOURCES, MECHANISM as MECHANISM_SOURCES,
                                PREBUILT, compile_object, fmu_flags, includes, object_name)
 from .background import reference_beside
 from .reference import LS_REF, LS_REF_MANIFEST, cross_check_options
@@ -39,11 +39,11 @@ MODEL_SOURCES = ("crank_model.c", "crank_model_variables.c", "crank_model_me.c",
                  "crank_model_internal.h", "crank_variables.h")
 SHELL_SOURCES = {"2.0": ("crank_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
                  "3.0": ("crank_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}
-#: each FMI version's binaries: (platform folder, compiler, a Windows DLL); the first is always built,
-#: the others where their cross compiler is installed (Windows: or where asked for)
-PLATFORMS = {"2.0": (("linux64", "gcc", False), ("win64", WIN64_CC, True)),
-             "3.0": (("x86_64-linux", "gcc", False), ("x86_64-windows", WIN64_CC, True),
-                     ("aarch64-linux", AARCH64_CC, False))}
+#: each FMI version's binaries: (platform folder, compiler; whether it makes a DLL is
+#: sources.FMU_COMPILERS'); the first is always built, the others where their cross compiler is
+#: installed (Windows: or where asked for)
+PLATFORMS = {"2.0": (("linux64", "gcc"), ("win64", WIN64_CC)),
+             "3.0": (("x86_64-linux", "gcc"), ("x86_64-windows", WIN64_CC), ("aarch64-linux", AARCH64_CC))}
 FMI_VERSIONS = tuple(PLATFORMS)
 
 
@@ -157,8 +157,8 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
     fmu = source.fmu
     if win64 is None:
         win64 = shutil.which(WIN64_CC) is not None
-    platforms = [(folder, cc, windows) for folder, cc, windows in PLATFORMS[fmi_version]
-                 if cc == "gcc" or (win64 if windows else shutil.which(cc) is not None)]
+    platforms = [(folder, cc, FMU_COMPILERS[cc]) for folder, cc in PLATFORMS[fmi_version]
+                 if cc == "gcc" or (win64 if FMU_COMPILERS[cc] else shutil.which(cc) is not None)]
     dest.mkdir(parents=True, exist_ok=True)
     out = dest / f"{fmu}.fmu"
     with tempfile.TemporaryDirectory() as tmp:

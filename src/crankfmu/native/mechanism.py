@@ -80,10 +80,10 @@ def _ints(a):
     return a, a.ctypes.data_as(I)
 
 
-def _struct(program, min_conditioning: float) -> tuple:
+def _struct(program) -> tuple:
     """(mm_program, the arrays it points into) of a compiled program, built once per program."""
     cached = getattr(program, "_c_struct", None)
-    if cached is not None and cached[0].min_conditioning == min_conditioning:
+    if cached is not None:
         return cached
     keep = []
 
@@ -107,7 +107,7 @@ def _struct(program, min_conditioning: float) -> tuple:
     s.n_columns, s.columns = len(program.columns), ints(program.columns)
     s.n_searches, s.searches = len(program.searches), ints(program.searches)
     s.n_checks, s.checks = len(program.checks), ints(program.checks)
-    s.min_conditioning = min_conditioning
+    s.min_conditioning = program.min_conditioning
     s.n_coordinates, s.coordinates = len(program.coordinates), ints(program.coordinates)
     s.n_links, s.links, s.crank = len(program.links), ints(program.links), program.crank
     s.n_joints, s.joints = len(program.joints), ints(program.joints)
@@ -120,10 +120,10 @@ def _struct(program, min_conditioning: float) -> tuple:
 class CModel:
     """A compiled scenario at parameter values: assembly checked, loads' switch angles found."""
 
-    def __init__(self, program, parameters: np.ndarray, min_conditioning: float | None = None):
+    def __init__(self, program, parameters: np.ndarray):
         self.program = program
         lib = LIBRARY
-        s, keep = _struct(program, program.min_conditioning if min_conditioning is None else min_conditioning)
+        s, keep = _struct(program)
         self._keep, self._struct, self._lib = keep, s, lib
         self._model = MMModel()
         self._parameters = np.ascontiguousarray(parameters, dtype=float)
