@@ -189,6 +189,97 @@ class _Code:
         return total
 
 
+#: how many register operands each operation reads (a literal reads its index into ``literals``)
+_ARITY = {OP[name]: n for names, n in (
+    (("literal",), 0),
+    (("copy", "neg", "sin", "cos", "tan", "asin", "acos", "atan", "sqrt", "exp", "log", "abs", "sign",
+      "radians", "degrees"), 1),
+    (("add", "sub", "mul", "div", "pow", "atan2", "hypot", "min", "max", "not_above"), 2),
+    (("if_positive", "if_negative"), 3)) for name in names}
+
+
+def optimise(code: list, sections: dict, runtime: set[int], literals: list) -> tuple[list, dict]:
+    """The same program with less work per crank angle: each instruction of a per-angle section
+    whose operands do not change with the angle moves to SETUP (which runs once, at binding), and
+    an instruction that repeats an earlier one of its section (same operation on the same values)
+    becomes a copy of that one's result. The expressions are compiled as written, so a closed form
+    states sin(phi1) twice and a row multiplies the same two masses at every angle; this pass
+    makes the per-angle sections about a third shorter. Every value is computed by the same
+    operation on the same operands as before, so every result is bit for bit the same.
+
+    ``runtime``: the registers the C model writes itself (phi1, the kinematics, the crank's
+    direction, what the searches find after binding). A section's last instruction stays where it
+    is: a search reads its value from it."""
+    order = sorted(sections, key=lambda s: sections[s][0])
+    body = {s: [list(ins) for ins in code[slice(*sections[s])]] for s in order}
+    writes: dict[int, int] = {}
+    for ins in code:
+        writes[ins[1]] = writes.get(ins[1], 0) + 1
+    varying = set(runtime) | {ins[1] for s in order if s != SETUP for ins in body[s]}
+
+    def reads(ins):
+        return ins[2:2 + _ARITY[ins[0]]]
+
+    hoisted = []
+    for s in order:
+        if s == SETUP:
+            continue
+        kept = []
+        for i, ins in enumerate(body[s]):
+            last = i == len(body[s]) - 1
+            if (not last and writes[ins[1]] == 1 and ins[1] not in runtime
+                    and not any(r in varying for r in reads(ins))):
+                hoisted.append(ins)
+                varying.discard(ins[1])
+            else:
+                kept.append(ins)
+        body[s] = kept
+    if SETUP in body:
+        setup_last = body[SETUP][-1:]
+        body[SETUP] = body[SETUP] + hoisted
+        if hoisted and setup_last:          # SETUP's value register stays its last instruction's
+            body[SETUP].append([OP["copy"], setup_last[0][1], setup_last[0][1], 0, 0])
+    # SETUP's repeats first: a copy there holds its source's value at every angle after
+    known: dict[int, int] = {}
+    if SETUP in body:
+        body[SETUP] = _common(body[SETUP], literals, {}, known)
+        known = {r: v for r, v in known.items() if writes.get(r) == 1 and v not in varying}
+    for s in order:
+        if s != SETUP:
+            body[s] = _common(body[s], literals, known, {})
+    out, new_sections = [], {}
+    for s in order:
+        new_sections[s] = (len(out), len(out) + len(body[s]))
+        out += [tuple(ins) for ins in body[s]]
+    return out, new_sections
+
+
+def _common(section: list, literals: list, known: dict[int, int], aliases: dict[int, int]) -> list:
+    """``section`` with each repeated computation replaced by a copy of its first result, and
+    copies' destinations read from their sources (which may reveal more repeats). ``known``:
+    registers that hold another's value on entry; ``aliases`` receives those of the section's end."""
+    alias = dict(known)                      # register -> the register holding the same value
+    seen: dict[tuple, int] = {}              # (operation, operands) -> register holding its value
+    out = []
+    for op, dst, a, b, c in section:
+        n = _ARITY[op]
+        operands = [alias.get(r, r) for r in (a, b, c)[:n]] + [a, b, c][n:]
+        key = (op, float(literals[a]).hex()) if op == OP["literal"] else (op, *operands[:n])
+        source = alias.get(operands[0], operands[0]) if op == OP["copy"] else seen.get(key)
+        # dst's old value is gone: forget what was known of it
+        alias = {k: v for k, v in alias.items() if dst not in (k, v)}
+        seen = {k: v for k, v in seen.items() if v != dst and dst not in k[1:]}
+        if source is not None and source != dst:
+            out.append((OP["copy"], dst, source, 0, 0))
+            alias[dst] = source
+        else:
+            out.append((op, dst, *operands))
+            if op != OP["copy"] and dst not in operands[:n]:
+                seen[key] = dst
+    aliases.update(alias)
+    return out
+
+
 def parameter_values(program: Program, values: dict) -> np.ndarray:
     """The registers the binding fills, from a scenario's values."""
     return np.array([values[name] for name in program.parameters], dtype=float)

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .program import (CLOSED, FIRST_SEARCH, OUTPUTS, REACTIONS, ROWS, SETUP, VALUES, Program, Unsupported,
-                      _Code)
+from .program import (CLOSED, FIRST_SEARCH, OUTPUTS, REACTIONS, REVERSALS, ROCKER, ROWS, SETUP, VALUES, Program,
+                      Unsupported, _Code, optimise)
 from .program_loads import LoadClauses
 
 
@@ -58,7 +58,7 @@ class _Compiler(LoadClauses):
         return names
 
     # ---------------------------------------------------------------- the program
-    def compile(self) -> Program:
+    def compile(self, optimised: bool = True) -> Program:
         d, c = self.definition, self.c
         c.begin(SETUP)
         self.one, self.zero = c.literal(1.0), c.literal(0.0)
@@ -141,11 +141,16 @@ class _Compiler(LoadClauses):
                 c.end()
                 searches.append((kind, section, section + 1 if aux is not None else -1, *regs))
         distinct = sorted({t[3:5] for t in terms})
-        n_sections = max(c.sections) + 1
-        sections = np.array([c.sections.get(i, (0, 0)) for i in range(n_sections)], dtype=np.int32)
+        # the registers the C model writes itself: per angle phi1, the kinematics and the crank's
+        # direction; after binding what the rocker and reversal searches find
+        runtime = set(range(self.phi1, self.kin + 3 * len(self.unknowns) + 6 * len(self.points))) | {self.omega1}
+        runtime |= {r for search in searches if search[0] in (ROCKER, REVERSALS) for r in search[3:5] if r >= 0}
+        code, placed = optimise(c.code, c.sections, runtime, c.literals) if optimised else (c.code, c.sections)
+        n_sections = max(placed) + 1
+        sections = np.array([placed.get(i, (0, 0)) for i in range(n_sections)], dtype=np.int32)
         program = Program(
             parameters=self.parameters, n_registers=c.n,
-            code=np.array(c.code, dtype=np.int32).reshape(-1, 5), literals=np.array(c.literals or [0.0]),
+            code=np.array(code, dtype=np.int32).reshape(-1, 5), literals=np.array(c.literals or [0.0]),
             sections=sections, n_q=len(variables), n_contours=len(d.contours), n_chains=len(chains),
             terms=np.array([t + (distinct.index(t[3:5]),) for t in terms], dtype=np.int32).reshape(-1, 6),
             angles=np.array(distinct, dtype=np.int32).reshape(-1, 2),
@@ -285,15 +290,16 @@ class _Compiler(LoadClauses):
 _PROGRAMS: dict = {}
 
 
-def compile_scenario(scenario) -> Program | None:
+def compile_scenario(scenario, optimised: bool = True) -> Program | None:
     """The scenario's program (cached per mechanism and loads), or None where a part of it is not
-    one the C model evaluates (the Python engine then tabulates it)."""
+    one the C model evaluates (the Python engine then tabulates it). ``optimised=False``: the
+    instructions as the files' expressions state them (program.optimise's tests compare the two)."""
     d = scenario.mechanism_definition()
     key = (id(d), repr(scenario.data.get("loads")), repr(scenario.data.get("ports")),
-           repr(scenario.data.get("outputs")), tuple(sorted(scenario.parameters)))
+           repr(scenario.data.get("outputs")), tuple(sorted(scenario.parameters)), optimised)
     if key not in _PROGRAMS:
         try:
-            _PROGRAMS[key] = (d, _Compiler(scenario).compile())
+            _PROGRAMS[key] = (d, _Compiler(scenario).compile(optimised))
         except (Unsupported, KeyError, ValueError):
             _PROGRAMS[key] = (d, None)
     return _PROGRAMS[key][1]

@@ -1,0 +1,71 @@
+"""The compiled program's optimisation (dynamics.program.optimise): what varies with the crank
+angle stays in the per-angle sections, what does not moves to SETUP, and a repeated computation
+reads its first result. Every value is the same operation on the same operands as in the program
+the files' expressions state, so the C model's results must be equal bit for bit, not merely
+close: the tables, the switch schedule with its forces, what the searches find, the worst
+conditioning, and every refusal. A register the C model writes itself that the pass took for a
+constant (a search's finding, the crank's direction) shows here as a different force or table.
+"""
+
+import numpy as np
+import pytest
+
+from crankfmu.dynamics.program import CLOSED, OP, ROWS, parameter_values
+from crankfmu.dynamics.program_scenario import compile_scenario
+from crankfmu.native.mechanism import QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
+from crankfmu.scenario import load_scenario
+
+from test_c_model import SCENARIOS, _guide_scenario, _perturbed, _scenario
+
+TRANSCENDENTAL = {OP[name] for name in ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "hypot", "exp",
+                                        "log", "sqrt", "pow")}
+
+
+@pytest.fixture(scope="module")
+def guide(tmp_path_factory):
+    return _guide_scenario(tmp_path_factory)
+
+
+def _everything(program, values) -> list:
+    """What the C model gives at these values, as exact bytes or the refusal."""
+    try:
+        model = CModel(program, parameter_values(program, values))
+    except MechanismError as exc:
+        return [("refused", exc.code, exc.index, exc.value, exc.angle)]
+    switches, forces = model.schedule()
+    out = [switches.tobytes(), forces.tobytes(), repr(model.found()), repr(model.worst_conditioning)]
+    for table in (REDUCED, QUANTITIES, REACTIONS):
+        try:
+            coefficients, error, construction = model.cubics(table, 1e-11)
+            out += [coefficients.tobytes(), repr(error), construction]
+        except MechanismError as exc:
+            out.append(("not tabulated", exc.code, exc.index, exc.value))
+    return out
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_optimised_program_gives_the_same_bits(name, guide):
+    scenario = _scenario(name, guide)
+    optimised, as_written = compile_scenario(scenario), compile_scenario(scenario, optimised=False)
+    if optimised is None:
+        pytest.skip("the C model does not take this scenario")
+    for values in (scenario.values, _perturbed(scenario).values):
+        assert _everything(optimised, values) == _everything(as_written, values)
+
+
+def _per_angle(program, section):
+    start, end = program.sections[section]
+    return program.code[start:end]
+
+
+def test_per_angle_work_shrinks():
+    """The four-bar's closed form states sin(phi1) and cos(phi1) twice and squares link lengths at
+    every angle; its rows multiply masses by constants: after the pass the closed form takes two
+    transcendental calls fewer, and neither section computes a constant."""
+    scenario = load_scenario("seed000")
+    optimised, as_written = compile_scenario(scenario), compile_scenario(scenario, optimised=False)
+    for section in (CLOSED, ROWS):
+        assert len(_per_angle(optimised, section)) < len(_per_angle(as_written, section))
+        assert OP["literal"] not in _per_angle(optimised, section)[:, 0]
+    calls = [int(np.isin(_per_angle(p, CLOSED)[:, 0], list(TRANSCENDENTAL)).sum()) for p in (optimised, as_written)]
+    assert calls[0] <= calls[1] - 2
