@@ -17,7 +17,8 @@ import pytest
 
 from crankfmu.dynamics.program import parameter_values
 from crankfmu.dynamics.program_scenario import compile_scenario
-from crankfmu.dynamics.tabulated import _engine_values, _evaluate, c_table, tabulate
+from crankfmu.dynamics.cubics import evaluate_cubics
+from crankfmu.dynamics.tabulated import _engine_values, c_table, tabulate
 from crankfmu.errors import AssemblyError, DefinitionError, SchemeError
 from crankfmu.native.mechanism import CModel, MechanismError
 from crankfmu.scenario import available_scenarios, load_scenario
@@ -266,7 +267,6 @@ def test_the_c_outputs_and_reaction_tables_equal_the_python_ones(name, changed, 
     """The [[outputs]] and ports' table (q - winding phi1, q', q'': a fully turning link's whole
     turns counted) and the joint reactions' table (a Newton-Euler solve per term), as the FMUs
     build them (fmi.slave.build_design): the same intervals, cubics equal to rounding."""
-    from crankfmu.dynamics.tabulated import _evaluate
     from crankfmu.fmi.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
     from crankfmu.native.mechanism import QUANTITIES, REACTIONS
 
@@ -285,7 +285,7 @@ def test_the_c_outputs_and_reaction_tables_equal_the_python_ones(name, changed, 
         coefficients, error, _ = model.cubics(table, tolerance)
         assert coefficients.shape == want.coefficients.shape
         assert error <= tolerance
-        assert _relative(_evaluate(coefficients, x), _evaluate(want.coefficients, x)) < BOUND
+        assert _relative(evaluate_cubics(coefficients, x), evaluate_cubics(want.coefficients, x)) < BOUND
         if table == QUANTITIES:
             assert np.array_equal(model.winding, want.winding)
             assert tuple(program.coordinate_names) == want.coordinates
@@ -305,7 +305,7 @@ def test_a_design_next_to_a_dead_point_is_a_spline_of_samples_in_c_as_in_the_eng
     assert python.construction == "cubic spline of 65536 samples"
     assert 1e-11 < c.error_bound < 1e-8 and c.error_bound == pytest.approx(python.error_bound, rel=0.01)
     phi1 = np.random.default_rng(38).uniform(0.0, 2.0 * math.pi, 4000)
-    ours, theirs = _evaluate(c.coefficients, phi1), _evaluate(python.coefficients, phi1)
+    ours, theirs = evaluate_cubics(c.coefficients, phi1), evaluate_cubics(python.coefficients, phi1)
     scale = np.maximum(np.max(np.abs(theirs), axis=1), 1e-300)
     assert np.all(np.max(np.abs(ours - theirs), axis=1) <= 1e-13 * scale)
 

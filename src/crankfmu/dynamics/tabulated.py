@@ -34,9 +34,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import DefinitionError, SchemeError, format_value
-from ..numerics import periodic_cubic_spline, periodic_hermite, periodic_series, series_on_grid
+from ..errors import DefinitionError
 from . import modes
+from .cubics import build_cubics, evaluate_cubics
 from .reduced import ReducedModel
 
 TWO_PI = 2.0 * math.pi
@@ -81,7 +81,7 @@ class ReducedTable:
 
     def evaluate(self, phi1) -> np.ndarray:
         """All functions at an array of crank angles: shape (n_functions, len(phi1))."""
-        return _evaluate(self.coefficients, phi1)
+        return evaluate_cubics(self.coefficients, phi1)
 
     def interval_of(self, phi1) -> np.ndarray:
         """Index of the switch interval holding each crank angle (0 without switch angles)."""
@@ -106,20 +106,6 @@ class ReducedTable:
         return J, values[HALF_DJ], Q
 
 
-def _evaluate(coefficients: np.ndarray, phi1) -> np.ndarray:
-    """Periodic piecewise cubics (functions, n, 4) at an array of crank angles."""
-    phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
-    n = coefficients.shape[1]
-    h = TWO_PI / n
-    wrapped = phi1 - TWO_PI * np.floor(phi1 / TWO_PI)
-    i = np.minimum((wrapped / h).astype(np.int64), n - 1)
-    return _horner(coefficients[:, i, :], wrapped - i * h)
-
-
-def _horner(c: np.ndarray, u) -> np.ndarray:
-    """Local cubics c0 + u (c1 + u (c2 + u c3)) (coefficients on the last axis) at offsets u."""
-    return c[..., 0] + u * (c[..., 1] + u * (c[..., 2] + u * c[..., 3]))
-
 
 def _engine_values(reduced: ReducedModel, sliders, viscous, phi1) -> np.ndarray:
     J, half_dJ, Q, kin = reduced.coefficients(phi1)
@@ -137,9 +123,9 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
              n_max: int = 1 << 16, loosest: float = 1e-8) -> ReducedTable:
     """Tabulate ``reduced`` to ``tolerance`` (relative to each function's largest magnitude).
 
-    First as a Fourier series (:func:`_from_series`: a few hundred samples of the engine for a
+    First as a Fourier series (:func:`from_series`: a few hundred samples of the engine for a
     mechanism away from its dead points), else as a cubic spline of the engine's samples
-    (:func:`_from_samples`). A mechanism close to a dead point has steep transfer functions: when
+    (:func:`from_samples`). A mechanism close to a dead point has steep transfer functions: when
     2**16 spline intervals do not reach ``tolerance`` the table is kept if its checked error is
     within ``loosest`` (its ``error_bound`` then exceeds ``tolerance``, and users of the table
     report it); beyond that SchemeError is raised (use the engine, method "reference").
@@ -157,134 +143,12 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
               "the dampers' generalized force per omega1"]
              + [f"slider force column {name}" for load in sliders for name in load.column_names]
              + [f"port {port.name}'s transfer function" for port in reduced.ports])
-    coefficients, error, construction = _cubics(engine, tolerance, n_start, n_max, loosest,
+    coefficients, error, construction = build_cubics(engine, tolerance, n_start, n_max, loosest,
                                                 ("the reduced model", names))
     switch, forces = reduced.slider_schedule()
     return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(name for load in sliders for name in load.column_names), construction,
                         len(reduced.ports))
-
-
-def _cubics(engine, tolerance: float, n_start: int, n_max: int, loosest: float, named=("the functions", ())):
-    """(coefficients, checked error, construction) of the periodic functions ``engine`` gives: a
-    Fourier series where it converges, else a spline of samples. ``named``: (what the functions
-    are, each row's name), for the message of a table that cannot be built."""
-    return (_from_series(engine, tolerance)
-            or _from_samples(engine, tolerance, n_start, n_max, loosest, named))
-
-
-def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance: float, n: int) -> str:
-    """The message of a table that cannot be built: which function, and whether it jumps (a
-    discontinuity in phi1: no number of intervals can follow it) or is steep (a dead point near)."""
-    what, names = named
-    row = int(np.argmax(errors))
-    name = names[row] if row < len(names) else f"function {row}"
-    steps = np.abs(np.diff(np.append(values[row], values[row, 0])))
-    k = int(np.argmax(steps))
-    typical = float(np.median(steps)) + 1e-300
-    at = f"phi1 = {math.degrees(k * TWO_PI / n):.2f} to {math.degrees((k + 1) * TWO_PI / n):.2f} deg"
-    head = (f"{what}: {name} cannot be tabulated to {format_value(tolerance)} with {n} intervals "
-            f"(error {errors[row]:.2g})")
-    if steps[k] > 1e3 * typical:
-        return (f"{head}: it jumps by {values[row, (k + 1) % n] - values[row, k]:.4g} between {at}, a discontinuity "
-                "in the crank angle (a closed form's branch cut?), not a dead point")
-    return (f"{head}: it changes fastest between {at}; the mechanism is too close to a dead point there; "
-            "use method 'reference'")
-
-
-def _scale(values: np.ndarray) -> np.ndarray:
-    """Each function's largest magnitude: what its error is relative to."""
-    return np.maximum(np.max(np.abs(values), axis=1), 1e-300)
-
-
-def _from_series(engine, tolerance: float, n_first: int = 64, n_last: int = 4096, m_last: int = 1 << 16):
-    """(coefficients, checked error, construction) from the functions' Fourier series, or None.
-
-    J, 0.5 J' and the smooth loads are periodic and analytic in phi1 away from dead points: their
-    trigonometric interpolant on n samples converges geometrically (seed 000: 1e-13 at n = 128),
-    so far fewer engine evaluations are needed than for a spline to the same error. The samples
-    double until the interpolant agrees with the engine to half ``tolerance`` at the midpoints
-    between samples (where its error peaks; they become the next level's samples) and at a
-    staggered quarter of them (0.3 of an interval in). The kernel's piecewise cubics are then the
-    Hermite cubics of the series' values and slopes on m intervals, m growing until they agree
-    with the series to the other half: proven by the series' bound on the fourth derivative, or
-    else checked at every interval's midpoint (where a Hermite cubic's error peaks). None when
-    the samples stop converging geometrically (a load with a kink in phi1, a dead point near):
-    the spline of the samples takes over.
-    """
-    budget = 0.5 * tolerance
-
-    def checks(n):                # the midpoints between n samples, then a staggered quarter of them
-        h = TWO_PI / n
-        return np.concatenate([(np.arange(n) + 0.5) * h, (np.arange(0, n, 4) + 0.3) * h])
-
-    n = n_first
-    first = engine(np.concatenate([np.arange(n) * (TWO_PI / n), checks(n)]))     # one engine call
-    samples, exact = first[:, :n], first[:, n:]
-    last = math.inf
-    while True:
-        h = TWO_PI / n
-        scale = np.maximum(_scale(samples), _scale(exact))
-        series = periodic_series(samples)
-        interpolant = np.concatenate([series_on_grid(series, n, n, 0.5 * h),
-                                      series_on_grid(series, n, n, 0.3 * h)[:, ::4]], axis=1)
-        error = float(np.max(np.max(np.abs(interpolant - exact), axis=1) / scale))
-        if error <= budget:
-            break
-        if 2 * n > n_last or (n >= 4 * n_first and error > 0.25 * last):
-            return None
-        last = error
-        merged = np.empty((samples.shape[0], 2 * n))
-        merged[:, 0::2], merged[:, 1::2] = samples, exact[:, :n]
-        samples, n = merged, 2 * n
-        exact = engine(checks(n))
-    # a Hermite cubic's error at an interval's midpoint is h^4 / 384 times the fourth derivative
-    # there, which the series bounds by sum k^4 |a_k|: start at the power of two nearest the m this
-    # predicts (the bound is pessimistic, by up to 1.4 in m on the seeds), so one build usually does
-    amplitude = np.abs(series) * (2.0 / n)
-    amplitude[:, 0] *= 0.5
-    fourth = float(np.max(np.sum(np.arange(series.shape[1]) ** 4 * amplitude, axis=1) / scale))
-    m = max(n, 2 ** round(math.log2(max(TWO_PI * (fourth / (384.0 * budget)) ** 0.25, 1.0))))
-    m = min(m, m_last)
-    while True:
-        hm = TWO_PI / m
-        cubics = periodic_hermite(series_on_grid(series, n, m), series_on_grid(series, n, m, derivative=True), TWO_PI)
-        cubic_error = hm ** 4 / 384.0 * fourth                   # proven: no angle can exceed it
-        if cubic_error > budget:                                 # the bound is pessimistic: measure
-            at_midpoints = _horner(cubics, 0.5 * hm)
-            cubic_error = float(np.max(np.max(np.abs(at_midpoints - series_on_grid(series, n, m, 0.5 * hm)),
-                                              axis=1) / scale))
-        if cubic_error <= budget:
-            return cubics, error + cubic_error, f"Fourier series of {n} samples, Hermite cubics on {m} intervals"
-        # a Hermite cubic's error falls as h^4: jump to the m it predicts (at least doubling)
-        m *= 2 ** max(1, math.ceil(0.25 * math.log2(cubic_error / budget)))
-        if m > m_last:
-            return None
-
-
-def _from_samples(engine, tolerance: float, n_start: int, n_max: int, loosest: float,
-                  named=("the functions", ())):
-    """(coefficients, checked error, construction) of the periodic cubic spline of the engine's
-    samples, the intervals halved until the spline agrees with the engine to ``tolerance``."""
-    n = n_start
-    while True:
-        nodes = np.linspace(0.0, TWO_PI, n + 1)
-        values = engine(nodes[:-1])
-        coefficients = periodic_cubic_spline(values, TWO_PI)
-        # the error of a cubic spline peaks near the interval midpoints; the staggered set
-        # (0.3 of an interval in) catches a spline that is right at midpoints only
-        h = TWO_PI / n
-        check = np.concatenate([nodes[:-1] + 0.5 * h, nodes[:-1] + 0.3 * h])
-        errors = np.max(np.abs(_evaluate(coefficients, check) - engine(check)), axis=1) / _scale(values)
-        error = float(np.max(errors))
-        if error <= tolerance:
-            break
-        if 2 * n > n_max:
-            if error <= loosest:
-                break
-            raise SchemeError(_why_not_tabulated(values, errors, named, tolerance, n))
-        n *= 2
-    return coefficients, error, f"cubic spline of {n} samples"
 
 
 @dataclass
@@ -336,7 +200,7 @@ def tabulate_quantities(mechanism, quantities, definition, tolerance: float = 1e
 
     names = [f"[[outputs]] {first[c].name} ({c}{suffix})" for c in coordinates
              for suffix in ("", "'", "''")]
-    coefficients, error, construction = _cubics(engine, tolerance, 256, n_max, loosest,
+    coefficients, error, construction = build_cubics(engine, tolerance, 256, n_max, loosest,
                                                 ("the scenario's [[outputs]]", names))
     return QuantityTable(coefficients, coordinates, winding, error, construction)
 
@@ -505,5 +369,5 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
 
     named = ("the joint reactions", [f"{name} ({term} term)" for name in names
                                      for term in (*REACTION_TERMS, *(f"column {k}" for k in range(n_terms - 4)))])
-    coefficients, error, construction = _cubics(engine, tolerance, 256, n_max, loosest, named)
+    coefficients, error, construction = build_cubics(engine, tolerance, 256, n_max, loosest, named)
     return ReactionTable(coefficients, names, n_terms, error, construction)

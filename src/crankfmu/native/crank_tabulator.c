@@ -1,6 +1,6 @@
 /* The mechanism model's tabulator (crank_mechanism.h's mm_tabulate): a table's functions as periodic
  * Hermite cubics to a checked tolerance, from the Fourier series of the engine's samples, else from
- * the periodic cubic spline of up to 2^16 samples (dynamics/tabulated.py's construction). */
+ * the periodic cubic spline of up to 2^16 samples (dynamics/cubics.py's construction). */
 #include "crank_mechanism_internal.h"
 
 #include <float.h>
@@ -180,7 +180,7 @@ static void series_values(series_t *s, int m, double shift, int derivative, doub
     for (int r = 0; r < s->rows; ++r) series_row(s, r, m, s->pc, s->ps, derivative, re, im, out + (size_t)r * m);
 }
 
-/* the spline of samples (dynamics.tabulated._from_samples), where the Fourier series does not
+/* the spline of samples (dynamics.cubics.from_samples), where the Fourier series does not
  * converge (a mechanism close to a dead point, a load with a kink in phi1): the C2 periodic cubic
  * spline of n samples (numerics.periodic_cubic_spline: its second derivatives M from the circulant
  * [1 4 1] system, solved by one transform each way), n doubling from 256 until the spline agrees
