@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from crankfmu.dynamics.rodstring import (LinearFoot, RodString, StringDesign, Taper,
+from crankfmu.dynamics.pumps import LinearFoot
+from crankfmu.dynamics.rodstring import (RodString, StringDesign, Taper,
                                          harmonic_solution)
 from crankfmu.dynamics.well import load_well
 from crankfmu.errors import DefinitionError
