@@ -89,7 +89,7 @@ def c_rule(number, *args):
     return native.LIBRARY.ck_rule(number, a.ctypes.data_as(native.ctypes.POINTER(native.ctypes.c_double)))
 
 
-#: the engine's rule, and its number in ck_rule (crank_kernel.c)
+#: the engine's rule, and its number in ck_rule (crank_facts.c)
 C_RULES = {"line_torque": 0, "acceleration": 1, "equivalent_torque": 2, "kinetic_energy": 3, "motor_of_speed": 4,
            "direction_of_speed": 5, "motor_on_switch": 6, "direction_at_rest": 7, "motor_at_rest": 8,
            "motor_after_sliding": 9, "turns_forces": 10, "event_active": 11, "event_value": 12,

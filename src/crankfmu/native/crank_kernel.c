@@ -1,7 +1,8 @@
 /* crankfmu's kernel (crank_kernel.h), its stepper: the Dormand-Prince step, its error norm, dense
  * output and event location on the tabulated model. The drivers callers run (crank_drivers.c),
  * the speed-causal step (crank_speed.c) and Model Exchange (crank_me.c) build on it
- * (crank_kernel_internal.h). Written as the numba kernel it replaced, the same arithmetic in the
+ * (crank_kernel_internal.h); the [[outputs]] and joint reactions read from their tables
+ * (crank_outputs.c) and the kernel's constants and rules one by one (crank_facts.c) beside it. Written as the numba kernel it replaced, the same arithmetic in the
  * same order: the two gave the same numbers bit for bit on every case before numba went (commit
  * 3d63bb9). */
 #include "crank_kernel_internal.h"
@@ -11,70 +12,6 @@
 
 static const double SAFETY = 0.9, MIN_FACTOR = 0.2, MAX_FACTOR = 10.0;
 #define ERROR_EXPONENT (-1.0 / (CK_ERROR_ESTIMATOR_ORDER + 1))
-
-#ifndef CK_SOURCE_DIGEST
-#define CK_SOURCE_DIGEST "unknown"
-#endif
-
-const char* ck_source_digest(void) { return CK_SOURCE_DIGEST; }
-
-int ck_tableau(double* out, int n)
-{
-    int k = 0;
-    for (int i = 0; i < CK_N_STAGES; i++)
-        for (int j = 0; j < 5; j++, k++) if (k < n) out[k] = CK_A[i][j];
-    for (int i = 0; i < CK_N_STAGES; i++, k++) if (k < n) out[k] = CK_B[i];
-    for (int i = 0; i < CK_N_STAGES + 1; i++, k++) if (k < n) out[k] = CK_E[i];
-    for (int i = 0; i < CK_N_STAGES + 1; i++)
-        for (int j = 0; j < 4; j++, k++) if (k < n) out[k] = CK_P[i][j];
-    for (int i = 0; i < CK_N_STAGES; i++, k++) if (k < n) out[k] = CK_C[i];
-    return k;
-}
-
-double ck_rule(int rule, const double* a)
-{
-    switch (rule) {
-    case 0: return ck_line_torque(a[0], a[1], a[2]);
-    case 1: return ck_acceleration(a[0], a[1], a[2], a[3], a[4], a[5]);
-    case 2: return ck_equivalent_torque(a[0], a[1], a[2], a[3]);
-    case 3: return ck_kinetic_energy(a[0], a[1]);
-    case 4: return ck_motor_of_speed(a[0], a[1]);
-    case 5: return ck_direction_of_speed(a[0]);
-    case 6: return ck_motor_on_switch(a[0], a[1], a[2]);
-    case 7: return ck_direction_at_rest(a[0], a[1]);
-    case 8: return ck_motor_at_rest(a[0], a[1]);
-    case 9: return ck_motor_after_sliding((int)a[0]);
-    case 10: return ck_turns_forces((int)a[0], a[1], (int)a[2]);
-    case 11: return ck_event_active((int)a[0], a[1], a[2], a[3], (int)a[4], a[5]);
-    case 12: return ck_event_value((int)a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9]);
-    case 13: return ck_event_rising((int)a[0], a[1], a[2]);
-    case 14: return ck_crosses(a[0], a[1], (int)a[2]);
-    case 15: return ck_drive_torque(a[0], a[1], a[2], a[3], a[4], a[5]);
-    case 16: return ck_direction_imposed(a[0]);
-    default: return NAN;
-    }
-}
-
-int ck_interval_of_rule(const double* sw, int m, double phi, double direction, double* bounds)
-{
-    return ck_interval_of(sw, m, phi, direction, &bounds[0], &bounds[1]);
-}
-
-int ck_next_interval_rule(const double* sw, int m, int k, double* bounds, int forward)
-{
-    return ck_next_interval(sw, m, k, &bounds[0], &bounds[1], forward);
-}
-
-int ck_layout(int* out, int n)
-{
-    const int values[] = {CK_T, CK_Y, CK_F, CK_H, CK_MOTOR, CK_DIRECTION, CK_INTERVAL, CK_PHI_LO, CK_PHI_HI,
-                          CK_T_PREV, CK_Y_PREV, CK_K, CK_N_RHS, CK_STEP_MOTOR, CK_STEP_DIRECTION, CK_STEP_INTERVAL,
-                          CK_N_STEPS, CK_STATE_SIZE, CK_N_Y, CK_PARAM_SIZE, CK_OUT_SIZE, CK_STEADY_SIZE,
-                          CK_N_STAGES, CK_N_SLOTS, CK_MAX_FUNCTIONS};
-    int count = (int)(sizeof values / sizeof values[0]);
-    for (int i = 0; i < count && i < n; i++) out[i] = values[i];
-    return count;
-}
 
 /* (static: the hot path inlines it; ck_periodic_cubics is its exported face) */
 static void periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out)
@@ -116,53 +53,6 @@ static double external_torque(double t, const CkTables* T, const double* P, cons
     const double* transfer = work + (T->n_functions - T->n_ports);
     for (int i = 0; i < T->n_ports; i++) tau += (P[CK_PORT_INPUT + i] + P[CK_PORT_RATE + i] * dt) * transfer[i];
     return tau;
-}
-
-int ck_reaction_weights(const double* S, double t, double omega, double epsilon, const CkTables* T, const double* P,
-                        double* out)
-{
-    int n = 0;
-    out[n++] = 1.0;
-    out[n++] = epsilon;
-    out[n++] = omega * omega;
-    out[n++] = omega;
-    /* the mode at t: a step ends on every event, so before the step's end it is the step's mode */
-    int within = t < S[CK_T];
-    double direction = within ? S[CK_STEP_DIRECTION] : S[CK_DIRECTION];
-    int d = direction > 0.0 ? 0 : 1, k = (int)(within ? S[CK_STEP_INTERVAL] : S[CK_INTERVAL]);
-    for (int s = 0; s < T->n_sliders; s++)
-        out[n++] = direction != 0.0 ? T->forces[((size_t)k * 2 + d) * T->n_sliders + s] : 0.0;
-    double dt = t - P[CK_T_INPUT];
-    for (int i = 0; i < T->n_ports; i++) out[n++] = P[CK_PORT_INPUT + i] + P[CK_PORT_RATE + i] * dt;
-    return n;
-}
-
-void ck_quantity_values(const double* coefficients, int n_coordinates, int n, const double* winding,
-                        int n_quantities, const int* coordinate, const int* order, double phi, double omega,
-                        double epsilon, double* scratch, double* out)
-{
-    periodic_cubics(coefficients, 3 * n_coordinates, n, phi, scratch);
-    for (int k = 0; k < n_quantities; k++) {
-        int c = coordinate[k];
-        double q = scratch[3 * c] + winding[c] * phi, dq = scratch[3 * c + 1], ddq = scratch[3 * c + 2];
-        out[k] = order[k] == 0 ? q : (order[k] == 1 ? dq * omega : ddq * omega * omega + dq * epsilon);
-    }
-}
-
-int ck_reaction_values(const double* coefficients, int n_reactions, int n_terms, int n, const double* S, double t,
-                       double phi, double omega, double epsilon, const CkTables* T, const double* P, double* scratch,
-                       double* out)
-{
-    double* weights = scratch + (size_t)n_reactions * n_terms;
-    if (ck_reaction_weights(S, t, omega, epsilon, T, P, weights) != n_terms) return -1;
-    periodic_cubics(coefficients, n_reactions * n_terms, n, phi, scratch);
-    for (int r = 0; r < n_reactions; r++) {
-        const double* terms = scratch + (size_t)r * n_terms;
-        double value = 0.0;
-        for (int j = 0; j < n_terms; j++) value += weights[j] * terms[j];
-        out[r] = value;
-    }
-    return 0;
 }
 
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external

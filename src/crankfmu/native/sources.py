@@ -15,9 +15,11 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 #: the mechanism's kernel: its stepper (crank_kernel.c), the drivers callers run (crank_drivers.c),
-#: the speed-causal step (crank_speed.c) and Model Exchange (crank_me.c); numbers in messages
-KERNEL = ("crank_kernel.c", "crank_drivers.c", "crank_speed.c", "crank_me.c", "crank_kernel.h",
-          "crank_kernel_internal.h", "crank_modes.h", "crank_tableau.h", "crank_numbers.c", "crank_numbers.h")
+#: the speed-causal step (crank_speed.c), Model Exchange (crank_me.c), the outputs read from their
+#: tables (crank_outputs.c), its constants and rules one by one (crank_facts.c); numbers in messages
+KERNEL = ("crank_kernel.c", "crank_drivers.c", "crank_speed.c", "crank_me.c", "crank_outputs.c", "crank_facts.c",
+          "crank_kernel.h", "crank_kernel_internal.h", "crank_modes.h", "crank_tableau.h", "crank_numbers.c",
+          "crank_numbers.h")
 #: the components' physics (the drive, the cushion, the rod string)
 COMPONENTS = ("crank_components.c", "crank_components.h")
 #: the pumping well as one model: the kernel and the string's steps coupled (crankfmu well runs it)
