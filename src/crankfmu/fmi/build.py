@@ -228,7 +228,8 @@ def compile_shim(name: str, out: Path) -> Path:
 
     headers = Path(fmpy.__file__).parent / "c-code"
     cmd = ["gcc", "-shared", "-fPIC", "-O2", "-Wall", "-Werror", f"-I{headers}",
-           f'-DINNER_LIBRARY="{name}_pythonfmu.so"', "-o", str(out), str(HERE / "shim" / "fmu_shim.c"), "-ldl"]
+           f'-DINNER_LIBRARY="{name}_pythonfmu.so"', "-o", str(out), str(HERE / "shim" / "fmu_shim.c"),
+           str(HERE / "shim" / "find_python.c"), "-ldl"]
     try:
         subprocess.run(cmd, check=True, capture_output=True, text=True)
     except FileNotFoundError:
