@@ -85,17 +85,17 @@ static void build_executable(const char* resources, char* out, size_t n)
 }
 
 /* load libpython globally, start it, add the probe's sys.path; 1 on success */
-static int start_python(const char* libpython, const char* paths, const fmi2CallbackFunctions* cb, fmi2String name)
+static int start_python(const char* libpython, const char* paths, char* message, size_t size)
 {
     if (!dlopen(libpython, RTLD_NOW | RTLD_GLOBAL)) {
-        host_log(cb, name, "cannot load libpython: ", dlerror());
+        snprintf(message, size, "cannot load libpython: %s", dlerror());
         return 0;
     }
     void (*initialize)(int) = (void (*)(int))dlsym(RTLD_DEFAULT, "Py_InitializeEx");
     void* (*release_gil)(void) = (void* (*)(void))dlsym(RTLD_DEFAULT, "PyEval_SaveThread");
     int (*run)(const char*) = (int (*)(const char*))dlsym(RTLD_DEFAULT, "PyRun_SimpleString");
     if (!initialize || !release_gil || !run) {
-        host_log(cb, name, "libpython lacks Py_InitializeEx, PyEval_SaveThread or PyRun_SimpleString: ", libpython);
+        snprintf(message, size, "libpython lacks Py_InitializeEx, PyEval_SaveThread or PyRun_SimpleString: %s", libpython);
         return 0;
     }
     initialize(0);      /* 0: leave the host's signal handlers alone */
@@ -116,7 +116,7 @@ static int start_python(const char* libpython, const char* paths, const fmi2Call
     return 1;
 }
 
-int find_and_start_python(const char* resources, const fmi2CallbackFunctions* cb, fmi2String name)
+int find_and_start_python(const char* resources, char* message, size_t size)
 {
     char tried[8192] = "", why[1024], built[4096];
     size_t used = 0;
@@ -125,7 +125,7 @@ int find_and_start_python(const char* resources, const fmi2CallbackFunctions* cb
     const char* candidates[3] = {NULL, NULL, "python3"};
     const char* labels[3] = {"$CRANKFMU_PYTHON", "the building Python", "python3 on PATH"};
     if (env && env[0]) {
-        if (strstr(env, ".so")) return start_python(env, NULL, cb, name);      /* a libpython named directly */
+        if (strstr(env, ".so")) return start_python(env, NULL, message, size);      /* a libpython named directly */
         candidates[0] = env;
     }
     build_executable(resources, built, sizeof built);
@@ -133,15 +133,13 @@ int find_and_start_python(const char* resources, const fmi2CallbackFunctions* cb
     else if (built[0]) used += (size_t)snprintf(tried + used, sizeof tried - used, "\n  the building Python %s: not on this machine", built);
     for (int k = 0; k < 3; k++) {
         if (!candidates[k]) continue;
-        if (probe_python(candidates[k], &probe, why, sizeof why)) return start_python(probe.libpython, probe.paths, cb, name);
+        if (probe_python(candidates[k], &probe, why, sizeof why)) return start_python(probe.libpython, probe.paths, message, size);
         if (used < sizeof tried)
             used += (size_t)snprintf(tried + used, sizeof tried - used, "\n  %s (%s): %s", labels[k], candidates[k], why);
     }
-    char message[12288];
-    snprintf(message, sizeof message,
+    snprintf(message, size,
              "no Python with numpy found for this FMU (Linux x86_64, Python 3.10 to 3.13 with a shared libpython). "
              "Tried:%s\nFix: python3 -m pip install numpy (or set CRANKFMU_PYTHON to a python executable that has numpy)",
              tried);
-    host_log(cb, name, message, NULL);
     return 0;
 }

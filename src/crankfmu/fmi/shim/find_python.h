@@ -1,16 +1,12 @@
-/* What the shim's two files share (fmu_shim.c, find_python.c); hidden: the shim's library
- * exports the FMI functions only. */
+/* The Python the shim (fmu_shim.c) brings into a host without one (find_python.c). Hidden: the
+ * shim's library exports the FMI functions only. */
 #ifndef FIND_PYTHON_H
 #define FIND_PYTHON_H
 
-#include "fmi2Functions.h"
+#include <stddef.h>
 
-#define SHIM_INTERNAL __attribute__((visibility("hidden")))
-
-/* a message to the host's logger with fmi2Error status, whatever its logging setting (fmu_shim.c) */
-SHIM_INTERNAL void host_log(const fmi2CallbackFunctions* cb, fmi2String name, const char* message, const char* detail);
-/* a Python with numpy found, its libpython loaded globally and started; 0 (the host told why)
- * when none is found (find_python.c) */
-SHIM_INTERNAL int find_and_start_python(const char* resources, const fmi2CallbackFunctions* cb, fmi2String name);
+/* a Python with numpy found, its libpython loaded globally and the interpreter started: 1; else 0
+ * and why in message (what was tried, and the command that fixes it) */
+__attribute__((visibility("hidden"))) int find_and_start_python(const char* resources, char* message, size_t size);
 
 #endif

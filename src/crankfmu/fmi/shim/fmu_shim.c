@@ -236,7 +236,7 @@ static fmi2Status shim_error(Shim* s, const char* format, ...)
     return fmi2Error;
 }
 
-void host_log(const fmi2CallbackFunctions* cb, fmi2String name, const char* message, const char* detail)
+static void host_log(const fmi2CallbackFunctions* cb, fmi2String name, const char* message, const char* detail)
 {
     char text[16384], escaped[32768];
     snprintf(text, sizeof text, "%s%s", message, detail ? detail : "");
@@ -260,7 +260,13 @@ static int load(const char* resources, const fmi2CallbackFunctions* cb, fmi2Stri
 {
     if (inner_lib) return 1;
     /* a Python host: use its interpreter */
-    if (!dlsym(RTLD_DEFAULT, "Py_IsInitialized") && !find_and_start_python(resources, cb, name)) return 0;
+    if (!dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
+        static char message[12288];     /* static: large, and load runs once, under the host's first instantiation */
+        if (!find_and_start_python(resources, message, sizeof message)) {
+            host_log(cb, name, message, NULL);
+            return 0;
+        }
+    }
     Dl_info info;
     char inner_path[4096];
     if (!dladdr((void*)&fmi2Instantiate, &info) || !info.dli_fname) {
