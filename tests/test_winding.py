@@ -155,14 +155,14 @@ def test_a_table_that_cannot_be_built_names_the_function_and_its_jump():
     """A function with a jump (what an angle with atan2's cut was before the engine made it
     continuous): no number of intervals follows it, and the message says it jumps, not that the
     mechanism is near a dead point."""
-    from crankfmu.dynamics.tabulated import _cubics
+    from crankfmu.dynamics.cubics import build_cubics
 
     def engine(phi1):
         phi1 = np.asarray(phi1, dtype=float)
         return np.array([np.cos(phi1), np.where(np.mod(phi1, 2 * math.pi) < 3.0, 0.0, 2 * math.pi)])
 
     with pytest.raises(SchemeError) as refused:
-        _cubics(engine, 1e-11, 256, 1 << 10, 1e-8, ("the scenario's [[outputs]]", ["smooth", "lever_angle (phi3)"]))
+        build_cubics(engine, 1e-11, 256, 1 << 10, 1e-8, ("the scenario's [[outputs]]", ["smooth", "lever_angle (phi3)"]))
     message = str(refused.value)
     assert "lever_angle (phi3)" in message and "jumps by 6.283" in message and "dead point" in message
     assert "not a dead point" in message and "1e-11" in message
