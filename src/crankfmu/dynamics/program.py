@@ -204,7 +204,8 @@ def optimise(code: list, sections: dict, runtime: set[int], literals: list) -> t
     an instruction that repeats an earlier one of its section (same operation on the same values)
     becomes a copy of that one's result. The expressions are compiled as written, so a closed form
     states sin(phi1) twice and a row multiplies the same two masses at every angle; this pass
-    makes the per-angle sections about a third shorter. Every value is computed by the same
+    makes the per-angle sections a fifth to a third shorter (19 to 30 % of their instructions on
+    the packaged and the tests' mechanisms; the copies stay). Every value is computed by the same
     operation on the same operands as before, so every result is bit for bit the same.
 
     ``runtime``: the registers the C model writes itself (phi1, the kinematics, the crank's
@@ -234,16 +235,10 @@ def optimise(code: list, sections: dict, runtime: set[int], literals: list) -> t
             else:
                 kept.append(ins)
         body[s] = kept
-    if SETUP in body:
-        setup_last = body[SETUP][-1:]
-        body[SETUP] = body[SETUP] + hoisted
-        if hoisted and setup_last:          # SETUP's value register stays its last instruction's
-            body[SETUP].append([OP["copy"], setup_last[0][1], setup_last[0][1], 0, 0])
     # SETUP's repeats first: a copy there holds its source's value at every angle after
     known: dict[int, int] = {}
-    if SETUP in body:
-        body[SETUP] = _common(body[SETUP], literals, {}, known)
-        known = {r: v for r, v in known.items() if writes.get(r) == 1 and v not in varying}
+    body[SETUP] = _common(body[SETUP] + hoisted, literals, {}, known)
+    known = {r: v for r, v in known.items() if writes.get(r) == 1 and v not in varying}
     for s in order:
         if s != SETUP:
             body[s] = _common(body[s], literals, known, {})
