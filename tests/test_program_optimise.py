@@ -10,7 +10,7 @@ constant (a search's finding, the crank's direction) shows here as a different f
 import numpy as np
 import pytest
 
-from crankfmu.dynamics.program import CLOSED, OP, ROWS, parameter_values
+from crankfmu.dynamics.program import CLOSED, OP, ROWS, optimise, parameter_values
 from crankfmu.dynamics.program_scenario import compile_scenario
 from crankfmu.native.mechanism import QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
 from crankfmu.scenario import load_scenario
@@ -69,3 +69,59 @@ def test_per_angle_work_shrinks():
         assert OP["literal"] not in _per_angle(optimised, section)[:, 0]
     calls = [int(np.isin(_per_angle(p, CLOSED)[:, 0], list(TRANSCENDENTAL)).sum()) for p in (optimised, as_written)]
     assert calls[0] <= calls[1] - 2
+
+
+# ---------------------------------------------------------------- the pass's rules on small programs
+OP_NAMES = {number: name for name, number in OP.items()}
+
+
+def _program(*sections):
+    """(code, sections) of instruction lists given per section, SETUP first."""
+    code, placed = [], {}
+    for number, instructions in enumerate(sections):
+        placed[number] = (len(code), len(code) + len(instructions))
+        code += [(OP[op], dst, *operands, *(0,) * (3 - len(operands))) for op, dst, *operands in instructions]
+    return code, placed
+
+
+def _section(code, placed, number):
+    start, end = placed[number]
+    return [(OP_NAMES[op], dst, *operands) for op, dst, *operands in code[start:end]]
+
+
+def test_a_value_that_changes_with_the_angle_stays_in_its_section():
+    """r1 is a parameter, r5 the crank angle (the C model writes it): l1^2 moves to SETUP, sin(phi1)
+    stays, and so does the section's last instruction, the one a search reads."""
+    code, placed = _program([("literal", 2, 0)],
+                            [("mul", 10, 1, 1), ("sin", 11, 5), ("mul", 12, 10, 11), ("mul", 13, 1, 2)])
+    out, where = optimise(code, placed, runtime={5}, literals=[2.0])
+    assert ("mul", 10, 1, 1, 0) in _section(out, where, 0)
+    assert [ins[0] for ins in _section(out, where, 1)] == ["sin", "mul", "mul"]
+    assert _section(out, where, 1)[-1][1] == 13
+
+
+def test_a_repeat_after_its_operand_changed_is_computed_again():
+    """sin(r5) twice with r5 overwritten between them: the second is not the first's copy; without the
+    overwrite it is."""
+    for overwrite in (("copy", 5, 6), ("add", 5, 6, 7)):
+        code, placed = _program([], [("sin", 10, 5), overwrite, ("sin", 11, 5), ("add", 12, 10, 11)])
+        out, where = optimise(code, placed, runtime={5, 6, 7}, literals=[])
+        assert [ins[0] for ins in _section(out, where, 1)] == ["sin", overwrite[0], "sin", "add"]
+    repeated = [("sin", 10, 5), ("sin", 11, 5), ("add", 12, 10, 11)]
+    code, placed = _program([], repeated)
+    out, where = optimise(code, placed, runtime={5}, literals=[])
+    assert _section(out, where, 1)[1][:3] == ("copy", 11, 10)
+
+
+def test_a_copy_is_not_read_through_once_its_source_changed():
+    """r11 copies r10, then r10 is computed anew: a later read of r11 keeps reading r11."""
+    code, placed = _program([], [("sin", 10, 5), ("copy", 11, 10), ("add", 10, 6, 7), ("cos", 12, 11)])
+    out, where = optimise(code, placed, runtime={5, 6, 7}, literals=[])
+    assert _section(out, where, 1)[-1][:3] == ("cos", 12, 11)
+
+
+def test_signed_zeros_are_different_literals():
+    """0.0 and -0.0 compare equal but divide differently: the pass keeps both."""
+    code, placed = _program([("literal", 10, 0), ("literal", 11, 1)])
+    out, where = optimise(code, placed, runtime=set(), literals=[0.0, -0.0])
+    assert [ins[0] for ins in _section(out, where, 0)] == ["literal", "literal"]
