@@ -30,7 +30,7 @@ from ..native.sources import COMPONENTS, HERE as NATIVE
 PHYSICS_SOURCES = (*COMPONENTS, "crank_numbers.c", "crank_numbers.h")
 from .source import preflight, vendor_annotations
 from .native_build import SHELL, package_native
-from .native_model import c_string, default_experiment, unit_definitions
+from .native_model import c_double, c_string, default_experiment, unit_definitions
 
 #: the component's model behind either FMI shell, and each version's shell
 MODEL_SOURCES = ("component_model.c", "component_model.h", "component_variables.h", "component_models.c")
@@ -40,10 +40,6 @@ SHELL_SOURCES = {"2.0": ("component_fmi2.c", "fmi2_messages.c", "fmi2_messages.h
 MODELS = {("drive", "torque"): "COMPONENT_DRIVE", ("drive", "speed"): "COMPONENT_DRIVE_SPEED",
           ("cushion", "torque"): "COMPONENT_CUSHION", ("well", "torque"): "COMPONENT_ROD_STRING"}
 KINDS = {"OUTPUT": 0, "INPUT": 1, "TUNABLE": 2, "FIXED": 3}
-
-
-def _c_double(x: float) -> str:
-    return "-INFINITY" if x == -math.inf else "INFINITY" if x == math.inf else repr(float(x))
 
 
 class ComponentModel:
@@ -115,13 +111,13 @@ class ComponentModel:
                 f"#define MODEL_GUID {c_string(self.guid)}\n"
                 f"#define {self.model} 1\n"
                 f"#define N_VARIABLES {len(self.rows)}\n"
-                f"#define DEFAULT_START_TIME {self.source.experiment.start_time!r}\n"
+                f"#define DEFAULT_START_TIME {c_double(self.source.experiment.start_time)}\n"
                 f"enum {{\n{names}\n}};\n"
                 + (self._string_layout() if self.model == "COMPONENT_ROD_STRING" else "") + "#endif\n")
 
     def data_c(self) -> str:
         entries = ",\n".join(
-            f"    {{{c_string(n)}, KIND_{kind}, {_c_double(start)}, {_c_double(lo)}, {_c_double(hi)}, {int(lo_in)}, "
+            f"    {{{c_string(n)}, KIND_{kind}, {c_double(start)}, {c_double(lo)}, {c_double(hi)}, {int(lo_in)}, "
             f"{int(hi_in)}, {c_string(unit)}, {c_string(text)}, {c_string(description)}}}"
             for n, kind, start, lo, hi, lo_in, hi_in, unit, text, description in self.rows)
         return ('#include <math.h>\n\n#include "component_variables.h"\n\n'
