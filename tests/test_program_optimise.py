@@ -10,7 +10,7 @@ constant (a search's finding, the crank's direction) shows here as a different f
 import numpy as np
 import pytest
 
-from crankfmu.dynamics.program import CLOSED, OP, ROWS, optimise, parameter_values
+from crankfmu.dynamics.program import CLOSED, FIRST_SEARCH, OP, ROWS, SETUP, optimise, parameter_values
 from crankfmu.dynamics.program_scenario import compile_scenario
 from crankfmu.native.mechanism import QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
 from crankfmu.scenario import load_scenario
@@ -75,10 +75,10 @@ def test_per_angle_work_shrinks():
 OP_NAMES = {number: name for name, number in OP.items()}
 
 
-def _program(*sections):
-    """(code, sections) of instruction lists given per section, SETUP first."""
+def _program(*sections, numbers=None):
+    """(code, sections) of instruction lists given per section, SETUP first (or numbered ``numbers``)."""
     code, placed = [], {}
-    for number, instructions in enumerate(sections):
+    for number, instructions in zip(numbers or range(len(sections)), sections):
         placed[number] = (len(code), len(code) + len(instructions))
         code += [(OP[op], dst, *operands, *(0,) * (3 - len(operands))) for op, dst, *operands in instructions]
     return code, placed
@@ -91,13 +91,17 @@ def _section(code, placed, number):
 
 def test_a_value_that_changes_with_the_angle_stays_in_its_section():
     """r1 is a parameter, r5 the crank angle (the C model writes it): l1^2 moves to SETUP, sin(phi1)
-    stays, and so does the section's last instruction, the one a search reads."""
-    code, placed = _program([("literal", 2, 0)],
-                            [("mul", 10, 1, 1), ("sin", 11, 5), ("mul", 12, 10, 11), ("mul", 13, 1, 2)])
+    stays; a search section's last instruction, the one the search reads, stays too, though it
+    does not change with the angle; another section's moves."""
+    body = [("mul", 10, 1, 1), ("sin", 11, 5), ("mul", 12, 10, 11), ("mul", 13, 1, 2)]
+    code, placed = _program([("literal", 2, 0)], body, numbers=(SETUP, FIRST_SEARCH))
     out, where = optimise(code, placed, runtime={5}, literals=[2.0])
-    assert ("mul", 10, 1, 1, 0) in _section(out, where, 0)
-    assert [ins[0] for ins in _section(out, where, 1)] == ["sin", "mul", "mul"]
-    assert _section(out, where, 1)[-1][1] == 13
+    assert ("mul", 10, 1, 1, 0) in _section(out, where, SETUP)
+    assert [ins[0] for ins in _section(out, where, FIRST_SEARCH)] == ["sin", "mul", "mul"]
+    assert _section(out, where, FIRST_SEARCH)[-1][1] == 13
+    code, placed = _program([("literal", 2, 0)], body, numbers=(SETUP, ROWS))
+    out, where = optimise(code, placed, runtime={5}, literals=[2.0])
+    assert [ins[0] for ins in _section(out, where, ROWS)] == ["sin", "mul"]
 
 
 def test_a_repeat_after_its_operand_changed_is_computed_again():

@@ -103,7 +103,7 @@ class _Code:
         self.literals: list[float] = []
         self.sections: dict[int, tuple[int, int]] = {}
         self._open = None
-        self._literal_regs: dict[float, int] = {}
+        self._literal_index: dict[str, int] = {}     # a value's bits (float.hex) -> its index in literals
 
     def register(self) -> int:
         self.n += 1
@@ -115,8 +115,6 @@ class _Code:
 
     def begin(self, section: int):
         self._open = (section, len(self.code))
-        if section == SETUP:
-            self._literal_regs = {}
 
     def end(self):
         section, start = self._open
@@ -129,17 +127,12 @@ class _Code:
         return dst
 
     def literal(self, value: float) -> int:
-        """A register holding ``value``, set in SETUP (shared by every later section)."""
-        value = float(value)
-        if self._open and self._open[0] == SETUP:
-            if value not in self._literal_regs:
-                self.literals.append(value)
-                self._literal_regs[value] = self.emit("literal", len(self.literals) - 1)
-            return self._literal_regs[value]
-        if value in self._literal_regs:
-            return self._literal_regs[value]
-        self.literals.append(value)
-        return self.emit("literal", len(self.literals) - 1)
+        """A register holding ``value``, where it is needed: optimise moves it to SETUP and shares
+        one register between every use of the same value (0.0 and -0.0 are two)."""
+        index = self._literal_index.setdefault(float(value).hex(), len(self.literals))
+        if index == len(self.literals):
+            self.literals.append(float(value))
+        return self.emit("literal", index)
 
     def expression(self, source, names: dict[str, int], where: str) -> int:
         """The register of an expression of ``names`` (a data file's text, or a number)."""
@@ -204,13 +197,13 @@ def optimise(code: list, sections: dict, runtime: set[int], literals: list) -> t
     an instruction that repeats an earlier one of its section (same operation on the same values)
     becomes a copy of that one's result. The expressions are compiled as written, so a closed form
     states sin(phi1) twice and a row multiplies the same two masses at every angle; this pass
-    makes the per-angle sections a fifth to a third shorter (19 to 30 % of their instructions on
+    makes the per-angle sections a fifth to a third shorter (22 to 35 % of their instructions on
     the packaged and the tests' mechanisms; the copies stay). Every value is computed by the same
     operation on the same operands as before, so every result is bit for bit the same.
 
     ``runtime``: the registers the C model writes itself (phi1, the kinematics, the crank's
-    direction, what the searches find after binding). A section's last instruction stays where it
-    is: a search reads its value from it."""
+    direction, what the searches find after binding). A search section's last instruction stays
+    where it is: the search reads its value from it."""
     order = sorted(sections, key=lambda s: sections[s][0])
     body = {s: [list(ins) for ins in code[slice(*sections[s])]] for s in order}
     writes: dict[int, int] = {}
@@ -227,7 +220,7 @@ def optimise(code: list, sections: dict, runtime: set[int], literals: list) -> t
             continue
         kept = []
         for i, ins in enumerate(body[s]):
-            last = i == len(body[s]) - 1
+            last = s >= FIRST_SEARCH and i == len(body[s]) - 1
             if (not last and writes[ins[1]] == 1 and ins[1] not in runtime
                     and not any(r in varying for r in reads(ins))):
                 hoisted.append(ins)
