@@ -278,6 +278,39 @@ static int from_samples(mm_model *m, int table, double tolerance, double **cubic
     return status;
 }
 
+/* *p grown to hold count doubles (its contents kept); zero: the new part zeroed */
+static int grow(double **p, size_t count, size_t *capacity, int zero)
+{
+    if (count <= *capacity) return 1;
+    double *q = realloc(*p, sizeof(double) * count);
+    if (!q) return 0;
+    if (zero) memset(q + *capacity, 0, sizeof(double) * (count - *capacity));
+    *p = q;
+    *capacity = count;
+    return 1;
+}
+
+/* the series stage's working memory for n samples (and a check set of n + n/4 angles), grown as n
+ * doubles: sized to the n reached, not to the largest n allowed, so that a table's peak memory is
+ * its own cubics and a few rows (a process that tabulates design after design then reuses the
+ * same heap instead of growing it and handing it back to the system every time) */
+typedef struct {
+    double *samples, *exact, *angles, *work, *scale, *re, *im, *phases;
+    size_t samples_n, exact_n, angles_n, work_n, scale_n, re_n, im_n, phases_n, sr_n, si_n, xr_n, xi_n, pc_n, ps_n;
+} tabulator_memory;
+
+static int series_memory(tabulator_memory *t, series_t *s, int rows, int n)
+{
+    size_t r = (size_t)(rows > 0 ? rows : 1), checks = (size_t)n + n / 4, w = (size_t)n / 2 + 1;
+    return grow(&t->samples, r * 2 * n, &t->samples_n, 0) && grow(&t->exact, r * checks, &t->exact_n, 0) &&
+           grow(&t->angles, 2 * checks, &t->angles_n, 0) && grow(&t->work, r * 2 * n, &t->work_n, 0) &&
+           grow(&t->scale, r, &t->scale_n, 0) && grow(&t->re, (size_t)n, &t->re_n, 0) &&
+           grow(&t->im, (size_t)n, &t->im_n, 0) && grow(&t->phases, 4 * w, &t->phases_n, 0) &&
+           grow(&s->sr, r * w, &t->sr_n, 0) && grow(&s->si, r * w, &t->si_n, 0) &&
+           grow(&s->xr, w, &t->xr_n, 1) && grow(&s->xi, w, &t->xi_n, 1) && grow(&s->pc, w, &t->pc_n, 0) &&
+           grow(&s->ps, w, &t->ps_n, 0);
+}
+
 int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, int *m_out, double *error_out,
                 int *n_series)
 {
@@ -285,22 +318,14 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
     const double budget = 0.5 * tolerance;
     int n = n_first, status = MM_OK;
     double last = INFINITY, error = 0.0;
-    /* working memory for the largest case */
-    size_t big = (size_t)(n_last > 8192 ? n_last : 8192);     /* grown with the intervals */
-    double *samples = malloc(sizeof(double) * rows * n_last);
-    double *exact = malloc(sizeof(double) * rows * (n_last + n_last / 4));
-    double *angles = malloc(sizeof(double) * (n_last + n_last / 4) * 2);
-    double *scale = malloc(sizeof(double) * rows);
-    double *re = malloc(sizeof(double) * big), *im = malloc(sizeof(double) * big);
-    double *work = malloc(sizeof(double) * rows * (n_last + n_last / 4));
-    double *phases = malloc(sizeof(double) * 4 * (n_last / 2 + 1));
+    tabulator_memory t;
+    memset(&t, 0, sizeof t);
     twiddles half = {0, NULL, NULL, NULL}, full = {0, NULL, NULL, NULL}, forward = {0, NULL, NULL, NULL};
-    series_t s = {rows, 0, malloc(sizeof(double) * rows * (n_last / 2 + 1)), malloc(sizeof(double) * rows * (n_last / 2 + 1)),
-                  calloc(big / 2 + 1, sizeof(double)), calloc(big / 2 + 1, sizeof(double)),
-                  malloc(sizeof(double) * (n_last / 2 + 1)), malloc(sizeof(double) * (n_last / 2 + 1)), &half, &full};
+    series_t s = {rows, 0, NULL, NULL, NULL, NULL, NULL, NULL, &half, &full};
     double *values = NULL, *slopes = NULL, *cubics = NULL;
-    if (!samples || !exact || !angles || !scale || !re || !im || !work || !phases || !s.sr || !s.si || !s.xr || !s.xi || !s.pc ||
-        !s.ps) { status = MM_NO_MEMORY; goto done; }
+    if (!series_memory(&t, &s, rows, n)) { status = MM_NO_MEMORY; goto done; }
+    double *samples = t.samples, *exact = t.exact, *angles = t.angles, *work = t.work, *scale = t.scale;
+    double *re = t.re, *im = t.im, *phases = t.phases;
 
     /* the first samples and their checks in one engine call */
     {
@@ -348,6 +373,9 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
         if (error <= budget) break;
         if (2 * n > n_last || (n >= 4 * n_first && error > 0.25 * last)) { status = MM_NOT_TABULATED; goto spline; }
         last = error;
+        if (!series_memory(&t, &s, rows, 2 * n)) { status = MM_NO_MEMORY; goto done; }
+        samples = t.samples; exact = t.exact; angles = t.angles; work = t.work; re = t.re; im = t.im;
+        phases = t.phases;
         /* the midpoints become samples */
         for (int r = 0; r < rows; ++r)
             for (int i = n - 1; i >= 0; --i) {
@@ -383,13 +411,12 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
             double hm = TWO_PI / mm;
             free(values); free(slopes); free(cubics);
             values = slopes = cubics = NULL;
-            if ((size_t)mm > big) {
-                big = (size_t)mm;
-                free(re); free(im); free(s.xr); free(s.xi);
-                re = malloc(sizeof(double) * big); im = malloc(sizeof(double) * big);
-                s.xr = calloc(big / 2 + 1, sizeof(double)); s.xi = calloc(big / 2 + 1, sizeof(double));
-                if (!re || !im || !s.xr || !s.xi) { status = MM_NO_MEMORY; goto done; }
+            if (!grow(&t.re, (size_t)mm, &t.re_n, 0) || !grow(&t.im, (size_t)mm, &t.im_n, 0) ||
+                !grow(&s.xr, (size_t)mm / 2 + 1, &t.xr_n, 1) || !grow(&s.xi, (size_t)mm / 2 + 1, &t.xi_n, 1)) {
+                status = MM_NO_MEMORY;
+                goto done;
             }
+            re = t.re; im = t.im;
             /* one row at a time: its values and slopes stay in cache, only the cubics are kept */
             values = malloc(sizeof(double) * mm);
             slopes = malloc(sizeof(double) * mm);
@@ -450,7 +477,7 @@ spline:
         *n_series = 0;
     }
 done:
-    free(samples); free(exact); free(angles); free(scale); free(re); free(im); free(work); free(phases);
+    free(t.samples); free(t.exact); free(t.angles); free(t.scale); free(t.re); free(t.im); free(t.work); free(t.phases);
     free(s.sr); free(s.si); free(s.xr); free(s.xi); free(s.pc); free(s.ps); free(values); free(slopes); free(cubics);
     free(half.c); free(half.s); free(half.reversed); free(full.c); free(full.s); free(full.reversed);
     free(forward.c); free(forward.s); free(forward.reversed);
