@@ -29,7 +29,9 @@ static int twiddles_for(twiddles *w, int size)
     w->size = 0;
     if (!w->c || !w->s || !w->reversed) return 0;
     /* the last stage's e^{-2 pi i k / size}, k < size/2, from cos and sin on the first eighth of
-     * the turn and the symmetries of the others (exact: a swap and a sign) */
+     * the turn and the symmetries of the others (exact: a swap and a sign). The second eighth's
+     * cos and sin of (quarter - k) are the first eighth's entries quarter - k, read back: the same
+     * calls on the same arguments, made once */
     int top = size / 2, eighth = size / 8, quarter = size / 4;
     double *c = w->c + top, *s = w->s + top;
     for (int k = 0; k < top; ++k) {
@@ -37,9 +39,9 @@ static int twiddles_for(twiddles *w, int size)
         if (size < 8 || k <= eighth) {
             co = cos(TWO_PI * k / size);
             si = sin(TWO_PI * k / size);
-        } else if (k <= quarter) {
-            co = sin(TWO_PI * (quarter - k) / size);
-            si = cos(TWO_PI * (quarter - k) / size);
+        } else if (k <= quarter) {     /* (sin, cos) of quarter - k <= eighth; s holds -sin */
+            co = -s[quarter - k];
+            si = c[quarter - k];
         } else {                   /* angle pi/2 + x: (-sin x, cos x); s holds -sin */
             co = s[k - quarter];
             si = c[k - quarter];
