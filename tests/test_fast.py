@@ -187,6 +187,20 @@ def test_a_batch_of_geometries_reads_the_mechanism_file_once(monkeypatch):
     assert again.rows[0]["delta"] == batch.rows[2]["delta"]
 
 
+def test_a_steady_batch_keeps_its_tables_only_when_asked():
+    """SteadyBatch keeps each geometry's table for the next call (a root search over J_flywheel
+    asks again and again); steady_cycles, one call over many geometries, drops each once its
+    designs ran (a sweep chunk would hold hundreds of tables). Both give the same cycles."""
+    from crankfmu.studies.batch import SteadyBatch
+
+    designs = [{"l1": 0.19}, {"l1": 0.21}, {"l1": 0.21, "J_flywheel": 5.0}]
+    kept, dropped = SteadyBatch("seed000"), SteadyBatch("seed000", keep=False)
+    first, once = kept.run(designs), dropped.run(designs)
+    assert [r["delta"] for r in first.rows] == [r["delta"] for r in once.rows]
+    assert len(kept._models) == 2 and not dropped._models
+    assert kept.run(designs[1:]).rows == first.rows[1:]
+
+
 def test_sweep_on_a_local_dask_cluster_writes_rows_lists_failures_and_resumes(tmp_path):
     out = tmp_path / "sweep"
     args = [sys.executable, "-m", "crankfmu", "sweep", "seed000", "--param", "J_flywheel=-1:3:3",

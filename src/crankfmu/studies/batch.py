@@ -65,9 +65,14 @@ class SteadyBatch:
     a caller that asks again and again (a root search over J_flywheel) pays only for the kernel.
     """
 
-    def __init__(self, scenario, rtol: float = 1e-9, shoot_tol: float = 1e-9, max_turns: int = 40):
+    def __init__(self, scenario, rtol: float = 1e-9, shoot_tol: float = 1e-9, max_turns: int = 40,
+                 keep: bool = True):
         self.scenario = load_scenario(scenario)
         self.rtol, self.shoot_tol, self.max_turns = float(rtol), float(shoot_tol), int(max_turns)
+        # keep=False: a geometry's table is dropped once its designs ran (one call over many
+        # geometries: a sweep chunk's 500 tables of 0.5 MB each would otherwise stay, and every
+        # new table would take fresh pages from the system instead of the last one's)
+        self.keep = keep
         self._models: dict[tuple, tuple] = {}          # geometry key -> (model, table) or the error
         self._phi_grid = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)
 
@@ -119,6 +124,8 @@ class SteadyBatch:
             out = np.zeros((len(members), kernel.STEADY_SIZE))
             kernel.steady_batch(params, float(phi1_start), guesses, self.shoot_tol, self.max_turns,
                                 kernel.Tables(*table.arrays()), out)
+            if not self.keep:
+                del self._models[key], built, table
             for row, i in enumerate(members):
                 status = int(out[row, 6])
                 if status != 0:
@@ -131,4 +138,4 @@ class SteadyBatch:
 def steady_cycles(scenario, designs: list[dict], rtol: float = 1e-9, shoot_tol: float = 1e-9,
                   max_turns: int = 40) -> BatchResult:
     """Steady-cycle statistics of every design (a dict of parameter overrides each), in one call."""
-    return SteadyBatch(scenario, rtol, shoot_tol, max_turns).run(designs)
+    return SteadyBatch(scenario, rtol, shoot_tol, max_turns, keep=False).run(designs)
