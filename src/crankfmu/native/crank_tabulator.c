@@ -5,6 +5,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -297,6 +298,8 @@ static int grow(double **p, size_t count, size_t *capacity, int zero)
  * its own cubics and a few rows (a process that tabulates design after design then reuses the
  * same heap instead of growing it and handing it back to the system every time) */
 typedef struct {
+    uint64_t *hash;
+    int *same;
     double *samples, *exact, *angles, *work, *scale, *re, *im, *phases;
     size_t samples_n, exact_n, angles_n, work_n, scale_n, re_n, im_n, phases_n, sr_n, si_n, xr_n, xi_n, pc_n, ps_n;
 } tabulator_memory;
@@ -311,6 +314,36 @@ static int series_memory(tabulator_memory *t, series_t *s, int rows, int n)
            grow(&s->sr, r * w, &t->sr_n, 0) && grow(&s->si, r * w, &t->si_n, 0) &&
            grow(&s->xr, w, &t->xr_n, 1) && grow(&s->xi, w, &t->xi_n, 1) && grow(&s->pc, w, &t->pc_n, 0) &&
            grow(&s->ps, w, &t->ps_n, 0);
+}
+
+/* the bits of a row's samples and checks, mixed into 64 (FNV-1a over 64-bit words): rows with
+ * other values almost never share it, and rows that share it are compared in full */
+static uint64_t row_hash(const double *samples, int n, const double *checks, int n_checks)
+{
+    uint64_t h = 1469598103934665603u, word;
+    for (int i = 0; i < n + n_checks; ++i) {
+        memcpy(&word, i < n ? samples + i : checks + (i - n), sizeof word);
+        h = (h ^ word) * 1099511628211u;
+    }
+    return h;
+}
+
+/* for each row, an earlier row with the same samples and checks bit for bit, else -1: its series,
+ * scale, cubics and measured error are that row's (the same operations on the same numbers), so
+ * they are copied, not computed again. A joint reaction table has many such rows: a term that
+ * does not reach a joint is zero there (seed 001: 120 rows, 61 distinct) */
+static void same_rows(int rows, int n, const double *samples, int n_checks, const double *checks, uint64_t *hash,
+                      int *same)
+{
+    for (int r = 0; r < rows; ++r) {
+        const double *y = samples + (size_t)r * n, *c = checks + (size_t)r * n_checks;
+        hash[r] = row_hash(y, n, c, n_checks);
+        same[r] = -1;
+        for (int q = 0; q < r && same[r] < 0; ++q)
+            if (same[q] < 0 && hash[q] == hash[r] && !memcmp(samples + (size_t)q * n, y, sizeof(double) * n) &&
+                !memcmp(checks + (size_t)q * n_checks, c, sizeof(double) * n_checks))
+                same[r] = q;
+    }
 }
 
 int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, int *m_out, double *error_out,
@@ -405,6 +438,10 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
             }
             fourth = fmax(fourth, sum / scale[r]);
         }
+        t.hash = malloc(sizeof(uint64_t) * (rows > 0 ? rows : 1));
+        t.same = malloc(sizeof(int) * (rows > 0 ? rows : 1));
+        if (!t.hash || !t.same) { status = MM_NO_MEMORY; goto done; }
+        same_rows(rows, n, samples, n + n / 4, exact, t.hash, t.same);
         double predicted = TWO_PI * pow(fourth / (384.0 * budget), 0.25);
         int mm = 1 << (int)nearbyint(log2(fmax(predicted, 1.0)));
         if (mm < n) mm = n;
@@ -432,6 +469,10 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
             series_phases(n, 0.0, pc, ps);
             series_phases(n, 0.5 * hm, mid_c, mid_s);
             for (int r = 0; r < rows; ++r) {
+                if (t.same[r] >= 0) {
+                    memcpy(cubics + (size_t)r * mm * 4, cubics + (size_t)t.same[r] * mm * 4, sizeof(double) * mm * 4);
+                    continue;
+                }
                 series_row(&s, r, mm, pc, ps, 0, re, im, values);
                 series_row(&s, r, mm, pc, ps, 1, re, im, slopes);
                 const double inv_h = 1.0 / hm, inv_h2 = inv_h * inv_h;
@@ -479,7 +520,7 @@ spline:
         *n_series = 0;
     }
 done:
-    free(t.samples); free(t.exact); free(t.angles); free(t.scale); free(t.re); free(t.im); free(t.work); free(t.phases);
+    free(t.hash); free(t.same); free(t.samples); free(t.exact); free(t.angles); free(t.scale); free(t.re); free(t.im); free(t.work); free(t.phases);
     free(s.sr); free(s.si); free(s.xr); free(s.xi); free(s.pc); free(s.ps); free(values); free(slopes); free(cubics);
     free(half.c); free(half.s); free(half.reversed); free(full.c); free(full.s); free(full.reversed);
     free(forward.c); free(forward.s); free(forward.reversed);
