@@ -101,6 +101,7 @@ class _Compiler(LoadClauses):
         # the per-angle registers: phi1, then (q, q', q'') per unknown, then 6 per point
         self.phi1 = c.register()
         self.kin = c.block(3 * len(self.unknowns) + 6 * len(self.points))
+        self.kin_end = c.n                   # one past the block, just allocated
         self.omega1 = c.register()
         loads = self._loads_setup()
         c.end()
@@ -143,7 +144,7 @@ class _Compiler(LoadClauses):
         distinct = sorted({t[3:5] for t in terms})
         # the registers the C model writes itself: per angle phi1, the kinematics and the crank's
         # direction; after binding what the rocker and reversal searches find
-        runtime = set(range(self.phi1, self.kin + 3 * len(self.unknowns) + 6 * len(self.points))) | {self.omega1}
+        runtime = set(range(self.phi1, self.kin_end)) | {self.omega1}
         runtime |= {r for search in searches if search[0] in (ROCKER, REVERSALS) for r in search[3:5] if r >= 0}
         code, placed = optimise(c.code, c.sections, runtime, c.literals) if optimised else (c.code, c.sections)
         n_sections = max(placed) + 1
