@@ -293,8 +293,8 @@ static int grow(double **p, size_t count, size_t *capacity, int zero)
     return 1;
 }
 
-/* the series stage's working memory for n samples (and a check set of n + n/4 angles), grown as n
- * doubles: sized to the n reached, not to the largest n allowed, so that a table's peak memory is
+/* the series stage's working memory for n samples (and a check set of n + n/4 angles), grown to
+ * 2n before n doubles (the midpoints interleaved into work, then copied to samples): sized to the n reached, not to the largest n allowed, so that a table's peak memory is
  * its own cubics and a few rows (a process that tabulates design after design then reuses the
  * same heap instead of growing it and handing it back to the system every time) */
 typedef struct {
@@ -307,8 +307,8 @@ typedef struct {
 static int series_memory(tabulator_memory *t, series_t *s, int rows, int n)
 {
     size_t r = (size_t)(rows > 0 ? rows : 1), checks = (size_t)n + n / 4, w = (size_t)n / 2 + 1;
-    return grow(&t->samples, r * 2 * n, &t->samples_n, 0) && grow(&t->exact, r * checks, &t->exact_n, 0) &&
-           grow(&t->angles, 2 * checks, &t->angles_n, 0) && grow(&t->work, r * 2 * n, &t->work_n, 0) &&
+    return grow(&t->samples, r * n, &t->samples_n, 0) && grow(&t->exact, r * checks, &t->exact_n, 0) &&
+           grow(&t->angles, 2 * checks, &t->angles_n, 0) && grow(&t->work, r * n, &t->work_n, 0) &&
            grow(&t->scale, r, &t->scale_n, 0) && grow(&t->re, (size_t)n, &t->re_n, 0) &&
            grow(&t->im, (size_t)n, &t->im_n, 0) && grow(&t->phases, 4 * w, &t->phases_n, 0) &&
            grow(&s->sr, r * w, &t->sr_n, 0) && grow(&s->si, r * w, &t->si_n, 0) &&
