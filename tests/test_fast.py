@@ -219,6 +219,24 @@ def test_sweep_on_a_local_dask_cluster_writes_rows_lists_failures_and_resumes(tm
     assert len((out / "steady.csv").read_text().splitlines()) == 5
 
 
+def _malloc_settings(first, second, chunk):
+    """A chunk's work on a sweep worker: the glibc malloc settings its environment gives."""
+    import os
+
+    return [os.environ.get(name) for name in ("MALLOC_TRIM_THRESHOLD_", "MALLOC_MMAP_THRESHOLD_")]
+
+
+def test_the_local_sweep_cluster_keeps_glibcs_own_malloc_thresholds(monkeypatch):
+    # Dask's default MALLOC_TRIM_THRESHOLD_ pins the mmap threshold at 128 kB, so every design's
+    # table (0.5 MB) was mapped and unmapped again: 128 page faults a design
+    from crankfmu.studies.sweep import run_chunks
+
+    for name in ("MALLOC_TRIM_THRESHOLD_", "MALLOC_MMAP_THRESHOLD_"):
+        monkeypatch.delenv(name, raising=False)
+    outcomes = list(run_chunks(_malloc_settings, [[0], [1]], (None, None), scheduler="local"))
+    assert [settings for _, settings in outcomes] == [[None, None], [None, None]]
+
+
 def test_sweep_names_an_unreachable_scheduler(tmp_path):
     done = subprocess.run([sys.executable, "-m", "crankfmu", "sweep", "seed000", "--param", "B=15:25:2",
                            "--out", str(tmp_path), "--scheduler", "tcp://127.0.0.1:9"],
