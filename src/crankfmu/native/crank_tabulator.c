@@ -1,6 +1,7 @@
 /* The mechanism model's tabulator (crank_mechanism.h's mm_tabulate): a table's functions as periodic
  * Hermite cubics to a checked tolerance, from the Fourier series of the engine's samples, else from
  * the periodic cubic spline of up to 2^16 samples (dynamics/cubics.py's construction). */
+#include "crank_fourier.h"
 #include "crank_mechanism_internal.h"
 
 #include <float.h>
@@ -8,180 +9,6 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* the twiddles of one transform size, computed once per size (a recurrence would drift by 1e-13
- * over a 4096-point transform), laid out stage by stage: entry half + k of stage len = 2 half is
- * e^{-2 pi i k / len}, so a stage reads its twiddles contiguously; and the bit-reversal order */
-typedef struct {
-    int size;
-    double *c, *s;
-    int *reversed;
-} twiddles;
-
-static int twiddles_for(twiddles *w, int size)
-{
-    if (w->size == size) return 1;
-    free(w->c);
-    free(w->s);
-    free(w->reversed);
-    w->c = malloc(sizeof(double) * (size + 1));
-    w->s = malloc(sizeof(double) * (size + 1));
-    w->reversed = malloc(sizeof(int) * (size + 1));
-    w->size = 0;
-    if (!w->c || !w->s || !w->reversed) return 0;
-    /* the last stage's e^{-2 pi i k / size}, k < size/2, from cos and sin on the first eighth of
-     * the turn and the symmetries of the others (exact: a swap and a sign). The second eighth's
-     * cos and sin of (quarter - k) are the first eighth's entries quarter - k, read back: the same
-     * calls on the same arguments, made once */
-    int top = size / 2, eighth = size / 8, quarter = size / 4;
-    double *c = w->c + top, *s = w->s + top;
-    for (int k = 0; k < top; ++k) {
-        double co, si;
-        if (size < 8 || k <= eighth) {
-            co = cos(TWO_PI * k / size);
-            si = sin(TWO_PI * k / size);
-        } else if (k <= quarter) {     /* (sin, cos) of quarter - k <= eighth; s holds -sin */
-            co = -s[quarter - k];
-            si = c[quarter - k];
-        } else {                   /* angle pi/2 + x: (-sin x, cos x); s holds -sin */
-            co = s[k - quarter];
-            si = c[k - quarter];
-        }
-        c[k] = co;
-        s[k] = -si;
-    }
-    /* the earlier stages: entry half + k is the last stage's entry k size / (2 half) */
-    for (int half = 1; half < top; half <<= 1)
-        for (int k = 0; k < half; ++k) {
-            w->c[half + k] = c[k * (top / half)];
-            w->s[half + k] = s[k * (top / half)];
-        }
-    for (int i = 0, j = 0; i < size; ++i) {
-        w->reversed[i] = j;
-        int bit = size >> 1;
-        for (; bit && (j & bit); bit >>= 1) j ^= bit;
-        j ^= bit;
-    }
-    w->size = size;
-    return 1;
-}
-
-/* in-place radix-2 complex FFT of length n (a power of two, w its twiddles); inverse: the
- * conjugate direction, without the 1/n */
-static void fft(double *re, double *im, int n, int inverse, const twiddles *w)
-{
-    for (int i = 0; i < n; ++i) {
-        int j = w->reversed[i];
-        if (i < j) {
-            double t = re[i]; re[i] = re[j]; re[j] = t;
-            t = im[i]; im[i] = im[j]; im[j] = t;
-        }
-    }
-    for (int i = 0; i + 1 < n; i += 2) {          /* the first stage: twiddle 1 */
-        double tr = re[i + 1], ti = im[i + 1];
-        re[i + 1] = re[i] - tr; im[i + 1] = im[i] - ti;
-        re[i] += tr; im[i] += ti;
-    }
-    double sign = inverse ? -1.0 : 1.0;
-    for (int half = 2; half < n; half <<= 1) {
-        const double *wc = w->c + half, *ws = w->s + half;
-        for (int i = 0; i < n; i += 2 * half) {
-            double *ar = re + i, *ai = im + i, *br = ar + half, *bi = ai + half;
-            for (int k = 0; k < half; ++k) {
-                double cr = wc[k], ci = sign * ws[k];
-                double tr = br[k] * cr - bi[k] * ci, ti = br[k] * ci + bi[k] * cr;
-                br[k] = ar[k] - tr; bi[k] = ai[k] - ti;
-                ar[k] += tr; ai[k] += ti;
-            }
-        }
-    }
-}
-
-/* the real-FFT coefficients (n/2 + 1 complex) of n real samples */
-static void rfft(const double *x, int n, double *sr, double *si, double *wr, double *wi, twiddles *tw)
-{
-    for (int i = 0; i < n; ++i) { wr[i] = x[i]; wi[i] = 0.0; }
-    twiddles_for(tw, n);
-    fft(wr, wi, n, 0, tw);
-    for (int k = 0; k <= n / 2; ++k) { sr[k] = wr[k]; si[k] = wi[k]; }
-}
-
-/* the interpolant of n samples (series ar, ai: n/2 + 1) or its derivative at k 2 pi / m + shift
- * (numerics.series_on_grid): the zero-padded Hermitian spectrum X (m/2 + 1 terms) inverted by one
- * complex transform of m/2 points, z_j = x_2j + i x_2j+1 = IDFT(E + i O) with
- * E_k = X_k + conj(X_{m/2-k}), O_k = (X_k - conj(X_{m/2-k})) e^{2 pi i k / m}.
- * pc, ps: cos and sin of k shift, k <= n/2 (series_t's phases, one set for every row);
- * xr, xi: the padded spectrum, zero beyond n/2 on entry and on return */
-static void on_grid(const double *ar, const double *ai, int n, int m, const double *pc, const double *ps,
-                    int derivative, double *xr, double *xi, double *re, double *im, twiddles *half,
-                    twiddles *full, double *out)
-{
-    int h = m / 2, top = n / 2 < h ? n / 2 : h;
-    for (int k = 0; k <= top; ++k) {
-        double scale = (double)m / n * (k == n / 2 && m > n ? 0.5 : 1.0);
-        double c = pc[k], s = ps[k];
-        double vr = scale * (ar[k] * c - ai[k] * s), vi = scale * (ar[k] * s + ai[k] * c);
-        if (derivative) { double t = -k * vi; vi = k * vr; vr = t; }
-        xr[k] = vr;
-        xi[k] = vi;
-    }
-    xi[0] = 0.0;
-    xi[h] = 0.0;          /* irfft reads the real part of the Nyquist term */
-    twiddles_for(full, m);
-    /* the full table's stage of length m holds e^{-2 pi i k / m}, k < m/2 */
-    const double *fc = full->c + h, *fs = full->s + h;
-    for (int k = 0; k < h; ++k) {
-        double br = xr[h - k], bi = -xi[h - k];                 /* conj(X_{m/2-k}) */
-        double er = xr[k] + br, ei = xi[k] + bi;
-        double dr = xr[k] - br, di = xi[k] - bi;
-        double wr = fc[k], wi = -fs[k];                         /* e^{+2 pi i k / m} */
-        double orr = dr * wr - di * wi, oi = dr * wi + di * wr;
-        re[k] = er - oi;                                        /* E + i O */
-        im[k] = ei + orr;
-    }
-    for (int k = 0; k <= top; ++k) { xr[k] = 0.0; xi[k] = 0.0; }
-    xr[h] = xi[h] = 0.0;
-    twiddles_for(half, h);
-    fft(re, im, h, 1, half);
-    double inv = 1.0 / m;
-    for (int j = 0; j < h; ++j) {
-        out[2 * j] = re[j] * inv;
-        out[2 * j + 1] = im[j] * inv;
-    }
-}
-
-typedef struct {
-    int rows, n;
-    double *sr, *si;          /* rows x (n/2 + 1) */
-    double *xr, *xi;          /* a padded spectrum, kept zero between uses */
-    double *pc, *ps;          /* cos and sin of k shift, k <= n/2 */
-    twiddles *half, *full;
-} series_t;
-
-static void series_phases(int n, double shift, double *pc, double *ps)
-{
-    for (int k = 0; k <= n / 2; ++k) {
-        pc[k] = cos(k * shift);
-        ps[k] = sin(k * shift);
-    }
-}
-
-/* one row of the series at m angles (+ the shift whose phases pc, ps are), value or derivative */
-static void series_row(const series_t *s, int r, int m, const double *pc, const double *ps, int derivative,
-                       double *re, double *im, double *out)
-{
-    int w = s->n / 2 + 1;
-    on_grid(s->sr + r * w, s->si + r * w, s->n, m, pc, ps, derivative, s->xr, s->xi, re, im, s->half, s->full, out);
-}
-
-/* the series of every row at m angles (+ shift), value or derivative: out rows x m. Each row by
- * its own transform: two rows packed into one complex transform would leak each other's
- * rounding, and a row is checked relative to its own scale (an exact zero must stay zero) */
-static void series_values(series_t *s, int m, double shift, int derivative, double *re, double *im, double *out)
-{
-    series_phases(s->n, shift, s->pc, s->ps);
-    for (int r = 0; r < s->rows; ++r) series_row(s, r, m, s->pc, s->ps, derivative, re, im, out + (size_t)r * m);
-}
 
 /* the spline of samples (dynamics.cubics.from_samples), where the Fourier series does not
  * converge (a mechanism close to a dead point, a load with a kink in phi1): the C2 periodic cubic
@@ -197,7 +24,7 @@ static int from_samples(mm_model *m, int table, double tolerance, double **cubic
     int status = MM_OK;
     double *values = NULL, *exact = NULL, *angles = NULL, *cubics = NULL, *re = NULL, *im = NULL, *eigen = NULL;
     double *errors = NULL;
-    twiddles tw = {0, NULL, NULL, NULL};
+    mm_twiddles tw = {0, NULL, NULL, NULL};
     for (int n = n_start;; n *= 2) {
         double h = TWO_PI / n;
         free(values); free(exact); free(angles); free(cubics); free(re); free(im); free(eigen); free(errors);
@@ -209,7 +36,7 @@ static int from_samples(mm_model *m, int table, double tolerance, double **cubic
         im = malloc(sizeof(double) * n);
         eigen = malloc(sizeof(double) * n);
         errors = malloc(sizeof(double) * (rows > 0 ? rows : 1));
-        if (!values || !exact || !angles || !cubics || !re || !im || !eigen || !errors || !twiddles_for(&tw, n)) {
+        if (!values || !exact || !angles || !cubics || !re || !im || !eigen || !errors || !mm_twiddles_for(&tw, n)) {
             status = MM_NO_MEMORY;
             break;
         }
@@ -227,9 +54,9 @@ static int from_samples(mm_model *m, int table, double tolerance, double **cubic
                 re[i] = 6.0 * (y[(i + 1) % n] - 2.0 * y[i] + y[(i + n - 1) % n]) / (h * h);
                 im[i] = 0.0;
             }
-            fft(re, im, n, 0, &tw);
+            mm_fft(re, im, n, 0, &tw);
             for (int k = 0; k < n; ++k) { re[k] /= eigen[k]; im[k] /= eigen[k]; }
-            fft(re, im, n, 1, &tw);                     /* M = re / n */
+            mm_fft(re, im, n, 1, &tw);                     /* M = re / n */
             double scale = 1e-300;
             for (int i = 0; i < n; ++i) scale = fmax(scale, fabs(y[i]));
             for (int i = 0; i < n; ++i) {
@@ -277,7 +104,7 @@ static int from_samples(mm_model *m, int table, double tolerance, double **cubic
         }
     }
     free(values); free(exact); free(angles); free(cubics); free(re); free(im); free(eigen); free(errors);
-    free(tw.c); free(tw.s); free(tw.reversed);
+    mm_twiddles_free(&tw);
     return status;
 }
 
@@ -304,7 +131,7 @@ typedef struct {
     size_t samples_n, exact_n, angles_n, work_n, scale_n, re_n, im_n, phases_n, sr_n, si_n, xr_n, xi_n, pc_n, ps_n;
 } tabulator_memory;
 
-static int series_memory(tabulator_memory *t, series_t *s, int rows, int n)
+static int series_memory(tabulator_memory *t, mm_series *s, int rows, int n)
 {
     size_t r = (size_t)(rows > 0 ? rows : 1), checks = (size_t)n + n / 4, w = (size_t)n / 2 + 1;
     return grow(&t->samples, r * n, &t->samples_n, 0) && grow(&t->exact, r * checks, &t->exact_n, 0) &&
@@ -355,8 +182,8 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
     double last = INFINITY, error = 0.0;
     tabulator_memory t;
     memset(&t, 0, sizeof t);
-    twiddles half = {0, NULL, NULL, NULL}, full = {0, NULL, NULL, NULL}, forward = {0, NULL, NULL, NULL};
-    series_t s = {rows, 0, NULL, NULL, NULL, NULL, NULL, NULL, &half, &full};
+    mm_twiddles half = {0, NULL, NULL, NULL}, full = {0, NULL, NULL, NULL}, forward = {0, NULL, NULL, NULL};
+    mm_series s = {rows, 0, NULL, NULL, NULL, NULL, NULL, NULL, &half, &full};
     double *values = NULL, *slopes = NULL, *cubics = NULL;
     if (!series_memory(&t, &s, rows, n)) { status = MM_NO_MEMORY; goto done; }
     double *samples = t.samples, *exact = t.exact, *angles = t.angles, *work = t.work, *scale = t.scale;
@@ -390,16 +217,16 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
         }
         s.n = n;
         for (int r = 0; r < rows; ++r)
-            rfft(samples + r * n, n, s.sr + r * (n / 2 + 1), s.si + r * (n / 2 + 1), re, im, &forward);
+            mm_rfft(samples + r * n, n, s.sr + r * (n / 2 + 1), s.si + r * (n / 2 + 1), re, im, &forward);
         /* the interpolant at the midpoints, and at 0.3 of every fourth interval */
-        series_values(&s, n, 0.5 * h, 0, re, im, work);
+        mm_series_values(&s, n, 0.5 * h, 0, re, im, work);
         error = 0.0;
         for (int r = 0; r < rows; ++r)
             for (int i = 0; i < n; ++i) {
                 double e = fabs(work[r * n + i] - exact[r * checks + i]) / scale[r];
                 if (!(e <= error)) error = e;
             }
-        series_values(&s, n, 0.3 * h, 0, re, im, work);
+        mm_series_values(&s, n, 0.3 * h, 0, re, im, work);
         for (int r = 0; r < rows; ++r)
             for (int i = 0; i < n; i += 4) {
                 double e = fabs(work[r * n + i] - exact[r * checks + n + i / 4]) / scale[r];
@@ -466,15 +293,15 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
             int measure = cubic_error > budget;
             if (measure) cubic_error = 0.0;
             double *pc = phases, *ps = phases + w, *mid_c = phases + 2 * w, *mid_s = phases + 3 * w;
-            series_phases(n, 0.0, pc, ps);
-            series_phases(n, 0.5 * hm, mid_c, mid_s);
+            mm_series_phases(n, 0.0, pc, ps);
+            mm_series_phases(n, 0.5 * hm, mid_c, mid_s);
             for (int r = 0; r < rows; ++r) {
                 if (t.same[r] >= 0) {
                     memcpy(cubics + (size_t)r * mm * 4, cubics + (size_t)t.same[r] * mm * 4, sizeof(double) * mm * 4);
                     continue;
                 }
-                series_row(&s, r, mm, pc, ps, 0, re, im, values);
-                series_row(&s, r, mm, pc, ps, 1, re, im, slopes);
+                mm_series_row(&s, r, mm, pc, ps, 0, re, im, values);
+                mm_series_row(&s, r, mm, pc, ps, 1, re, im, slopes);
                 const double inv_h = 1.0 / hm, inv_h2 = inv_h * inv_h;
                 for (int i = 0; i < mm; ++i) {
                     int next = i + 1 < mm ? i + 1 : 0;
@@ -489,7 +316,7 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
                     c[3] = cubic * inv_h2;
                 }
                 if (measure) {
-                    series_row(&s, r, mm, mid_c, mid_s, 0, re, im, values);
+                    mm_series_row(&s, r, mm, mid_c, mid_s, 0, re, im, values);
                     double u = 0.5 * hm;
                     for (int i = 0; i < mm; ++i) {
                         const double *c = cubics + ((size_t)r * mm + i) * 4;
@@ -522,8 +349,9 @@ spline:
 done:
     free(t.hash); free(t.same); free(t.samples); free(t.exact); free(t.angles); free(t.scale); free(t.re); free(t.im); free(t.work); free(t.phases);
     free(s.sr); free(s.si); free(s.xr); free(s.xi); free(s.pc); free(s.ps); free(values); free(slopes); free(cubics);
-    free(half.c); free(half.s); free(half.reversed); free(full.c); free(full.s); free(full.reversed);
-    free(forward.c); free(forward.s); free(forward.reversed);
+    mm_twiddles_free(&half);
+    mm_twiddles_free(&full);
+    mm_twiddles_free(&forward);
     return status;
 }
 

@@ -26,8 +26,9 @@ COMPONENTS = ("crank_components.c", "crank_components.h")
 WELL = ("crank_well.c", "crank_well.h")
 #: the mechanism model: a scenario's compiled program evaluated (crank_mechanism.c), checked and
 #: searched (crank_assembly.c), its tables' functions (crank_engine.c) tabulated (crank_tabulator.c)
-MECHANISM = ("crank_mechanism.c", "crank_assembly.c", "crank_engine.c", "crank_tabulator.c", "crank_mechanism.h",
-             "crank_mechanism_internal.h")
+#: with Fourier series (crank_fourier.c)
+MECHANISM = ("crank_mechanism.c", "crank_assembly.c", "crank_engine.c", "crank_tabulator.c", "crank_fourier.c",
+             "crank_mechanism.h", "crank_mechanism_internal.h", "crank_fourier.h")
 SOURCES = KERNEL + COMPONENTS + WELL + MECHANISM
 #: the C files the library is compiled from (the mechanism's kernel, the components' physics, the well)
 C_FILES = tuple(name for name in SOURCES if name.endswith(".c"))
