@@ -18,8 +18,9 @@ void mm_twiddles_free(mm_twiddles *w);
 /* in-place complex FFT of length n (a power of two, w its twiddles); inverse: the conjugate
  * direction, without the 1/n */
 void mm_fft(double *re, double *im, int n, int inverse, const mm_twiddles *w);
-/* the real-FFT coefficients (n/2 + 1 complex: sr, si) of n real samples x; wr, wi: n of work */
-void mm_rfft(const double *x, int n, double *sr, double *si, double *wr, double *wi, mm_twiddles *tw);
+/* the real-FFT coefficients (n/2 + 1 complex: sr, si) of n real samples x; wr, wi: n of work.
+ * This and the series' evaluations return 0 where there is no memory for the twiddles, else 1 */
+int mm_rfft(const double *x, int n, double *sr, double *si, double *wr, double *wi, mm_twiddles *tw);
 
 /* the Fourier series of rows of n samples each: their coefficients, and what evaluating them on a
  * grid of m angles needs */
@@ -35,9 +36,9 @@ typedef struct {
 void mm_series_phases(int n, double shift, double *pc, double *ps);
 /* one row of the series at m angles (+ the shift whose phases pc, ps are), value or derivative;
  * re, im: m/2 of work */
-void mm_series_row(const mm_series *s, int r, int m, const double *pc, const double *ps, int derivative,
-                   double *re, double *im, double *out);
+int mm_series_row(const mm_series *s, int r, int m, const double *pc, const double *ps, int derivative,
+                  double *re, double *im, double *out);
 /* the series of every row at m angles (+ shift), value or derivative: out rows x m */
-void mm_series_values(mm_series *s, int m, double shift, int derivative, double *re, double *im, double *out);
+int mm_series_values(mm_series *s, int m, double shift, int derivative, double *re, double *im, double *out);
 
 #endif

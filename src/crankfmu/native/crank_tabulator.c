@@ -121,9 +121,10 @@ static int grow(double **p, size_t count, size_t *capacity, int zero)
 }
 
 /* the series stage's working memory for n samples (and a check set of n + n/4 angles), grown to
- * 2n before n doubles (the midpoints interleaved into work, then copied to samples): sized to the n reached, not to the largest n allowed, so that a table's peak memory is
- * its own cubics and a few rows (a process that tabulates design after design then reuses the
- * same heap instead of growing it and handing it back to the system every time) */
+ * 2n before n doubles (the midpoints interleaved into work, then copied to samples): sized to the
+ * n reached, not to the largest n allowed, so that a table's peak memory is its own cubics and a
+ * few rows (a process that tabulates design after design then reuses the same heap instead of
+ * growing it and handing it back to the system every time) */
 typedef struct {
     uint64_t *hash;
     int *same;
@@ -217,16 +218,19 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
         }
         s.n = n;
         for (int r = 0; r < rows; ++r)
-            mm_rfft(samples + r * n, n, s.sr + r * (n / 2 + 1), s.si + r * (n / 2 + 1), re, im, &forward);
+            if (!mm_rfft(samples + r * n, n, s.sr + r * (n / 2 + 1), s.si + r * (n / 2 + 1), re, im, &forward)) {
+                status = MM_NO_MEMORY;
+                goto done;
+            }
         /* the interpolant at the midpoints, and at 0.3 of every fourth interval */
-        mm_series_values(&s, n, 0.5 * h, 0, re, im, work);
+        if (!mm_series_values(&s, n, 0.5 * h, 0, re, im, work)) { status = MM_NO_MEMORY; goto done; }
         error = 0.0;
         for (int r = 0; r < rows; ++r)
             for (int i = 0; i < n; ++i) {
                 double e = fabs(work[r * n + i] - exact[r * checks + i]) / scale[r];
                 if (!(e <= error)) error = e;
             }
-        mm_series_values(&s, n, 0.3 * h, 0, re, im, work);
+        if (!mm_series_values(&s, n, 0.3 * h, 0, re, im, work)) { status = MM_NO_MEMORY; goto done; }
         for (int r = 0; r < rows; ++r)
             for (int i = 0; i < n; i += 4) {
                 double e = fabs(work[r * n + i] - exact[r * checks + n + i / 4]) / scale[r];
@@ -300,8 +304,11 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
                     memcpy(cubics + (size_t)r * mm * 4, cubics + (size_t)t.same[r] * mm * 4, sizeof(double) * mm * 4);
                     continue;
                 }
-                mm_series_row(&s, r, mm, pc, ps, 0, re, im, values);
-                mm_series_row(&s, r, mm, pc, ps, 1, re, im, slopes);
+                if (!mm_series_row(&s, r, mm, pc, ps, 0, re, im, values) ||
+                    !mm_series_row(&s, r, mm, pc, ps, 1, re, im, slopes)) {
+                    status = MM_NO_MEMORY;
+                    goto done;
+                }
                 const double inv_h = 1.0 / hm, inv_h2 = inv_h * inv_h;
                 for (int i = 0; i < mm; ++i) {
                     int next = i + 1 < mm ? i + 1 : 0;
@@ -316,7 +323,7 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
                     c[3] = cubic * inv_h2;
                 }
                 if (measure) {
-                    mm_series_row(&s, r, mm, mid_c, mid_s, 0, re, im, values);
+                    if (!mm_series_row(&s, r, mm, mid_c, mid_s, 0, re, im, values)) { status = MM_NO_MEMORY; goto done; }
                     double u = 0.5 * hm;
                     for (int i = 0; i < mm; ++i) {
                         const double *c = cubics + ((size_t)r * mm + i) * 4;
@@ -347,7 +354,8 @@ spline:
         *n_series = 0;
     }
 done:
-    free(t.hash); free(t.same); free(t.samples); free(t.exact); free(t.angles); free(t.scale); free(t.re); free(t.im); free(t.work); free(t.phases);
+    free(t.hash); free(t.same); free(t.samples); free(t.exact); free(t.angles); free(t.scale);
+    free(t.re); free(t.im); free(t.work); free(t.phases);
     free(s.sr); free(s.si); free(s.xr); free(s.xi); free(s.pc); free(s.ps); free(values); free(slopes); free(cubics);
     mm_twiddles_free(&half);
     mm_twiddles_free(&full);
