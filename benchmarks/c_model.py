@@ -104,8 +104,8 @@ def tabulation(repeats: int) -> list[dict]:
     return rows
 
 
-def baseline_tree(tmp: Path) -> tuple[Path, dict]:
-    """BASELINE's code unpacked under tmp (`git archive`), and the environment that runs it with this
+def baseline_tree(tmp: Path) -> dict:
+    """The environment that runs BASELINE's code, unpacked under tmp (`git archive`), with this
     Python and packages (its own per-user cache; its kernel library compiled here, not timed)."""
     import subprocess
 
@@ -116,7 +116,7 @@ def baseline_tree(tmp: Path) -> tuple[Path, dict]:
     env = {**os.environ, "PYTHONPATH": str(base / "src"), "CRANKFMU_CACHE": str(tmp / "cache_before")}
     env.pop("CRANKFMU_TABLES", None)
     subprocess.run([sys.executable, "-c", "import crankfmu.native"], env=env, cwd=tmp, check=True)
-    return base, env
+    return env
 
 
 #: the sweep's three axes (l1, l2, l3 of seed 000: every design its own table), side values each
@@ -258,7 +258,7 @@ def simulate_ratio(repeats: int) -> dict:
 def measure(quick: bool) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        _, before_env = baseline_tree(tmp)
+        before_env = baseline_tree(tmp)
         return {"tabulation": tabulation(5 if quick else 21),
                 "sweep": sweep(8 if quick else 22, tmp, before_env),
                 "builds": native_builds(SCENARIOS[:2] if quick else SCENARIOS, tmp, before_env),

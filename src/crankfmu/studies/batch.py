@@ -73,7 +73,7 @@ class SteadyBatch:
         # geometries: a sweep chunk's 500 tables of 0.5 MB each would otherwise stay, and every
         # new table would take fresh pages from the system instead of the last one's)
         self.keep = keep
-        self._models: dict[tuple, tuple] = {}          # geometry key -> (model, table) or the error
+        self._models: dict[tuple, tuple] = {}          # geometry key -> (phi1_start, table) or the error
         self._phi_grid = np.linspace(0.0, 2.0 * math.pi, 256, endpoint=False)
 
     def _model(self, key):
