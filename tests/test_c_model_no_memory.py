@@ -5,7 +5,6 @@ refused with MM_NO_MEMORY; none reads through a null pointer (the library is com
 AddressSanitizer and UndefinedBehaviorSanitizer, every report fatal). A host's FMU initialisation
 in a process short of memory gets fmi2Error, not a crash."""
 
-import os
 import shutil
 import subprocess
 import sys
@@ -13,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from crankfmu.native.sources import C_FILES, CFLAGS, HERE, digest
+from sanitized import assert_clean, sanitized_library
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -54,19 +53,10 @@ for name, changes, tables in (("seed000", {}, (REDUCED, QUANTITIES, REACTIONS)),
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
 def test_every_allocation_failing_in_turn_is_refused_not_a_crash(tmp_path):
-    library = tmp_path / "crank_kernel.so"
-    flags = [f for f in CFLAGS if f != "-O2"] + ["-O1", "-g", "-fno-omit-frame-pointer",
-                                                  "-fsanitize=address,undefined", "-fno-sanitize-recover=undefined"]
-    subprocess.run(["gcc", *flags, f'-DCK_SOURCE_DIGEST="{digest()}"', "-shared", "-o", str(library),
-                    *(str(HERE / n) for n in C_FILES), str(ROOT / "tests" / "c_host" / "failing_malloc.c"),
-                    "-Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc", "-lm"], check=True)
-    runtime = subprocess.run(["gcc", "-print-file-name=libasan.so"], capture_output=True, text=True).stdout.strip()
-    env = {**os.environ, "CRANKFMU_NATIVE_LIBRARY": str(library), "LD_PRELOAD": runtime,
-           "ASAN_OPTIONS": "detect_leaks=0:abort_on_error=1", "UBSAN_OPTIONS": "print_stacktrace=1"}
+    env = sanitized_library(tmp_path / "crank_kernel.so", [ROOT / "tests" / "c_host" / "failing_malloc.c"],
+                            ["-Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc"])
     done = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, timeout=900)
-    report = done.stdout + done.stderr
-    assert "ERROR: AddressSanitizer" not in report and "runtime error" not in report, report[-4000:]
-    assert done.returncode == 0, report[-4000:]
+    assert_clean(done)
     counts = [line for line in done.stdout.splitlines() if "allocations, each failed in turn" in line]
     print("\n".join(counts))
     assert len(counts) == 2 and all(" 0 refused" not in line for line in counts), done.stdout
