@@ -26,7 +26,9 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -107,8 +109,6 @@ def tabulation(repeats: int) -> list[dict]:
 def baseline_tree(tmp: Path) -> dict:
     """The environment that runs BASELINE's code, unpacked under tmp (`git archive`), with this
     Python and packages (its own per-user cache; its kernel library compiled here, not timed)."""
-    import subprocess
-
     base = tmp / "baseline"
     base.mkdir()
     archive = subprocess.run(["git", "-C", str(ROOT), "archive", BASELINE], capture_output=True, check=True).stdout
@@ -152,8 +152,6 @@ def sweep(side: int, tmp: Path, baseline_env: dict) -> dict:
     equal): this code on C tables; this code on the Python engine's tables (CRANKFMU_TABLES=python:
     today's path before the C model, with everything else of this code); and BASELINE's code (the
     issue's "today's code", as it was when the issue was written)."""
-    import subprocess
-
     script = tmp / "sweep_run.py"
     script.write_text(SWEEP_RUN)
 
@@ -188,9 +186,6 @@ def native_builds(names, tmp: Path, before_env: dict) -> list[dict]:
     installation's objects (every object compiled), on the first cache without its reference runs (a
     new design), again on the whole cache (warm: what `make fmu`'s second and third FMU of a
     scenario pay), and with BASELINE's code (its kernel library compiled beforehand)."""
-    import shutil
-    import subprocess
-
     from crankfmu.native.sources import PREBUILT
 
     rows = []
@@ -228,8 +223,6 @@ def reference_alone(name: str, env: dict) -> float:
     Python engine over the default experiment), in a fresh process on an empty cache, its imports
     not counted: the longest single task of a native build, which the build runs beside the rest
     and cannot end before."""
-    import subprocess
-
     code = ("import sys, time; from crankfmu.fmi.reference import reference_result; "
             "from crankfmu.scenario import load_scenario; s = load_scenario(sys.argv[1]); "
             "t = time.perf_counter(); reference_result(s); print(time.perf_counter() - t)")
