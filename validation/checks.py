@@ -7,6 +7,13 @@ tolerance; ``at_most`` is ``close`` with expected 0 for a non-negative error; ``
 ``above`` are one-sided (expected printed as ``<bound`` or ``>bound``, tolerance ``0``); ``holds``
 records a yes/no expectation (measured 1 or 0, expected 1); ``skip`` records a check that cannot
 be made here, with its reason (``SKIP name: reason``), counted apart. A NaN measurement never passes.
+
+A published number gets one of four verdicts (``Check.verdict``), each its own status and count:
+``agrees`` is a pass (independent evidence within its tolerance); ``disagrees`` (the value, the
+paper's, and the reason; the value this data set gives is checked so a change shows) and
+``fitted`` (the data set was chosen to give it) are neither a pass nor a failure and are counted
+apart; ``not comparable`` (why) likewise. A published number that changed, or disagrees without a
+stated reason, is a failure.
 """
 
 from __future__ import annotations
@@ -14,6 +21,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from typing import Callable
+
+#: every status a check can end in, in the order the closing line counts them; only "failed" fails a run
+STATUSES = ("passed", "failed", "disagrees", "fitted", "not comparable", "skipped")
+#: the line's first word for each status
+TAGS = {"passed": "PASS", "failed": "FAIL", "disagrees": "DISAGREE", "fitted": "FITTED",
+        "not comparable": "NOTCOMP", "skipped": "SKIP"}
 
 
 def _fmt(value) -> str:
@@ -32,16 +45,46 @@ class Check:
     unit: str = ""
     note: str = ""
     skipped: bool = False          # not run, for the reason in note: counted apart, never a pass
-    verdict: str = ""              # a published number's: agrees, disagrees (and why), not comparable
+    verdict: str = ""              # a published number's: agrees, disagrees, fitted, not comparable, changed
     published: str = ""            # the published value with its unit
     ratio: float | None = None     # |measured - expected| / tolerance (close and at_most): 1 is the bar
+    status: str = ""               # one of STATUSES; set from passed/skipped when not given
+
+    def __post_init__(self):
+        if not self.status:
+            self.status = "skipped" if self.skipped else "passed" if self.passed else "failed"
+
+    def set_status(self, status: str):
+        """A published number's verdict decides its status (disagrees, fitted, not comparable)."""
+        if status not in STATUSES:
+            raise ValueError(f"unknown status {status!r} (known: {', '.join(STATUSES)})")
+        self.status = status
+        self.passed, self.skipped = status == "passed", status == "skipped"
 
     def line(self) -> str:
-        if self.skipped:
-            return f"SKIP {self.name}: {self.note}"
+        tag = TAGS[self.status]
+        if self.skipped or (self.status == "not comparable" and not math.isfinite(self.measured)):
+            return f"{tag} {self.name}: {self.note}"
         unit = f" {self.unit}" if self.unit not in ("", "1") else ""
-        return (f"{'PASS' if self.passed else 'FAIL'} {self.name} {_fmt(self.measured)} {self.expected} "
-                f"{self.tolerance}{unit}")
+        line = f"{tag} {self.name} {_fmt(self.measured)} {self.expected} {self.tolerance}{unit}"
+        if self.status in ("disagrees", "fitted") and self.published:
+            line += f" (published {self.published})"
+        return line
+
+
+def count(items) -> dict[str, int]:
+    """How many checks of ``items`` ended in each status."""
+    counts = dict.fromkeys(STATUSES, 0)
+    for c in items:
+        counts[c.status] += 1
+    return counts
+
+
+def summary_of(counts: dict[str, int]) -> str:
+    """``N passed, M failed`` and every other status that occurred: "3 disagree, 1 fitted, 2 skipped"."""
+    words = {"disagrees": "disagree", "fitted": "fitted", "not comparable": "not comparable", "skipped": "skipped"}
+    text = f"{counts['passed']} passed, {counts['failed']} failed"
+    return text + "".join(f", {counts[s]} {w}" for s, w in words.items() if counts[s])
 
 
 @dataclass
@@ -86,17 +129,20 @@ class CheckList:
         for check in items:
             self._add(check)
 
+    def counts(self) -> dict[str, int]:
+        return count(self.items)
+
     @property
     def passed(self) -> int:
-        return sum(c.passed for c in self.items)
+        return self.counts()["passed"]
 
     @property
     def skipped(self) -> int:
-        return sum(c.skipped for c in self.items)
+        return self.counts()["skipped"]
 
     @property
     def failed(self) -> int:
-        return len(self.items) - self.passed - self.skipped
+        return self.counts()["failed"]
 
     def summary(self) -> str:
-        return f"{self.passed} passed, {self.failed} failed" + (f", {self.skipped} skipped" if self.skipped else "")
+        return summary_of(self.counts())

@@ -21,7 +21,7 @@ from scipy.integrate import solve_ivp
 
 from .compare import compare_builds, max_abs_error, relative_error
 from .fmu_runner import input_signal
-from .report import plot_outputs
+from .figures import plot_outputs
 from .reference import ReferenceRun
 
 #: the drive's FMU steps the exact solution; DOP853 at rtol 1e-12 is good to about 1e-11

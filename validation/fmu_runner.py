@@ -36,6 +36,9 @@ class FmuRun:
     log: list[str] = field(default_factory=list)
     error: str | None = None           # set when the FMU refused (fmi2Error) or the run failed
     units: dict = field(default_factory=dict)   # each output's unit, as the FMU declares it
+    init_wall: float = math.nan        # s from the call to the first communication point: load,
+                                       # instantiate, initialise, and the first step
+    per_step: float = math.nan         # s per communication step after the first (median-free mean)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.values[name]
@@ -185,7 +188,10 @@ class FmuUnderTest:
                           delay=2.0 if show_progress and PROGRESS is None else math.inf)
         report_progress(what, 0.0)
 
+        stamps = []
+
         def step_finished(t, recorder):
+            stamps.append(time.perf_counter())
             bar(t)
             report_progress(what, t / stop_time if stop_time > 0 else 1.0)
             return True
@@ -220,4 +226,7 @@ class FmuUnderTest:
         if not (t.size and math.isclose(t[-1], stop_time, rel_tol=1e-9, abs_tol=1e-12)):
             return FmuRun(label, t, values, wall, settings, log,
                           error=f"the run stopped at t = {t[-1] if t.size else 0:g} s before {stop_time:g} s")
-        return FmuRun(label, t, values, wall, settings, log, units=self.units)
+        init_wall = stamps[0] - started if stamps else math.nan
+        per_step = (stamps[-1] - stamps[0]) / (len(stamps) - 1) if len(stamps) > 1 else math.nan
+        return FmuRun(label, t, values, wall, settings, log, units=self.units, init_wall=init_wall,
+                      per_step=per_step)

@@ -1,6 +1,9 @@
-"""``crankfmu validate [--fmu PATH ...] [--out DIR] [--quick] [--jobs N]``: every FMU against the
-in-process reference, closed forms and the papers. One line per check, ``N passed, M failed, K
-skipped``, exit status 1 on any failure, ``DIR/report.md`` with a summary table and plots.
+"""``crankfmu validate [--fmu PATH ...] [--out DIR] [--quick] [--jobs N] [--junit FILE]``: every FMU
+against the in-process reference, closed forms and the papers. One line per check, then ``N
+passed, M failed`` with each other verdict counted (disagree, fitted, not comparable, skipped);
+``DIR/report.md`` (and .html) with a summary and plots. Exit status: 0 when no check failed and
+at least one passed; 1 on any failure (a published number that changed included) or when nothing
+passed; 2 on bad input (an --fmu that is not an FMU crankfmu built).
 
 Without ``--fmu`` it takes every FMU under build/fmus/ (the native ones in build/fmus/native/
 too). Each FMU is checked as its kind asks (its crankfmu VendorAnnotation says what it is):
@@ -187,7 +190,7 @@ def _work_precision(fmus, sections, checks, out, quick):
 
 def _work_precision_section(points, meta, scenario, checks, out) -> dict:
     from . import work_precision
-    from .report import plot_work_precision
+    from .figures import plot_work_precision
 
     prefix = f"{scenario.name}.work_precision"
     for p in points:
@@ -202,20 +205,9 @@ def _work_precision_section(points, meta, scenario, checks, out) -> dict:
             order = math.log10(a.omega1_error / b.omega1_error)
             checks.close(f"{prefix}.{family.split()[2]}_convergence_order", order, 1.0, 0.15,
                          note=f"{a.setting} -> {b.setting}")
-    verdict = []
-    for target in (1e-6, 1e-9):
-        best, second = work_precision.fastest(points, target)
-        if best is None:
-            verdict.append(f"- At {target:g} rad/s: no method reached it in this run.")
-        elif second is None:
-            verdict.append(f"- At {target:g} rad/s: only {best.family} ({best.setting}) reached it, "
-                           f"in {best.time_s * 1e3:.3g} ms.")
-        else:
-            verdict.append(f"- At {target:g} rad/s the fastest is **{best.family}** ({best.setting}, "
-                           f"{best.time_s * 1e3:.3g} ms), {second.time_s / best.time_s:.3g} times faster than the "
-                           f"next method, {second.family} ({second.setting}, {second.time_s * 1e3:.3g} ms).")
+    verdict = [f"- {work_precision.verdict(points, target)}" for target in (1e-6, 1e-9)]
     plot = plot_work_precision(points, out / f"{scenario.name}_work_precision.png",
-                               f"{scenario.name}: speed against error (one run, one machine)")
+                               f"{scenario.name}: speed against error (medians of {meta['repeats']} runs, one machine)")
     return {"points": points, "meta": meta, "ratios": work_precision.ratio_table(points),
             "targets": work_precision.TARGETS, "verdict": verdict, "plot": plot.name}
 
@@ -327,22 +319,45 @@ def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None =
 
 
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
-    parser = parser or argparse.ArgumentParser(prog="crankfmu validate", description=__doc__.split("\n\n")[0],
-                                               formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = parser or argparse.ArgumentParser(prog="crankfmu validate", description=__doc__.split("\n\n")[0])
     parser.add_argument("--fmu", action="append", default=[], metavar="PATH",
                         help=f"an FMU to validate (repeatable; default: every FMU under {DEFAULT_FMUS}/)")
-    parser.add_argument("--out", default="build/validation", help="directory for report.md and the plots")
+    parser.add_argument("--out", default="build/validation",
+                        help="directory for report.md and the plots (default: build/validation)")
     parser.add_argument("--quick", action="store_true", help="the CI subset: shorter hard cases, fewer "
                                                              "speed-against-error points")
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
                         help="worker processes, one data file's FMUs each (default: the machine's cores)")
+    parser.add_argument("--junit", default=None, metavar="FILE",
+                        help="also write the checks as JUnit XML (one test case per check) for a CI system")
     return parser
+
+
+def readable_fmu(path) -> None:
+    """CrankfmuError naming ``path`` unless it is an FMU crankfmu built: a zip with a
+    modelDescription.xml that carries crankfmu's VendorAnnotation. Checked before any work, so a
+    junk file never reads as validated."""
+    import zipfile
+
+    from .fmu_runner import kind_of
+
+    path = Path(path)
+    if not path.is_file():
+        raise CrankfmuError(f"no FMU at {path}: build it (make fmu) or give the path of an .fmu file")
+    try:
+        kind = kind_of(path)
+    except (zipfile.BadZipFile, KeyError, OSError, ValueError, SyntaxError) as exc:
+        what = "not a zip file" if isinstance(exc, zipfile.BadZipFile) else \
+            "no modelDescription.xml in it" if isinstance(exc, KeyError) else f"{type(exc).__name__}: {exc}"
+        raise CrankfmuError(f"--fmu {path}: cannot be read as an FMU ({what})") from None
+    if kind is None:
+        raise CrankfmuError(f"--fmu {path}: not an FMU crankfmu built (its modelDescription.xml has no crankfmu "
+                            "VendorAnnotation), so there is no data file to check it against")
 
 
 def run_from_args(args) -> int:
     for path in args.fmu:
-        if not Path(path).is_file():
-            raise CrankfmuError(f"no FMU at {path}: build it (make fmu) or give the path of an .fmu file")
+        readable_fmu(path)
     paths = args.fmu or [str(p) for p in discover()]
     if not paths:
         raise CrankfmuError(f"no FMUs under {DEFAULT_FMUS}/: build them with `make fmu`, or give --fmu PATH")
@@ -351,9 +366,18 @@ def run_from_args(args) -> int:
     from crankfmu.cli import check_output
 
     out = check_output(args.out)
+    if args.junit:
+        check_output(args.junit, is_file=True)
+    started = time.perf_counter()
     checks, report = validate(paths, out, args.quick, jobs=args.jobs)
+    if args.junit:
+        from .junit import write_junit
+        write_junit(args.junit, checks.items, time.perf_counter() - started)
     print(checks.summary())
-    print(f"wrote {report}")
+    print(f"wrote {report}" + (f" and {args.junit}" if args.junit else ""))
+    if checks.passed == 0:
+        print("crankfmu validate: error: no check passed: nothing was validated", file=sys.stderr)
+        return 1
     return 0 if checks.failed == 0 else 1
 
 

@@ -77,20 +77,25 @@ def flywheel(entry, model, fmu_run):
 QUANTITIES = {f.__name__: f for f in (rocker_extreme_deg, settled_change, kinematic_cycle, inertia_ratio,
                                       reduced_inertia_min, reduced_inertia_max, flywheel)}
 
-#: a [[paper]] entry's verdict: it agrees (within its tolerance), it disagrees (the file says why and
-#: what this data set gives instead: ``disagrees`` the reason, ``ours`` the value, checked to
-#: ``tolerance`` so a change shows), or it cannot be compared (``not_comparable``, the reason)
-VERDICTS = ("agrees", "disagrees", "not comparable")
+#: a [[paper]] entry's verdict (checks.py has what each counts as): it agrees (independent evidence
+#: within its tolerance); it disagrees (the file says why, ``disagrees``, and what this data set gives
+#: instead, ``ours``, checked to ``tolerance`` so a change shows); it is fitted (``fitted``: the data
+#: set was chosen to give it, so it is shown and checked but is no evidence); or it cannot be compared
+#: (``not_comparable``, the reason)
+VERDICTS = ("agrees", "disagrees", "fitted", "not comparable")
 
 
 def check_paper(scenario, model, fmu_run, checks, prefix: str):
-    """One check per ``[[paper]]`` entry of the scenario file, each with its verdict (``Check.verdict``)."""
+    """One check per ``[[paper]]`` entry of the scenario file, each with its verdict (``Check.verdict``)
+    and the status that verdict counts as (``Check.status``)."""
     for entry in scenario.data.get("paper", []):
         name = f"{prefix}.paper.{entry['name']}"
         source = entry.get("source", "")
         if "not_comparable" in entry:
             check = checks.skip(name, f"not comparable: {entry['not_comparable']} ({source})")
             check.expected, check.verdict = _published(entry), "not comparable"
+            check.published = _published(entry)
+            check.set_status("not comparable")
             continue
         quantity = QUANTITIES.get(entry.get("quantity"))
         if quantity is None:
@@ -98,17 +103,29 @@ def check_paper(scenario, model, fmu_run, checks, prefix: str):
                                   f"{entry.get('quantity')!r} (known: {', '.join(QUANTITIES)})")
         value = quantity(entry, model, fmu_run)
         published, tol = float(entry["expected"]), float(entry["tolerance"])
-        if "disagrees" in entry and not abs(value - published) <= tol:
+        agrees = abs(value - published) <= tol
+        if "disagrees" in entry:
             if "ours" not in entry:
                 raise DefinitionError(f"{scenario.where}: [[paper]] {entry['name']!r}: a disagreement needs "
                                       "ours = the value this data set gives")
             check = checks.close(name, value, float(entry["ours"]), tol, entry.get("unit", ""),
                                  note=f"{entry['disagrees']} ({source})")
-            check.verdict = "disagrees" if check.passed else "changed"
+            if agrees:       # the file says it disagrees and it no longer does: the file is out of date
+                check.note = f"now agrees with the published {published:g}: the file's disagreement is stale ({source})"
+                check.verdict, status = "changed", "failed"
+            elif check.passed:
+                check.verdict, status = "disagrees", "disagrees"
+            else:
+                check.verdict, status = "changed", "failed"
+        elif "fitted" in entry:
+            check = checks.close(name, value, published, tol, entry.get("unit", ""),
+                                 note=f"fitted: {entry['fitted']} ({source})")
+            check.verdict, status = ("fitted", "fitted") if check.passed else ("changed", "failed")
         else:
             check = checks.close(name, value, published, tol, entry.get("unit", ""), note=source)
-            check.verdict = "agrees" if check.passed else "disagrees, unexplained"
+            check.verdict, status = ("agrees", "passed") if check.passed else ("disagrees, unexplained", "failed")
         check.published = _published(entry)
+        check.set_status(status)
     study = scenario.kinematics_study
     if study.get("paper"):
         # the paper's graphical values at its check position ([kinematics.paper]), within
@@ -125,5 +142,9 @@ def check_paper(scenario, model, fmu_run, checks, prefix: str):
 
 
 def _published(entry) -> str:
+    """The published value as the report shows it: the file's ``published`` wording where the paper
+    states no number (``negligible``), else the number with its unit."""
+    if "published" in entry:
+        return str(entry["published"])
     unit = entry.get("unit", "")
     return f"{entry['expected']:g} {'' if unit == '1' else unit}".strip()

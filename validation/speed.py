@@ -23,7 +23,7 @@ from .compare import max_abs_error, relative_error
 from .fmu_runner import input_signal
 from .mechanism import OUTPUT_TOLERANCE
 from .reference import ReferenceRun, _with_outputs, cached_reference
-from .report import plot_outputs
+from .figures import plot_outputs
 
 #: the tables are checked to 1e-11; tau_drive sums J epsilon1, 0.5 J' omega1^2 and Q: 1e-8 of its scale
 TAU_TOLERANCE = 1e-8

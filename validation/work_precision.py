@@ -4,8 +4,14 @@ measured in one run on one machine, so the ratios between them mean something.
 Error: max |omega1 error| (rad/s) on the scenario's 1 ms output grid over its 2 s, and
 |phi1(2 s) error| (rad), against a truth run (in-process DOP853 with the motor kink located,
 rtol = atol = 1e-13; it agrees with the reference at 1e-12 to about 1e-11 rad/s). Time: the
-median wall time of the whole call that produces the answer on the grid (for the FMU the whole
-``fmpy.simulate_fmu`` call: instantiate, initialise, step, free).
+median wall time, over at least ``REPEATS`` runs (fewer only for a run over 1 s, and the report
+says so), of the whole call that produces the answer (for the FMU the whole
+``fmpy.simulate_fmu`` call: instantiate, initialise, step, free), with its spread (the fastest
+and slowest run). An FMU's point also carries its initialisation (to the first communication
+point) and its cost per communication step apart. Only points that deliver the stated output
+grid (communication steps no coarser than it) enter the verdicts and the ratio table: a 20-step
+run costs little because it answers less, not because it is fast. A method is called the fastest
+only where its slowest run beats the next method's fastest.
 
 Methods: the FMU through fmpy (communication steps 1e-4..1e-1 s at its default rtol, and rtol
 1e-4..1e-10 at 1 ms steps); crankfmu in process (reference, dopri5); the papers' crank-angle
@@ -34,7 +40,9 @@ SCHEME_STEPS_DEG = (1.0, 0.1, 0.01)
 SCIPY_METHODS = ("RK45", "DOP853", "LSODA", "Radau")
 SCIPY_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 QUICK = {"fmu_steps": (1e-3, 1e-1), "fmu_rtols": (1e-6, 1e-10), "scheme_steps_deg": (1.0, 0.1),
-         "scipy_methods": ("RK45", "DOP853"), "scipy_rtols": (1e-4, 1e-7)}
+         "scipy_methods": ("RK45", "DOP853"), "scipy_rtols": (1e-4, 1e-7, 1e-10)}
+#: runs per timed point: the median of 5 with its spread (a run over 1 s is repeated less, said so)
+REPEATS = 5
 TARGETS = (1e-3, 1e-6, 1e-9)        # rad/s: the error levels of the ratio table
 
 
@@ -47,18 +55,22 @@ class Point:
     time_s: float           # median wall time
     repeats: int
     note: str = ""
+    time_min: float = math.nan      # the fastest run, s
+    time_max: float = math.nan      # the slowest run, s
+    on_grid: bool = True            # delivers the stated output grid (else: not in the verdicts)
+    init_s: float = math.nan        # an FMU's: median time to its first communication point, s
+    per_step_s: float = math.nan    # an FMU's: median time per communication step after it, s
 
 
-def _timed(run, repeats_if_fast: int):
-    """Median wall time over up to ``repeats_if_fast`` calls (1 call when it takes over 1 s)."""
-    started = time.perf_counter()
-    out = run()
-    times = [time.perf_counter() - started]
-    while len(times) < repeats_if_fast and times[0] < 1.0:
+def _timed(run, repeats: int = REPEATS):
+    """(the last output, every run's wall time, every output) over ``repeats`` calls; fewer when
+    the calls so far add up to over 2 s and each took over 1 s."""
+    outs, times = [], []
+    while len(times) < repeats and not (times and min(times) > 1.0 and sum(times) > 2.0):
         started = time.perf_counter()
-        out = run()
+        outs.append(run())
         times.append(time.perf_counter() - started)
-    return out, statistics.median(times), len(times)
+    return outs[-1], times, outs
 
 
 def _errors(t, omega, phi, grid, truth):
@@ -97,7 +109,6 @@ def run_study(fmus, scenario, quick: bool = False, progress=None) -> tuple[list[
     truth = reference_run(scenario, grid, method="reference", rtol=1e-13)
     q = QUICK if quick else {"fmu_steps": FMU_STEPS, "fmu_rtols": FMU_RTOLS, "scheme_steps_deg": SCHEME_STEPS_DEG,
                              "scipy_methods": SCIPY_METHODS, "scipy_rtols": SCIPY_RTOLS}
-    repeats = 1 if quick else 3
     jobs = []
     for name, fmu in fmus:
         default_rtol = fmu.variables["rtol"].start if "rtol" in fmu.variables else None
@@ -132,24 +143,38 @@ def run_study(fmus, scenario, quick: bool = False, progress=None) -> tuple[list[
         if progress:
             progress(i / len(jobs))
         try:
-            out, wall, k = _timed(job, repeats)
+            out, times, outs = _timed(job)
         except Exception as exc:     # a peer that fails is a point with a note, not a lost study
             points.append(Point(family, setting, float("nan"), float("nan"), float("nan"), 0, str(exc)[:160]))
             continue
+        spread = {"time_min": min(times), "time_max": max(times)}
+        note = "" if len(times) >= REPEATS else f"{len(times)} runs: each over 1 s"
         if hasattr(out, "error"):             # an FMU run
             if out.error:
-                points.append(Point(family, setting, float("nan"), float("nan"), wall, k, out.error[:160]))
+                points.append(Point(family, setting, float("nan"), float("nan"), statistics.median(times),
+                                    len(times), out.error[:160], **spread))
                 continue
             e_w, e_p = _errors(out.time, out["omega1"], out["phi1"], grid, truth)
-        elif isinstance(out, tuple):          # solve_ivp peer
+            step = float(out.settings["step"])
+            points.append(Point(family, setting, e_w, e_p, statistics.median(times), len(times), note, **spread,
+                                on_grid=step <= exp.output_interval * (1 + 1e-9),
+                                init_s=statistics.median(o.init_wall for o in outs),
+                                per_step_s=statistics.median(o.per_step for o in outs)))
+            continue
+        if isinstance(out, tuple):          # solve_ivp peer
             e_w, e_p = _errors(grid, out[0], out[1], grid, truth)
         else:
             e_w, e_p = _errors(grid, out["omega1"], out["phi1"], grid, truth)
-        points.append(Point(family, setting, e_w, e_p, wall, k))
+        points.append(Point(family, setting, e_w, e_p, statistics.median(times), len(times), note, **spread))
     if progress:
         progress(1.0)
     return points, {"truth": "DOP853 + kink events, rtol = atol = 1e-13", "grid_s": exp.output_interval,
-                    "span_s": exp.stop_time - exp.start_time, "repeats": repeats}
+                    "span_s": exp.stop_time - exp.start_time, "repeats": REPEATS,
+                    "fewest_runs": min((p.repeats for p in points if p.repeats), default=0)}
+
+
+def _reaches(p: Point, target: float) -> bool:
+    return p.on_grid and math.isfinite(p.omega1_error) and p.omega1_error <= target
 
 
 def ratio_table(points: list[Point], targets=TARGETS) -> list[dict]:
@@ -159,26 +184,51 @@ def ratio_table(points: list[Point], targets=TARGETS) -> list[dict]:
     rows = []
     best = {}
     for target in targets:
-        ok = [p for p in points if math.isfinite(p.omega1_error) and p.omega1_error <= target]
+        ok = [p for p in points if _reaches(p, target)]
         best[target] = min((p.time_s for p in ok), default=math.nan)
     for fam in families:
         row = {"family": fam}
         for target in targets:
-            ok = [p for p in points if p.family == fam and math.isfinite(p.omega1_error) and p.omega1_error <= target]
+            ok = [p for p in points if p.family == fam and _reaches(p, target)]
             if ok:
                 p = min(ok, key=lambda p: p.time_s)
-                row[target] = {"setting": p.setting, "time_s": p.time_s, "ratio": p.time_s / best[target]}
+                row[target] = {"setting": p.setting, "time_s": p.time_s, "ratio": p.time_s / best[target],
+                               "spread": (p.time_min, p.time_max)}
             else:
                 row[target] = None
         rows.append(row)
     return rows
 
 
+def method_of(family: str) -> str:
+    """The method a family sweeps (its name before the first comma): one FMU's rtol and step sweeps
+    are one method, its Model Exchange runs another, each scipy method its own."""
+    return family.split(",")[0]
+
+
 def fastest(points: list[Point], target: float) -> tuple[Point | None, Point | None]:
-    """The fastest point at ``target`` and the fastest of another family (the runner-up)."""
-    ok = sorted((p for p in points if math.isfinite(p.omega1_error) and p.omega1_error <= target),
-                key=lambda p: p.time_s)
+    """The fastest point at ``target`` on the output grid and the fastest of another method (the runner-up)."""
+    ok = sorted((p for p in points if _reaches(p, target)), key=lambda p: p.time_s)
     if not ok:
         return None, None
-    second = next((p for p in ok if p.family != ok[0].family), None)
+    second = next((p for p in ok if method_of(p.family) != method_of(ok[0].family)), None)
     return ok[0], second
+
+
+def verdict(points: list[Point], target: float) -> str:
+    """What this run says of the fastest method at ``target`` rad/s, claiming a winner only where
+    its slowest run beats the runner-up's fastest (the spread of both measured here)."""
+    best, second = fastest(points, target)
+    if best is None:
+        return f"At {target:g} rad/s: no method reached it on the output grid in this run."
+
+    def said(p):
+        return (f"{p.family} ({p.setting}, {p.time_s * 1e3:.3g} ms, runs {p.time_min * 1e3:.3g} to "
+                f"{p.time_max * 1e3:.3g} ms)")
+    if second is None:
+        return f"At {target:g} rad/s: only {said(best)} reached it."
+    if best.time_max < second.time_min:
+        return (f"At {target:g} rad/s the fastest is **{method_of(best.family)}**: {said(best)}, {second.time_s / best.time_s:.3g} "
+                f"times faster than the next method, {said(second)}.")
+    return (f"At {target:g} rad/s no method is the fastest beyond the spread of the runs: {said(best)} and "
+            f"{said(second)} overlap.")

@@ -18,6 +18,8 @@ body { font-family: system-ui, sans-serif; max-width: 72em; margin: 1em auto; pa
        color: #222; }
 h1 { font-size: 1.7em; } h2 { border-bottom: 1px solid #ccc; padding-bottom: 0.15em; margin-top: 1.8em; }
 table { border-collapse: collapse; font-size: 0.88em; margin: 0.6em 0; }
+.scroll { overflow-x: auto; max-width: 100%; }
+details { margin: 0.6em 0; } summary { cursor: pointer; color: #1a4f8a; }
 td, th { border: 1px solid #bbb; padding: 2px 6px; vertical-align: top; text-align: left; }
 th { background: #eee; }
 pre { background: #f6f6f6; padding: 0.6em; overflow-x: auto; font-size: 0.85em; }
@@ -27,7 +29,8 @@ figure { margin: 1.2em 0; } figcaption { font-size: 0.92em; color: #333; max-wid
 .note { color: #555; font-size: 0.92em; }
 .broken { background: #fdd; padding: 0.4em; }
 .verdict-agrees { color: #176117; font-weight: bold; } .verdict-disagrees { color: #9a4b00; font-weight: bold; }
-nav ul { columns: 2; }
+nav ul { columns: 2; } nav li { break-inside: avoid; }
+@media (max-width: 600px) { nav ul { columns: 1; } }
 math { font-size: 1.1em; } .equation { margin: 0.6em 0 0.6em 1.5em; }
 """
 
@@ -89,7 +92,9 @@ def _cells(line: str) -> list[str]:
 
 def markdown(text: str) -> str:
     """HTML of the Markdown subset crankfmu's reports use: ATX headings (with GitHub's anchors),
-    paragraphs, ``-`` lists, pipe tables, fenced code, and inline code, images, links and bold."""
+    paragraphs, ``-`` lists, pipe tables (in a block that scrolls sideways on a narrow screen),
+    fenced code, inline code, images, links and bold, and the folding GitHub also renders: a line
+    ``<details>``, ``<summary>text</summary>`` or ``</details>`` passes through as HTML."""
     lines = text.split("\n")
     out, i = [], 0
     while i < len(lines):
@@ -100,6 +105,12 @@ def markdown(text: str) -> str:
                 j += 1
             out.append("<pre>" + html.escape("\n".join(lines[i + 1:j])) + "</pre>")
             i = j + 1
+        elif line.strip() in ("<details>", "</details>"):
+            out.append(line.strip())
+            i += 1
+        elif m := re.fullmatch(r"\s*<summary>(.*)</summary>\s*", line):
+            out.append(f"<summary>{inline(m.group(1))}</summary>")
+            i += 1
         elif m := re.match(r"(#{1,6}) (.*)", line):
             level, title = len(m.group(1)), m.group(2)
             out.append(f'<h{level} id="{slug(title)}">{inline(title)}</h{level}>')
@@ -110,7 +121,7 @@ def markdown(text: str) -> str:
             while i < len(lines) and lines[i].startswith("|"):
                 rows.append("<tr>" + "".join(f"<td>{inline(c)}</td>" for c in _cells(lines[i])) + "</tr>")
                 i += 1
-            out.append(f"<table><tr>{head}</tr>\n" + "\n".join(rows) + "</table>")
+            out.append(f'<div class="scroll"><table><tr>{head}</tr>\n' + "\n".join(rows) + "</table></div>")
         elif line.startswith("- "):
             items = []
             while i < len(lines) and lines[i].startswith("- "):
@@ -121,7 +132,8 @@ def markdown(text: str) -> str:
             i += 1
         else:
             para = []
-            while i < len(lines) and lines[i].strip() and not re.match(r"(#{1,6} |```|\||- )", lines[i]):
+            while i < len(lines) and lines[i].strip() and not re.match(r"(#{1,6} |```|\||- |\s*</?details>|\s*<summary>)",
+                                                                           lines[i]):
                 para.append(lines[i])
                 i += 1
             out.append(f"<p>{inline(' '.join(para))}</p>")

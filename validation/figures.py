@@ -1,0 +1,117 @@
+"""The harness's figures: every compared output over its reference (one small multiple each),
+and the speed-against-error study (one panel per family of methods, the peer on each)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from crankfmu.atomic import save_figure
+from crankfmu.plots import pyplot
+
+
+def plot_outputs(run, ref, names, tolerances: dict, path: Path, title: str) -> Path:
+    """One small multiple per output: the FMU's value over the reference's (top), and below it the
+    error relative to the output's scale on a log axis with the check's tolerance as a dashed line.
+    The legend is the figure's title line, not a box over the data."""
+    plt = pyplot()
+    names = [n for n in names if n in run.values and n in ref.values]     # every compared output
+    cols = min(4, max(1, len(names)))
+    rows = max(1, math.ceil(len(names) / cols))
+    head = 0.9                                      # inches for the two title lines
+    fig = plt.figure(figsize=(3.6 * cols, 3.4 * rows + head))
+    outer = fig.add_gridspec(rows, cols, hspace=0.42, wspace=0.38, top=1.0 - head / (3.4 * rows + head),
+                             bottom=0.5 / (3.4 * rows + head), left=0.07, right=0.98)
+    for k, name in enumerate(names):
+        r, c = divmod(k, cols)
+        cell = outer[r, c].subgridspec(2, 1, height_ratios=[2.0, 1.0], hspace=0.08)
+        top = fig.add_subplot(cell[0])
+        bottom = fig.add_subplot(cell[1], sharex=top)
+        a, b = np.asarray(run[name], dtype=float), np.asarray(ref[name], dtype=float)
+        unit = getattr(run, "units", {}).get(name)
+        top.plot(ref.time, b, lw=2.6, color="0.75")
+        top.plot(run.time, a, lw=0.9, color="C0")
+        top.set_title(f"{name} [{unit or '1'}]", fontsize=8)
+        top.tick_params(labelsize=7, labelbottom=False)
+        top.grid(alpha=0.3)
+        scale = float(np.max(np.abs(b))) or 1.0
+        bottom.semilogy(run.time, np.maximum(np.abs(a - b) / scale, 1e-17), lw=0.7, color="C3")
+        tol = tolerances.get(name)
+        if tol:
+            bottom.axhline(tol, color="k", ls="--", lw=0.8)
+        bottom.set_ylim(1e-17, max(1.0, 10 * (tol or 0)))
+        bottom.set_yticks([1e-15, 1e-10, 1e-5, 1.0])
+        bottom.tick_params(labelsize=7)
+        bottom.grid(alpha=0.3, which="major")
+        if c == 0:
+            bottom.set_ylabel("|error| / max|ref| [1]", fontsize=7)
+        bottom.set_xlabel("time [s]", fontsize=7)
+    fig.suptitle(f"{title}\ngrey: in-process reference; blue: FMU through fmpy; red: relative error; "
+                 "dashed: the check's tolerance", fontsize=9, y=1.0 - 0.12 / (3.4 * rows + head))
+    save_figure(fig, path, dpi=80)
+    plt.close(fig)
+    return path
+
+
+
+#: the speed-against-error study's panels, each a family of methods (at most six series and the peer)
+PANELS = (
+    ("FMUs, rtol sweep at 1 ms steps (Co-Simulation)", lambda f: "FMU" in f and "rtol sweep" in f),
+    ("FMUs, communication step sweep (Co-Simulation)", lambda f: "FMU" in f and "step sweep" in f),
+    ("FMUs as Model Exchange (fmpy's CVode)", lambda f: "Model Exchange" in f),
+    ("crankfmu in process and the papers' schemes", lambda f: f.startswith(("crankfmu", "paper"))),
+    ("scipy solve_ivp on the same equation", lambda f: f.startswith("solve_ivp")),
+)
+PEER = "solve_ivp DOP853"
+
+
+def plot_work_precision(points, path: Path, title: str) -> Path:
+    """Small multiples, one panel per family of methods (PANELS), each with the peer (scipy's
+    DOP853) drawn grey on it; a point is the median time with a bar from the fastest to the slowest
+    run; a hollow marker is a run coarser than the output grid (not in the verdicts). Each panel's
+    key is under it, outside the data."""
+    plt = pyplot()
+    panels = [(t, [f for f in dict.fromkeys(p.family for p in points) if keep(f)]) for t, keep in PANELS]
+    panels = [(t, fams) for t, fams in panels if fams]
+    cols = min(3, len(panels))
+    rows = math.ceil(len(panels) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 5.0 * rows), squeeze=False, sharex=True, sharey=True)
+    finite = [p for p in points if math.isfinite(p.omega1_error) and math.isfinite(p.time_s)]
+    peer = sorted((p for p in finite if p.family == PEER), key=lambda p: p.time_s)
+    markers = "osD^v<>"
+    for ax, (panel, families) in zip(axes.flat, panels):
+        if peer and PEER not in families:
+            ax.loglog([p.time_s * 1e3 for p in peer], [max(p.omega1_error, 1e-16) for p in peer], color="0.55",
+                      lw=2.5, alpha=0.6, label=f"{PEER} (the peer)")
+        for i, fam in enumerate(families):
+            pts = sorted((p for p in finite if p.family == fam), key=lambda p: p.time_s)
+            if not pts:
+                continue
+            colour = "0.35" if fam == PEER else f"C{i}"
+            x = np.array([p.time_s * 1e3 for p in pts])
+            y = np.array([max(p.omega1_error, 1e-16) for p in pts])
+            spread = np.array([[p.time_s - p.time_min, p.time_max - p.time_s] for p in pts]).T * 1e3
+            ax.errorbar(x, y, xerr=np.nan_to_num(spread), color=colour, lw=1, ms=6, marker=markers[i % len(markers)],
+                        capsize=2, label=fam if fam != PEER else f"{PEER} (the peer)", mfc=colour)
+            hollow = [k for k, p in enumerate(pts) if not p.on_grid]
+            if hollow:
+                ax.plot(x[hollow], y[hollow], ls="none", marker=markers[i % len(markers)], ms=9, mfc="white",
+                        color=colour)
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+        ax.set_title(panel, fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.tick_params(labelsize=9, labelbottom=True, labelleft=True)
+        ax.set_xlabel("median wall time [ms]", fontsize=9)
+        ax.set_ylabel("max |omega1 error| [rad/s]", fontsize=9)
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1, frameon=False)
+    for ax in list(axes.flat)[len(panels):]:
+        ax.set_visible(False)
+    fig.suptitle(f"{title}\nbars: fastest to slowest run; hollow: communication steps coarser than the output grid "
+                 "(not in the verdicts)", fontsize=11)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=100)
+    plt.close(fig)
+    return path
