@@ -18,10 +18,12 @@ def plot_outputs(run, ref, names, tolerances: dict, path: Path, title: str) -> P
     The legend is the figure's title line, not a box over the data."""
     plt = pyplot()
     names = [n for n in names if n in run.values and n in ref.values]     # every compared output
-    cols = min(4, max(1, len(names)))
+    # 3 columns of 4.8 in at 80 dpi: 1152 px, the report's width, so its text (9 pt and up: 10 px
+    # and up) is shown at its own size
+    cols = min(3, max(1, len(names)))
     rows = max(1, math.ceil(len(names) / cols))
     head = 0.9                                      # inches for the two title lines
-    fig = plt.figure(figsize=(3.6 * cols, 3.4 * rows + head))
+    fig = plt.figure(figsize=(4.8 * cols, 3.4 * rows + head))
     outer = fig.add_gridspec(rows, cols, hspace=0.42, wspace=0.38, top=1.0 - head / (3.4 * rows + head),
                              bottom=0.5 / (3.4 * rows + head), left=0.07, right=0.98)
     for k, name in enumerate(names):
@@ -33,8 +35,8 @@ def plot_outputs(run, ref, names, tolerances: dict, path: Path, title: str) -> P
         unit = getattr(run, "units", {}).get(name)
         top.plot(ref.time, b, lw=2.6, color="0.75")
         top.plot(run.time, a, lw=0.9, color="C0")
-        top.set_title(f"{name} [{unit or '1'}]", fontsize=8)
-        top.tick_params(labelsize=7, labelbottom=False)
+        top.set_title(f"{name} [{unit or '1'}]", fontsize=10)
+        top.tick_params(labelsize=9, labelbottom=False)
         top.grid(alpha=0.3)
         scale = float(np.max(np.abs(b))) or 1.0
         bottom.semilogy(run.time, np.maximum(np.abs(a - b) / scale, 1e-17), lw=0.7, color="C3")
@@ -43,13 +45,13 @@ def plot_outputs(run, ref, names, tolerances: dict, path: Path, title: str) -> P
             bottom.axhline(tol, color="k", ls="--", lw=0.8)
         bottom.set_ylim(1e-17, max(1.0, 10 * (tol or 0)))
         bottom.set_yticks([1e-15, 1e-10, 1e-5, 1.0])
-        bottom.tick_params(labelsize=7)
+        bottom.tick_params(labelsize=9)
         bottom.grid(alpha=0.3, which="major")
         if c == 0:
-            bottom.set_ylabel("|error| / max|ref| [1]", fontsize=7)
-        bottom.set_xlabel("time [s]", fontsize=7)
+            bottom.set_ylabel("|error| / max|ref| [1]", fontsize=9)
+        bottom.set_xlabel("time [s]", fontsize=9)
     fig.suptitle(f"{title}\ngrey: in-process reference; blue: FMU through fmpy; red: relative error; "
-                 "dashed: the check's tolerance", fontsize=9, y=1.0 - 0.12 / (3.4 * rows + head))
+                 "dashed: the check's bar", fontsize=10, y=1.0 - 0.12 / (3.4 * rows + head))
     save_figure(fig, path, dpi=80)
     plt.close(fig)
     return path
@@ -77,7 +79,8 @@ def plot_work_precision(points, path: Path, title: str) -> Path:
     panels = [(t, fams) for t, fams in panels if fams]
     cols = min(3, len(panels))
     rows = math.ceil(len(panels) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 5.0 * rows), squeeze=False, sharex=True, sharey=True)
+    # 3 panels of 3.8 in at 100 dpi: 1140 px, the report's width, so 9 pt text shows at 12 px
+    fig, axes = plt.subplots(rows, cols, figsize=(3.8 * cols, 4.6 * rows), squeeze=False, sharex=True, sharey=True)
     finite = [p for p in points if math.isfinite(p.omega1_error) and math.isfinite(p.time_s)]
     peer = sorted((p for p in finite if p.family == PEER), key=lambda p: p.time_s)
     markers = "osD^v<>"
@@ -106,11 +109,11 @@ def plot_work_precision(points, path: Path, title: str) -> Path:
         ax.tick_params(labelsize=9, labelbottom=True, labelleft=True)
         ax.set_xlabel("median wall time [ms]", fontsize=9)
         ax.set_ylabel("max |omega1 error| [rad/s]", fontsize=9)
-        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1, frameon=False)
+        ax.legend(fontsize=9, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=1, frameon=False)
     for ax in list(axes.flat)[len(panels):]:
         ax.set_visible(False)
-    fig.suptitle(f"{title}\nbars: fastest to slowest run; hollow: communication steps coarser than the output grid "
-                 "(not in the verdicts)", fontsize=11)
+    fig.suptitle(f"{title}\nbars: fastest to slowest run; hollow: steps coarser than the output grid "
+                 "(not in the verdicts)", fontsize=10)
     fig.tight_layout()
     save_figure(fig, path, dpi=100)
     plt.close(fig)
