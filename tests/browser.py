@@ -19,14 +19,52 @@ def chromium() -> str:
     raise AssertionError("no headless Chromium on the PATH: make test installs Debian's chromium (apt-get, as root)")
 
 
-def loaded_dom(page: Path, tmp_path: Path) -> str:
-    """The DOM of ``page`` once loaded (images included), from a fresh browser profile."""
+def _chromium(page: Path, tmp_path: Path, *args: str, width: int = 1280, height: int = 2000) -> subprocess.CompletedProcess:
     run = subprocess.run([chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--allow-file-access-from-files",
                           f"--user-data-dir={tmp_path / 'chromium-profile'}", "--virtual-time-budget=20000",
-                          "--window-size=1280,2000", "--dump-dom", page.resolve().as_uri()],
+                          f"--window-size={width},{height}", *args, page.resolve().as_uri()],
                          capture_output=True, text=True, timeout=180)
     assert run.returncode == 0, run.stderr[-2000:]
-    return run.stdout
+    return run
+
+
+def loaded_dom(page: Path, tmp_path: Path, width: int = 1280) -> str:
+    """The DOM of ``page`` once loaded (images included), from a fresh browser profile, in a
+    window ``width`` px wide."""
+    return _chromium(page, tmp_path, "--dump-dom", width=width).stdout
+
+
+def page_width(page: Path, tmp_path: Path, width: int = 390) -> int:
+    """``page``'s laid-out width in px in a viewport ``width`` px wide (a phone's: 390), as its own
+    check writes it (``data-page-width``); wider than the viewport means the reader scrolls the
+    whole page sideways. Headless Chromium's window is at least 500 px wide, so the page is loaded
+    in an iframe of that width inside a wrapper page beside it."""
+    wrapper = page.parent / f".width-{width}-{page.stem}.html"
+    wrapper.write_text(
+        f'<!DOCTYPE html><html><body style="margin:0"><iframe id="f" src="{page.name}" width="{width}" '
+        'height="2000" style="border:0"></iframe><script>addEventListener("load", () => {'
+        'const b = document.getElementById("f").contentDocument.body;'
+        'document.body.dataset.inner = b.dataset.pageWidth || "";});</script></body></html>')
+    try:
+        dom = _chromium(wrapper, tmp_path, "--dump-dom", width=800).stdout
+    finally:
+        wrapper.unlink()
+    found = re.search(r'data-inner="(\d+)"', dom)
+    assert found, "the page's check did not run in the iframe (no data-page-width on its <body>)"
+    return int(found.group(1))
+
+
+def screenshot(page: Path, png: Path, tmp_path: Path, width: int = 1400, height: int = 2400) -> Path:
+    """What a reader sees of ``page``'s top in a window ``width`` px wide."""
+    _chromium(page, tmp_path, f"--screenshot={png}", "--hide-scrollbars", width=width, height=height)
+    return png
+
+
+def pdf_pages(page: Path, tmp_path: Path) -> int:
+    """How many A4 pages ``page`` prints to in headless Chromium."""
+    pdf = tmp_path / f"{page.stem}.pdf"
+    _chromium(page, tmp_path, f"--print-to-pdf={pdf}", "--no-pdf-header-footer")
+    return len(re.findall(rb"/Type\s*/Page(?![s\w])", pdf.read_bytes()))
 
 
 def image_report(dom: str) -> tuple[int, list[str]]:

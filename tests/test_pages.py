@@ -11,9 +11,10 @@ import sys
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from browser import image_report, loaded_dom, unresolved_links
+from browser import image_report, loaded_dom, page_width, pdf_pages, screenshot, unresolved_links
 from crankfmu.pages.markup import markdown, slug
 from crankfmu.pages.mathml import math, symbol
 
@@ -136,6 +137,31 @@ def test_validation_report_html_loads_in_chromium(results, tmp_path):
     loaded, broken = image_report(loaded_dom(report, tmp_path))
     assert broken == [] and loaded >= 1
     assert unresolved_links(report) == []
+
+
+def test_validation_report_reads_at_a_glance(results, tmp_path):
+    """The report a person reads: the verdict counts and the summary table first, the data file's
+    section after, plots folded; no wider than a phone's screen at 390 px (its tables scroll
+    inside the page); a short print; and a screenshot at 1400 px that shows it (kept beside the
+    test's output for a reviewer)."""
+    report = results / "validation" / "report.html"
+    text = report.read_text()
+    assert text.index("<h2 id=\"summary\">") < text.index("<h2 id=\"seed002\">")
+    assert "<details>" in text and "<summary>" in text and '<div class="scroll">' in text
+    assert page_width(report, tmp_path, 390) <= 390
+    pages = pdf_pages(report, tmp_path)
+    assert 1 <= pages <= 8, pages               # one FMU's report; make validate's (every FMU) is about 30
+    png = screenshot(report, tmp_path / "report_1400.png", tmp_path)
+    from PIL import Image
+    with Image.open(png) as image:
+        assert image.size == (1400, 2400)
+        # the top of the report is not blank: the summary is in view
+        assert np.unique(np.asarray(image.convert("L").crop((0, 0, 1400, 600)))).size > 20
+
+
+def test_results_page_fits_a_phone(results, tmp_path):
+    page = results / "index.html"
+    assert page_width(page, tmp_path, 390) <= 390
 
 
 def test_a_missing_figure_is_shown_as_missing(results, tmp_path):

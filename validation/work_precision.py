@@ -216,19 +216,32 @@ def fastest(points: list[Point], target: float) -> tuple[Point | None, Point | N
 
 
 def verdict(points: list[Point], target: float) -> str:
-    """What this run says of the fastest method at ``target`` rad/s, claiming a winner only where
-    its slowest run beats the runner-up's fastest (the spread of both measured here)."""
-    best, second = fastest(points, target)
-    if best is None:
+    """What this run says of the fastest method at ``target`` rad/s on the output grid: a method is
+    ahead of another only where its slowest run beats the other's fastest (the spread of both
+    measured here); methods whose runs overlap the fastest one's are named as tied with it."""
+    reaching = sorted((p for p in points if _reaches(p, target)), key=lambda p: p.time_s)
+    best_of = {}
+    for p in reaching:
+        best_of.setdefault(method_of(p.family), p)
+    ranked = list(best_of.values())
+    if not ranked:
         return f"At {target:g} rad/s: no method reached it on the output grid in this run."
 
     def said(p):
-        return (f"{p.family} ({p.setting}, {p.time_s * 1e3:.3g} ms, runs {p.time_min * 1e3:.3g} to "
+        return (f"{method_of(p.family)} ({p.setting}, {p.time_s * 1e3:.3g} ms, runs {p.time_min * 1e3:.3g} to "
                 f"{p.time_max * 1e3:.3g} ms)")
-    if second is None:
+    best, others = ranked[0], ranked[1:]
+    if not others:
         return f"At {target:g} rad/s: only {said(best)} reached it."
-    if best.time_max < second.time_min:
-        return (f"At {target:g} rad/s the fastest is **{method_of(best.family)}**: {said(best)}, {second.time_s / best.time_s:.3g} "
-                f"times faster than the next method, {said(second)}.")
-    return (f"At {target:g} rad/s no method is the fastest beyond the spread of the runs: {said(best)} and "
-            f"{said(second)} overlap.")
+    tied = [p for p in others if p.time_min <= best.time_max]
+    ahead = [p for p in others if p.time_min > best.time_max]
+    if tied:
+        text = (f"At {target:g} rad/s the fastest are **{' and '.join(method_of(p.family) for p in [best, *tied])}**, "
+                f"whose runs overlap: " + "; ".join(said(p) for p in [best, *tied]) + ".")
+    else:
+        text = f"At {target:g} rad/s the fastest is **{method_of(best.family)}**: {said(best)}."
+    if ahead:
+        nxt = ahead[0]
+        text += (f" The next method, {said(nxt)}, takes {nxt.time_s / best.time_s:.3g} times as long, beyond the "
+                 "spread of both.")
+    return text

@@ -5,7 +5,8 @@ The results page (``crankfmu page``), the validation report's ``report.html`` an
 ``documentation/index.html`` are self-contained files: no script, font or style from the network.
 Each carries one inline script that marks, when the page has loaded, every image the browser could
 not show (``data-broken-images`` on ``<body>``, and a visible line at the top), so a reader sees a
-missing figure and a test in headless Chromium reads it from the page.
+missing figure and a test in headless Chromium reads it from the page; it also writes the page's
+laid-out width (``data-page-width``), so a test sees a page wider than a phone's screen.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ figure { margin: 1.2em 0; } figcaption { font-size: 0.92em; color: #333; max-wid
 .note { color: #555; font-size: 0.92em; }
 .broken { background: #fdd; padding: 0.4em; }
 .verdict-agrees { color: #176117; font-weight: bold; } .verdict-disagrees { color: #9a4b00; font-weight: bold; }
+.verdict-fitted { color: #555; font-weight: bold; } .verdict-changed { color: #b00; font-weight: bold; }
 nav ul { columns: 2; } nav li { break-inside: avoid; }
 @media (max-width: 600px) { nav ul { columns: 1; } }
 math { font-size: 1.1em; } .equation { margin: 0.6em 0 0.6em 1.5em; }
@@ -40,6 +42,7 @@ addEventListener("load", () => {
   const broken = [...document.images].filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.getAttribute("src"));
   document.body.dataset.brokenImages = broken.join(" ");
   document.body.dataset.loadedImages = String(document.images.length - broken.length);
+  document.body.dataset.pageWidth = String(document.documentElement.scrollWidth);
   if (broken.length) {
     const p = document.createElement("p");
     p.className = "broken";

@@ -261,11 +261,15 @@ def write_page(root, validation=None, out=None) -> Path:
     body += [_group_html(groups[n], checks) for n in order]
     if checks:
         body.append('<h2 id="validation">Validation</h2><table><tr><th>FMU</th><th>build</th><th>kind</th>'
-                    "<th>interfaces</th><th>data file</th><th>passed</th><th>failed</th><th>skipped</th></tr>")
+                    "<th>interfaces</th><th>data file</th><th>passed</th><th>failed</th><th>disagree</th><th>fitted</th>"
+                    "<th>skipped</th></tr>")
         body += [f"<tr><td>{html.escape(f['name'])}.fmu</td><td>{html.escape(f['build'])}</td><td>{html.escape(f['kind'])}</td>"
                  f"<td>{html.escape(', '.join(f['interfaces']))}</td><td><code>{html.escape(f['data'])}</code></td>"
-                 f"<td>{f['passed']}</td><td>{f['failed']}</td><td>{f['skipped']}</td></tr>" for f in checks["fmus"]]
+                 f"<td>{f['passed']}</td><td>{f['failed']}</td><td>{f.get('disagrees', 0)}</td><td>{f.get('fitted', 0)}</td>"
+                 f"<td>{f['skipped']}</td></tr>" for f in checks["fmus"]]
         body.append(f'</table><p><a href="{html.escape(report)}">The whole validation report</a>; made with '
                     f'{html.escape("; ".join(checks.get("versions", [])))}.</p>')
-    write_text(out, page("crankfmu results", "\n".join(body)).decode())
+    # every table scrolls sideways inside the page on a phone, rather than widening the page
+    text = "\n".join(body).replace("<table>", '<div class="scroll"><table>').replace("</table>", "</table></div>")
+    write_text(out, page("crankfmu results", text).decode())
     return out
