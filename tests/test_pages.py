@@ -97,10 +97,13 @@ def test_every_figure_is_on_the_page_with_its_caption(results):
         assert f'<img src="{f}"' in page, f
     # each figure says what it is: the equilibrium figure's caption comes from its PNG
     assert "with the links' inertia forces and moments (curve 1)" in page
-    # and which of the paper's figures it reproduces, with the paper's title from the scenario file
-    assert "Reproduces the paper's Fig. 2: The equilibrium moment over a kinematic cycle at omega1 = 15" in page
-    assert "Reproduces the paper's Fig. 6: Point B motion graph obtained in MathCad" in page
-    assert "Reproduces the paper's Fig. 9: The acceleration a5 when l1 varies between 0.15 m and 0.3 m" in page
+    # and which of the paper's figures it is drawn as, with the paper's title from the scenario file;
+    # "reproduces" only where values of that figure are compared (seed 004's sweep claims cite Figs.
+    # 8-9; seed 001's Fig. 2 and seed 002's Fig. 6 give no value the validation compares)
+    assert "Reproduces the paper's Fig. 9: The acceleration a5 when l1 varies between 0.15 m and 0.3 m (its values" in page
+    assert "Drawn as the paper's Fig. 2: The equilibrium moment over a kinematic cycle at omega1 = 15" in page
+    assert "Reproduces the paper's Fig. 2: The equilibrium" not in page
+    assert "Drawn as the paper's Fig. 6: Point B motion graph obtained in MathCad (no value of it is compared)" in page
     # the groups are cited by authors and title
     assert "Malcoci" in page and "Classical and Modern Kinematic Analysis" in page
 
@@ -174,6 +177,34 @@ def test_a_missing_figure_is_shown_as_missing(results, tmp_path):
     loaded, broken = image_report(loaded_dom(copy / "index.html", tmp_path))
     assert (loaded, broken) == (0, ["a.png"])
     assert unresolved_links(copy / "index.html") == ["a.png", "a.png"]
+
+
+def test_a_figure_reproduces_a_papers_figure_only_where_its_values_are_compared():
+    from crankfmu.pages.results import Figure, compared_figures, reproduces
+    from crankfmu.scenario import load_scenario
+
+    assert compared_figures(load_scenario("seed000").data) == {"Fig. 4"}          # settled_in_cycle_4
+    assert compared_figures(load_scenario("seed002").data) == {"Fig. 2", "Fig. 5"}
+    assert compared_figures(load_scenario("seed003").data) == {"Fig. 3", "Fig. 6", "Fig. 7"}
+    assert compared_figures(load_scenario("pumpjack").data) == set()               # there is no paper
+    figure = Figure(Path("a.png"), "omega1", "as the paper's Figs. 3-4 draw it", "seed000")
+    titles = load_scenario("seed000").data["paper_figures"]
+    assert [c for _, c in reproduces(figure, titles, {"Fig. 4"})] == [False, True]
+
+
+def test_a_runs_caption_says_what_its_data_shows(tmp_path):
+    """seed 000 starts at 0.1 rad/s, not from rest, and settles; a run too short to settle says so."""
+    import crankfmu
+    from crankfmu.plots import run_story, settled_story
+
+    settled = crankfmu.simulate(crankfmu.load_scenario("seed000"), method="fast")
+    said = run_story(settled, 5)
+    assert said.startswith("From omega1 = 0.1 rad/s, the crank settles into a periodic cycle") and "rest" not in said
+    assert settled_story(settled, 4).startswith("The motion has settled")
+    rest = crankfmu.simulate(crankfmu.load_scenario("seed000").with_params(omega1_start=0.0), t_end=0.3,
+                             method="fast")
+    said = run_story(rest, 2)
+    assert said.startswith("From rest") and ("not settled" in said or "ends before" in said)
 
 
 def test_page_refuses_a_folder_that_is_not_there(tmp_path):

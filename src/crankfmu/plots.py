@@ -52,6 +52,44 @@ def turn_axis(ax, xlabel: str = "crank angle phi1 [deg]"):
 # --------------------------------------------------------------------------------------------
 # a run (crankfmu simulate) and the scheme study
 
+#: a cycle has settled when its mean speed differs from the next one's by less than this (relative)
+SETTLED = 1e-3
+
+
+def _cycle_change(result, k: int) -> float:
+    """|mean speed of turn k+1 - of turn k| / of turn k+1, NaN where the run has no turn k+1."""
+    try:
+        a, b = result.cycle_stats(k)["omega1_mean"], result.cycle_stats(k + 1)["omega1_mean"]
+    except Exception:  # noqa: BLE001 - the run ends before turn k+1: no statement can be made
+        return math.nan
+    return abs(b - a) / abs(b)
+
+
+def run_story(result, cycles: int) -> str:
+    """What the run does, read from its own data: where it starts (from rest or at a speed) and
+    whether it has settled by the end of the turns drawn (SETTLED)."""
+    w0 = float(result.omega1[0])
+    start = "From rest" if w0 == 0.0 else f"From omega1 = {w0:.4g} rad/s"
+    change = _cycle_change(result, cycles - 1) if cycles > 1 else math.nan
+    if not math.isfinite(change):
+        return f"{start}; the run ends before its turns can be compared."
+    if change < SETTLED:
+        return (f"{start}, the crank settles into a periodic cycle: turn {cycles}'s mean speed is within "
+                f"{100 * change:.2g} % of turn {cycles - 1}'s.")
+    return (f"{start}; the crank has not settled by turn {cycles}: its mean speed still changes by "
+            f"{100 * change:.2g} % from turn {cycles - 1}.")
+
+
+def settled_story(result, k: int) -> str:
+    """Whether turn ``k`` is settled, from the run: its mean speed against turn k+1's."""
+    change = _cycle_change(result, k)
+    if not math.isfinite(change):
+        return f"Whether turn {k} is settled cannot be told: the run ends before turn {k + 1}."
+    if change < SETTLED:
+        return f"The motion has settled: turn {k + 1}'s mean speed is within {100 * change:.2g} % of this turn's."
+    return f"The motion has not settled: turn {k + 1}'s mean speed differs by {100 * change:.2g} %."
+
+
 def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[Path]:
     """Fig. 3 (omega1 over the first cycles) and Fig. 4 (omega1 over one settled cycle)."""
     plt = pyplot()
@@ -74,10 +112,11 @@ def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[
     ax2.set_ylabel("omega1 [rad/s]")
     ax2.grid(alpha=0.3)
     p = out_dir / "omega1_cycles.png"
+    figures = dict(result.scenario.data.get("run_figures", {}))
+    as_paper = f", as the paper's {figures['cycles']} draws it" if figures.get("cycles") else ""
     save_figure(fig, p, dpi=120, scenario=result.scenario.name,
-                caption=f"The crank speed omega1 from the start over {cycles} crank turns, against the crank angle (top, "
-                        "as the paper's Fig. 3 draws it) and against time (bottom). The run-up from rest settles into a "
-                        "periodic cycle.")
+                caption=f"The crank speed omega1 from the start over {cycles} crank turns, against the crank angle (top"
+                        f"{as_paper}) and against time (bottom). {run_story(result, cycles)}")
     plt.close(fig)
     paths.append(p)
 
@@ -96,8 +135,10 @@ def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[
     legend_outside(ax)
     p = out_dir / f"omega1_cycle{summary_cycle}.png"
     save_figure(fig, p, dpi=120, scenario=result.scenario.name,
-                caption=f"The crank speed over turn {summary_cycle}, when the motion has settled (the paper's Fig. 4): "
-                        "its extremes and the coefficient of speed fluctuation delta = (max - min) / mean.")
+                caption=f"The crank speed over turn {summary_cycle}"
+                        + (f" (the paper's {figures['settled']})" if figures.get("settled") else "")
+                        + f": its extremes and the coefficient of speed fluctuation delta = (max - min) / mean. "
+                          f"{settled_story(result, summary_cycle)}")
     plt.close(fig)
     paths.append(p)
     return paths

@@ -43,6 +43,7 @@ class Group:
     title: str = ""
     citation: str = ""
     paper_figures: dict = field(default_factory=dict)
+    compared: set = field(default_factory=set)          # the paper's figures whose values are compared
     figures: list = field(default_factory=list)
     references: list = field(default_factory=list)      # (folder, the summary's reference table)
     claims: list = field(default_factory=list)          # (folder, a sweep's claims.json: the paper's claims checked)
@@ -96,22 +97,45 @@ def _describe(group: Group) -> None:
         group.title = getattr(data, "title", "") or raw.get("title", "")
         group.citation = raw.get("citation", "")
         group.paper_figures = dict(raw.get("paper_figures", {}))
+        group.compared = compared_figures(raw)
         return
 
 
 _CITES = re.compile(r"Figs?\.\s*(\d+)[a-z]?(?:\s*-\s*(\d+))?")
 
 
-def reproduces(figure: Figure, paper_figures: dict) -> list[str]:
-    """The paper's figures this one cites in its title or caption ("Fig. 6", "Figs. 5-6"), each with
-    the paper's title for it, where the scenario file gives one."""
-    out = []
-    for m in _CITES.finditer(f"{figure.title} {figure.caption}"):
+def _figures_in(text: str) -> set[str]:
+    """Every "Fig. N" a text cites ("Figs. 2-5" is four)."""
+    found = set()
+    for m in _CITES.finditer(str(text)):
         first, last = int(m.group(1)), int(m.group(2) or m.group(1))
-        for n in range(first, min(last, first + 12) + 1):
-            key = f"Fig. {n}"
-            if key in paper_figures and key not in [o.split(":")[0] for o in out]:
-                out.append(f"{key}: {paper_figures[key]}")
+        found.update(f"Fig. {n}" for n in range(first, min(last, first + 12) + 1))
+    return found
+
+
+def compared_figures(raw: dict) -> set[str]:
+    """The paper's figures whose values the validation compares with crankfmu's: those the sources
+    of the data file's [[paper]] numbers cite, those its sweep claims cite ([[kinematics.claims]]),
+    and [kinematics] paper_figures (where its graphical values are read)."""
+    found = set()
+    for entry in raw.get("paper", []):
+        found |= _figures_in(entry.get("source", ""))
+    kinematics = raw.get("kinematics", {})
+    for claim in kinematics.get("claims", []):
+        found |= _figures_in(claim.get("text", ""))
+    for fig in kinematics.get("paper_figures", []):
+        found |= _figures_in(fig)
+    return found
+
+
+def reproduces(figure: Figure, paper_figures: dict, compared: set | None = None) -> list[tuple[str, bool]]:
+    """The paper's figures this one cites in its title or caption ("Fig. 6", "Figs. 5-6"), each
+    with the paper's title for it where the scenario file gives one, and whether values of that
+    figure are compared (``compared``): only then does the page say the figure reproduces it."""
+    out = []
+    for key in sorted(_figures_in(f"{figure.title} {figure.caption}"), key=lambda k: int(k.split()[1])):
+        if key in paper_figures:
+            out.append((f"{key}: {paper_figures[key]}", key in (compared or set())))
     return out
 
 
@@ -219,9 +243,11 @@ def _group_html(g: Group, checks: dict) -> str:
     for f in g.figures:
         src = html.escape(f.path.as_posix())
         alt = html.escape(f.title or f.path.name)
-        cites = reproduces(f, g.paper_figures)
+        cites = reproduces(f, g.paper_figures, g.compared)
         caption = html.escape(f.caption or f.title or f.path.name)
-        more = "".join(f"<br>Reproduces the paper's {html.escape(c)}." for c in cites)
+        more = "".join(f"<br>Reproduces the paper's {html.escape(c)} (its values are compared in the validation)."
+                       if compared else f"<br>Drawn as the paper's {html.escape(c)} (no value of it is compared)."
+                       for c, compared in cites)
         parts.append(f'<figure><a href="{src}"><img src="{src}" alt="{alt}"></a>'
                      f"<figcaption><code>{src}</code>: {caption}{more}</figcaption></figure>")
     return "\n".join(parts)
