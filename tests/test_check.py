@@ -49,7 +49,8 @@ def user_copy(tmp_path, mechanism_edit=None, scenario_edit=None) -> Path:
 
 BAD_FILES = {
     # name: (mechanism edit, scenario edit, exit status, message pattern, line named)
-    "missing section": (("[unknowns]\n", "[unknown]\n"), None, 2, "missing section 'unknowns'", None),
+    "misspelt section": (("[unknowns]\n", "[unknown]\n"), None, 2,
+                         "unknown key 'unknown' in the top level \\(did you mean unknowns\\?\\)", "sixbar.toml, line 9"),
     "unknown unknown": (("lAP*u(phi2 + beta) + l4*u(phi4)", "lAP*u(phi2 + beta) + l4*u(phi9)"), None, 1,
                         "contour O-A-P-D-O: unknown name\\(s\\) phi9", "sixbar.toml, line 24"),
     "syntax error": (('B = "A + l2*u(phi2)"', 'B = "A + l2*u(phi2"'), None, 2,
@@ -58,8 +59,8 @@ BAD_FILES = {
                        "Attribute is not allowed in 'm2.__class__'", None),
     "chain does not close": (("- xD*u(0) - yD*u(pi/2)", "- xD*u(0) - 3*yD*u(pi/2)"), None, 1,
                              "cannot be assembled over the whole crank turn.*Newton's method did not converge", None),
-    "too few contours": (("[[contours]]\nname = \"O-A-P-D-O\"", "[[nocontours]]\nname = \"O-A-P-D-O\""), None, 2,
-                         "1 contour\\(s\\) give 2 equations for 4 unknowns", None),
+    "misspelt array of tables": (("[[contours]]\nname = \"O-A-P-D-O\"", "[[nocontours]]\nname = \"O-A-P-D-O\""), None,
+                                 2, "unknown key 'nocontours' in the top level \\(did you mean contours\\?\\)", None),
     "too many contours": (("[points]\n", "[[contours]]\nname = \"again\"\nequation = \"l1*u(phi1) + l2*u(phi2) + l3*u(phi3) - l0*u(0)\"\n\n[points]\n"),
                           None, 2, "3 contour\\(s\\) give 6 equations for 4 unknowns", None),
     "branch never assembles": (None, ('l3 = { value = 0.4,', 'l3 = { value = 0.1,'), 1,

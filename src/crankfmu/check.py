@@ -235,16 +235,55 @@ def check_scenario(source) -> Report:
         return report
     masses = {l.name: (l.mass, l.inertia) for l in model.reduced.links}
     report.add("OK", "masses and inertias >= 0: " + ", ".join(f"{n} {m:g} kg {i:g} kg.m2" for n, (m, i) in masses.items()))
-    J = model.reduced.coefficients(np.linspace(0.0, 2 * math.pi, 721))[0]
+    with np.errstate(all="ignore"):         # a load that is not finite is named below, not warned of here
+        J = model.reduced.coefficients(np.linspace(0.0, 2 * math.pi, 721))[0]
     report.add("OK", f"J_red from {np.min(J):.6g} to {np.max(J):.6g} kg.m2 over the turn (> 0)")
     report.add("OK", f"{len(model.reduced.loads)} loads, {len(quantities)} mechanism-specific outputs"
                + (f" ({', '.join(q.name for q in quantities)})" if quantities else ""))
     for port in model.reduced.ports:
         report.add("OK", f"{port.input_description}; input {port.input_name}, outputs "
                    + ", ".join(q.name for q in port.quantities))
+    if not loads_finite(report, model, path):
+        return report
     fmu_declarations(report, source, scenario, path)
     native_tables_check(report, scenario, path)
     return report
+
+
+#: the angles where each load expression is evaluated by check: every 0.1 deg, the crank's dead
+#: centres (0, 90, 180, 270 deg) among them
+FINITE_GRID = np.linspace(0.0, 2 * math.pi, 3601)
+
+
+def loads_finite(report: Report, model, path) -> bool:
+    """Each expression of each user load ([[loads]] force or couple) finite over the turn: one that
+    is not (1/sin(phi1) at 0 deg, 1e308*1e308*0) is named with its value and the first angle, not
+    left for the tabulator to misread as a steep function."""
+    from .dynamics.user_loads import ExpressionLoad, position_env
+
+    kin = model.mechanism.kinematics(FINITE_GRID)
+    env = None
+    bad = []
+    for number, load in enumerate(model.reduced.loads, start=1):
+        if not isinstance(load, ExpressionLoad):
+            continue
+        env = env or position_env(load.mechanism, kin)
+        sides = [("", load.increasing)] + ([("decreasing.", load.decreasing)] if load.decreasing else [])
+        if load.decreasing:
+            sides[0] = ("increasing.", load.increasing)
+        for prefix, exprs in sides:
+            for key, expr in exprs.items():
+                with np.errstate(all="ignore"):
+                    values = np.broadcast_to(np.asarray(expr.evaluate(env), dtype=float), FINITE_GRID.shape)
+                wrong = np.flatnonzero(~np.isfinite(values))
+                if wrong.size:
+                    i = int(wrong[0])
+                    bad.append(f"a load on {load.link}: {prefix}{key} = {expr.source!r} is not finite ({values[i]:g}) at "
+                               f"phi1 = {math.degrees(FINITE_GRID[i]):.2f} deg"
+                               + (f" and {wrong.size - 1} more of the 3601 angles checked" if wrong.size > 1 else ""))
+    for text in bad:
+        report.add("FAIL", text + ": a load must be a finite number at every crank angle", locate(path, text))
+    return not bad
 
 
 def native_tables_check(report: Report, scenario, path):

@@ -39,7 +39,12 @@ def read_toml(name_or_path, folder, kind: str, not_found=DefinitionError) -> tup
             return json.loads((folder / f"{name_or_path}.json").read_text(encoding="utf-8")), where, origin
     if tomllib is None:
         raise DefinitionError(f"{where}: reading a .toml file needs Python 3.11 or newer")
-    return _parsed(text, where), where, origin
+    data = _parsed(text, where)
+    # every key must be one the file's kind knows: a misspelt one is named, never ignored
+    from .schema import SCHEMAS, check_keys
+    if kind in SCHEMAS:
+        check_keys(data, kind, text, where)
+    return data, where, origin
 
 
 #: text -> the parsed file, pickled: a data file read again in the same process (a sweep, an FMU's

@@ -44,16 +44,41 @@ _ALLOWED = (
 )
 
 
+#: an expression's size: a data file's expression is a line or two; far longer text is an error, and
+#: these bounds keep parsing and evaluating it within milliseconds and kilobytes
+MAX_LENGTH = 2000       # characters
+MAX_NODES = 1000        # operations, names and numbers
+
+
+class _FloatNumbers(ast.NodeTransformer):
+    """Every number as a float: arithmetic in IEEE doubles, as the C model computes it, so a power
+    such as 9**9**9**9 overflows at once instead of building an integer of 370 million digits."""
+
+    def visit_Constant(self, node):
+        if isinstance(node.value, int) and not isinstance(node.value, bool):
+            return ast.copy_location(ast.Constant(float(node.value)), node)
+        return node
+
+
 def parse(source: str, where: str = "expression") -> ast.Expression:
-    """Parse ``source`` and reject anything that is not plain arithmetic."""
+    """Parse ``source`` and reject anything that is not plain arithmetic of bounded size; its
+    numbers become floats (_FloatNumbers)."""
     if isinstance(source, (int, float)):
         source = repr(float(source))
     if not isinstance(source, str):
         raise DefinitionError(f"{where}: expected a number or an expression string, got {source!r}")
+    if len(source) > MAX_LENGTH:
+        raise DefinitionError(f"{where}: the expression is {len(source)} characters long; at most {MAX_LENGTH} "
+                              "are accepted")
     try:
         tree = ast.parse(source.strip(), mode="eval")
     except SyntaxError as exc:
         raise DefinitionError(f"{where}: cannot parse {source!r}: {exc.msg}") from None
+    except (RecursionError, MemoryError):
+        raise DefinitionError(f"{where}: the expression is nested too deeply to read: {source[:60]!r}...") from None
+    nodes = sum(1 for _ in ast.walk(tree))
+    if nodes > MAX_NODES:
+        raise DefinitionError(f"{where}: the expression has {nodes} terms; at most {MAX_NODES} are accepted")
     for node in ast.walk(tree):
         if not isinstance(node, _ALLOWED):
             raise DefinitionError(f"{where}: {type(node).__name__} is not allowed in {source!r}")
@@ -62,7 +87,7 @@ def parse(source: str, where: str = "expression") -> ast.Expression:
         if isinstance(node, ast.Call):
             if not isinstance(node.func, ast.Name) or node.keywords:
                 raise DefinitionError(f"{where}: only plain calls like sin(x) are allowed in {source!r}")
-    return tree
+    return ast.fix_missing_locations(_FloatNumbers().visit(tree))
 
 
 def free_names(tree: ast.AST) -> set[str]:
@@ -122,7 +147,11 @@ class Expression:
             raise DefinitionError(
                 f"{self.where}: {self.source!r} uses undefined name(s) {', '.join(sorted(missing))}"
             ) from None
-        return eval(self._code, self._globals, scope)  # noqa: S307 - tree checked in parse()
+        try:
+            return eval(self._code, self._globals, scope)  # noqa: S307 - tree checked in parse()
+        except OverflowError:
+            raise DefinitionError(f"{self.where}: {self.source!r} overflows: its value is beyond the largest "
+                                  "floating-point number (1.8e308)") from None
 
     def __repr__(self) -> str:
         return f"Expression({self.source!r})"

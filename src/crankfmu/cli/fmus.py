@@ -18,6 +18,13 @@ def cmd_check(args) -> int:
     return report.status
 
 
+def cmd_schema(args) -> int:
+    from ..schema import schema_json
+
+    print(schema_json(args.kind))
+    return 0
+
+
 def cmd_fmu(args) -> int:
     if args.drive + args.cushion + args.well > 1:
         raise CrankfmuError("--drive, --cushion and --well: give one (what kind of file SCENARIO is)")

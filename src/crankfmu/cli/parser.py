@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from ..integrators import METHODS
-from .fmus import cmd_check, cmd_fmu, cmd_ssp
+from .fmus import cmd_check, cmd_fmu, cmd_schema, cmd_ssp
 from .pictures import cmd_animate, cmd_draw, cmd_page
 from .studies import cmd_equilibrium, cmd_flywheel, cmd_kinematics, cmd_schemes, cmd_simulate, cmd_sweep, cmd_well
 
@@ -149,6 +149,12 @@ def build_parser() -> argparse.ArgumentParser:
                                       "degree of freedom, Grashof, assembly, dead points, masses, J_red (exit 0/1/2)")
     p.add_argument("scenario", help="packaged scenario name or path to a .toml scenario file")
     p.set_defaults(func=cmd_check)
+
+    from ..schema import SCHEMAS
+    p = sub.add_parser("schema", help="print the JSON Schema of a data file kind, for an editor that validates and "
+                                       "completes TOML against it (docs/your-mechanism.md)")
+    p.add_argument("kind", choices=list(SCHEMAS), help="the kind of data file")
+    p.set_defaults(func=cmd_schema)
 
     p = sub.add_parser("fmu", help="build the FMU (FMI 2.0 co-simulation) of a scenario: packaged, or your own "
                                     "scenario file with its mechanism file beside it")

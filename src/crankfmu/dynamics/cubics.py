@@ -49,6 +49,13 @@ def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance:
     """The message of a table that cannot be built: which function, and whether it jumps (a
     discontinuity in phi1: no number of intervals can follow it) or is steep (a dead point near)."""
     what, names = named
+    finite = np.isfinite(values)
+    if not finite.all():       # NaN or infinite: no table of any size follows it, and it is no dead point
+        row = int(np.argmin(finite.all(axis=1)))
+        name = names[row] if row < len(names) else f"function {row}"
+        k = int(np.flatnonzero(~finite[row])[0])
+        return (f"{what}: {name} is not finite ({values[row, k]:g}) at phi1 = {math.degrees(k * TWO_PI / n):.2f} deg: "
+                "an expression of the data file divides by zero or overflows there (crankfmu check names it)")
     row = int(np.argmax(errors))
     name = names[row] if row < len(names) else f"function {row}"
     steps = np.abs(np.diff(np.append(values[row], values[row, 0])))

@@ -53,7 +53,7 @@ RUNTIME = ("__init__.py", "cache.py", "contract.py", "errors.py", "expressions.p
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "native",
            "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/speed.py", "fmi/drive.py", "fmi/cushion.py",
-           "fmi/rodstring.py", "parameters.py", "datafiles.py", "drives", "elements", "wells")
+           "fmi/rodstring.py", "parameters.py", "datafiles.py", "schema.py", "drives", "elements", "wells")
 
 
 #: the package's folders of data files: an FMU carries only the files it reads (Source.data)
