@@ -147,3 +147,25 @@ def test_an_output_path_that_cannot_be_written_is_refused_before_any_work(comman
     assert code != 0 and len(err.splitlines()) == 1, err
     assert "is a file, not a folder" in err and "a_file" in err
     assert blocker.read_text() == "not a folder" and sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+@pytest.mark.parametrize("command", [
+    ["simulate", "seed000", "--out"],
+    ["sweep", "seed004", "--param", "e=0.3:0.45:2", "--out"],
+    ["validate", "--fmu", "build/fmus/FourBar.fmu", "--out"],
+])
+def test_an_output_folder_the_system_refuses_is_refused_before_any_work(command, capsys, monkeypatch):
+    """/proc/x: access() tells root it may write in /proc, but nothing can be made there; a file
+    made and removed in the nearest existing folder finds that out before any model is built (the
+    simulation used to run for 2.5 s and then fail with FileNotFoundError)."""
+    from crankfmu.scenario import Scenario
+    from crankfmu.validation import harness
+
+    def computed(*args, **kwargs):
+        raise AssertionError("the computation started before the output path was checked")
+    monkeypatch.setattr(Scenario, "build", computed)
+    monkeypatch.setattr(harness, "validate", computed)
+    code = main([*command, "/proc/crankfmu-test/x"])
+    err = capsys.readouterr().err.strip()
+    assert code != 0 and len(err.splitlines()) == 1, err
+    assert "--out /proc/crankfmu-test/x: cannot write in /proc" in err

@@ -56,3 +56,24 @@ def test_the_guides_example_becomes_a_validated_fmu(files, tmp_path, capsys, fmu
     out = capsys.readouterr().out
     assert status == 0, out
     assert re.search(r"\d+ passed, 0 failed", out)
+
+
+def test_check_gives_the_bound_of_a_length_the_file_sets_too_short(files, tmp_path):
+    """The guide promises the parameter's bound: with l = 0.1 m written into the press file (not
+    given with --set), check names where assembly fails and the bound l must respect."""
+    edited = tmp_path / "press_scenario.toml"
+    text = (files / "press_scenario.toml").read_text()
+    edited.write_text(text.replace('l = { value = 0.35,', 'l = { value = 0.1,'))
+    (tmp_path / "press.toml").write_text((files / "press.toml").read_text())
+    report = check_scenario(str(edited))
+    said = report.text()
+    assert report.status == 1
+    bound = re.search(r"the crank turns fully only for .*\bl > ([0-9.]+) m \(the file gives 0.1\)", said)
+    assert bound, said
+    # the bound is where assembly starts: just above it the press turns fully, just below it does not
+    from crankfmu.scenario import load_scenario
+
+    value = float(bound.group(1))
+    load_scenario(str(edited)).with_params(l=value * 1.001).assembled_mechanism()
+    with pytest.raises(Exception, match="cannot be assembled"):
+        load_scenario(str(edited)).with_params(l=value * 0.999).assembled_mechanism()

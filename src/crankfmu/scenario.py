@@ -24,7 +24,7 @@ from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation
 from .dynamics.equation import STATE_SIZE
 from .dynamics.user_loads import parse_user_load
 from .datafiles import packaged, read_toml
-from .errors import AssemblyError, DefinitionError, ParameterError, ScenarioNotFound
+from .errors import AssemblyError, CrankfmuError, DefinitionError, ParameterError, ScenarioNotFound
 from .expressions import Expression, evaluate
 from .mechanisms import Mechanism, MechanismDefinition, load_mechanism
 from .parameters import Experiment, Parameter, parse_parameters  # noqa: F401 (Parameter: the scenario's API)
@@ -291,23 +291,34 @@ class Scenario:
         return value
 
     def _explain_assembly(self, exc: AssemblyError, definition: MechanismDefinition) -> AssemblyError:
-        """Add, for each geometry parameter the user changed, the bound it must respect."""
+        """Add the bound each geometry parameter must respect for the crank to turn fully, the
+        others as given: for the parameters the user changed (--set) against the file's value; for
+        a file's own values, for every geometry parameter whose change alone within a factor of
+        ten makes the mechanism assemble."""
         changed = [p for p in definition.geometry_parameters if p in self.overrides]
+        suspects = changed or [p for p in definition.geometry_parameters if p in self.parameters]
         hints = []
-        for p in changed:
+        for p in suspects:
+            asked = self.values[p]
             bound = self._assembly_bound(p, definition)
             if bound is not None:
-                side = "<" if bound < self.overrides[p] else ">"
-                hints.append(f"with the other parameters as given the crank turns fully only for "
-                             f"{p} {side} {bound:.6g} {self.parameters[p].unit} (asked {self.overrides[p]:g})")
+                side = "<" if bound < asked else ">"
+                hints.append(f"{p} {side} {bound:.6g} {self.parameters[p].unit} "
+                             f"({'asked' if p in self.overrides else 'the file gives'} {asked:g})")
         message = str(exc)
         if hints:
-            message += "; " + "; ".join(hints)
+            each = "each with the others as given" if len(hints) > 1 else "with the other parameters as given"
+            message += (f"; {each}, the crank turns fully only for " + (", or for ".join(hints) if len(hints) < 3 else
+                        ", for ".join(hints[:-1]) + ", or for " + hints[-1]))
         return AssemblyError(message, parameter=", ".join(changed) or exc.parameter)
 
+    #: the factors a file's value is scaled by, nearest first, to find a value that assembles
+    LADDER = (1.02, 1 / 1.02, 1.1, 1 / 1.1, 1.25, 1 / 1.25, 1.6, 1 / 1.6, 2.5, 1 / 2.5, 4.0, 1 / 4.0, 10.0, 0.1)
+
     def _assembly_bound(self, name: str, definition: MechanismDefinition, iterations: int = 40):
-        """Bisect between the file's value (assembles) and the asked value (does not)."""
-        good, bad = self.parameters[name].value, self.overrides[name]
+        """Bisect between a value that assembles and the asked value (which does not): the file's
+        value where the user changed it, else the nearest of the file's value scaled by LADDER."""
+        bad = self.values[name]
 
         def assembles(v):
             try:
@@ -316,8 +327,16 @@ class Scenario:
             except (AssemblyError, DefinitionError):  # a closed form that misses the contours or jumps
                 return False                          # does not assemble either (the C model's bound: the same)
 
-        if not assembles(good):
-            return None
+        if name in self.overrides:
+            good = self.parameters[name].value
+            if not assembles(good):
+                return None
+        else:
+            valid = self.parameters[name]
+            candidates = [bad * f for f in self.LADDER]
+            good = next((v for v in candidates if self._in_range(valid, v) and assembles(v)), None)
+            if good is None:
+                return None
         for _ in range(iterations):
             mid = 0.5 * (good + bad)
             if assembles(mid):
@@ -325,6 +344,14 @@ class Scenario:
             else:
                 bad = mid
         return good
+
+    @staticmethod
+    def _in_range(parameter, value) -> bool:
+        try:
+            parameter.check(value)
+            return True
+        except CrankfmuError:
+            return False
 
 
 @dataclass

@@ -38,6 +38,17 @@ def check_output(path, is_file: bool = False) -> Path:
         raise CrankfmuError(f"--out {path}: {probe} is a file, not a folder: it cannot hold the output")
     if probe.exists() and not os.access(probe, os.W_OK | os.X_OK):
         raise CrankfmuError(f"--out {path}: no permission to write in {probe}")
+    if probe.is_dir():
+        # access() says yes to root everywhere, /proc included: a file made and removed at once is
+        # the real test of whether the folder (or one inside it) can be written
+        import tempfile
+
+        try:
+            fd, name = tempfile.mkstemp(dir=probe, prefix=".crankfmu-probe-")
+            os.close(fd)
+            os.unlink(name)
+        except OSError as exc:
+            raise CrankfmuError(f"--out {path}: cannot write in {probe}: {exc.strerror or exc}") from None
     return path
 
 

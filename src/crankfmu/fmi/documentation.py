@@ -240,9 +240,11 @@ def _experiment_text(experiment) -> str:
 
 
 def _use(name: str, native: bool) -> str:
-    me = (f"\nfmpy simulate {name}.fmu --fmi-type ModelExchange --solver CVode" if native else "")
+    me = (f"\nfmpy simulate {name}.fmu --interface-type ModelExchange --solver CVode" if native else "")
+    # each line runs as printed with fmpy alone (tests/test_documented_commands.py); fmpy's
+    # --show-plot needs plotly and a browser, so the page writes a CSV instead
     return f"""<h2>Use</h2>
-<pre>fmpy simulate {html.escape(name)}.fmu --show-plot
+<pre>fmpy simulate {html.escape(name)}.fmu --output-file {html.escape(name)}_out.csv
 fmpy simulate {html.escape(name)}.fmu --start-values J_flywheel 0.5{html.escape(me)}</pre>
 <p>A refused value (out of its valid range, not finite, a fixed parameter after initialisation) returns
 fmi2Error with one message naming the parameter and its valid range, whatever the host's logging setting;
