@@ -32,8 +32,9 @@ def _scenario_command(sub, name: str, func, help: str):
 
 
 DESCRIPTION = """Planar crank mechanisms with their motor, flywheel and loads, from first principles:
-simulate them, study them as the papers do, and build FMI 2.0 FMUs of them (Python or native)
-that the validation harness proves against an in-process reference. Each command takes a packaged
+simulate them, study them as the papers do, and build FMUs of them (Python: FMI 2.0 Co-Simulation;
+native: FMI 2.0 or 3.0, Co-Simulation and Model Exchange) that the validation harness proves against
+an in-process reference. Each command takes a packaged
 scenario name (seed000 ... seed004, pumpjack) or the path of your own scenario file;
 crankfmu COMMAND --help tells more."""
 
@@ -156,8 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("kind", choices=list(SCHEMAS), help="the kind of data file")
     p.set_defaults(func=cmd_schema)
 
-    p = sub.add_parser("fmu", help="build the FMU (FMI 2.0 co-simulation) of a scenario: packaged, or your own "
-                                    "scenario file with its mechanism file beside it")
+    p = sub.add_parser("fmu", help="build the FMU of a scenario (Python: FMI 2.0 Co-Simulation; --native: FMI 2.0 or "
+                                    "3.0, Co-Simulation and Model Exchange): packaged, or your own scenario file with "
+                                    "its mechanism file beside it")
     p.add_argument("source", metavar="SCENARIO", help="packaged scenario name (seed000) or path to a .toml scenario "
                                                       "file (with --drive: a drive file)")
     p.add_argument("--out", required=True, help="folder for NAME.fmu and its cross-check files NAME_ref.csv/.opt")
@@ -168,14 +170,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cushion", action="store_true",
                    help="SCENARIO is a cushion file (DieCushion.fmu: elements/die_cushion.toml)")
     p.add_argument("--native", action="store_true",
-                   help="a native FMU (C, linux64 and win64 binaries, no Python needed on the host); a mechanism's "
-                        "geometry, masses and loads are fixed at build time, a component's parameters are all settable")
+                   help="a native FMU (C, no Python needed on the host; Co-Simulation and Model Exchange): every "
+                        "parameter, geometry, masses, loads and gravity included, is set by the host before "
+                        "initialisation")
     p.add_argument("--fmi-version", choices=("2", "3"), default="2",
-                   help="with --native: FMI 2.0, or FMI 3.0 (binaries for x86_64 Linux and Windows and aarch64 Linux; "
-                        "a mechanism's with event mode and early return, terminals and icon)")
+                   help="with --native: FMI 2.0 (linux64, win64), or FMI 3.0 (x86_64 Linux and Windows, aarch64 "
+                        "Linux; a mechanism's with event mode and early return, terminals and icon); default 2")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="with --native and a scenario: a parameter's value the FMU is built for (SI units, "
-                        "repeatable); its geometry, masses, loads and gravity are fixed in a native FMU's tables")
+                   help="with --native and a scenario: a parameter's start value in the FMU (SI units, repeatable); "
+                        "a host may still set it before initialisation")
     p.add_argument("--causality", choices=("torque", "speed"), default=None,
                    help="what the crank takes: a torque (tau_ext, the default) or the speed omega1 (the FMU then "
                         "outputs tau_drive, the torque the drive must apply); default: the file's [crank] causality")
