@@ -75,6 +75,25 @@ def test_rp11l_example_peak_torque_within_the_published_accuracy(steady):
     assert abs(s["reference"]["peak_torque_in_lb"]["relative"]) < 0.10
 
 
+def test_each_published_number_of_the_well_carries_its_verdict(steady):
+    """As the papers' numbers do: within RP 11L's stated accuracy (the well file's
+    [unit.reference_accuracy]) a number agrees, else it disagrees; the speed the sheave is set to
+    give is fitted; the plunger stroke, for which RP 11L states no accuracy, is not comparable."""
+    from crankfmu.studies.well import comparison
+
+    *_, s = steady
+    verdicts = {k: (r["verdict"], r.get("tolerance")) for k, r in s["reference"].items()}
+    assert verdicts == {"PPRL_lb": ("agrees", 0.07), "MPRL_lb": ("agrees", 0.07),
+                        "peak_torque_in_lb": ("agrees", 0.10), "strokes_per_minute": ("fitted", None),
+                        "plunger_stroke_in": ("not comparable", None)}
+    # the verdict follows the numbers: 8 % off against a 7 % accuracy disagrees
+    from crankfmu.studies.well import LB
+
+    out = {"PPRL": 1.08 * 17558.0 * LB}
+    row = comparison(out, {"PPRL_lb": 17558.0}, {"PPRL_lb": 0.07})["PPRL_lb"]
+    assert row["verdict"] == "disagrees" and abs(row["relative"] - 0.08) < 1e-9
+
+
 def test_the_balanced_unit_has_equal_peaks_near_rp11l_counterbalance(steady):
     """The counterweights the balancing finds give equal upstroke and downstroke peak torques to
     1e-3 of the peak (its stopping rule, checked on the study's own final run), and their

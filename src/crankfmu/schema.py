@@ -148,7 +148,10 @@ WELL = table({
     "unit": table({"scenario": STRING, "strokes_per_minute": NUMBER, "counterbalance": EXPRESSION,
                    "motor": table({"rated_power": NUMBER, "rated_slip": NUMBER}),
                    "parameters": mapping(EXPRESSION),
-                   "reference": mapping(NUMBER)}),
+                   "reference": mapping(NUMBER),
+                   "reference_accuracy": mapping({"type": ["number", "string"],
+                                                  "description": "relative accuracy, or 'fitted: why' / "
+                                                                 "'not comparable: why'"})}),
 }, "a crankfmu pumping well: its rod string and its unit (RodString.fmu, crankfmu well)")
 
 #: every kind of data file, by the name the loaders and `crankfmu schema` use

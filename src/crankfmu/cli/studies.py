@@ -277,8 +277,11 @@ def cmd_well(args) -> int:
     print(f"  surface stroke {result['surface_stroke']:.4f} m, plunger stroke {result['plunger_stroke']:.4f} m "
           f"({f['plunger_stroke_in']:.2f} in)")
     if "reference" in result:
-        print(f"  {'against the published design':34s} {'published':>10s} {'crankfmu':>10s} {'difference':>10s}")
+        print(f"  {'against the published design':34s} {'published':>10s} {'crankfmu':>10s} {'difference':>10s}  verdict")
         for key, row in result["reference"].items():
-            print(f"  {key:34s} {row['published']:10.2f} {row['crankfmu']:10.2f} {100 * row['relative']:+9.1f} %")
+            bar = f" within {100 * row['tolerance']:g} %" if "tolerance" in row else ""
+            why = f" ({row['why']})" if row.get("why") else ""
+            print(f"  {key:34s} {row['published']:10.2f} {row['crankfmu']:10.2f} {100 * row['relative']:+9.1f} %  "
+                  f"{row['verdict']}{bar}{why}")
     print(f"  wrote {out}/summary.json, cards.png, torque.png" + ("" if args.no_animation else ", well.gif"))
     return 0

@@ -225,10 +225,15 @@ def _group_html(g: Group, checks: dict) -> str:
         parts.append("</table>")
     for folder, table in g.references:
         parts.append(f"<h3>Published figures beside ours (<code>{html.escape(str(folder))}/summary.json</code>)</h3>"
-                     "<table><tr><th>quantity</th><th>crankfmu</th><th>published</th><th>difference</th></tr>")
+                     "<table><tr><th>quantity</th><th>crankfmu</th><th>published</th><th>difference</th>"
+                     "<th>tolerance</th><th>verdict</th></tr>")
         for name, r in table.items():
+            tolerance = f"{100 * r['tolerance']:g} %" if isinstance(r.get("tolerance"), (int, float)) else "-"
+            verdict = str(r.get("verdict", "not comparable"))
+            why = f" ({html.escape(r['why'])})" if r.get("why") else ""
             parts.append(f"<tr><td>{html.escape(name)}</td><td>{_g(r.get('crankfmu'))}</td><td>{_g(r.get('published'))}</td>"
-                         f"<td>{100 * r.get('relative', float('nan')):+.2f} %</td></tr>")
+                         f"<td>{100 * r.get('relative', float('nan')):+.2f} %</td><td>{tolerance}</td>"
+                         f'<td class="verdict-{html.escape(verdict.split()[0])}">{html.escape(verdict)}{why}</td></tr>')
         parts.append("</table>")
     for folder, claims in g.claims:
         parts.append(f"<h3>The paper's claims about its sweeps, checked (<code>{html.escape(str(folder))}/claims.json</code>)"

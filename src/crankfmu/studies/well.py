@@ -121,7 +121,7 @@ def summary(well, cw: CoupledWell, stroke: Stroke) -> dict:
                           "plunger_stroke_in": out["plunger_stroke"] / INCH, "surface_stroke_in": out["surface_stroke"] / INCH}
     reference = well.unit.get("reference") or {}
     if reference:
-        out["reference"] = comparison(out, reference)
+        out["reference"] = comparison(out, reference, well.unit.get("reference_accuracy") or {})
     return out
 
 
@@ -130,12 +130,26 @@ REFERENCE = {"PPRL_lb": ("PPRL", LB), "MPRL_lb": ("MPRL", LB), "peak_torque_in_l
              "plunger_stroke_in": ("plunger_stroke", INCH), "strokes_per_minute": ("strokes_per_minute", 1.0)}
 
 
-def comparison(out: dict, reference: dict) -> dict:
+def comparison(out: dict, reference: dict, accuracy: dict | None = None) -> dict:
+    """Each published number beside ours, with its verdict as the papers' numbers have one: the
+    well file's [unit.reference_accuracy] gives the method's stated accuracy (relative: agrees
+    within it, else disagrees), or says in words why a number is no evidence ("fitted: ...") or
+    cannot be judged ("not comparable: ...")."""
     rows = {}
     for key, published in reference.items():
         if key not in REFERENCE:
             continue
         ours, scale = REFERENCE[key]
         value = out[ours] / scale
-        rows[key] = {"published": published, "crankfmu": value, "relative": value / published - 1.0}
+        relative = value / published - 1.0
+        row = {"published": published, "crankfmu": value, "relative": relative}
+        said = (accuracy or {}).get(key)
+        if isinstance(said, (int, float)):
+            row.update(tolerance=float(said), verdict="agrees" if abs(relative) <= said else "disagrees")
+        elif isinstance(said, str) and ":" in said:
+            verdict, why = (part.strip() for part in said.split(":", 1))
+            row.update(verdict=verdict, why=why)
+        else:
+            row.update(verdict="not comparable", why="no stated accuracy")
+        rows[key] = row
     return rows
