@@ -169,3 +169,11 @@ def test_an_output_folder_the_system_refuses_is_refused_before_any_work(command,
     err = capsys.readouterr().err.strip()
     assert code != 0 and len(err.splitlines()) == 1, err
     assert "--out /proc/crankfmu-test/x: cannot write in /proc" in err
+
+
+def test_simulate_prints_no_python_objects(tmp_path, capsys):
+    """The run's settings in words (the method, its solver, rtol, the table), not a raw dict."""
+    assert main(["simulate", "seed000", "--method", "fast", "--out", str(tmp_path)]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert "{" not in first and "'" not in first, first
+    assert first.startswith("seed000 (fast: Dormand-Prince 5(4) on the tabulated model (C kernel), rtol ")

@@ -12,6 +12,20 @@ from ..errors import CrankfmuError
 from .arguments import parse_sets
 
 
+def settings_text(settings: dict) -> str:
+    """A run's settings as a reader reads them: "fast: Dormand-Prince 5(4) on the tabulated model
+    (C kernel), rtol 1e-11, table of 4096 intervals checked to 2.2e-12", not a Python dict."""
+    parts = [f"{settings.get('method', '?')}: {settings['solver']}" if settings.get("solver") else
+             str(settings.get("method", "?"))]
+    if settings.get("rtol") is not None:
+        parts.append(f"rtol {settings['rtol']:g}")
+    if settings.get("angle_step") is not None:
+        parts.append(f"angle step {settings['angle_step']:g} rad")
+    if settings.get("table_intervals"):
+        parts.append(f"table of {settings['table_intervals']} intervals checked to {settings.get('table_error', 0):.2g}")
+    return ", ".join(parts)
+
+
 def cmd_simulate(args) -> int:
     from ..output import write_run
     from ..progress import ProgressBar
@@ -31,7 +45,7 @@ def cmd_simulate(args) -> int:
     k = scenario.experiment.summary_cycle
     c = summary[f"cycle_{k}"]
     e = summary["energy_balance"]
-    print(f"{scenario.name} ({summary['method']}, {result.settings}), cycle {k} "
+    print(f"{scenario.name} ({settings_text(result.settings)}), cycle {k} "
           f"(t = {c['t_start']:.4f}..{c['t_end']:.4f} s):")
     print(f"  omega1 min  {c['omega1_min']:.6f} rad/s")
     print(f"  omega1 max  {c['omega1_max']:.6f} rad/s")
