@@ -149,6 +149,9 @@ def cmd_sweep(args) -> int:
     print(f"{scenario.name}: {result.study} sweep, {total} designs: {len(result.rows)} computed"
           + (f" ({result.skipped} already in {result.path.name})" if result.skipped else "")
           + f", {len(result.failed)} failed")
+    # an earlier sweep's figures in this folder (another parameter, another study) would read as this one's
+    for stale in (*out.glob("*_vs_*.png"), out / "delta.png"):
+        stale.unlink(missing_ok=True)
     if result.study == "kinematic":
         definition = scenario.mechanism_definition()
         units = {q.name: q.unit(definition) for q in scenario.quantities}

@@ -251,7 +251,36 @@ def run_sweep(scenario, axes: list[SweepAxis], out: Path, progress=None, resume:
                 progress(finished / max(len(grid), 1))
     if progress:
         progress(1.0)
+    _in_grid_order(result, grid, names, columns, results_path, failed_path)
     return result
+
+
+def _in_grid_order(result: SweepResult, grid, names, columns, results_path, failed_path):
+    """The rows, in memory and in the CSV files, in the order of the grid (the parameters' values
+    ascending, the first --param slowest), not in the order the workers finished them: the files
+    are written as the designs finish (so --resume keeps them), then rewritten whole, sorted."""
+    from ..atomic import write_text
+
+    order = {design_key(d): i for i, d in enumerate(grid)}
+    last = len(order)
+    result.rows.sort(key=lambda r: order.get(design_key(r[n] for n in names), last))
+    result.failed.sort(key=lambda r: order.get(design_key(r[n] for n in names), last))
+
+    def text(header, rows):
+        lines = [",".join(header)] + [",".join(cells) for cells in rows]
+        return "\n".join(lines) + "\n"
+    write_text(results_path, text(columns, ([f"{row[c]:.15g}" for c in columns] for row in result.rows)))
+    write_text(failed_path, text(names + ["reason"], ([f"{row[n]:.15g}" for n in names] + [_csv_cell(row["reason"])]
+                                                      for row in result.failed)))
+
+
+def _csv_cell(text: str) -> str:
+    """A CSV field as the csv module writes it: quoted where it holds a comma, a quote or a newline."""
+    import io
+
+    buffer = io.StringIO()
+    csv.writer(buffer).writerow([text])
+    return buffer.getvalue().rstrip("\r\n")
 
 
 def check_claims(scenario, result: SweepResult) -> list[dict]:
