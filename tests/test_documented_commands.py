@@ -145,3 +145,26 @@ def test_every_fmpy_command_of_the_docs_runs(built, tmp_path):
             assert "J_flywheel" in run.stdout + run.stderr, (page, line, run.stderr[-800:])
         else:
             assert run.returncode == 0, (page, line, run.stderr[-1500:])
+
+
+# ---------------------------------------------------------------- what docs/fmus.md says a host sees
+def quoted_refusals() -> list[tuple[str, float, str]]:
+    """(parameter, value, the message's start as quoted) of docs/fmus.md's table of bad input, for
+    its rows that set one start value (fmi2SetReal, or caught at fmi2ExitInitializationMode)."""
+    text = (ROOT / "docs" / "fmus.md").read_text()
+    rows = re.findall(r"^\| `(\w+)` = (\S+) \((?:fmi2SetReal|fmi2ExitInitializationMode)\) \| `(.+?)` \|$", text, re.M)
+    return [(name, float(value), message) for name, value, message in rows]
+
+
+def test_the_refusals_docs_fmus_quotes_are_what_the_fmu_says(built):
+    from fmpy import simulate_fmu
+
+    rows = quoted_refusals()
+    assert len(rows) >= 4, rows
+    for name, value, quoted in rows:
+        log = []
+        with pytest.raises(Exception):
+            simulate_fmu(str(built["python"]), stop_time=0.01, start_values={name: value}, debug_logging=False,
+                         logger=lambda *args: log.append(args[-1].decode() if isinstance(args[-1], bytes) else args[-1]))
+        start = quoted.split("...")[0].strip()
+        assert any(line.startswith(start) for line in log), (name, value, quoted, log[-3:])

@@ -132,7 +132,7 @@ def what_it_is(model_description: bytes, about: dict) -> str:
         ("FMI", f"{root.get('fmiVersion')}, {' and '.join(interfaces).replace('CoSimulation', 'Co-Simulation').replace('ModelExchange', 'Model Exchange')}"),
         ("platforms", ", ".join(about.get("platforms", [])) or "-"),
         ("the host needs", "nothing but the platform's C library" if native
-         else "Python 3.10 to 3.13 with numpy and scipy, found as resources/python_env.txt says"),
+         else "Python 3.10 to 3.13 with numpy, found as resources/python_env.txt says"),
         ("generated", f"by {root.get('generationTool', 'crankfmu')}"),
     ]
     if "table_error" in about:

@@ -1,4 +1,4 @@
-"""The results page (``crankfmu page``, the end of ``make demo``): one self-contained HTML file that
+"""The results page (``crankfmu page``, the end of ``make demo``): one HTML file, beside the figures it links, that
 shows every figure and animation a folder of results holds, grouped by the data file each comes
 from (a paper's scenario, the pump jack, the well), each with its caption and the paper's figure it
 reproduces, the key numbers beside the published ones, and the validation report.
