@@ -307,8 +307,9 @@ class Scenario:
                              f"({'asked' if p in self.overrides else 'the file gives'} {asked:g})")
         message = str(exc)
         if hints:
-            each = "each with the others as given" if len(hints) > 1 else "with the other parameters as given"
-            message += (f"; {each}, the crank turns fully only for " + (", or for ".join(hints) if len(hints) < 3 else
+            # one bound in the words the C model uses for it (the native FMU's refusal says the same)
+            each = "each with the others as given," if len(hints) > 1 else "with the other parameters as given"
+            message += (f"; {each} the crank turns fully only for " + (", or for ".join(hints) if len(hints) < 3 else
                         ", for ".join(hints[:-1]) + ", or for " + hints[-1]))
         return AssemblyError(message, parameter=", ".join(changed) or exc.parameter)
 
