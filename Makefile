@@ -78,7 +78,9 @@ FMU_STAMP := build/fmus/.built
 
 fmu: $(FMU_STAMP)
 
-$(FMU_STAMP): $(STAMP) $(FMU_SOURCES)
+# (and when make test has just installed the cross compilers: the FMUs then get their win64 and
+# aarch64 binaries)
+$(FMU_STAMP): $(STAMP) $(FMU_SOURCES) $(wildcard $(DEV_STAMP))
 	@$(MAKE) --no-print-directory -j2 --output-sync=target fmu-python fmu-native-a fmu-native-b
 	@touch $@
 
