@@ -4,6 +4,7 @@ and the speed-against-error study (one panel per family of methods, the peer on 
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -96,15 +97,17 @@ def plot_work_precision(points, path: Path, title: str) -> Path:
             x = np.array([p.time_s * 1e3 for p in pts])
             y = np.array([max(p.omega1_error, 1e-16) for p in pts])
             spread = np.array([[p.time_s - p.time_min, p.time_max - p.time_s] for p in pts]).T * 1e3
+            # a key's line wraps at 42 characters: the key stays under its own panel, inside the figure
+            label = textwrap.fill(fam if fam != PEER else f"{PEER} (the peer)", 42)
             ax.errorbar(x, y, xerr=np.nan_to_num(spread), color=colour, lw=1, ms=6, marker=markers[i % len(markers)],
-                        capsize=2, label=fam if fam != PEER else f"{PEER} (the peer)", mfc=colour)
+                        capsize=2, label=label, mfc=colour)
             hollow = [k for k, p in enumerate(pts) if not p.on_grid]
             if hollow:
                 ax.plot(x[hollow], y[hollow], ls="none", marker=markers[i % len(markers)], ms=9, mfc="white",
                         color=colour)
             ax.set_xscale("log")
             ax.set_yscale("log")
-        ax.set_title(panel, fontsize=10)
+        ax.set_title(textwrap.fill(panel, 40), fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         ax.tick_params(labelsize=9, labelbottom=True, labelleft=True)
         ax.set_xlabel("median wall time [ms]", fontsize=9)
