@@ -193,3 +193,18 @@ def test_a_sweep_writes_its_rows_in_grid_order_and_leaves_no_stale_figures(tmp_p
     assert (tmp_path / "omega3_vs_e.png").is_file()
     assert main(["sweep", "seed004", "--param", "l1=0.15:0.30:3", "--out", str(tmp_path), "--restart"]) == 0
     assert not list(tmp_path.glob("*_vs_e.png")) and (tmp_path / "omega3_vs_l1.png").is_file()
+
+
+def test_a_progress_bar_says_it_finished_once():
+    """A sweep tells its bar 1.0 for its last chunk and again at its end: a log gets one 100 % line."""
+    import io
+
+    from crankfmu.progress import ProgressBar
+
+    log = io.StringIO()
+    bar = ProgressBar(1.0, label="x", delay=0.0, stream=log)
+    for value in (0.05, 0.5, 1.0, 1.0, 1.0):
+        bar(value)
+    bar.close()
+    lines = log.getvalue().splitlines()
+    assert sum("100.0%" in line for line in lines) == 1 and len(lines) == 3, lines

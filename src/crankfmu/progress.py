@@ -34,6 +34,8 @@ class ProgressBar:
         frac = min(max((value - self.start) / (self.total - self.start), 0.0), 1.0)
         if frac - self.last < self.granularity and frac < 1.0:
             return
+        if frac >= 1.0 and self.last >= 1.0:       # finished once: one final line, however often told
+            return
         self.last = frac
         filled = int(round(frac * self.width))
         line = f"{self.label} [{'#' * filled}{'.' * (self.width - filled)}] {100 * frac:5.1f}% {elapsed:6.1f} s"
