@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 START_RTOL = 1e-10
 #: CVode's BDF in double precision: below 1e-12 its steps grow no smaller error but take much longer
 FLOOR_RTOL = 1e-12
@@ -39,8 +41,6 @@ class Tightened:
 def tightened_run(run_at, worst_of, start: float = START_RTOL) -> Tightened:
     """``run_at(rtol)`` until ``worst_of(run)`` (the worst error over its bar, 1 is the bar) is at
     most 1 or rtol reaches the floor. A run that fails (``run.error``) is returned as it is."""
-    import numpy as np
-
     rtol = min(start, START_RTOL)
     run = run_at(rtol)
     if run.error:

@@ -54,6 +54,12 @@ def reference_run(scenario, times, method: str = "reference", rtol: float | None
     return _with_outputs(ReferenceRun(method, times, values, wall, dict(r.settings), r), r.model, scenario)
 
 
+def _run_key(scenario, times: np.ndarray) -> tuple:
+    """A run's identity in this process's caches: the scenario's file and every value, the grid."""
+    return (str(scenario.where), tuple(sorted(scenario.values.items())), times.size, float(times[0]),
+            float(times[-1]), hash(times.tobytes()))
+
+
 #: reference runs made in this process, by (scenario file and values, times, method): the Python
 #: and the native FMU of one scenario, and each interface, share them
 _RUNS: dict = {}
@@ -62,15 +68,14 @@ _RUNS: dict = {}
 def cached_reference(scenario, times, method: str = "reference") -> ReferenceRun:
     """``reference_run`` once per scenario (its file and every value), time grid and method."""
     times = np.asarray(times, dtype=float)
-    key = (str(scenario.where), tuple(sorted(scenario.values.items())), method, times.size,
-           float(times[0]), float(times[-1]), hash(times.tobytes()))
+    key = (*_run_key(scenario, times), method)
     if key not in _RUNS:
         _RUNS[key] = reference_run(scenario, times, method) if method != "periodic" else \
             periodic_reference(scenario, times)
     return _RUNS[key]
 
 
-#: the reference against a second method, by the same key as _RUNS
+#: the reference against a second method, by _run_key
 _GAPS: dict = {}
 
 
@@ -82,8 +87,7 @@ def second_method_gap(scenario, times) -> float:
     cannot run the scenario. A 1e-13 run of the reference itself would cost about 1.3 times the
     reference (33 s on a 155-turn engine); this costs a few per cent."""
     times = np.asarray(times, dtype=float)
-    key = (str(scenario.where), tuple(sorted(scenario.values.items())), times.size, float(times[0]),
-           float(times[-1]), hash(times.tobytes()))
+    key = _run_key(scenario, times)
     if key not in _GAPS:
         ref = cached_reference(scenario, times)
         try:

@@ -206,24 +206,25 @@ def method_of(family: str) -> str:
     return family.split(",")[0]
 
 
+def ranked_methods(points: list[Point], target: float) -> list[Point]:
+    """Each method's fastest point reaching ``target`` on the output grid, the fastest method first."""
+    best_of: dict[str, Point] = {}
+    for p in sorted((p for p in points if _reaches(p, target)), key=lambda p: p.time_s):
+        best_of.setdefault(method_of(p.family), p)
+    return list(best_of.values())
+
+
 def fastest(points: list[Point], target: float) -> tuple[Point | None, Point | None]:
     """The fastest point at ``target`` on the output grid and the fastest of another method (the runner-up)."""
-    ok = sorted((p for p in points if _reaches(p, target)), key=lambda p: p.time_s)
-    if not ok:
-        return None, None
-    second = next((p for p in ok if method_of(p.family) != method_of(ok[0].family)), None)
-    return ok[0], second
+    ranked = ranked_methods(points, target)
+    return (ranked[0] if ranked else None), (ranked[1] if len(ranked) > 1 else None)
 
 
 def verdict(points: list[Point], target: float) -> str:
     """What this run says of the fastest method at ``target`` rad/s on the output grid: a method is
     ahead of another only where its slowest run beats the other's fastest (the spread of both
     measured here); methods whose runs overlap the fastest one's are named as tied with it."""
-    reaching = sorted((p for p in points if _reaches(p, target)), key=lambda p: p.time_s)
-    best_of = {}
-    for p in reaching:
-        best_of.setdefault(method_of(p.family), p)
-    ranked = list(best_of.values())
+    ranked = ranked_methods(points, target)
     if not ranked:
         return f"At {target:g} rad/s: no method reached it on the output grid in this run."
 

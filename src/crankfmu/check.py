@@ -268,9 +268,8 @@ def loads_finite(report: Report, model, path) -> bool:
         if not isinstance(load, ExpressionLoad):
             continue
         env = env or position_env(load.mechanism, kin)
-        sides = [("", load.increasing)] + ([("decreasing.", load.decreasing)] if load.decreasing else [])
-        if load.decreasing:
-            sides[0] = ("increasing.", load.increasing)
+        sides = ([("increasing.", load.increasing), ("decreasing.", load.decreasing)] if load.decreasing
+                 else [("", load.increasing)])
         for prefix, exprs in sides:
             for key, expr in exprs.items():
                 with np.errstate(all="ignore"):

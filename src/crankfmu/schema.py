@@ -225,22 +225,17 @@ def line_of(text: str, path: tuple, key: str) -> int | None:
     headers = [(i, line.strip()) for i, line in enumerate(lines) if re.match(r"\s*\[", line)]
     tables = [p for p in path if isinstance(p, str)]
     if path:
-        # the header that opens the deepest table written as a header ([a.b] or [[a]]) on the path
+        # the header that opens the table: the n-th [[a]] on an array's path, else the deepest [a.b]
+        # whose name begins the path
         dotted = ".".join(tables)
         index = next((p for p in path if isinstance(p, int)), None)
-        candidates = []
-        for i, header in headers:
-            name = header.strip("[]").strip()
-            if dotted.startswith(name) or name.startswith(tables[0]):
-                candidates.append((i, header, name))
-        best = None
+        names = [(i, header, header.strip("[]").strip()) for i, header in headers]
         if index is not None:
-            arrays = [(i, h) for i, h, name in candidates if h.startswith("[[") and name == tables[0]]
-            if index < len(arrays):
-                best = arrays[index][0]
-        if best is None:
-            exact = [i for i, h, name in candidates if dotted.startswith(name)]
-            best = max(exact, key=lambda i: len(lines[i])) if exact else None
+            arrays = [i for i, header, name in names if header.startswith("[[") and name == tables[0]]
+            best = arrays[index] if index < len(arrays) else None
+        else:
+            within = [(len(name), i) for i, _, name in names if dotted == name or dotted.startswith(name + ".")]
+            best = max(within)[1] if within else None
         if best is not None:
             start = best + 1
             end = next((i for i, _ in headers if i > best), len(lines))
