@@ -113,7 +113,9 @@ fmu-native-b: $(STAMP)
 # the main job: every FMU, the papers' studies and the pumping well (two lines of work on the two
 # cores), the harness's --quick subset on every FMU, and a summary of what was made
 demo: fmu
-	@$(MAKE) --no-print-directory -j2 --output-sync=target demo-papers demo-well
+	@# the two lines of work side by side, each with one live line (its log in $(OUT)/logs)
+	@$(BIN)/python -m crankfmu.cli.lanes --logs $(OUT)/logs --make-var OUT=$(OUT) --make-var BIN=$(BIN) --make-var STAMP= \
+	  papers:demo-papers well:demo-well
 	$(BIN)/crankfmu validate --quick --out $(OUT)/validation > $(OUT)/validation.log || \
 	  { tail -5 $(OUT)/validation.log; echo "make demo: the harness found failures ($(OUT)/validation/report.html)"; exit 1; }
 	@$(BIN)/crankfmu page $(OUT) --validation $(OUT)/validation > /dev/null

@@ -8,6 +8,7 @@ flywheel.json and its four figures. The studies compute and return dataclasses; 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ from .plots import (plot_cycles, plot_flywheel, plot_inertia, plot_moments, plot
                     plot_stability)
 from .contract import COLUMNS
 from .simulation import Result
+from .studies.equilibrium import cycle_breaks
 from .atomic import replacing, write_text
 
 
@@ -94,7 +96,8 @@ def write_equilibrium(scenario, results: list, out_dir) -> dict:
             np.savetxt(partial, np.column_stack(list(columns.values())),
                        delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
     plot_moments(scenario, results, out)
-    plot_reactions(scenario, results[0], out / f"reactions_{results[0].key}.png")
+    switches = [math.degrees(b) for b in cycle_breaks(scenario.build())[1:-1]]
+    plot_reactions(scenario, results[0], out / f"reactions_{results[0].key}.png", switches)
     return summary
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from .dynamics.equation import OMEGA
 from .atomic import save_figure
+from .units import engineering
 
 TWO_PI = 2.0 * math.pi
 #: the speed fluctuations drawn as contour lines on the steady-sweep map (typical design targets:
@@ -250,6 +251,21 @@ def plot_families(result, scenario, units: dict, out: Path) -> list[Path]:
     return paths
 
 
+def _contour_label_places(lines, ys) -> list[tuple[float, float]]:
+    """One place per drawn piece of each contour line, well inside the map: the vertex nearest a
+    height of its own (the levels' heights staggered from 25 % to 75 % of the y range), so no label
+    is clipped at an edge and two levels' labels do not meet."""
+    low, high = float(np.min(ys)), float(np.max(ys))
+    places = []
+    n = len(lines.allsegs)
+    for i, pieces in enumerate(lines.allsegs):
+        target = low + (high - low) * (0.25 + 0.5 * (i + 0.5) / n)
+        for piece in pieces:
+            if len(piece) >= 2:
+                places.append(tuple(piece[int(np.argmin(np.abs(piece[:, 1] - target)))]))
+    return places
+
+
 def plot_steady(result, out: Path, units: dict | None = None, scenario: str = "") -> list[Path]:
     """delta over the grid: a map for two swept parameters, curves for one (the first two axes;
     the others at their first value)."""
@@ -286,7 +302,8 @@ def plot_steady(result, out: Path, units: dict | None = None, scenario: str = ""
         levels = [d for d in DELTA_TARGETS if positive.size and positive.min() < d < positive.max()]
         if levels and min(len(a0.values), len(a1.values)) >= 2:
             lines = ax.contour(a0.values, a1.values, grid, levels=levels, colors="white", linewidths=1.2)
-            ax.clabel(lines, fmt=lambda d: f"delta = {d:g}", fontsize=8, inline=True)
+            ax.clabel(lines, fmt=lambda d: f"delta = {d:g}", fontsize=8, inline=True,
+                      manual=_contour_label_places(lines, a1.values))
         ax.set_xlabel(f"{a0.name}  [{units.get(a0.name, '?')}]")
         ax.set_ylabel(f"{a1.name}  [{units.get(a1.name, '?')}]")
     ax.set_title("steady-cycle speed fluctuation" + (f" ({', '.join(f'{k} = {v:g}' for k, v in fixed.items())})"
@@ -344,19 +361,37 @@ def plot_moments(scenario, results: list, out: Path) -> list[Path]:
     return paths
 
 
-def plot_reactions(scenario, r, path: Path) -> Path:
+def plot_reactions(scenario, r, path: Path, switches_deg=()) -> Path:
+    """One panel per joint (ten curves on one axis tangle), each reaction's magnitude over the
+    turn; dotted lines at ``switches_deg``, the angles where a switched load changes (a slider's
+    force reversing with its velocity), which is where the reactions jump."""
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9.5, 4.5), constrained_layout=True)
+    joints = list(r.reactions.force)
+    columns = 2 if len(joints) > 3 else 1
+    rows = -(-len(joints) // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(10, 1.25 + 1.45 * rows), sharex=True, squeeze=False,
+                             constrained_layout=True)
     deg = np.degrees(r.reactions.phi1)
-    for joint in r.reactions.force:
-        ax.plot(deg, r.reactions.magnitude(joint), lw=1.0, label=f"{joint} ({r.reactions.kind[joint]}) [N]")
-    turn_axis(ax)
-    ax.set_ylabel("joint reaction |F| [N]")
-    ax.set_title(f"{scenario.name}: joint reactions at omega1 = {r.omega1:g} rad/s")
-    legend_outside(ax, fontsize=7)
-    save_figure(fig, path, dpi=120, scenario=scenario.name,
+    for k, (ax, joint) in enumerate(zip(axes.T.flat, joints)):
+        magnitude = r.reactions.magnitude(joint)
+        ax.plot(deg, magnitude, lw=1.2, color="C0")
+        for s in switches_deg:
+            ax.axvline(s, color="0.4", lw=0.8, ls=":")
+        turn_axis(ax, "crank angle phi1 [deg]" if k % rows == rows - 1 else "")
+        ax.set_ylim(0.0, 1.12 * max(float(np.max(magnitude)), 1e-12))
+        ax.set_title(f"{joint} ({r.reactions.kind[joint]}): peak {engineering(float(np.max(magnitude)), 'N')}",
+                     fontsize=9, loc="left")
+        ax.set_ylabel("|F| [N]", fontsize=8)
+    for ax in list(axes.T.flat)[len(joints):]:
+        ax.set_axis_off()
+    switches = ", ".join(f"{s:.1f}" for s in switches_deg)
+    fig.suptitle(f"{scenario.name}: joint reactions at omega1 = {r.omega1:g} rad/s"
+                 + (f" (dotted: a switched load changes, at {switches} deg)" if switches else ""), fontsize=10)
+    save_figure(fig, path, dpi=110, scenario=scenario.name,
                 caption=f"The magnitude of every joint's reaction force over one crank turn at {r.omega1:g} rad/s "
-                        "(Newton-Euler, inertia included).")
+                        "(Newton-Euler, inertia included), a panel per joint."
+                        + (f" The jumps are at the angles where a switched load changes ({switches} deg): a "
+                           "slider's friction or technological force reverses with its velocity." if switches else ""))
     plt.close(fig)
     return path
 
@@ -437,14 +472,18 @@ def plot_stability(stability, path, scenario: str = ""):
     ok = [r for r in stability.rows if r["stable"]]
     bad = [r for r in stability.rows if not r["stable"]]
     ax.loglog([r["step_deg"] for r in ok], [r["error"] for r in ok], "o-", label="stable: last-turn error")
-    for r in bad:
-        ax.axvline(r["step_deg"], color="C3", lw=0.8, alpha=0.6)
+    for k, r in enumerate(bad):
+        ax.axvline(r["step_deg"], color="C3", lw=0.8, alpha=0.6, label="a step tried: unstable" if k == 0 else None)
     ax.axvline(stability.linear_estimate_deg, color="k", ls="--", lw=1,
                label=f"estimate 2 J omega1 / B = {stability.linear_estimate_deg:.2f} deg")
     if stability.limit:
-        ax.axvspan(stability.limit["largest_stable_deg"], stability.limit["smallest_unstable_deg"],
-                   color="C3", alpha=0.3, label=f"measured limit {stability.limit['largest_stable_deg']:.2f} deg")
-    ax.set_xlabel("angle step of eq. 3 [deg] (red lines: unstable)")
+        # the measured limit lies between two tried steps a fraction of a degree apart: a span that
+        # narrow shows no width, so the stable side is a line and the unstable side a shaded region
+        stable, unstable = stability.limit["largest_stable_deg"], stability.limit["smallest_unstable_deg"]
+        ax.axvline(stable, color="C2", lw=1.6, label=f"largest stable step {stable:.2f} deg")
+        ax.axvspan(unstable, ax.get_xlim()[1], color="C3", alpha=0.12, lw=0,
+                   label=f"unstable from {unstable:.2f} deg")
+    ax.set_xlabel("angle step of eq. 3 [deg]")
     ax.set_ylabel("max |omega1 error| over the last turn [rad/s]")
     ax.set_title(f"eq. 3 step-size study ({stability.turns} turns from the start, J_F = {stability.J_flywheel:g})")
     ax.grid(alpha=0.3, which="both")

@@ -24,6 +24,7 @@ files are SI by design, so a value is written in the coherent unit instead.
 
 from __future__ import annotations
 
+import math
 import re
 from functools import lru_cache
 
@@ -210,3 +211,20 @@ def check_unit(text, where: str) -> str:
     except UnitError as exc:
         raise UnitError(f"{where}: {exc}") from None
     return text
+
+
+_PREFIXES = {-3: "n", -2: "µ", -1: "m", 0: "", 1: "k", 2: "M", 3: "G"}
+
+
+def engineering(value: float, unit: str, digits: int = 3) -> str:
+    """``value`` with an SI prefix and ``digits`` significant digits, for people to read (figures'
+    labels and titles; data files stay in coherent units): 1234 N -> "1.23 kN", 0.0315 m ->
+    "31.5 mm", 1 m/s -> "1.00 m/s" (a reader compares magnitudes without exponents)."""
+    value = float(value)
+    if value == 0.0 or not math.isfinite(value):
+        return f"{value:g} {unit}"
+    value = float(f"{value:.{digits - 1}e}")          # rounded first: 999.7 N is 1.00 kN, not 1000 N
+    power = max(-3, min(3, math.floor(math.log10(abs(value)) / 3)))
+    scaled = value / 1000.0 ** power
+    decimals = max(0, digits - 1 - math.floor(math.log10(abs(scaled))))
+    return f"{scaled:.{decimals}f} {_PREFIXES[power]}{unit}"

@@ -21,9 +21,20 @@ OPERATORS = {ast.Add: "+", ast.Sub: "−", ast.Mult: "\u2062"}         # invisib
 PRECEDENCE = {ast.Add: 1, ast.Sub: 1, ast.Mult: 2, ast.Div: 2, ast.Pow: 3}
 
 
+def is_word(name: str) -> bool:
+    """A name written as a word (``pitman``, ``crank_R``, ``I_dist``'s ``I`` is a letter): its base
+    is neither one letter nor a Greek letter's name, so it is set upright as written, without a
+    subscript (``crank`` sub R reads as a product of letters)."""
+    base = name[:-6] if name.endswith("_prime") else name
+    base = re.sub(r"\d+$", "", base.partition("_")[0])
+    return len(base) > 1 and base not in GREEK
+
+
 def symbol(name: str) -> str:
     """``phi1`` -> phi sub 1, ``omega_switch`` -> omega sub switch, ``J_prime`` -> J', ``A_low`` ->
-    A sub low."""
+    A sub low; a word (``is_word``) as written: ``crank_R``, ``pitman``."""
+    if is_word(name):
+        return f'<mi mathvariant="normal">{html.escape(name)}</mi>'
     if name.endswith("_prime"):
         return f"<msup>{symbol(name[:-6])}<mo>′</mo></msup>"
     base, _, sub = name.partition("_")
@@ -57,7 +68,10 @@ def _node(n, parent: int = 0) -> str:
             return f"<msup><mrow>{_node(n.left, 4)}</mrow><mrow>{_node(n.right)}</mrow></msup>"
         # a product's factor that is a sum needs brackets; so does a subtrahend that is a sum
         right_level = level + 1 if op is ast.Sub else level
-        inner = f"{_node(n.left, level)}<mo>{OPERATORS[op]}</mo>{_node(n.right, right_level)}"
+        sign = OPERATORS[op]
+        if op is ast.Mult and any(isinstance(f, ast.Name) and is_word(f.id) for f in (n.left, n.right)):
+            sign = "⋅"             # a word beside a factor needs a visible product: pitman u(phi_p) read "pitmanu"
+        inner = f"{_node(n.left, level)}<mo>{sign}</mo>{_node(n.right, right_level)}"
         return f"<mrow><mo>(</mo>{inner}<mo>)</mo></mrow>" if level < parent else f"<mrow>{inner}</mrow>"
     if isinstance(n, ast.Call) and isinstance(n.func, ast.Name):
         name, args = n.func.id, n.args

@@ -151,12 +151,19 @@ def _json_files(root: Path, name: str, skip: set[Path]):
             continue
 
 
+def natural_key(path: Path) -> tuple:
+    """A path's sort key with its numbers compared as numbers: Me_omega5, Me_omega7, Me_omega10,
+    Me_omega15 (a string sort puts 10 and 15 before 5)."""
+    return tuple((0, float(part), "") if part[:1].isdigit() else (1, 0.0, part)
+                 for part in re.split(r"(\d+(?:\.\d+)?)", str(path)) if part)
+
+
 def collect(root: Path, skip: set[Path]) -> dict[str, Group]:
     """The figures under ``root`` by data file, and the published-figure tables of the studies'
     summaries. A figure that names no data file belongs to the figures beside it that do, else to
     its folder's summary, else to its folder."""
     found = []
-    for path in sorted(p for p in root.rglob("*") if p.suffix.lower() in IMAGES and p.is_file()):
+    for path in sorted((p for p in root.rglob("*") if p.suffix.lower() in IMAGES and p.is_file()), key=natural_key):
         if any(s in path.resolve().parents for s in skip) or path.name.startswith("."):
             continue
         found.append((path, figure_info(path)))

@@ -83,8 +83,8 @@ def animate(scenario, out, result_dir=None, trace=None, frames: int = 120, fps: 
 
 def write_gif(fig, frame, count, out: Path, fps: int, progress, comment: str = ""):
     """``count`` frames of ``fig`` (``frame(i)`` moves its animated artists to frame i) as a GIF at
-    ``out``, with ``comment`` (what it shows, for a page's caption) in the file."""
-    """Blit each frame over the still background and write the frames with Pillow."""
+    ``out``, with ``comment`` (what it shows, for a page's caption) in the file: each frame is
+    blitted over the still background and the frames written with Pillow."""
     from PIL import Image
 
     canvas = fig.canvas
@@ -132,27 +132,39 @@ def animation_figure(scenario, result_dir=None, trace=None, frames: int = 120, o
     turn = sketch.frames(np.linspace(0.0, TWO_PI, 361))
 
     plt = pyplot()
-    # 960 x 442 pixels: text at 9 pt is 12 px high, readable in a page or a slide
-    fig, (ax, ax_w) = plt.subplots(1, 2, figsize=(10, 4.6), dpi=96, gridspec_kw={"width_ratios": [1.25, 1]})
+    # 960 x 442 pixels: text at 9 pt is 12 px high, readable in a page or a slide. A run's speed
+    # gets a panel beside the mechanism; at constant speed that panel would be a flat line, so the
+    # mechanism takes the whole width and the readout gives the speed
+    constant = result_dir is None
+    if constant:
+        fig, ax = plt.subplots(figsize=(10, 4.6), dpi=96)
+    else:
+        fig, (ax, ax_w) = plt.subplots(1, 2, figsize=(10, 4.6), dpi=96, gridspec_kw={"width_ratios": [1.25, 1]})
     picture = MechanismPicture(ax, sketch, movie, turn, trace=trace, grow_traces=True)
     (x0, x1), (y0, y1) = picture.limits()
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_aspect("equal")
+    if constant:           # as wide as the mechanism needs at this height, no empty margins
+        fig.set_size_inches(min(10.0, max(6.0, 3.8 * (x1 - x0) / (y1 - y0) + 1.3)), 4.6)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.grid(True, alpha=0.2)
-    ax.set_title(textwrap.fill(scenario.title, 58), fontsize=9)
-    ax_w.plot(t_all, omega_all, lw=1.2, color="C0")
-    cursor = ax_w.axvline(t[0], color="C3", lw=1.0)
-    dot = ax_w.plot([t[0]], [omega_all[index[0]]], "o", color="C3")[0]
-    ax_w.set_xlabel("time [s]")
-    ax_w.set_ylabel("omega1 [rad/s]")
-    ax_w.set_title(textwrap.fill(f"crank speed: {what}", 48), fontsize=9)
-    ax_w.grid(True, alpha=0.3)
-    lo, hi = float(np.min(omega_all)), float(np.max(omega_all))
-    pad = 0.05 * (hi - lo) if hi > lo else 0.05 * max(abs(hi), 1.0)
-    ax_w.set_ylim(lo - pad, hi + pad)
+    ax.set_title(textwrap.fill(scenario.title + (f": {what}" if constant else ""), 80 if constant else 58),
+                 fontsize=9)
+    moving = []
+    if not constant:
+        ax_w.plot(t_all, omega_all, lw=1.2, color="C0")
+        cursor = ax_w.axvline(t[0], color="C3", lw=1.0)
+        dot = ax_w.plot([t[0]], [omega_all[index[0]]], "o", color="C3")[0]
+        moving = [cursor, dot]
+        ax_w.set_xlabel("time [s]")
+        ax_w.set_ylabel("omega1 [rad/s]")
+        ax_w.set_title(textwrap.fill(f"crank speed: {what}", 48), fontsize=9)
+        ax_w.grid(True, alpha=0.3)
+        lo, hi = float(np.min(omega_all)), float(np.max(omega_all))
+        pad = 0.05 * (hi - lo) if hi > lo else 0.05 * max(abs(hi), 1.0)
+        ax_w.set_ylim(lo - pad, hi + pad)
     readout = fig.text(0.01, 0.015, "", fontsize=9, family="monospace")
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     fig.canvas.draw()
@@ -162,13 +174,14 @@ def animation_figure(scenario, result_dir=None, trace=None, frames: int = 120, o
         picture.update(i)
         readout.set_text(f"t = {t[i]:8.4f} s   phi1 = {math.degrees(phi[i]) % 360:6.1f} deg   "
                          f"omega1 = {omega_all[index[i]]:8.4f} rad/s")
-        cursor.set_xdata([t[i], t[i]])
-        dot.set_data([t[i]], [omega_all[index[i]]])
+        if moving:
+            cursor.set_xdata([t[i], t[i]])
+            dot.set_data([t[i]], [omega_all[index[i]]])
         points, paths = picture.obstacles(i)
         place_labels(fig, ax, picture.labels, obstacle_boxes(ax, points, paths), renderer=renderer)
         return []
 
-    for artist in [*picture.artists(), cursor, dot, readout]:
+    for artist in [*picture.artists(), *moving, readout]:
         artist.set_animated(True)
     frame(0)
     return fig, frame, len(index)

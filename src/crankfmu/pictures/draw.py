@@ -18,6 +18,7 @@ import numpy as np
 from .labels import label, obstacle_boxes, place_labels, renderer_of
 from .sketch import Frames, Sketch, is_colinear
 from ..atomic import save_figure
+from ..units import engineering
 
 TWO_PI = 2.0 * math.pi
 PIN = dict(marker="o", ms=7, mfc="white", mec="black", mew=1.4, ls="none", zorder=6)
@@ -26,6 +27,11 @@ CENTRE = dict(marker="o", ms=8, mfc="none", mec="0.15", mew=1.0, ls="none", zord
 
 def link_colour(number: int) -> str:
     return f"C{(number - 1) % 10}"
+
+
+#: the overlays' arrows: the links take matplotlib's ten colours, so an arrow in one of them would
+#: read as part of a link (bar 5's purple was the reactions' colour); black and a dark grey are free
+VELOCITY_COLOUR, REACTION_COLOUR = "black", "0.35"
 
 
 def nice(value: float) -> float:
@@ -335,13 +341,19 @@ def _arrows(ax, origins, vectors, colour, unit: str, size: float, name: str, pat
     return list(tips)
 
 
+def _beside(origin, tip):
+    """Where an arrow's label is anchored: the middle of its shaft, so the label sits beside its own
+    arrow (at the tip it could land nearer another point's arrow or joint, v_B beside C)."""
+    return tuple(0.5 * (np.asarray(origin) + np.asarray(tip)))
+
+
 def _keys(ax, keys):
     """Each vector scale as a key arrow in the lower left corner, labelled with its magnitude."""
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
     for k, (value, unit, style) in enumerate(keys):
         x, y = x0 + 0.03 * (x1 - x0), y0 + (0.04 + 0.06 * k) * (y1 - y0)
         ax.quiver([x], [y], [value], [0.0], **style)
-        ax.text(x + value / style["scale"] + 0.015 * (x1 - x0), y, f"{value:g} {unit}", fontsize=8, va="center")
+        ax.text(x + value / style["scale"] + 0.015 * (x1 - x0), y, engineering(value, unit), fontsize=8, va="center")
 
 
 def _velocities(ax, sketch, frames, picture, w, labels, paths, keys) -> list:
@@ -349,9 +361,10 @@ def _velocities(ax, sketch, frames, picture, w, labels, paths, keys) -> list:
     origins = np.array([frames.xy[p][0] for p in points])
     v = np.array([frames.v[p][0] for p in points]) * w
     moving = np.hypot(v[:, 0], v[:, 1]) > 0
-    tips = _arrows(ax, origins[moving], v[moving], "tab:red", "m/s", picture.size, "velocity", paths, keys)
-    for p, tip, vec in zip(np.array(points)[moving], tips, v[moving]):
-        labels.append(label(ax, f"v_{p} {np.hypot(*vec):.3g}", tuple(tip), fontsize=8, color="tab:red"))
+    tips = _arrows(ax, origins[moving], v[moving], VELOCITY_COLOUR, "m/s", picture.size, "velocity", paths, keys)
+    for p, origin, tip, vec in zip(np.array(points)[moving], origins[moving], tips, v[moving]):
+        labels.append(label(ax, f"v_{p} {engineering(np.hypot(*vec), 'm/s')}", _beside(origin, tip), fontsize=8,
+                            color=VELOCITY_COLOUR))
     return tips
 
 
@@ -365,9 +378,10 @@ def _reactions(ax, scenario, sketch, frames, picture, w, phi, labels, paths, key
     joints = {j.name: j for j in sketch.mechanism.definition.joints}
     origins = np.array([frames.xy[joints[n].point][0] for n in names])
     forces = np.array([[r.force[n][0][0], r.force[n][1][0]] for n in names])
-    tips = _arrows(ax, origins, forces, "tab:purple", "N", picture.size, "joint reaction", paths, keys)
-    for n, tip, f in zip(names, tips, forces):
-        labels.append(label(ax, f"F_{n} {np.hypot(*f):.3g} N", tuple(tip), fontsize=8, color="tab:purple"))
+    tips = _arrows(ax, origins, forces, REACTION_COLOUR, "N", picture.size, "joint reaction", paths, keys)
+    for n, origin, tip, f in zip(names, origins, tips, forces):
+        labels.append(label(ax, f"F_{n} {engineering(np.hypot(*f), 'N')}", _beside(origin, tip), fontsize=8,
+                            color=REACTION_COLOUR))
     return tips
 
 

@@ -32,6 +32,7 @@ def cards_png(stroke, design, out: Path, title: str, scenario: str = "") -> Path
     ax.text(0.0, wrf, " Wrf", va="bottom", color="0.4", fontsize=8)
     ax.text(0.0, wrf + fo, " Wrf + Fo", va="bottom", color="0.4", fontsize=8)
     ax.axhline(fo, color="C1", ls=":", lw=1)
+    ax.text(0.0, fo, " Fo (fluid load on the plunger)", va="bottom", color="C1", fontsize=8)
     ax.set_xlabel("position above the bottom of stroke [m]")
     ax.set_ylabel("load [kN]")
     ax.set_title(title, fontsize=10)
@@ -83,7 +84,7 @@ def animation_gif(cw, stroke, out: Path, frames: int = 60, fps: int = 15, progre
     xy = {p: (kin.point(p)[0], kin.point(p)[1]) for p in definition_points}
     v = cw.scenario.values
     surface, _ = _positions(stroke)
-    fig, (ax, card) = plt.subplots(1, 2, figsize=(10, 4.5), dpi=96, gridspec_kw={"width_ratios": [1.2, 1]})
+    fig, (ax, card) = plt.subplots(1, 2, figsize=(10, 5.2), dpi=96, gridspec_kw={"width_ratios": [1.2, 1]})
     xs = np.concatenate([xy[p][0] for p in definition_points])
     ys = np.concatenate([xy[p][1] for p in definition_points])
     rod_x = v["I_dist"] + v["arm_A"]
@@ -93,21 +94,30 @@ def animation_gif(cw, stroke, out: Path, frames: int = 60, fps: int = 15, progre
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.plot([ax.get_xlim()[0], ax.get_xlim()[1]], [-v["G_crank"]] * 2, color="0.4", lw=2)
-    crank, = ax.plot([], [], "o-", color="C0", lw=3)
-    pitman, = ax.plot([], [], "o-", color="C1", lw=2)
-    beam, = ax.plot([], [], "o-", color="C2", lw=3)
+    crank, = ax.plot([], [], "o-", color="C0", lw=3, label="crank")
+    pitman, = ax.plot([], [], "o-", color="C1", lw=2, label="pitman")
+    beam, = ax.plot([], [], "o-", color="C2", lw=3, label="walking beam and horsehead")
     head, = ax.plot([], [], color="C2", lw=3)
-    rod, = ax.plot([], [], color="0.2", lw=1.5)
-    card.plot(surface, stroke["F"] * KN, color="0.85", lw=1)
-    drawn, = card.plot([], [], color="C0", lw=2)
-    dot, = card.plot([], [], "o", color="C3")
+    rod, = ax.plot([], [], color="0.2", lw=1.5, label="polished rod")
+    readout = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=9, family="monospace")
+    card.plot(surface, stroke["F"] * KN, color="0.85", lw=1, label="the whole stroke")
+    drawn, = card.plot([], [], color="C0", lw=2, label="drawn so far")
+    dot, = card.plot([], [], "o", color="C3", label="now")
     card.set_xlabel("polished rod position above the bottom [m]")
     card.set_ylabel("polished rod load [kN]")
+    card.set_title("surface dynamometer card", fontsize=10)
     card.grid(alpha=0.3)
+    ax.set_title("the unit (grey line: the ground)", fontsize=10)
+    period = float(stroke["t"][-1] - stroke["t"][0])
+    fig.suptitle(f"{cw.scenario.title}: one steady stroke of {period:.2f} s", fontsize=11)
+    # the keys below the axes, so neither covers the unit nor the card
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=8, frameon=False)
+    card.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3, fontsize=8, frameon=False)
     fig.tight_layout()
     path = Path(out) / "well.gif"
-    for artist in (crank, pitman, beam, head, rod, drawn, dot):
+    for artist in (crank, pitman, beam, head, rod, drawn, dot, readout):
         artist.set_animated(True)
+    start = stroke["phi1"][0]
 
     def frame(k):
         O, W, E, S, H = ((xy[p][0][k], xy[p][1][k]) for p in definition_points)
@@ -121,6 +131,8 @@ def animation_gif(cw, stroke, out: Path, frames: int = 60, fps: int = 15, progre
         upto = index[k] + 1
         drawn.set_data(surface[:upto], stroke["F"][:upto] * KN)
         dot.set_data([surface[upto - 1]], [stroke["F"][upto - 1] * KN])
+        readout.set_text(f"t = {stroke['t'][index[k]] - stroke['t'][0]:5.2f} s\n"
+                         f"crank {math.degrees(stroke['phi1'][index[k]] - start):5.1f} deg from the bottom")
 
     about = {"title": f"{cw.scenario.title}: one steady stroke", "scenario": scenario,
              "caption": "The pumping unit through one steady stroke, its surface card drawn as the polished rod moves."}
