@@ -81,7 +81,9 @@ fmu: $(FMU_STAMP)
 # (and when make test has just installed the cross compilers: the FMUs then get their win64 and
 # aarch64 binaries)
 $(FMU_STAMP): $(STAMP) $(FMU_SOURCES) $(wildcard $(DEV_STAMP))
-	@$(MAKE) --no-print-directory -j2 --output-sync=target fmu-python fmu-native-a fmu-native-b
+	@# three lanes of builds, each with one live line (their logs in build/fmus/logs)
+	@$(BIN)/python -m crankfmu.cli.lanes --logs build/fmus/logs --make-var BIN=$(BIN) --make-var STAMP= \
+	  python:fmu-python native-a:fmu-native-a native-b:fmu-native-b
 	@touch $@
 
 fmu-python: $(STAMP)

@@ -39,7 +39,7 @@ def test_each_lane_runs_its_commands_with_one_line_each_in_a_log(project):
     done = lanes(project, "first:a")
     assert done.returncode == 0, done.stdout + done.stderr
     lines = done.stdout.splitlines()
-    assert [line.split("]")[0] for line in lines] == ["first   [ 1/2", "first   [ 2/2"], lines
+    assert [line.split("]")[0] for line in lines] == ["first [ 1/2", "first [ 2/2"], lines
     assert (project / "logs" / "first.log").read_text().splitlines() == ["$ echo one", "one", "$ echo two", "two"]
 
 

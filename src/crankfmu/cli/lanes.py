@@ -27,7 +27,7 @@ from ..progress import is_terminal
 
 @dataclass
 class Lane:
-    name: str
+    name: str                         # padded to the longest lane's name, so the columns line up
     commands: list[str]
     log: Path
     done: int = 0
@@ -83,7 +83,7 @@ def run_lane(lane: Lane, announce) -> None:
 
 def status(lane: Lane, width: int) -> str:
     elapsed = (lane.finished or time.perf_counter()) - lane.started
-    head = f"{lane.name:<7} [{lane.done:>2}/{len(lane.commands)}] {elapsed:5.0f} s  "
+    head = f"{lane.name} [{lane.done:>2}/{len(lane.commands)}] {elapsed:5.0f} s  "
     if lane.failed:
         text = f"FAILED: {lane.failed}"
     elif lane.finished is not None:
@@ -103,16 +103,17 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     args.logs.mkdir(parents=True, exist_ok=True)
     lanes = []
+    pad = max(len(spec.partition(":")[0]) for spec in args.lanes)
     for spec in args.lanes:
         name, _, target = spec.partition(":")
-        lanes.append(Lane(name, commands_of(target or name, args.make_var), args.logs / f"{name}.log"))
+        lanes.append(Lane(f"{name:<{pad}}", commands_of(target or name, args.make_var), args.logs / f"{name}.log"))
     live = is_terminal(sys.stdout)
     lock = threading.Lock()
 
     def announce(lane: Lane, seconds: float) -> None:
         if not live:                      # a log: one whole line per finished command
             with lock:
-                print(f"{lane.name:<7} [{lane.done:>2}/{len(lane.commands)}] {seconds:5.1f} s  {lane.current}",
+                print(f"{lane.name} [{lane.done:>2}/{len(lane.commands)}] {seconds:5.1f} s  {lane.current}",
                       flush=True)
 
     threads = [threading.Thread(target=run_lane, args=(lane, announce), daemon=True) for lane in lanes]
@@ -136,7 +137,7 @@ def main(argv=None) -> int:
         sys.stdout.write("".join(f"\x1b[2K{status(lane, width)}\n" for lane in lanes))
     failed = [lane for lane in lanes if lane.failed or lane.done < len(lane.commands)]
     for lane in failed:
-        print(f"\n{lane.name}: {lane.failed or 'stopped'} failed; the end of {lane.log}:")
+        print(f"\n{lane.name.strip()}: {lane.failed or 'stopped'} failed; the end of {lane.log}:")
         print("\n".join(lane.log.read_text(errors="replace").splitlines()[-15:]))
     return 1 if failed else 0
 
