@@ -318,3 +318,11 @@ def fmu_declarations(report: Report, source, scenario, path):
         return
     report.add("OK", f"the FMU's declarations: model identifier {source.fmu}, {len(source.variables().units)} "
                "variables with distinct names and readable SI units, the DefaultExperiment")
+    if source.initialise is not None:
+        try:
+            said = source.initialise()
+        except CrankfmuError as exc:
+            report.add("FAIL", f"crankfmu fmu would refuse it: the FMU cannot initialise at its start values: {exc}",
+                       locate(path, str(exc)))
+            return
+        report.add("OK", said)

@@ -40,33 +40,91 @@ def horner(c: np.ndarray, u) -> np.ndarray:
 def build_cubics(engine, tolerance: float, n_start: int, n_max: int, loosest: float, named=("the functions", ())):
     """(coefficients, checked error, construction) of the periodic functions ``engine`` gives: a
     Fourier series where it converges, else a spline of samples. ``named``: (what the functions
-    are, each row's name), for the message of a table that cannot be built."""
+    are, each row's name[, the rows that are kinematics only]), for the message of a table that
+    cannot be built. A function that does not repeat after one turn is refused first, by name."""
+    not_periodic = _not_periodic(engine, named)
+    if not_periodic:
+        raise SchemeError(not_periodic)
     return (from_series(engine, tolerance)
             or from_samples(engine, tolerance, n_start, n_max, loosest, named))
 
 
-def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance: float, n: int) -> str:
-    """The message of a table that cannot be built: which function, and whether it jumps (a
-    discontinuity in phi1: no number of intervals can follow it) or is steep (a dead point near)."""
-    what, names = named
+def _name(named, row: int) -> str:
+    names = named[1]
+    return names[row] if row < len(names) else f"function {row}"
+
+
+def _not_periodic(engine, named, probes: int = 36) -> str | None:
+    """Why the functions cannot be held over one turn, if one of them differs from itself a turn
+    later (a four-stroke engine's gas force repeats every two turns): every table here is periodic
+    over one turn, so such a function is no jump nor dead point but a longer cycle. None if each
+    repeats after one turn to round-off. (Non-finite values are left to the tabulator's message.)"""
+    phi = (np.arange(probes) + 0.37) * (TWO_PI / probes)
+    first, next_turn = engine(phi), engine(phi + TWO_PI)
+    if not (np.isfinite(first).all() and np.isfinite(next_turn).all()):
+        return None
+    scale = np.maximum(_scale(first), _scale(next_turn))
+    gap = np.abs(next_turn - first) / scale[:, None]
+    row, k = np.unravel_index(int(np.argmax(gap)), gap.shape)
+    if gap[row, k] <= 1e-9:
+        return None
+    turns = next((n for n in (2, 3, 4, 6, 8)
+                  if np.max(np.abs(engine(phi + n * TWO_PI) - first) / scale[:, None]) <= 1e-9), None)
+    cycle = (f"it repeats every {turns} turns, a machine cycle of {turns} turns"
+             + (" (a four-stroke engine's)" if turns == 2 else "") if turns
+             else "it does not repeat after 2, 3, 4, 6 or 8 turns either")
+    return (f"{named[0]}: {_name(named, row)} is not periodic over one crank turn: {first[row, k]:.6g} at "
+            f"phi1 = {math.degrees(phi[k]):.2f} deg but {next_turn[row, k]:.6g} a turn later; {cycle}. The tables "
+            "and the fast integrators hold functions of one turn; a cycle of several turns (cycle_turns) is not "
+            "supported yet: use method 'reference', which evaluates the loads at every angle")
+
+
+def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance: float, n: int, engine=None) -> str:
+    """The message of a table that cannot be built: which function, and why. A value that is not
+    finite; a jump (a discontinuity in phi1, e.g. a closed form's branch cut: no number of
+    intervals follows it); a dead point (the kinematics themselves steep); or a steep but
+    continuous load that needs more intervals than the limit (its slope, and the way out)."""
+    what = named[0]
     finite = np.isfinite(values)
     if not finite.all():       # NaN or infinite: no table of any size follows it, and it is no dead point
         row = int(np.argmin(finite.all(axis=1)))
-        name = names[row] if row < len(names) else f"function {row}"
         k = int(np.flatnonzero(~finite[row])[0])
-        return (f"{what}: {name} is not finite ({values[row, k]:g}) at phi1 = {math.degrees(k * TWO_PI / n):.2f} deg: "
-                "an expression of the data file divides by zero or overflows there (crankfmu check names it)")
+        return (f"{what}: {_name(named, row)} is not finite ({values[row, k]:g}) at phi1 = "
+                f"{math.degrees(k * TWO_PI / n):.2f} deg: an expression of the data file divides by zero or "
+                "overflows there (crankfmu check names it)")
     row = int(np.argmax(errors))
-    name = names[row] if row < len(names) else f"function {row}"
+    name = _name(named, row)
+    h = TWO_PI / n
     steps = np.abs(np.diff(np.append(values[row], values[row, 0])))
     k = int(np.argmax(steps))
-    typical = float(np.median(steps)) + 1e-300
-    at = f"phi1 = {math.degrees(k * TWO_PI / n):.2f} to {math.degrees((k + 1) * TWO_PI / n):.2f} deg"
-    head = (f"{what}: {name} cannot be tabulated to {format_value(tolerance)} with {n} intervals "
-            f"(error {errors[row]:.2g})")
-    if steps[k] > 1e3 * typical:
-        return (f"{head}: it jumps by {values[row, (k + 1) % n] - values[row, k]:.4g} between {at}, a discontinuity "
-                "in the crank angle (a closed form's branch cut?), not a dead point")
+    at = f"phi1 = {math.degrees(k * h):.2f} to {math.degrees((k + 1) * h):.2f} deg"
+    head = f"{what}: {name} cannot be tabulated to {format_value(tolerance)} with {n} intervals (error {errors[row]:.2g})"
+    change = values[row, (k + 1) % n] - values[row, k]
+    if engine is not None:
+        # look inside the interval: a jump stays in one sub-interval however fine; a steep function
+        # spreads its change over many
+        fine = np.linspace(k * h, (k + 1) * h, 1025)
+        inside = engine(fine)[row]
+        if not np.isfinite(inside).all():
+            bad = int(np.flatnonzero(~np.isfinite(inside))[0])
+            return (f"{what}: {name} is not finite ({inside[bad]:g}) at phi1 = {math.degrees(fine[bad]):.4f} deg: an "
+                    "expression of the data file divides by zero or overflows there (crankfmu check names it)")
+        sub = np.abs(np.diff(inside))
+        jump = abs(change) > 0 and sub.max() > 0.5 * abs(change) and sub.max() > 1e3 * np.median(sub) + 1e-300
+    else:
+        jump, inside, fine = steps[k] > 1e3 * (float(np.median(steps)) + 1e-300), None, None
+    if jump:
+        return (f"{head}: it jumps by {change:.4g} between {at}, a discontinuity in the crank angle (a closed "
+                "form's branch cut, or a load written with a step), not a dead point; no number of intervals follows a "
+                "jump: write the function continuous, or use method 'reference'")
+    kinematic = set(named[2]) if len(named) > 2 else set(range(values.shape[0]))
+    kinematics_fine = all(errors[r] <= tolerance for r in kinematic if r < len(errors))
+    if row not in kinematic and kinematics_fine:
+        slope = float(np.max(np.abs(np.diff(inside) / np.diff(fine)))) if inside is not None else steps[k] / h
+        needed = n * max(2.0, (errors[row] / tolerance) ** 0.25)
+        return (f"{head}: it is continuous but steep, up to {slope:.4g} per rad near {at} (the mechanism's "
+                f"kinematics tabulate well there: no dead point); it needs about {needed:.3g} intervals, beyond the "
+                f"limit of {n}: use method 'reference', which evaluates it at every angle, or make the load less steep")
     return (f"{head}: it changes fastest between {at}; the mechanism is too close to a dead point there; "
             "use method 'reference'")
 
@@ -161,6 +219,6 @@ def from_samples(engine, tolerance: float, n_start: int, n_max: int, loosest: fl
         if 2 * n > n_max:
             if error <= loosest:
                 break
-            raise SchemeError(_why_not_tabulated(values, errors, named, tolerance, n))
+            raise SchemeError(_why_not_tabulated(values, errors, named, tolerance, n, engine))
         n *= 2
     return coefficients, error, f"cubic spline of {n} samples"

@@ -143,8 +143,11 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
               "the dampers' generalized force per omega1"]
              + [f"slider force column {name}" for load in sliders for name in load.column_names]
              + [f"port {port.name}'s transfer function" for port in reduced.ports])
+    # J, 0.5 J' and the ports' transfer functions are the kinematics alone: steep there means a dead
+    # point; a load steep where they are not is a steep load
+    kinematic = (J_LINKS, HALF_DJ, *range(len(names) - len(reduced.ports), len(names)))
     coefficients, error, construction = build_cubics(engine, tolerance, n_start, n_max, loosest,
-                                                ("the reduced model", names))
+                                                     ("the reduced model", names, kinematic))
     switch, forces = reduced.slider_schedule()
     return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(name for load in sliders for name in load.column_names), construction,

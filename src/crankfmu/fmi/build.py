@@ -267,6 +267,9 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
 
     source = preflight(kind, data_name, name, causality)
     name = source.fmu
+    if source.initialise is not None:          # no FMU that cannot start at its own start values
+        with stage(name, "initialising the model at the FMU's start values"):
+            source.initialise()
     dest.mkdir(parents=True, exist_ok=True)
     out = dest / f"{name}.fmu"
     # the reference run from now on, beside the packing and the shim's compiler (fmi.background)

@@ -154,6 +154,49 @@ def fmu_scenario(scenario_name: str):
     return load_scenario(scenario_name)
 
 
+def start_values(scenario) -> dict:
+    """Every variable's start value in the FMU of ``scenario`` (what an instance holds before a host
+    sets anything): the parameters, rtol and the inputs."""
+    found = declared(scenario)
+    return {p.name: p.value for p in (*found.inputs, *found.parameters)}
+
+
+def start_design(scenario, values: dict, time: float, row=None):
+    """What the Python FMU does at fmi2ExitInitializationMode, for ``values`` (every variable's
+    value by name): the design's model and tables, and its stepper started at ``time``. Returns
+    (design, stepper, a warning or ""); raises CrankfmuError with the reason it cannot start. The
+    builds run it at the FMU's start values before they report success (``initialises``)."""
+    design = build_design(scenario, {n: values[n] for n in scenario.parameters})
+    table = design.table
+    warning = (f"the reduced model is tabulated to {table.error_bound:.2g} relative, not {table.tolerance:g}: "
+               "the geometry is close to a dead point" if table.error_bound > table.tolerance else "")
+    y0 = np.array(design.model.y0, dtype=float)
+    y0[0], y0[1] = values["phi1_start"], values["omega1_start"]
+    stepper = FastStepper(table, MotorLine(*(values[n] for n in MOTOR)), design.model.reduced.J_flywheel,
+                          values["rtol"], values[TAU_EXT.name], row=np.zeros(len(ROW_FIELDS)) if row is None else row)
+    stepper.set_port_inputs([values[p.input_name] for p in scenario.ports])
+    stepper.start(time, y0)
+    return design, stepper, warning
+
+
+def initialises(scenario) -> str:
+    """Start the FMU's model at its start values and take one output interval of its default
+    experiment, as a host's first step would: the words for a build's summary and check. Raises
+    CrankfmuError (the message the FMU would give at fmi2ExitInitializationMode or its first
+    fmi2DoStep) where a host could not run it."""
+    from ..errors import CrankfmuError
+
+    experiment = scenario.experiment
+    _, stepper, warning = start_design(scenario, start_values(scenario), experiment.start_time)
+    target = experiment.start_time + experiment.output_interval
+    stepper.advance(target, target)
+    if not np.all(np.isfinite(stepper.row)):
+        raise CrankfmuError(f"the FMU's first step of {experiment.output_interval:g} s gives values that are not "
+                            "finite: check the parameters")
+    return (f"the Python FMU initialises at its start values and steps {experiment.output_interval:g} s"
+            + (f" ({warning})" if warning else ""))
+
+
 class Lazy:
     """A value computed on its first use after a step, then served from the cache until the next
     step (``clear``): a host that never reads an output never pays for it."""
@@ -272,20 +315,12 @@ class FmuCore(RowOutputs, SlaveCore):
 
     # ------------------------------------------------------------------ model hooks
     def initialise(self):
-        v = self.values
-        design = build_design(self.scenario, {n: v[n] for n in self.scenario.parameters})
-        self.model, table = design.model, design.table
+        design, self.stepper, warning = start_design(self.scenario, self.values, self.time, self.row)
+        self.model = design.model
+        if warning:
+            self.log(warning, "warning")
         self.quantities = output_quantities(self.scenario, self.model.reduced.ports)
-        if table.error_bound > table.tolerance:
-            self.log(f"the reduced model is tabulated to {table.error_bound:.2g} relative, not "
-                     f"{table.tolerance:g}: the geometry is close to a dead point", "warning")
-        y0 = np.array(self.model.y0, dtype=float)
-        y0[0], y0[1] = v["phi1_start"], v["omega1_start"]
-        self.stepper = FastStepper(table, self._motor(), self.model.reduced.J_flywheel, v["rtol"], v[TAU_EXT.name],
-                                   row=self.row)
-        self.stepper.set_port_inputs([v[n] for n in self.port_inputs])
         self.reads = output_reads(design, self.quantities, self.stepper)
-        self.stepper.start(self.time, y0)
         self._clear()
 
     def advance(self, target: float):

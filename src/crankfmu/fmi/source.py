@@ -48,6 +48,9 @@ class Source:
     data: tuple = ()                # the packaged data files it reads: paths in the package
     causality: str = "torque"       # at the crank (a scenario) or the shaft (a drive): "torque" or "speed"
     scenario: object = None         # a scenario's Scenario, its --set values applied
+    #: () -> words: what the FMU does at fmi2ExitInitializationMode and its first step, at its start
+    #: values, in this process; raises CrankfmuError where a host's would fail (None: nothing to try)
+    initialise: object = None
 
 
 def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str | None = None,
@@ -80,7 +83,7 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
                         lambda f, md, params, ref, **about: documentation.scenario_documentation(
                             f, scenario, md, params, ref, speed=causality == "speed", **about),
                         lambda: core_module.declared(scenario), load=scenario.name, causality=causality,
-                        scenario=scenario)
+                        scenario=scenario, initialise=None if causality == "speed" else lambda: slave.initialises(scenario))
         if _is_path(name):
             source.load, source.files = _user_files(scenario, name)
         else:
