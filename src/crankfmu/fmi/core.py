@@ -449,8 +449,18 @@ class SlaveCore:
             self._error(f"fmi2SetFMUstate: not a state of this FMU ({str(state)[:200]})")
             return
         if state["model"] is not None and not self.can_restore():
-            self._error("fmi2SetFMUstate: the state was taken after initialisation; this instance is not initialised")
-            return
+            # a state taken after initialisation, set into an instance that is not initialised (as
+            # fmusim's --initial-fmu-state-file does right after instantiation; the Reference FMUs
+            # accept it): build the model for the state's values, as fmi2ExitInitializationMode
+            # would, then take the state's own integrator state (the continuation is bit for bit)
+            kept = (self.values, self.time)
+            self.values, self.time = dict(state["values"]), state["time"]
+            try:
+                self.initialise()
+            except CrankfmuError as exc:
+                self.values, self.time = kept
+                self._error(f"fmi2SetFMUstate: the state's model cannot be built for its values: {exc}")
+                return
         self.values = dict(state["values"])
         self.time = state["time"]
         self.errors = dict(state["errors"])
