@@ -442,3 +442,36 @@ def test_the_rod_strings_three_binaries_agree_in_the_c_host(tmp_path):
         assert set(runs) == {"aarch64-linux", "x86_64-windows"}
     for platform, rows in runs.items():
         np.testing.assert_array_equal(rows, linux, err_msg=platform)
+
+
+@pytest.mark.parametrize("args, fmu, why", [
+    (["dc_pi", "--drive"], "Drive", "it has no events"),
+    (["seed000", "--causality", "speed"], "FourBarSpeed", "in speed causality the host's omega1 drives it"),
+])
+def test_an_fmu_without_event_mode_refuses_event_mode_at_instantiation(tmp_path, args, fmu, why):
+    """A host that asks for event mode from an FMU whose modelDescription says hasEventMode = false
+    is refused at fmi3InstantiateCoSimulation with the reason, logging off, as the Reference FMUs
+    do (Drive.fmu accepted it and refused only at the first fmi3UpdateDiscreteStates); without
+    event mode the same FMU instantiates."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi3 import FMU3Slave
+
+    assert main(["fmu", *args, "--native", "--fmi-version", "3", "--out", str(tmp_path)]) == 0
+    path = tmp_path / f"{fmu}.fmu"
+    md = read_model_description(str(path))
+    assert md.coSimulation.hasEventMode is False or str(md.coSimulation.hasEventMode).lower() == "false"
+    unzipped = extract(str(path), str(tmp_path / "x"))
+    messages = []
+
+    def instance():
+        return FMU3Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier)
+
+    refused = instance()
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        refused.instantiate(loggingOn=False, eventModeUsed=True,
+                            logMessage=lambda env, status, category, message: messages.append(message.decode()))
+    assert len(messages) == 1 and "eventModeUsed = true, but this FMU has no event mode" in messages[0], messages
+    assert why in messages[0] and "instantiate with eventModeUsed = false" in messages[0], messages
+    accepted = instance()
+    accepted.instantiate(loggingOn=False, eventModeUsed=False)
+    accepted.freeInstance()

@@ -70,7 +70,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
 {
     (void)resourcePath, (void)visible, (void)requiredIntermediateVariables, (void)nRequiredIntermediateVariables;
     (void)intermediateUpdate;
-    (void)eventModeUsed, (void)earlyReturnAllowed;    /* no events: every step ends where the host asks */
+    (void)earlyReturnAllowed;    /* allowed, never needed: every step ends where the host asks */
     Instance probe;
     memset(&probe, 0, sizeof probe);
     snprintf(probe.name, sizeof probe.name, "%s", instanceName ? instanceName : MODEL_IDENTIFIER);
@@ -82,6 +82,12 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
         co_fail(&probe.component, "fmi3InstantiateCoSimulation: the instantiation token %s is not this FMU's (%s): the "
                 "modelDescription.xml and the binary come from different builds",
                 instantiationToken ? instantiationToken : "(null)", MODEL_GUID);
+        return NULL;
+    }
+    if (eventModeUsed) {      /* refused here, as the Reference FMUs do, not at the first fmi3UpdateDiscreteStates */
+        co_fail(&probe.component, "%s", "fmi3InstantiateCoSimulation: eventModeUsed = true, but this FMU has no event "
+                "mode (hasEventMode = false in its modelDescription: it has no events): instantiate with "
+                "eventModeUsed = false");
         return NULL;
     }
     Instance* in = (Instance*)calloc(1, sizeof(Instance));

@@ -45,7 +45,8 @@ static fmi3Status status_of(int result) { return result == CM_OK ? fmi3OK : fmi3
 #define MODEL(c) (&((Instance*)(c))->model)
 
 static Instance* instantiate(fmi3String instanceName, fmi3String instantiationToken, fmi3Boolean loggingOn,
-                             fmi3InstanceEnvironment environment, fmi3LogMessageCallback logMessage, int model_exchange)
+                             fmi3InstanceEnvironment environment, fmi3LogMessageCallback logMessage, int model_exchange,
+                             int event_mode_used)
 {
     Instance probe;
     memset(&probe, 0, sizeof probe);
@@ -57,6 +58,12 @@ static Instance* instantiate(fmi3String instanceName, fmi3String instantiationTo
     if (CAUSALITY_SPEED && model_exchange) {
         cm_fail(&probe.model, "%s", "fmi3InstantiateModelExchange: this FMU is Co-Simulation only: in speed causality "
                 "tau_drive needs omega1's derivative, which a Model Exchange host cannot pass");
+        return NULL;
+    }
+    if (CAUSALITY_SPEED && event_mode_used) {     /* refused here, as the Reference FMUs do, not at the first event */
+        cm_fail(&probe.model, "%s", "fmi3InstantiateCoSimulation: eventModeUsed = true, but this FMU has no event mode "
+                "(hasEventMode = false in its modelDescription: in speed causality the host's omega1 drives it, no switch "
+                "is located): instantiate with eventModeUsed = false");
         return NULL;
     }
     if (!instantiationToken || strcmp(instantiationToken, MODEL_GUID) != 0) {
@@ -95,7 +102,7 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
 {
     (void)resourcePath;
     (void)visible;
-    return instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 1);
+    return instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 1, 0);
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
@@ -112,7 +119,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     (void)requiredIntermediateVariables;
     (void)nRequiredIntermediateVariables;
     (void)intermediateUpdate;
-    Instance* in = instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 0);
+    Instance* in = instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 0, eventModeUsed);
     if (in) {
         in->event_mode_used = eventModeUsed;
         in->early_return_allowed = earlyReturnAllowed;
