@@ -437,3 +437,28 @@ def test_a_missing_compiler_is_named():
 
     with pytest.raises(CrankfmuError, match="no-such-cc not found; it compiles the native FMU's binary"):
         _run(["no-such-cc", "-c", "x.c"], "no-such-cc")
+
+
+def test_a_refused_state_says_what_it_judged(tmp_path):
+    """A native FMU that refuses bytes as a state says why, with the values it judged (the size it
+    got and the size of its states), as the Python FMU's refusals do: the mechanism's shell and the
+    components' alike, logging off."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    from fuzz_host import callbacks
+
+    for args, fmu, said in ((["seed000"], "FourBar", r"not a serialized state of this FMU: 10 bytes, where its states are \d+$"),
+                            (["dc_pi", "--drive"], "Drive",
+                             r"these 10 bytes are not a state of this FMU: its states are at least \d+ bytes$")):
+        assert main(["fmu", *args, "--native", "--out", str(tmp_path)]) == 0
+        md = read_model_description(str(tmp_path / f"{fmu}.fmu"))
+        messages = []
+        keep = callbacks(lambda env, name, status, category, message: messages.append(message.decode()))
+        instance = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(tmp_path / f"{fmu}.fmu"), str(tmp_path / fmu)),
+                             modelIdentifier=md.coSimulation.modelIdentifier)
+        instance.instantiate(loggingOn=False, callbacks=keep[0])
+        with pytest.raises(Exception):
+            instance.deserializeFMUState(b"x" * 10)
+        assert messages and re.search(said, messages[-1]), messages
+        instance.freeInstance()

@@ -134,8 +134,14 @@ int co_exit_initialization(Component* c, const char* call)
     }
     c->stale = 0;
     if (!outputs_finite(c)) {
+        char judged[1024] = "";
+        size_t used = 0;
+        for (int i = 0; i < N_VARIABLES; i++)
+            if (VARIABLES[i].kind == KIND_OUTPUT && used + 64 < sizeof judged)
+                used += (size_t)snprintf(judged + used, sizeof judged - used, "%s%s = %g", used ? ", " : "",
+                                         VARIABLES[i].name, c->now.values[i]);
         c->now.phase = CO_FAILED;
-        return co_fail(c, "%s", "the initial state is not finite: check the parameters");
+        return co_fail(c, "the initial state is not finite (%s): check the parameters", judged);
     }
     c->now.phase = CO_STEPPING;
     return CO_OK;
@@ -301,12 +307,20 @@ void co_serialize(const Snapshot* s, unsigned char* bytes)
 int co_deserialize(const Component* c, const char* call, const unsigned char* bytes, size_t size, Snapshot* to)
 {
     Snapshot head;
-    if (!bytes || size < sizeof STATE_TAG + sizeof head || memcmp(bytes, STATE_TAG, sizeof STATE_TAG) != 0)
-        return co_fail(c, "%s: these %u bytes are not a state of this FMU", call, (unsigned)size);
+    /* each refusal says what it judged: the size, the tag, the phase and the state's length */
+    if (!bytes || size < sizeof STATE_TAG + sizeof head)
+        return co_fail(c, "%s: these %lu bytes are not a state of this FMU: its states are at least %lu bytes", call,
+                       (unsigned long)size, (unsigned long)(sizeof STATE_TAG + sizeof head));
+    if (memcmp(bytes, STATE_TAG, sizeof STATE_TAG) != 0)
+        return co_fail(c, "%s: these %lu bytes are not a state of this FMU: they do not start with its states' tag "
+                       "(another FMU's or another build's state?)", call, (unsigned long)size);
     memcpy(&head, bytes + sizeof STATE_TAG, sizeof head);
     head.state = NULL;
     if (head.phase < CO_INSTANTIATED || head.phase > CO_FAILED || head.n_state < 0 || size != co_serialized_size(&head))
-        return co_fail(c, "%s: these %u bytes are not a state of this FMU", call, (unsigned)size);
+        return co_fail(c, "%s: these %lu bytes are not a state of this FMU: phase %d (valid %d to %d), %d state values "
+                       "(%lu bytes with them)", call, (unsigned long)size, (int)head.phase, (int)CO_INSTANTIATED,
+                       (int)CO_FAILED, (int)head.n_state,
+                       head.n_state >= 0 ? (unsigned long)co_serialized_size(&head) : 0UL);
     double* keep = to->state;
     if (to->n_state != head.n_state) {
         free(keep);

@@ -363,6 +363,18 @@ void cm_cs_start(Model* m)
 #endif
 }
 
+/* the values an initial state was judged by, for a refusal's message (as the Python FMU's) */
+static const char* judged_row(const Model* m, char* out, size_t n)
+{
+    static const char* names[CK_OUT_SIZE] = {"phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor",
+                                             "M_load", "J_red", "tau_e"};
+    size_t used = 0;
+    out[0] = 0;
+    for (int j = 0; j < CK_OUT_SIZE && used + 48 < n; j++)
+        used += (size_t)snprintf(out + used, n - used, "%s%s = %g", j ? ", " : "", names[j], m->now.row[j]);
+    return out;
+}
+
 int cm_exit_initialization(Model* m, const char* call)
 {
     if (m->now.phase != CM_INITIALIZATION) return cm_fail(m, "%s without entering initialisation mode", call);
@@ -371,14 +383,18 @@ int cm_exit_initialization(Model* m, const char* call)
     if (m->model_exchange) {
         cm_me_start(m);
         if (!cm_me_evaluate(m)) {
+            char judged[512];
             m->now.phase = CM_FAILED;
-            return cm_fail(m, "%s", "the initial state gives non-finite derivatives or outputs");
+            return cm_fail(m, "the initial state gives non-finite derivatives or outputs (%s): check the parameters",
+                           judged_row(m, judged, sizeof judged));
         }
     } else {
         cm_cs_start(m);
         if (!outputs_finite(m)) {
+            char judged[512];
             m->now.phase = CM_FAILED;
-            return cm_fail(m, "%s", "the initial state gives non-finite outputs");
+            return cm_fail(m, "the initial state gives non-finite outputs (%s): check the parameters",
+                           judged_row(m, judged, sizeof judged));
         }
     }
     m->now.phase = CM_STEPPING;

@@ -186,11 +186,17 @@ void cm_serialize(const Snapshot* s, unsigned char* bytes)
 int cm_deserialize(const Model* m, const char* call, const unsigned char* bytes, size_t size, Snapshot* s)
 {
     Snapshot read;
-    if (size != cm_serialized_size() || memcmp(bytes, STATE_TAG, sizeof STATE_TAG) != 0)
-        return cm_fail(m, "%s: not a serialized state of this FMU", call);
+    /* each refusal says what it judged: the size, the tag, the phase */
+    if (!bytes || size != cm_serialized_size())
+        return cm_fail(m, "%s: not a serialized state of this FMU: %lu bytes, where its states are %lu", call,
+                       (unsigned long)size, (unsigned long)cm_serialized_size());
+    if (memcmp(bytes, STATE_TAG, sizeof STATE_TAG) != 0)
+        return cm_fail(m, "%s: not a serialized state of this FMU: %lu bytes of the right size, but they do not start "
+                       "with its states' tag (another FMU's or another build's state?)", call, (unsigned long)size);
     memcpy(&read, bytes + sizeof STATE_TAG, sizeof read);
     if (read.phase < CM_INSTANTIATED || read.phase > CM_FAILED)
-        return cm_fail(m, "%s: not a serialized state of this FMU", call);
+        return cm_fail(m, "%s: not a serialized state of this FMU: its phase is %d, not one of %d to %d", call,
+                       (int)read.phase, (int)CM_INSTANTIATED, (int)CM_FAILED);
     *s = read;
     return CM_OK;
 }
