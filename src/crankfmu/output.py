@@ -17,7 +17,6 @@ from .plots import (plot_cycles, plot_flywheel, plot_inertia, plot_moments, plot
                     plot_stability)
 from .contract import COLUMNS
 from .simulation import Result
-from .studies.equilibrium import cycle_breaks
 from .atomic import replacing, write_text
 
 
@@ -96,8 +95,8 @@ def write_equilibrium(scenario, results: list, out_dir) -> dict:
             np.savetxt(partial, np.column_stack(list(columns.values())),
                        delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
     plot_moments(scenario, results, out)
-    switches = [math.degrees(b) for b in cycle_breaks(scenario.build())[1:-1]]
-    plot_reactions(scenario, results[0], out / f"reactions_{results[0].key}.png", switches)
+    plot_reactions(scenario, results[0], out / f"reactions_{results[0].key}.png",
+                   [math.degrees(b) for b in results[0].switches])
     return summary
 
 

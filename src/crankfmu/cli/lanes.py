@@ -120,21 +120,22 @@ def main(argv=None) -> int:
     for t in threads:
         t.start()
     drawn = False
+
+    def draw() -> None:                   # every lane's line, over the ones drawn before
+        nonlocal drawn
+        width = shutil.get_terminal_size((100, 20)).columns
+        with lock:
+            sys.stdout.write((f"\x1b[{len(lanes)}F" if drawn else "")
+                             + "".join(f"\x1b[2K{status(lane, width)}\n" for lane in lanes))
+            sys.stdout.flush()
+        drawn = True
+
     while any(t.is_alive() for t in threads):
         if live:
-            width = shutil.get_terminal_size((100, 20)).columns
-            with lock:
-                if drawn:
-                    sys.stdout.write(f"\x1b[{len(lanes)}F")          # back to the first lane's line
-                sys.stdout.write("".join(f"\x1b[2K{status(lane, width)}\n" for lane in lanes))
-                sys.stdout.flush()
-            drawn = True
+            draw()
         time.sleep(0.25)
     if live:
-        width = shutil.get_terminal_size((100, 20)).columns
-        if drawn:
-            sys.stdout.write(f"\x1b[{len(lanes)}F")
-        sys.stdout.write("".join(f"\x1b[2K{status(lane, width)}\n" for lane in lanes))
+        draw()                            # the lanes' last state: done, or where one failed
     failed = [lane for lane in lanes if lane.failed or lane.done < len(lane.commands)]
     for lane in failed:
         print(f"\n{lane.name.strip()}: {lane.failed or 'stopped'} failed; the end of {lane.log}:")

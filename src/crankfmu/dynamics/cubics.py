@@ -79,6 +79,11 @@ def _not_periodic(engine, named, probes: int = 36) -> str | None:
             "supported yet: use method 'reference', which evaluates the loads at every angle")
 
 
+def _not_finite(what: str, name: str, value: float, phi1: float, digits: int = 2) -> str:
+    return (f"{what}: {name} is not finite ({value:g}) at phi1 = {math.degrees(phi1):.{digits}f} deg: an expression "
+            "of the data file divides by zero or overflows there (crankfmu check names it)")
+
+
 def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance: float, n: int, engine=None) -> str:
     """The message of a table that cannot be built: which function, and why. A value that is not
     finite; a jump (a discontinuity in phi1, e.g. a closed form's branch cut: no number of
@@ -89,9 +94,7 @@ def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance:
     if not finite.all():       # NaN or infinite: no table of any size follows it, and it is no dead point
         row = int(np.argmin(finite.all(axis=1)))
         k = int(np.flatnonzero(~finite[row])[0])
-        return (f"{what}: {_name(named, row)} is not finite ({values[row, k]:g}) at phi1 = "
-                f"{math.degrees(k * TWO_PI / n):.2f} deg: an expression of the data file divides by zero or "
-                "overflows there (crankfmu check names it)")
+        return _not_finite(what, _name(named, row), values[row, k], k * TWO_PI / n)
     row = int(np.argmax(errors))
     name = _name(named, row)
     h = TWO_PI / n
@@ -108,8 +111,7 @@ def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance:
         inside = engine(fine)[row]
         if not np.isfinite(inside).all():
             bad = int(np.flatnonzero(~np.isfinite(inside))[0])
-            return (f"{what}: {name} is not finite ({inside[bad]:g}) at phi1 = {math.degrees(fine[bad]):.4f} deg: an "
-                    "expression of the data file divides by zero or overflows there (crankfmu check names it)")
+            return _not_finite(what, name, inside[bad], fine[bad], digits=4)
         sub = np.abs(np.diff(inside))
         jump = abs(change) > 0 and sub.max() > 0.5 * abs(change) and sub.max() > 1e3 * np.median(sub) + 1e-300
     else:

@@ -161,6 +161,11 @@ def start_values(scenario) -> dict:
     return {p.name: p.value for p in (*found.inputs, *found.parameters)}
 
 
+def motor_line(values: dict) -> MotorLine:
+    """The motor line of an FMU's values (its tunable parameters A, B, A_low, B_low, omega_switch)."""
+    return MotorLine(*(values[n] for n in MOTOR))
+
+
 def start_design(scenario, values: dict, time: float, row=None):
     """What the Python FMU does at fmi2ExitInitializationMode, for ``values`` (every variable's
     value by name): the design's model and tables, and its stepper started at ``time``. Returns
@@ -172,7 +177,7 @@ def start_design(scenario, values: dict, time: float, row=None):
                "the geometry is close to a dead point" if table.error_bound > table.tolerance else "")
     y0 = np.array(design.model.y0, dtype=float)
     y0[0], y0[1] = values["phi1_start"], values["omega1_start"]
-    stepper = FastStepper(table, MotorLine(*(values[n] for n in MOTOR)), design.model.reduced.J_flywheel,
+    stepper = FastStepper(table, motor_line(values), design.model.reduced.J_flywheel,
                           values["rtol"], values[TAU_EXT.name], row=np.zeros(len(ROW_FIELDS)) if row is None else row)
     stepper.set_port_inputs([values[p.input_name] for p in scenario.ports])
     stepper.start(time, y0)
@@ -310,9 +315,6 @@ class FmuCore(RowOutputs, SlaveCore):
         self.declare(declared(self.scenario), getters)
         self.attach()
 
-    def _motor(self) -> MotorLine:
-        return MotorLine(*(self.values[n] for n in MOTOR))
-
     # ------------------------------------------------------------------ model hooks
     def initialise(self):
         design, self.stepper, warning = start_design(self.scenario, self.values, self.time, self.row)
@@ -326,7 +328,7 @@ class FmuCore(RowOutputs, SlaveCore):
     def advance(self, target: float):
         if self.pending:
             # a tunable parameter or the input changed: it takes effect from this step on
-            self.stepper.set_motor(self._motor())
+            self.stepper.set_motor(motor_line(self.values))
             self.stepper.set_tau_ext(self.values[TAU_EXT.name])
             self.stepper.set_port_inputs([self.values[n] for n in self.port_inputs])
             self.stepper.restart(self.time)

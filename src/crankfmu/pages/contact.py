@@ -1,6 +1,6 @@
 """A contact sheet: every figure and animation under a folder in one image, each thumbnail with its
 path, so a reviewer sees a demo's whole output at a glance (an animation by its middle frame, with
-its frame count). The results page links it; the tests write one of the demo's figures."""
+its frame count). tests/test_demo_figures.py writes one of make demo's figures."""
 
 from __future__ import annotations
 

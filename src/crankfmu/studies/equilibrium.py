@@ -32,6 +32,7 @@ class SpeedResult:
     mean: float                     # N.m, exact cycle mean of M_e (piecewise Gauss-Legendre)
     tech_work: float                # J per turn, from the sliders' strokes (negative: resisting)
     located: dict                   # the extremes located on the exact functions (located_extremes)
+    switches: tuple = ()            # rad: where a switched load changes over the turn (cycle_breaks' inner ones)
 
     @property
     def key(self) -> str:
@@ -161,7 +162,8 @@ def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> lis
             omega1=w, moment=moment,
             reactions=joint_reactions(model.reduced, phi1, w),
             reactions_static=joint_reactions(model.reduced, phi1, w, inertia=False),
-            mean=mean, tech_work=tech_work, located=located_extremes(model, w, breaks)))
+            mean=mean, tech_work=tech_work, located=located_extremes(model, w, breaks),
+            switches=tuple(breaks[1:-1])))
     return results
 
 

@@ -363,15 +363,16 @@ void cm_cs_start(Model* m)
 #endif
 }
 
-/* the values an initial state was judged by, for a refusal's message (as the Python FMU's) */
+/* the outputs an initial state was judged by, by their declared names (VARIABLES, OUTPUT_ROW: the
+ * generated tables), for a refusal's message (as the Python FMU's) */
 static const char* judged_row(const Model* m, char* out, size_t n)
 {
-    static const char* names[CK_OUT_SIZE] = {"phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor",
-                                             "M_load", "J_red", "tau_e"};
     size_t used = 0;
     out[0] = 0;
-    for (int j = 0; j < CK_OUT_SIZE && used + 48 < n; j++)
-        used += (size_t)snprintf(out + used, n - used, "%s%s = %g", j ? ", " : "", names[j], m->now.row[j]);
+    for (int vr = 0; vr < N_OUTPUTS && used + 48 < n; vr++)
+        if (OUTPUT_ROW[vr] >= 0)
+            used += (size_t)snprintf(out + used, n - used, "%s%s = %g", used ? ", " : "", VARIABLES[vr].name,
+                                     m->now.row[OUTPUT_ROW[vr]]);
     return out;
 }
 
