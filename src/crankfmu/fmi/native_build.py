@@ -35,7 +35,7 @@ from .native_model import NativeModel
 
 SHELL = NATIVE / "fmu"
 #: the model behind either FMI shell (crank_model.h), and each version's shell
-MODEL_SOURCES = ("crank_model.c", "crank_model_variables.c", "crank_model_me.c", "crank_model.h",
+MODEL_SOURCES = ("crank_model.c", "crank_model_variables.c", "crank_model_me.c", "crank_model.h", "fmu_states.h",
                  "crank_model_internal.h", "crank_variables.h")
 SHELL_SOURCES = {"2.0": ("crank_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
                  "3.0": ("crank_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}

@@ -33,7 +33,8 @@ from .native_build import SHELL, package_native
 from .native_model import c_double, c_string, default_experiment, unit_definitions
 
 #: the component's model behind either FMI shell, and each version's shell
-MODEL_SOURCES = ("component_model.c", "component_model.h", "component_variables.h", "component_models.c")
+MODEL_SOURCES = ("component_model.c", "component_model.h", "component_variables.h", "component_models.c",
+                 "fmu_states.h")
 SHELL_SOURCES = {"2.0": ("component_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
                  "3.0": ("component_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}
 #: which model of component_models.c a (kind, causality) builds

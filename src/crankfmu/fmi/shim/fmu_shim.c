@@ -51,6 +51,10 @@
 
 #define MAX_CATEGORIES 16
 
+/* the live FMU states an instance remembers (a host holds one or a few; beyond this many a state
+ * is simply not remembered, see fmi2FreeFMUstate) */
+#define MAX_STATES 64
+
 typedef struct {
     fmi2Component inner;
     fmi2CallbackFunctions host;     /* the host's callbacks */
@@ -61,6 +65,8 @@ typedef struct {
     char categories[MAX_CATEGORIES][64];
     int lost;                       /* pythonfmu returned fmi2Fatal: never forward again */
     char name[256];
+    void* states[MAX_STATES];       /* the FMU states pythonfmu handed out and not yet freed */
+    size_t n_states;
 } Shim;
 
 static void* inner_lib = NULL;
@@ -405,15 +411,58 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[])
 { SHIM(c); FORWARD(inner_fmi2SetString(s->inner, vr, n, v)); }
 
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate* state) { SHIM(c); FORWARD(inner_fmi2GetFMUstate(s->inner, state)); }
+/* The states pythonfmu hands out are remembered (by address only, never read), so that a host that
+ * passes fmi2FreeFMUstate the state itself instead of its address is understood, not crashed:
+ * fmusim (modelica/Reference-FMUs 0.0.39) does, after --final-fmu-state-file and
+ * --initial-fmu-state-file, and pythonfmu then reads the state's bytes as a pointer (SIGSEGV). */
+static int state_index(const Shim* s, const void* state)
+{
+    for (size_t i = 0; state && i < s->n_states; i++)
+        if (s->states[i] == state) return (int)i;
+    return -1;
+}
+
+static void remember_state(Shim* s, void* state)
+{
+    if (state && state_index(s, state) < 0 && s->n_states < MAX_STATES) s->states[s->n_states++] = state;
+}
+
+static void forget_state(Shim* s, const void* state)
+{
+    int i = state_index(s, state);
+    if (i >= 0) s->states[i] = s->states[--s->n_states];
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate* state)
+{
+    SHIM(c);
+    fmi2Status r = merged(s, inner_fmi2GetFMUstate(s->inner, state));
+    if (r <= fmi2Warning && state) remember_state(s, *state);
+    return r;
+}
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) { SHIM(c); FORWARD(inner_fmi2SetFMUstate(s->inner, state)); }
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* state) { SHIM(c); FORWARD(inner_fmi2FreeFMUstate(s->inner, state)); }
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* state)
+{
+    SHIM(c);
+    if (state && state_index(s, (const void*)state) >= 0) {     /* given the state itself, not its address */
+        fmi2FMUstate own = (fmi2FMUstate)state;
+        forget_state(s, own);
+        FORWARD(inner_fmi2FreeFMUstate(s->inner, &own));
+    }
+    if (state) forget_state(s, *state);
+    FORWARD(inner_fmi2FreeFMUstate(s->inner, state));
+}
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t* size)
 { SHIM(c); FORWARD(inner_fmi2SerializedFMUstateSize(s->inner, state, size)); }
 fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[], size_t size)
 { SHIM(c); FORWARD(inner_fmi2SerializeFMUstate(s->inner, state, bytes, size)); }
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size, fmi2FMUstate* state)
-{ SHIM(c); FORWARD(inner_fmi2DeSerializeFMUstate(s->inner, bytes, size, state)); }
+{
+    SHIM(c);
+    fmi2Status r = merged(s, inner_fmi2DeSerializeFMUstate(s->inner, bytes, size, state));
+    if (r <= fmi2Warning && state) remember_state(s, *state);
+    return r;
+}
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference unknown[], size_t nu,
                                         const fmi2ValueReference known[], size_t nk, const fmi2Real dv_known[],
                                         fmi2Real dv_unknown[])

@@ -208,11 +208,14 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
 fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* state)
 {
     if (!c) return fmi2Error;
-    if (state && *state) {
-        co_release((Snapshot*)*state);
-        free(*state);
-        *state = NULL;
-    }
+    int slipped;                         /* the host passed the state, not its address (fmu_states.h) */
+    void* s = fmu_state_to_free(state, &slipped);
+    if (!s) return state && *state ? status_of(co_fail(COMPONENT(c), "%s", "fmi2FreeFMUstate: not a state of this "
+                                                       "FMU (freed already?): nothing freed")) : fmi2OK;
+    co_release((Snapshot*)s);
+    fmu_state_unmark(s);
+    free(s);
+    if (!slipped) *state = NULL;
     return fmi2OK;
 }
 

@@ -203,11 +203,15 @@ fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState)
 fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState* FMUState)
 {
     if (!instance) return fmi3Error;
-    if (FMUState && *FMUState) {
-        co_release((Snapshot*)*FMUState);
-        free(*FMUState);
-        *FMUState = NULL;
-    }
+    int slipped;                         /* the host passed the state, not its address (fmu_states.h) */
+    void* s = fmu_state_to_free(FMUState, &slipped);
+    if (!s) return FMUState && *FMUState ? status_of(co_fail(COMPONENT(instance), "%s", "fmi3FreeFMUState: not a "
+                                                             "state of this FMU (freed already?): nothing freed"))
+                                         : fmi3OK;
+    co_release((Snapshot*)s);
+    fmu_state_unmark(s);
+    free(s);
+    if (!slipped) *FMUState = NULL;
     return fmi3OK;
 }
 

@@ -31,6 +31,7 @@ void co_reset(Component* c)
 {
     free(c->now.state);
     memset(&c->now, 0, sizeof c->now);
+    fmu_state_mark(&c->now);             /* every copy of it an FMU state hands out carries it */
     for (int i = 0; i < N_VARIABLES; i++) c->now.values[i] = VARIABLES[i].start;
     c->now.time = DEFAULT_START_TIME;
     c->now.phase = CO_INSTANTIATED;

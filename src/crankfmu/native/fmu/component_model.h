@@ -15,11 +15,13 @@
 #include <stddef.h>
 
 #include "component_variables.h"
+#include "fmu_states.h"
 
 enum { CO_OK = 0, CO_ERROR = 1 };
 enum { CO_INSTANTIATED, CO_INITIALIZATION, CO_STEPPING, CO_TERMINATED, CO_FAILED };
 
 typedef struct {
+    FmuStateMark mark;             /* first: what makes a copy an FMU state the shells know (fmu_states.h) */
     double values[N_VARIABLES];
     double time;
     int phase;

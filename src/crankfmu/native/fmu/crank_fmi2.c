@@ -201,8 +201,13 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate* state)
 {
     Instance* in = (Instance*)c;
     if (!in || !state) return fmi2Error;
-    if (*state) in->cb.freeMemory(*state);
-    *state = NULL;
+    int slipped;                         /* the host passed the state, not its address (fmu_states.h) */
+    void* s = fmu_state_to_free(state, &slipped);
+    if (!s) return *state ? status_of(cm_fail(&in->model, "%s", "fmi2FreeFMUstate: not a state of this FMU "
+                                              "(freed already?): nothing freed")) : fmi2OK;
+    fmu_state_unmark(s);
+    in->cb.freeMemory(s);
+    if (!slipped) *state = NULL;
     return fmi2OK;
 }
 

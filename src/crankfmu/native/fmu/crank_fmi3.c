@@ -275,8 +275,13 @@ fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState)
 fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState* FMUState)
 {
     if (!instance || !FMUState) return fmi3Error;
-    free(*FMUState);
-    *FMUState = NULL;
+    int slipped;                         /* the host passed the state, not its address (fmu_states.h) */
+    void* s = fmu_state_to_free(FMUState, &slipped);
+    if (!s) return *FMUState ? status_of(cm_fail(MODEL(instance), "%s", "fmi3FreeFMUState: not a state of this "
+                                                 "FMU (freed already?): nothing freed")) : fmi3OK;
+    fmu_state_unmark(s);
+    free(s);
+    if (!slipped) *FMUState = NULL;
     return fmi3OK;
 }
 

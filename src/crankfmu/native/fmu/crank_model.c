@@ -43,6 +43,7 @@ int cm_fail(const Model* m, const char* format, ...)
 void cm_reset(Model* m)
 {
     memset(&m->now, 0, sizeof m->now);
+    fmu_state_mark(&m->now);             /* every copy of it an FMU state hands out carries it */
     for (int i = 0; i < N_VARIABLES; i++) m->now.values[i] = VARIABLES[i].start;
     m->now.time = DEFAULT_START_TIME;
     m->now.t_limit = INFINITY;

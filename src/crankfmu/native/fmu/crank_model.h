@@ -15,6 +15,7 @@
 #include "crank_kernel.h"
 #include "crank_mechanism.h"
 #include "crank_variables.h"
+#include "fmu_states.h"
 
 enum { CM_OK = 0, CM_ERROR = 1 };
 enum { CM_INSTANTIATED, CM_INITIALIZATION, CM_STEPPING, CM_TERMINATED, CM_FAILED };
@@ -22,6 +23,7 @@ enum { CM_INSTANTIATED, CM_INITIALIZATION, CM_STEPPING, CM_TERMINATED, CM_FAILED
 enum { CM_LOG_OK, CM_LOG_WARNING, CM_LOG_ERROR };
 
 typedef struct {
+    FmuStateMark mark;             /* first: what makes a copy an FMU state the shells know (fmu_states.h) */
     double S[CK_STATE_SIZE];       /* the kernel's whole state */
     double P[CK_PARAM_SIZE];       /* the kernel's parameters */
     double row[CK_OUT_SIZE];       /* the outputs at the current time */
