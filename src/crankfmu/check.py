@@ -239,7 +239,9 @@ def check_scenario(source) -> Report:
         J = model.reduced.coefficients(np.linspace(0.0, 2 * math.pi, 721))[0]
     report.add("OK", f"J_red from {np.min(J):.6g} to {np.max(J):.6g} kg.m2 over the turn (> 0)")
     report.add("OK", f"{len(model.reduced.loads)} loads, {len(quantities)} mechanism-specific outputs"
-               + (f" ({', '.join(q.name for q in quantities)})" if quantities else ""))
+               + (f" ({', '.join(q.name for q in quantities)})" if quantities else "")
+               + (f"; the machine's cycle is {scenario.cycle_turns} crank turns (cycle_turns): the loads repeat "
+                  f"every {360 * scenario.cycle_turns} deg" if scenario.cycle_turns > 1 else ""))
     for port in model.reduced.ports:
         report.add("OK", f"{port.input_description}; input {port.input_name}, outputs "
                    + ", ".join(q.name for q in port.quantities))

@@ -35,6 +35,9 @@ _SCENARIOS = resources.files(__package__) / "scenarios"
 #: speed (it answers with the drive torque, fmi.speed)
 CAUSALITIES = ("torque", "speed")
 
+#: the longest machine cycle a scenario may declare, in crank turns (cycle_turns)
+MAX_CYCLE_TURNS = 8
+
 #: the load kinds a user writes as expressions (dynamics.user_loads)
 USER_LOADS = ("force", "couple", "spring_damper")
 
@@ -66,6 +69,13 @@ class Scenario:
         self.experiment = Experiment.from_dict(data.get("experiment", {}))
         if not self.experiment.stop_time > self.experiment.start_time:
             raise DefinitionError(f"{where}: experiment stop_time must exceed start_time")
+        turns = data.get("cycle_turns", 1)
+        if isinstance(turns, bool) or not isinstance(turns, int) or not 1 <= turns <= MAX_CYCLE_TURNS:
+            raise DefinitionError(f"{where}: cycle_turns must be a whole number of crank turns from 1 to "
+                                  f"{MAX_CYCLE_TURNS} (a four-stroke engine's cycle is 2), got {turns!r}")
+        #: crank turns of the machine's cycle (a four-stroke engine's 2): the loads repeat over it,
+        #: and delta, the flywheel, the steady cycle and the summaries' cycles are taken over it
+        self.cycle_turns: int = turns
 
     def _param(self, name: str) -> Parameter:
         if name not in self.parameters:
@@ -80,6 +90,11 @@ class Scenario:
         out = {n: p.value for n, p in self.parameters.items()}
         out.update(self.overrides)
         return out
+
+    @property
+    def cycle_angle(self) -> float:
+        """rad of crank angle in one machine cycle: 2 pi cycle_turns."""
+        return 2.0 * math.pi * self.cycle_turns
 
     def __getitem__(self, name: str) -> float:
         self._param(name)
@@ -208,7 +223,7 @@ class Scenario:
                 loads.append(self._make_load(spec, mechanism, links, values, found.get(i)))
         from .dynamics.ports import parse_ports
         ports = parse_ports(self.data.get("ports", []), definition, self.where, values)
-        reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads, ports)
+        reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads, ports, self.cycle_turns)
         reduced.source = (self, values)          # what the C model tabulates it from (table_of)
         if prepared is not None:
             from .dynamics.tabulated import keep_table

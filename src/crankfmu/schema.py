@@ -64,8 +64,9 @@ EXPERIMENT = table({
     "stop_time": {**NUMBER, "description": "s"},
     "output_interval": {**NUMBER, "description": "s between output points"},
     "tolerance": {**NUMBER, "description": "the integrator's relative tolerance"},
-    "cycles": {**INTEGER, "description": "crank turns drawn from the start by crankfmu simulate"},
-    "summary_cycle": {**INTEGER, "description": "the turn (from 1) whose extremes and delta are reported"},
+    "cycles": {**INTEGER, "description": "machine cycles (of cycle_turns crank turns each) from the start over "
+                                         "which crankfmu simulate checks the energy balance"},
+    "summary_cycle": {**INTEGER, "description": "the machine cycle (from 1) whose extremes and delta are reported"},
 }, "the default experiment")
 FORCE_SIDE = table({"fx": EXPRESSION, "fy": EXPRESSION, "moment": EXPRESSION})
 LOAD = table({
@@ -100,6 +101,9 @@ SCENARIO = table({
     "name": STRING, "title": STRING, "source": STRING, "citation": STRING,
     "mechanism": {**STRING, "description": "a packaged mechanism's name or a .toml path beside this file"},
     "fmu": {**STRING, "description": "the FMU's model identifier"},
+    "cycle_turns": {**INTEGER, "minimum": 1, "maximum": 8,
+                    "description": "crank turns in the machine's cycle, over which the loads repeat (a four-stroke "
+                                   "engine: 2); default 1"},
     "parameters": mapping(PARAMETER),
     "loads": array(LOAD), "outputs": array(OUTPUT), "ports": array(PORT),
     "crank": table({"causality": {"enum": ["torque", "speed"]}}),

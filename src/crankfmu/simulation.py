@@ -91,15 +91,16 @@ class Result:
 
     # ------------------------------------------------------------------ cycles and balances
     def cycle_bounds(self, k: int) -> tuple[float, float]:
-        """Start and end time (s) of the k-th kinematic cycle (k = 1 is the first turn)."""
-        phi0 = self.trajectory.y[PHI][0]
-        t0, t1 = self.time_at_angle([phi0 + TWO_PI * (k - 1), phi0 + TWO_PI * k])
+        """Start and end time (s) of the k-th machine cycle (k = 1 is the first: one crank turn, or
+        the scenario's cycle_turns turns)."""
+        phi0, cycle = self.trajectory.y[PHI][0], self.scenario.cycle_angle
+        t0, t1 = self.time_at_angle([phi0 + cycle * (k - 1), phi0 + cycle * k])
         return float(t0), float(t1)
 
     def cycle_stats(self, k: int) -> dict:
         """omega1 min, max, time mean and the coefficient of speed fluctuation over cycle k.
 
-        omega1_mean is the time mean 2*pi/T of the cycle; delta = (max - min)/mean.
+        omega1_mean is the time mean (the cycle's angle over its time T); delta = (max - min)/mean.
         """
         t0, t1 = self.cycle_bounds(k)
         tr = self.trajectory
@@ -119,7 +120,7 @@ class Result:
             inside = (tr.t >= t0) & (tr.t <= t1)
             w = np.concatenate([tr.y[OMEGA][inside], self.state([t0, t1])[OMEGA]])
             w_min, w_max = float(np.min(w)), float(np.max(w))
-        mean = TWO_PI / (t1 - t0)
+        mean = self.scenario.cycle_angle / (t1 - t0)
         return {"cycle": k, "t_start": t0, "t_end": t1, "period": t1 - t0,
                 "omega1_min": w_min, "omega1_max": w_max, "omega1_mean": mean,
                 "delta": (w_max - w_min) / mean}

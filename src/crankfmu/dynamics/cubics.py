@@ -23,12 +23,13 @@ from ..numerics import periodic_cubic_spline, periodic_hermite, periodic_series,
 TWO_PI = 2.0 * math.pi
 
 
-def evaluate_cubics(coefficients: np.ndarray, phi1) -> np.ndarray:
-    """Periodic piecewise cubics (functions, n, 4) at an array of crank angles."""
+def evaluate_cubics(coefficients: np.ndarray, phi1, period: float = TWO_PI) -> np.ndarray:
+    """Periodic piecewise cubics (functions, n, 4) on n intervals of ``period`` rad (one turn, or
+    a machine cycle of several) at an array of crank angles."""
     phi1 = np.atleast_1d(np.asarray(phi1, dtype=float))
     n = coefficients.shape[1]
-    h = TWO_PI / n
-    wrapped = phi1 - TWO_PI * np.floor(phi1 / TWO_PI)
+    h = period / n
+    wrapped = phi1 - period * np.floor(phi1 / period)
     i = np.minimum((wrapped / h).astype(np.int64), n - 1)
     return horner(coefficients[:, i, :], wrapped - i * h)
 
@@ -37,16 +38,28 @@ def horner(c: np.ndarray, u) -> np.ndarray:
     """Local cubics c0 + u (c1 + u (c2 + u c3)) (coefficients on the last axis) at offsets u."""
     return c[..., 0] + u * (c[..., 1] + u * (c[..., 2] + u * c[..., 3]))
 
-def build_cubics(engine, tolerance: float, n_start: int, n_max: int, loosest: float, named=("the functions", ())):
-    """(coefficients, checked error, construction) of the periodic functions ``engine`` gives: a
-    Fourier series where it converges, else a spline of samples. ``named``: (what the functions
-    are, each row's name[, the rows that are kinematics only]), for the message of a table that
-    cannot be built. A function that does not repeat after one turn is refused first, by name."""
-    not_periodic = _not_periodic(engine, named)
+def build_cubics(engine, tolerance: float, n_start: int, n_max: int, loosest: float, named=("the functions", ()),
+                 turns: int = 1):
+    """(coefficients, checked error, construction) of the functions ``engine`` gives, periodic
+    over ``turns`` crank turns (a machine's cycle: a four-stroke engine's gas force repeats every
+    2): a Fourier series where it converges, else a spline of samples, on intervals of
+    2 pi turns / n. ``named``: (what the functions are, each row's name[, the rows that are
+    kinematics only]), for the message of a table that cannot be built. A function that does
+    not repeat after the cycle is refused first, by name."""
+    not_periodic = _not_periodic(engine, named, turns)
     if not_periodic:
         raise SchemeError(not_periodic)
-    return (from_series(engine, tolerance)
-            or from_samples(engine, tolerance, n_start, n_max, loosest, named))
+    if turns == 1:
+        return (from_series(engine, tolerance)
+                or from_samples(engine, tolerance, n_start, n_max, loosest, named))
+    # the constructions work on one period of 2 pi: in theta = phi1 / turns, then the cubics are
+    # rescaled to phi1 (u_phi = turns u_theta: c_k / turns^k); the intervals' count is the cycle's
+    on_theta = lambda theta: engine(np.asarray(theta) * turns)  # noqa: E731
+    built = (from_series(on_theta, tolerance)
+             or from_samples(on_theta, tolerance, n_start, n_max, loosest, named, turns))
+    coefficients, error, construction = built
+    coefficients = coefficients / (float(turns) ** np.arange(4))
+    return coefficients, error, f"{construction} over a cycle of {turns} turns"
 
 
 def _name(named, row: int) -> str:
@@ -54,29 +67,37 @@ def _name(named, row: int) -> str:
     return names[row] if row < len(names) else f"function {row}"
 
 
-def _not_periodic(engine, named, probes: int = 36) -> str | None:
-    """Why the functions cannot be held over one turn, if one of them differs from itself a turn
-    later (a four-stroke engine's gas force repeats every two turns): every table here is periodic
-    over one turn, so such a function is no jump nor dead point but a longer cycle. None if each
-    repeats after one turn to round-off. (Non-finite values are left to the tabulator's message.)"""
-    phi = (np.arange(probes) + 0.37) * (TWO_PI / probes)
-    first, next_turn = engine(phi), engine(phi + TWO_PI)
-    if not (np.isfinite(first).all() and np.isfinite(next_turn).all()):
+def _not_periodic(engine, named, turns: int = 1, probes: int = 36) -> str | None:
+    """Why the functions cannot be held over the declared cycle of ``turns`` crank turns, if one of
+    them differs from itself a cycle later (a four-stroke engine's gas force repeats every two
+    turns): such a function is no jump nor dead point but a longer cycle, and the message says
+    which cycle_turns holds it. None if each repeats after the cycle to round-off. (Non-finite
+    values are left to the tabulator's message.)"""
+    cycle = turns * TWO_PI
+    phi = (np.arange(probes * turns) + 0.37) * (TWO_PI / probes)
+    first, next_cycle = engine(phi), engine(phi + cycle)
+    if not (np.isfinite(first).all() and np.isfinite(next_cycle).all()):
         return None
-    scale = np.maximum(_scale(first), _scale(next_turn))
-    gap = np.abs(next_turn - first) / scale[:, None]
+    scale = np.maximum(_scale(first), _scale(next_cycle))
+    gap = np.abs(next_cycle - first) / scale[:, None]
     row, k = np.unravel_index(int(np.argmax(gap)), gap.shape)
     if gap[row, k] <= 1e-9:
         return None
-    turns = next((n for n in (2, 3, 4, 6, 8)
-                  if np.max(np.abs(engine(phi + n * TWO_PI) - first) / scale[:, None]) <= 1e-9), None)
-    cycle = (f"it repeats every {turns} turns, a machine cycle of {turns} turns"
-             + (" (a four-stroke engine's)" if turns == 2 else "") if turns
-             else "it does not repeat after 2, 3, 4, 6 or 8 turns either")
-    return (f"{named[0]}: {_name(named, row)} is not periodic over one crank turn: {first[row, k]:.6g} at "
-            f"phi1 = {math.degrees(phi[k]):.2f} deg but {next_turn[row, k]:.6g} a turn later; {cycle}. The tables "
-            "and the fast integrators hold functions of one turn; a cycle of several turns (cycle_turns) is not "
-            "supported yet: use method 'reference', which evaluates the loads at every angle")
+    longer = [n for n in range(turns + 1, 4 * turns + 1) if n % turns == 0 or turns == 1] + [6, 8]
+    found = next((n for n in dict.fromkeys(longer) if n > turns
+                  and np.max(np.abs(engine(phi + n * TWO_PI) - first) / scale[:, None]) <= 1e-9), None)
+    declared = "one crank turn" if turns == 1 else f"the declared cycle of {turns} turns (cycle_turns = {turns})"
+    later = "a turn" if turns == 1 else "a cycle"
+    if found:
+        way = (f"it repeats every {found} turns" + (" (a four-stroke engine's cycle)" if found == 2 else "")
+               + f": declare cycle_turns = {found} at the scenario's top level")
+    else:
+        way = (f"it does not repeat after {', '.join(str(n) for n in dict.fromkeys(longer) if n > turns)} turns "
+               "either: a load must repeat over the machine's cycle (write it periodic, or use method 'reference', "
+               "which evaluates the loads at every angle)")
+    return (f"{named[0]}: {_name(named, row)} is not periodic over {declared}: {first[row, k]:.6g} at "
+            f"phi1 = {math.degrees(phi[k]):.2f} deg but {next_cycle[row, k]:.6g} {later} later "
+            f"(phi1 = {math.degrees(phi[k] + cycle):.2f} deg); {way}")
 
 
 def _not_finite(what: str, name: str, value: float, phi1: float, digits: int = 2) -> str:
@@ -84,7 +105,8 @@ def _not_finite(what: str, name: str, value: float, phi1: float, digits: int = 2
             "of the data file divides by zero or overflows there (crankfmu check names it)")
 
 
-def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance: float, n: int, engine=None) -> str:
+def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance: float, n: int, engine=None,
+                       turns: int = 1) -> str:
     """The message of a table that cannot be built: which function, and why. A value that is not
     finite; a jump (a discontinuity in phi1, e.g. a closed form's branch cut: no number of
     intervals follows it); a dead point (the kinematics themselves steep); or a steep but
@@ -94,13 +116,13 @@ def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance:
     if not finite.all():       # NaN or infinite: no table of any size follows it, and it is no dead point
         row = int(np.argmin(finite.all(axis=1)))
         k = int(np.flatnonzero(~finite[row])[0])
-        return _not_finite(what, _name(named, row), values[row, k], k * TWO_PI / n)
+        return _not_finite(what, _name(named, row), values[row, k], turns * k * TWO_PI / n)
     row = int(np.argmax(errors))
     name = _name(named, row)
     h = TWO_PI / n
     steps = np.abs(np.diff(np.append(values[row], values[row, 0])))
     k = int(np.argmax(steps))
-    at = f"phi1 = {math.degrees(k * h):.2f} to {math.degrees((k + 1) * h):.2f} deg"
+    at = f"phi1 = {math.degrees(turns * k * h):.2f} to {math.degrees(turns * (k + 1) * h):.2f} deg"
     head = f"{what}: {name} cannot be tabulated to {format_value(tolerance)} with {n} intervals (error {errors[row]:.2g})"
     change = values[row, (k + 1) % n] - values[row, k]
     kinematic = set(named[2]) if len(named) > 2 else set(range(values.shape[0]))
@@ -111,7 +133,7 @@ def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance:
         inside = engine(fine)[row]
         if not np.isfinite(inside).all():
             bad = int(np.flatnonzero(~np.isfinite(inside))[0])
-            return _not_finite(what, name, inside[bad], fine[bad], digits=4)
+            return _not_finite(what, name, inside[bad], turns * fine[bad], digits=4)
         sub = np.abs(np.diff(inside))
         jump = abs(change) > 0 and sub.max() > 0.5 * abs(change) and sub.max() > 1e3 * np.median(sub) + 1e-300
     else:
@@ -124,7 +146,7 @@ def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance:
                 "jump: write the function continuous, or use method 'reference'")
     kinematics_fine = all(errors[r] <= tolerance for r in kinematic if r < len(errors))
     if row not in kinematic and kinematics_fine:
-        slope = float(np.max(np.abs(np.diff(inside) / np.diff(fine)))) if inside is not None else steps[k] / h
+        slope = (float(np.max(np.abs(np.diff(inside) / np.diff(fine)))) if inside is not None else steps[k] / h) / turns
         needed = n * max(2.0, (errors[row] / tolerance) ** 0.25)
         return (f"{head}: it is continuous but steep, up to {slope:.4g} per rad near {at} (the mechanism's "
                 f"kinematics tabulate well there: no dead point); it needs about {needed:.3g} intervals, beyond the "
@@ -204,7 +226,7 @@ def from_series(engine, tolerance: float, n_first: int = 64, n_last: int = 4096,
 
 
 def from_samples(engine, tolerance: float, n_start: int, n_max: int, loosest: float,
-                  named=("the functions", ())):
+                  named=("the functions", ()), turns: int = 1):
     """(coefficients, checked error, construction) of the periodic cubic spline of the engine's
     samples, the intervals halved until the spline agrees with the engine to ``tolerance``."""
     n = n_start
@@ -223,6 +245,6 @@ def from_samples(engine, tolerance: float, n_start: int, n_max: int, loosest: fl
         if 2 * n > n_max:
             if error <= loosest:
                 break
-            raise SchemeError(_why_not_tabulated(values, errors, named, tolerance, n, engine))
+            raise SchemeError(_why_not_tabulated(values, errors, named, tolerance, n, engine, turns))
         n *= 2
     return coefficients, error, f"cubic spline of {n} samples"

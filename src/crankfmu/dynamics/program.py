@@ -91,6 +91,9 @@ class Program:
     reaction_names: tuple[str, ...] = ()
     #: the slowest conditioning the assembly check accepts: the engine's (Mechanism.check_assembly)
     min_conditioning: float = MIN_CONDITIONING
+    #: crank turns of the machine's cycle (the scenario's cycle_turns): the reduced model's and the
+    #: reactions' tables repeat over it
+    cycle_turns: int = 1
 
 
 class _Code:

@@ -167,7 +167,7 @@ class _Compiler(LoadClauses):
             column_names=tuple(n for load in loads for n in load.get("column_names", ())),
             table_parameters=tuple(sorted(c.used)), found=tuple(self.found),
             coordinates=np.array(coordinates, dtype=np.int32).reshape(-1, 4), coordinate_names=tuple(coordinate_names),
-            **reactions,
+            cycle_turns=self.scenario.cycle_turns, **reactions,
         )
         return program
 
@@ -297,7 +297,7 @@ def compile_scenario(scenario, optimised: bool = True) -> Program | None:
     instructions as the files' expressions state them (program.optimise's tests compare the two)."""
     d = scenario.mechanism_definition()
     key = (id(d), repr(scenario.data.get("loads")), repr(scenario.data.get("ports")),
-           repr(scenario.data.get("outputs")), tuple(sorted(scenario.parameters)), optimised)
+           repr(scenario.data.get("outputs")), tuple(sorted(scenario.parameters)), scenario.cycle_turns, optimised)
     if key not in _PROGRAMS:
         try:
             _PROGRAMS[key] = (d, _Compiler(scenario).compile(optimised))

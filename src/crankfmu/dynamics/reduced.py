@@ -12,6 +12,7 @@ The crank's own inertia I_1 enters through its link; the flywheel adds a constan
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,8 +32,13 @@ class LinkInertia:
 class ReducedModel:
     """J, 0.5*J' and the reduced load Q of a mechanism at any crank angle."""
 
-    def __init__(self, mechanism: Mechanism, links: list[LinkInertia], J_flywheel: float, loads: list, ports=()):
+    def __init__(self, mechanism: Mechanism, links: list[LinkInertia], J_flywheel: float, loads: list, ports=(),
+                 cycle_turns: int = 1):
         self.mechanism = mechanism
+        #: crank turns of the machine's cycle: the loads repeat over it (a four-stroke engine's 2);
+        #: the kinematics, J and J' over one turn
+        self.cycle_turns = int(cycle_turns)
+        self.period = 2.0 * math.pi * self.cycle_turns          # rad
         self.links = links
         self.J_flywheel = float(J_flywheel)        # kg.m^2
         self.loads = loads

@@ -69,11 +69,12 @@ class ReducedTable:
     slider_names: tuple[str, ...] = ()
     construction: str = ""       # how the cubics were made (a Fourier series, or a spline of samples)
     n_ports: int = 0
+    period: float = TWO_PI       # rad: the machine's cycle (cycle_turns turns) the functions repeat over
 
     def arrays(self) -> tuple:
-        """(coefficients, switch_angles, forces, n_ports): the table as the C kernel takes it
+        """(coefficients, switch_angles, forces, n_ports, period): the table as the C kernel takes it
         (native.Tables)."""
-        return self.coefficients, self.switch_angles, self.forces, self.n_ports
+        return self.coefficients, self.switch_angles, self.forces, self.n_ports, self.period
 
     @property
     def n_intervals(self) -> int:
@@ -81,10 +82,11 @@ class ReducedTable:
 
     def evaluate(self, phi1) -> np.ndarray:
         """All functions at an array of crank angles: shape (n_functions, len(phi1))."""
-        return evaluate_cubics(self.coefficients, phi1)
+        return evaluate_cubics(self.coefficients, phi1, self.period)
 
     def interval_of(self, phi1) -> np.ndarray:
-        """Index of the switch interval holding each crank angle (0 without switch angles)."""
+        """Index of the switch interval holding each crank angle (0 without switch angles). The
+        switch angles are the kinematics' (a slider's reversals, a velocity's sign): one turn's."""
         if self.switch_angles.size == 0:
             return np.zeros(np.shape(phi1), dtype=np.int64)
         wrapped = np.asarray(phi1) % TWO_PI
@@ -147,11 +149,11 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
     # point; a load steep where they are not is a steep load
     kinematic = (J_LINKS, HALF_DJ, *range(len(names) - len(reduced.ports), len(names)))
     coefficients, error, construction = build_cubics(engine, tolerance, n_start, n_max, loosest,
-                                                     ("the reduced model", names, kinematic))
+                                                     ("the reduced model", names, kinematic), reduced.cycle_turns)
     switch, forces = reduced.slider_schedule()
     return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(name for load in sliders for name in load.column_names), construction,
-                        len(reduced.ports))
+                        len(reduced.ports), reduced.period)
 
 
 @dataclass
@@ -270,7 +272,8 @@ def c_table(scenario, values: dict, tolerance: float = 1e-11, model=None) -> Red
     except MechanismError:
         return None
     return ReducedTable(coefficients, switches, forces, error, tolerance, time.perf_counter() - started,
-                        model.program.column_names, construction, model.program.n_ports)
+                        model.program.column_names, construction, model.program.n_ports,
+                        TWO_PI * model.program.cycle_turns)
 
 
 def c_output_tables(scenario, values: dict, quantities, tolerance: float, reaction_tolerance: float, reactions: bool,
@@ -295,7 +298,7 @@ def c_output_tables(scenario, values: dict, quantities, tolerance: float, reacti
         if reactions:
             coefficients, error, construction = model.cubics(REACTIONS, reaction_tolerance)
             reaction_table = ReactionTable(coefficients, program.reaction_names, len(program.term_inertia), error,
-                                           construction)
+                                           construction, TWO_PI * program.cycle_turns)
     except MechanismError:
         return None
     return quantity_table, reaction_table
@@ -328,6 +331,7 @@ class ReactionTable:
     n_terms: int
     error_bound: float
     construction: str
+    period: float = TWO_PI       # rad: the machine's cycle (the loads' terms repeat over it)
 
 
 def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: int = 1 << 16,
@@ -364,7 +368,7 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
     # a term a component does not have (a damper's on a pin it does not load, a port's on a joint
     # it bypasses) is zero up to the solve's round-off: exactly zero in the table, so that round-off
     # is not tabulated to a relative tolerance
-    probe = terms(np.linspace(0.0, TWO_PI, 97)[:-1])
+    probe = terms(np.linspace(0.0, reduced.period, 97 * reduced.cycle_turns)[:-1])
     keep = np.max(np.abs(probe), axis=2) > 1e-12 * np.max(np.abs(probe), axis=(0, 2))[None, :]
 
     def engine(phi1):
@@ -372,5 +376,6 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
 
     named = ("the joint reactions", [f"{name} ({term} term)" for name in names
                                      for term in (*REACTION_TERMS, *(f"column {k}" for k in range(n_terms - 4)))])
-    coefficients, error, construction = build_cubics(engine, tolerance, 256, n_max, loosest, named)
-    return ReactionTable(coefficients, names, n_terms, error, construction)
+    coefficients, error, construction = build_cubics(engine, tolerance, 256, n_max, loosest, named,
+                                                     reduced.cycle_turns)
+    return ReactionTable(coefficients, names, n_terms, error, construction, reduced.period)

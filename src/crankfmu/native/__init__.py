@@ -123,6 +123,7 @@ def _load() -> ctypes.CDLL:
         "mm_evaluate": (ctypes.c_int, [T, ctypes.c_double]),
         "mm_rows": (ctypes.c_int, [T, ctypes.c_int]),
         "mm_engine": (ctypes.c_int, [T, ctypes.c_int, D, ctypes.c_int, D]),
+        "mm_table_turns": (ctypes.c_int, [T, ctypes.c_int]),
         "mm_tabulate": (ctypes.c_int, [T, ctypes.c_int, ctypes.c_double, T, T, T, T]),
         "mm_free": (None, [T]),
         "mm_release": (None, [T]),
@@ -136,7 +137,8 @@ def _load() -> ctypes.CDLL:
 class _Tables(ctypes.Structure):
     _fields_ = [("coefficients", ctypes.c_void_p), ("n_functions", ctypes.c_int),
                 ("n", ctypes.c_int), ("switch_angles", ctypes.c_void_p), ("m", ctypes.c_int),
-                ("forces", ctypes.c_void_p), ("n_sliders", ctypes.c_int), ("n_ports", ctypes.c_int)]
+                ("forces", ctypes.c_void_p), ("n_sliders", ctypes.c_int), ("n_ports", ctypes.c_int),
+                ("period", ctypes.c_double)]
 
 
 LIBRARY = _load()
@@ -227,7 +229,7 @@ def _d(array: np.ndarray) -> int:
 class Tables:
     """A design's tables as the C kernel takes them; keeps the arrays alive while in use."""
 
-    def __init__(self, coefficients, switch_angles, forces, n_ports: int = 0):
+    def __init__(self, coefficients, switch_angles, forces, n_ports: int = 0, period: float = 2.0 * math.pi):
         self.arrays = (np.ascontiguousarray(coefficients, dtype=float),
                        np.ascontiguousarray(switch_angles, dtype=float),
                        np.ascontiguousarray(forces, dtype=float))
@@ -238,7 +240,7 @@ class Tables:
         if n_ports > MAX_PORTS:
             raise CrankfmuError(f"the C kernel takes at most {MAX_PORTS} ports, got {n_ports}")
         self.struct = _Tables(_d(C), C.shape[0], C.shape[1], _d(sw), sw.shape[0], _d(fo),
-                              fo.shape[2] if fo.ndim == 3 else 0, n_ports)
+                              fo.shape[2] if fo.ndim == 3 else 0, n_ports, period)
         self.pointer = ctypes.addressof(self.struct)
 
 

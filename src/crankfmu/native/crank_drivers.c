@@ -139,9 +139,10 @@ static void step_extremes(const double* S, double t_end, const CkTables* T, cons
     extremes[1] = highest;
 }
 
-/* one crank turn from (phi_start, omega_start) at t = 0: stats <- (omega1 at its end, min, max,
- * period). 0, 2 when the crank stops or turns back first (or passes t_max), 3 on underflow. */
-static int one_turn(double* S, double phi_start, double omega_start, double t_max, const CkTables* T,
+/* one machine cycle (T->period of crank angle: one turn, or a four-stroke engine's two) from
+ * (phi_start, omega_start) at t = 0: stats <- (omega1 at its end, min, max, period). 0, 2 when the
+ * crank stops or turns back first (or passes t_max), 3 on underflow. */
+static int one_cycle(double* S, double phi_start, double omega_start, double t_max, const CkTables* T,
                     const double* P, Scratch* w, double* stats, double* extremes)
 {
     for (int j = 0; j < 5; j++) w->y[j] = 0.0;
@@ -151,7 +152,7 @@ static int one_turn(double* S, double phi_start, double omega_start, double t_ma
     double y0[CK_N_Y];
     memcpy(y0, w->y, sizeof y0);
     kernel_start(S, 0.0, y0, T, P, w);
-    double phi_end = phi_start + CK_TWO_PI;
+    double phi_end = phi_start + T->period;
     double w_min = omega_start, w_max = omega_start;
     for (;;) {
         int slot = kernel_step(S, t_max, T, P, w);
@@ -187,8 +188,8 @@ void ck_steady_batch(const double* params, int n_designs, double phi_start, cons
         double status = CK_STEADY_NOT_CONVERGED;
         int turns = 0;
         for (int it = 0; it < max_turns; it++) {
-            double t_max = 1000.0 * CK_TWO_PI / fmax(fabs(wv), 1e-3);
-            int code = one_turn(S, phi_start, wv, t_max, T, P, &w, stats, extremes);
+            double t_max = 1000.0 * T->period / fmax(fabs(wv), 1e-3);
+            int code = one_cycle(S, phi_start, wv, t_max, T, P, &w, stats, extremes);
             turns++;
             if (code == 2) {
                 status = CK_STEADY_STALLS;
@@ -214,7 +215,7 @@ void ck_steady_batch(const double* params, int n_designs, double phi_start, cons
             wv = w_next;
         }
         double period = stats[3];
-        double mean = period > 0.0 ? CK_TWO_PI / period : NAN;
+        double mean = period > 0.0 ? T->period / period : NAN;
         double* o = out + (size_t)d * CK_STEADY_SIZE;
         o[0] = mean;
         o[1] = stats[1];

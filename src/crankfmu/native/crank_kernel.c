@@ -14,16 +14,17 @@ static const double SAFETY = 0.9, MIN_FACTOR = 0.2, MAX_FACTOR = 10.0;
 #define ERROR_EXPONENT (-1.0 / (CK_ERROR_ESTIMATOR_ORDER + 1))
 
 /* (static: the hot path inlines it; ck_periodic_cubics is its exported face) */
-static void periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out)
+static void periodic_cubics(const double* coefficients, int n_functions, int n, double period, double phi,
+                            double* out)
 {
-    double h = CK_TWO_PI / n;
-    double wrapped = phi - CK_TWO_PI * floor(phi / CK_TWO_PI);
+    double h = period / n;
+    double wrapped = phi - period * floor(phi / period);
     if (!isfinite(wrapped)) {          /* a state gone non-finite: NaN values, the step is refused */
         for (int f = 0; f < n_functions; f++) out[f] = NAN;
         return;
     }
     /* the interval index, clamped before the conversion: the rounding of a huge |phi| can put
-     * wrapped outside [0, 2 pi), and an out-of-range conversion to int is undefined */
+     * wrapped outside [0, period), and an out-of-range conversion to int is undefined */
     double x = wrapped / h;
     int i = x <= 0.0 ? 0 : (x >= n ? n - 1 : (int)x);
     double u = wrapped - i * h;
@@ -33,15 +34,15 @@ static void periodic_cubics(const double* coefficients, int n_functions, int n, 
     }
 }
 
-void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out)
+void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double period, double phi, double* out)
 {
-    periodic_cubics(coefficients, n_functions, n, phi, out);
+    periodic_cubics(coefficients, n_functions, n, period, phi, out);
 }
 
 /* every tabulated function at phi into work[0:n_functions] */
 static void table_values(const CkTables* T, double phi, double* work)
 {
-    periodic_cubics(T->coefficients, T->n_functions, T->n, phi, work);
+    periodic_cubics(T->coefficients, T->n_functions, T->n, T->period, phi, work);
 }
 
 /* the external torque on the crank at time t (N.m): tau_ext and each port's input times its

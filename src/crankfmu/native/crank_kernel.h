@@ -65,7 +65,8 @@ enum { CK_NO_EVENT = -1, CK_UNDERFLOW = -2, CK_BAD_STATE = -3, CK_NO_FIXED_POINT
 enum { CK_MAX_FUNCTIONS = 64 };
 
 /* The tables of one design (dynamics/tabulated.py): n_functions periodic cubics on n intervals of
- * one turn, coefficients[f][i][4] (c0 + u (c1 + u (c2 + u c3)), u from the interval's left end);
+ * the machine's cycle (period rad: 2 pi times its cycle_turns, a four-stroke engine's 4 pi),
+ * coefficients[f][i][4] (c0 + u (c1 + u (c2 + u c3)), u from the interval's left end);
  * the m switch angles (rad, in [0, 2 pi), ascending); the slider forces' factors
  * forces[k][direction 0 forward, 1 backward][n_sliders] of each switch interval. The last n_ports
  * functions are the ports' transfer functions (ds/dphi1 of a force's point along its axis, or
@@ -79,6 +80,7 @@ typedef struct {
     const double* forces;
     int n_sliders;
     int n_ports;
+    double period;
 } CkTables;
 
 /* the hash of the sources this library was compiled from (sources.py computes the same) */
@@ -97,9 +99,10 @@ CK_API int ck_next_interval_rule(const double* sw, int m, int k, double* bounds,
 /* the layout as numbers, for callers that check theirs: fills out[0..n) and returns the count */
 CK_API int ck_layout(int* out, int n);
 
-/* n_functions periodic cubics on n intervals of one turn (the layout of CkTables.coefficients) at
- * phi into out[0:n_functions] */
-CK_API void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double phi, double* out);
+/* n_functions periodic cubics on n intervals of period rad (the layout of CkTables.coefficients)
+ * at phi into out[0:n_functions] */
+CK_API void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double period, double phi,
+                               double* out);
 
 /* the values the joint reactions' tabulated terms multiply (dynamics/tabulated.py, ReactionTable),
  * into out: 1, epsilon1, omega1^2, omega1, each switched load's value in the mode at t (the

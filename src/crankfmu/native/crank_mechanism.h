@@ -122,6 +122,9 @@ typedef struct {
     const int *term_inertia;
     int n_applied;
     const int *applied;
+    /* crank turns of the machine's cycle: the reduced model's and the reactions' tables are
+     * periodic over it (the loads repeat over it), the [[outputs]]' over one turn */
+    int cycle_turns;
 } mm_program;
 
 #define MM_TURN_POINTS 720
@@ -167,10 +170,13 @@ int mm_evaluate(mm_model *model, double phi1);
 /* the assembly check over the turn (mm_check), then the searches and the switch schedule */
 int mm_check(mm_model *model, int coarse);
 int mm_prepare(mm_model *model);
+/* crank turns a table's functions repeat over: the program's cycle_turns (QUANTITIES: 1) */
+int mm_table_turns(const mm_model *model, int table);
 /* the functions of a table (MM_TABLE_...) at n angles: rows x n, row-major */
 int mm_rows(const mm_model *model, int table);
 int mm_engine(mm_model *model, int table, const double *phi1, int n, double *out);
-/* a table: periodic cubics (rows, m, 4) to tolerance, by the Fourier series of the engine's
+/* a table: periodic cubics (rows, m, 4) on m intervals of its period (mm_table_turns turns) to
+ * tolerance, by the Fourier series of the engine's
  * samples, else by the periodic cubic spline of up to 2^16 samples (kept where its error is within
  * 1e-8 when 2^16 do not reach the tolerance); *m_out its intervals, *error the checked bound,
  * *n_series the series' samples (0: the spline's). The cubics are malloc'd (*cubics). */

@@ -30,7 +30,8 @@ void ck_quantity_values(const double* coefficients, int n_coordinates, int n, co
                         int n_quantities, const int* coordinate, const int* order, double phi, double omega,
                         double epsilon, double* scratch, double* out)
 {
-    ck_periodic_cubics(coefficients, 3 * n_coordinates, n, phi, scratch);
+    /* the kinematics: periodic over one turn, whatever the machine's cycle */
+    ck_periodic_cubics(coefficients, 3 * n_coordinates, n, CK_TWO_PI, phi, scratch);
     for (int k = 0; k < n_quantities; k++) {
         int c = coordinate[k];
         double q = scratch[3 * c] + winding[c] * phi, dq = scratch[3 * c + 1], ddq = scratch[3 * c + 2];
@@ -44,7 +45,8 @@ int ck_reaction_values(const double* coefficients, int n_reactions, int n_terms,
 {
     double* weights = scratch + (size_t)n_reactions * n_terms;
     if (ck_reaction_weights(S, t, omega, epsilon, T, P, weights) != n_terms) return -1;
-    ck_periodic_cubics(coefficients, n_reactions * n_terms, n, phi, scratch);
+    /* the loads' terms: periodic over the machine's cycle, as the reduced model's */
+    ck_periodic_cubics(coefficients, n_reactions * n_terms, n, T->period, phi, scratch);
     for (int r = 0; r < n_reactions; r++) {
         const double* terms = scratch + (size_t)r * n_terms;
         double value = 0.0;

@@ -10,6 +10,24 @@
 #include <stdlib.h>
 #include <string.h>
 
+int mm_table_turns(const mm_model *m, int table)
+{
+    int turns = m->program->cycle_turns;
+    return table == MM_TABLE_QUANTITIES || turns < 1 ? 1 : turns;
+}
+
+/* The constructions below sample one period of 2 pi in theta = phi1 / turns (a table of a machine
+ * cycle of several turns: its loads repeat over it); mm_tabulate rescales the cubics to phi1.
+ * sample: the engine at angles theta (scaled to phi1 in place: every caller writes its angles
+ * afresh before each call) */
+static int sample(mm_model *m, int table, double *angles, int n, double *out)
+{
+    int turns = mm_table_turns(m, table);
+    if (turns != 1)
+        for (int i = 0; i < n; ++i) angles[i] *= turns;
+    return mm_engine(m, table, angles, n, out);
+}
+
 /* the spline of samples (dynamics.cubics.from_samples), where the Fourier series does not
  * converge (a mechanism close to a dead point, a load with a kink in phi1): the C2 periodic cubic
  * spline of n samples (numerics.periodic_cubic_spline: its second derivatives M from the circulant
@@ -41,9 +59,9 @@ static int from_samples(mm_model *m, int table, double tolerance, double **cubic
             break;
         }
         for (int i = 0; i < n; ++i) angles[i] = i * h;
-        if ((status = mm_engine(m, table, angles, n, values))) break;
+        if ((status = sample(m, table, angles, n, values))) break;
         for (int i = 0; i < n; ++i) { angles[i] = (i + 0.5) * h; angles[n + i] = (i + 0.3) * h; }
-        if ((status = mm_engine(m, table, angles, 2 * n, exact))) break;
+        if ((status = sample(m, table, angles, 2 * n, exact))) break;
         for (int k = 0; k < n; ++k) eigen[k] = 4.0 + 2.0 * cos(TWO_PI * k / n);
         double error = 0.0;
         int worst = 0;
@@ -96,7 +114,7 @@ static int from_samples(mm_model *m, int table, double tolerance, double **cubic
             double median = 0.5 * (exact[n / 2 - 1] + exact[n / 2]) + 1e-300;
             m->error_index = worst;
             m->error_value = error;
-            m->error_angle = k * h;
+            m->error_angle = k * h * mm_table_turns(m, table);          /* phi1, not theta */
             m->error_step = step;
             m->error_jumps = largest > 1e3 * median;
             status = MM_NOT_TABULATED;
@@ -174,8 +192,31 @@ static void same_rows(int rows, int n, const double *samples, int n_checks, cons
     }
 }
 
+static int tabulate_period(mm_model *m, int table, double tolerance, double **cubics_out, int *m_out,
+                           double *error_out, int *n_series);
+
 int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, int *m_out, double *error_out,
                 int *n_series)
+{
+    int status = tabulate_period(m, table, tolerance, cubics_out, m_out, error_out, n_series);
+    int turns = mm_table_turns(m, table);
+    if (status == MM_OK && turns != 1) {
+        /* the cubics in theta to phi1 = turns theta: u_phi = turns u_theta, c_k / turns^k */
+        const double t1 = turns, t2 = t1 * t1, t3 = t2 * t1;     /* (as dynamics/cubics.py divides) */
+        size_t count = (size_t)mm_rows(m, table) * (size_t)*m_out;
+        for (size_t i = 0; i < count; ++i) {
+            double *c = *cubics_out + 4 * i;
+            c[1] /= t1;
+            c[2] /= t2;
+            c[3] /= t3;
+        }
+    }
+    return status;
+}
+
+/* mm_tabulate over one period of 2 pi in theta */
+static int tabulate_period(mm_model *m, int table, double tolerance, double **cubics_out, int *m_out,
+                           double *error_out, int *n_series)
 {
     const int rows = mm_rows(m, table), n_first = 64, n_last = 4096, m_last = 1 << 16;
     const double budget = 0.5 * tolerance;
@@ -199,7 +240,7 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
         for (int i = 0; i < n; i += 4) angles[c++] = (i + 0.3) * h;
         double *first = malloc(sizeof(double) * rows * c);
         if (!first) { status = MM_NO_MEMORY; goto done; }
-        status = mm_engine(m, table, angles, c, first);
+        status = sample(m, table, angles, c, first);
         for (int r = 0; r < rows && status == MM_OK; ++r) {
             memcpy(samples + r * n, first + r * c, sizeof(double) * n);
             memcpy(exact + r * (c - n), first + r * c + n, sizeof(double) * (c - n));
@@ -254,7 +295,7 @@ int mm_tabulate(mm_model *m, int table, double tolerance, double **cubics_out, i
         int c = 0;
         for (int i = 0; i < n; ++i) angles[c++] = (i + 0.5) * h;
         for (int i = 0; i < n; i += 4) angles[c++] = (i + 0.3) * h;
-        if ((status = mm_engine(m, table, angles, c, exact))) goto done;
+        if ((status = sample(m, table, angles, c, exact))) goto done;
     }
     /* the Hermite cubics of the series on mm intervals, by its bound on the fourth derivative */
     {

@@ -54,7 +54,7 @@ class MMProgram(ctypes.Structure):
                 ("min_conditioning", ctypes.c_double), ("n_coordinates", ctypes.c_int), ("coordinates", I),
                 ("n_links", ctypes.c_int), ("links", I), ("crank", ctypes.c_int), ("n_joints", ctypes.c_int),
                 ("joints", I), ("n_terms_reaction", ctypes.c_int), ("term_inertia", I), ("n_applied", ctypes.c_int),
-                ("applied", I)]
+                ("applied", I), ("cycle_turns", ctypes.c_int)]
 
 
 class MMModel(ctypes.Structure):
@@ -113,6 +113,7 @@ def _struct(program) -> tuple:
     s.n_joints, s.joints = len(program.joints), ints(program.joints)
     s.n_terms_reaction, s.term_inertia = len(program.term_inertia), ints(program.term_inertia)
     s.n_applied, s.applied = len(program.applied), ints(program.applied)
+    s.cycle_turns = program.cycle_turns
     program._c_struct = (s, keep)
     return program._c_struct
 
@@ -208,7 +209,9 @@ class CModel:
         else:
             self._lib.mm_release(cubics)
             coefficients = np.zeros((rows, m.value, 4))
+        turns = self._lib.mm_table_turns(ctypes.byref(self._model), table)
+        over = f" over a cycle of {turns} turns" if turns != 1 else ""
         if n.value == 0:
-            return coefficients, error.value, f"cubic spline of {m.value} samples, in C"
+            return coefficients, error.value, f"cubic spline of {m.value} samples{over}, in C"
         return (coefficients, error.value,
-                f"Fourier series of {n.value} samples, Hermite cubics on {m.value} intervals, in C")
+                f"Fourier series of {n.value} samples, Hermite cubics on {m.value} intervals{over}, in C")

@@ -1,6 +1,7 @@
 """The equilibrium-moment study (seed 001 Figs. 2-5): M_e(phi1) over a cycle at constant crank
 speeds, with and without the inertia forces and moments, the joint reactions, and the checks a
-user can read back: the cycle mean of M_e is the technological work per turn over 2 pi.
+user can read back: the cycle mean of M_e is the technological work per machine cycle over the
+cycle's angle (2 pi, or 2 pi cycle_turns: a four-stroke engine's 4 pi).
 
 ``equilibrium_study(scenario, [15, 10, 7, 5])`` returns one :class:`SpeedResult` per speed;
 ``output.write_equilibrium`` writes summary.json, one CSV per speed and the figures.
@@ -30,9 +31,10 @@ class SpeedResult:
     reactions: JointReactions       # with inertia
     reactions_static: JointReactions
     mean: float                     # N.m, exact cycle mean of M_e (piecewise Gauss-Legendre)
-    tech_work: float                # J per turn, from the sliders' strokes (negative: resisting)
+    tech_work: float                # J per machine cycle (negative: resisting)
     located: dict                   # the extremes located on the exact functions (located_extremes)
-    switches: tuple = ()            # rad: where a switched load changes over the turn (cycle_breaks' inner ones)
+    switches: tuple = ()            # rad: where a switched load changes over the cycle (cycle_breaks' inner ones)
+    cycle_angle: float = TWO_PI     # rad: the machine's cycle
 
     @property
     def key(self) -> str:
@@ -52,7 +54,7 @@ class SpeedResult:
             "Me_min_at_deg": e["Me_min_at_deg"],
             "Me_max_at_deg": e["Me_max_at_deg"],
             "technological_work_per_cycle_J": self.tech_work,
-            "technological_work_over_2pi": -self.tech_work / TWO_PI,
+            "technological_work_over_cycle_angle": -self.tech_work / self.cycle_angle,
             "joint_reaction_peaks": e["joint_reaction_peaks"],
             "joint_reaction_peaks_static": e["joint_reaction_peaks_static"],
         }
@@ -73,8 +75,8 @@ def located_extremes(model, omega1: float, breaks) -> dict:
     out = {"Me_min": float(m["min"][0]), "Me_max": float(m["max"][0]),
            "Me_min_static": float(m["min"][1]), "Me_max_static": float(m["max"][1]),
            "inertia_ratio": float(largest_inertia / largest_total),
-           "Me_min_at_deg": float(np.degrees(m["min_at"][0]) % 360.0),
-           "Me_max_at_deg": float(np.degrees(m["max_at"][0]) % 360.0)}
+           "Me_min_at_deg": float(np.degrees(m["min_at"][0]) % (360.0 * model.reduced.cycle_turns)),
+           "Me_max_at_deg": float(np.degrees(m["max_at"][0]) % (360.0 * model.reduced.cycle_turns))}
     if model.mechanism.definition.joints:
         for key, inertia in (("joint_reaction_peaks", True), ("joint_reaction_peaks_static", False)):
             kinds = joint_reactions(model.reduced, np.array([0.0]), omega1, inertia=inertia).kind
@@ -111,10 +113,14 @@ def parse_speeds(text) -> list[float]:
 
 
 def cycle_breaks(model) -> list[float]:
-    """Crank angles (rad) where a load jumps at constant forward speed, with 0 and 2 pi."""
-    breaks = {0.0, TWO_PI}
+    """Crank angles (rad) where a load jumps at constant forward speed over the machine's cycle,
+    with 0 and its end (2 pi cycle_turns). A switch is the kinematics' (a slider's reversal, a
+    velocity's sign): it comes back every turn of the cycle."""
+    period, turns = model.reduced.period, model.reduced.cycle_turns
+    breaks = {0.0, period}
     for load in model.reduced.sliders:        # every switched load: slider forces, direction-dependent loads
-        breaks |= set(load.switch_angles(model.mechanism))
+        for angle in load.switch_angles(model.mechanism):
+            breaks |= {angle % TWO_PI + TWO_PI * n for n in range(turns)}
     return sorted(breaks)
 
 
@@ -126,7 +132,8 @@ def technological_torque(model, phi1, omega1) -> np.ndarray:
 
 
 def cycle_mean(fn, breaks, max_width=math.radians(5.0), nodes=16) -> float:
-    """(1/2 pi) integral of fn(phi1 array) over one turn, Gauss-Legendre on each smooth piece."""
+    """The mean of fn(phi1 array) over the pieces between ``breaks`` (from 0 to the cycle's end),
+    Gauss-Legendre on each smooth piece."""
     x, w = np.polynomial.legendre.leggauss(nodes)
     total = 0.0
     for a, b in zip(breaks[:-1], breaks[1:]):
@@ -137,7 +144,7 @@ def cycle_mean(fn, breaks, max_width=math.radians(5.0), nodes=16) -> float:
         mid, half = 0.5 * (edges[1:] + edges[:-1]), 0.5 * np.diff(edges)
         phis = (mid[:, None] + half[:, None] * x[None, :]).ravel()
         total += float(np.sum(fn(phis).reshape(pieces, nodes) * (half[:, None] * w[None, :])))
-    return total / TWO_PI
+    return total / (breaks[-1] - breaks[0])
 
 
 def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> list[SpeedResult]:
@@ -149,13 +156,14 @@ def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> lis
     if n_angles < 8:
         raise ParameterError(f"angles = {n_angles}: use at least 8 crank angles per cycle", "angles")
     model = scenario.build()
-    phi1 = np.linspace(0.0, TWO_PI, n_angles, endpoint=False)
+    period = model.reduced.period
+    phi1 = np.linspace(0.0, period, n_angles * model.reduced.cycle_turns, endpoint=False)
     breaks = cycle_breaks(model)
     results = []
     for w in speeds:
-        # the technological loads' work per turn forward (negative: they take work), at this speed
-        # (a viscous load's depends on it); a slider force's is also known in closed form (work_per_cycle)
-        tech_work = TWO_PI * cycle_mean(lambda p: technological_torque(model, p, w), breaks)
+        # the technological loads' work per machine cycle forward (negative: they take work), at this
+        # speed (a viscous load's depends on it); a slider force's is also known in closed form (work_per_cycle)
+        tech_work = period * cycle_mean(lambda p: technological_torque(model, p, w), breaks)
         moment = equilibrium_moment(model.reduced, phi1, w)
         mean = cycle_mean(lambda p: equilibrium_moment(model.reduced, p, w).total, breaks)
         results.append(SpeedResult(
@@ -163,7 +171,7 @@ def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> lis
             reactions=joint_reactions(model.reduced, phi1, w),
             reactions_static=joint_reactions(model.reduced, phi1, w, inertia=False),
             mean=mean, tech_work=tech_work, located=located_extremes(model, w, breaks),
-            switches=tuple(breaks[1:-1])))
+            switches=tuple(breaks[1:-1]), cycle_angle=period))
     return results
 
 

@@ -4,8 +4,9 @@
   crank angle, domega1/dphi1 = (M_motor(omega1) + Q - 0.5 J' omega1^2) / (J omega1), with the
   time dt/dphi1 = 1/omega1 carried along. Each smooth piece between two load switches is
   integrated by DOP853 (the switches end a piece, they are not stepped over); the start speed is
-  found by a secant iteration on omega1(phi0 + 2 pi) = omega1(phi0).
-* delta = (omega_max - omega_min) / omega_m with omega_m = 2 pi / T, the cycle's time mean (the
+  found by a secant iteration on omega1(phi0 + Phi) = omega1(phi0), Phi the machine's cycle
+  (2 pi cycle_turns: one turn, a four-stroke engine's two).
+* delta = (omega_max - omega_min) / omega_m with omega_m = Phi / T, the cycle's time mean (the
   definition `crankfmu simulate` uses).
 * Eq. 17: J_F = dW_max / (omega_m^2 [delta]) with dW_max = E_max - E_min, the largest swing of
   the work of the loads against a constant driving torque equal to their mean (the paper's
@@ -39,7 +40,7 @@ TWO_PI = 2.0 * math.pi
 
 @dataclass
 class SteadyCycle:
-    """The periodic motion over one turn from phi0, sampled at ``phi1`` (rad)."""
+    """The periodic motion over one machine cycle from phi0, sampled at ``phi1`` (rad)."""
 
     phi1: np.ndarray
     omega1: np.ndarray     # rad/s
@@ -47,10 +48,11 @@ class SteadyCycle:
     time: np.ndarray       # s from phi0
     period: float          # s
     J_flywheel: float      # kg.m2
+    angle: float = TWO_PI  # rad: the cycle (2 pi cycle_turns)
 
     @property
     def omega_mean(self) -> float:
-        return TWO_PI / self.period
+        return self.angle / self.period
 
     @property
     def delta(self) -> float:
@@ -176,7 +178,7 @@ def _crank_angle_rhs(model):
     return rhs
 
 
-def _one_turn(model, phi0, omega0, pieces, rtol, samples=None):
+def _one_cycle(model, phi0, omega0, pieces, rtol, samples=None):
     rhs = _crank_angle_rhs(model)
     y = np.array([omega0, 0.0])
     dense = []
@@ -191,28 +193,29 @@ def _one_turn(model, phi0, omega0, pieces, rtol, samples=None):
 
 def steady_cycle(model, phi0: float = 0.0, rtol: float = 1e-11, n_samples: int = 3601,
                  omega_guess: float | None = None) -> SteadyCycle:
-    """The periodic solution over one turn starting at crank angle ``phi0`` (rad)."""
+    """The periodic solution over one machine cycle starting at crank angle ``phi0`` (rad)."""
     breaks = np.array(cycle_breaks(model))
-    rel = np.unique(np.concatenate([[0.0, TWO_PI], (breaks - phi0) % TWO_PI]))
+    cycle = model.reduced.period
+    rel = np.unique(np.concatenate([[0.0, cycle], (breaks - phi0) % cycle]))
     pieces = [(phi0 + a, phi0 + b) for a, b in zip(rel[:-1], rel[1:]) if b - a > 1e-12]
     w = float(model.y0[1] if omega_guess is None else omega_guess)
     if not w > 0:
         raise ParameterError(f"the steady cycle needs a forward start speed, got omega1 = {w:g} rad/s", "omega1_start")
-    # two fixed-point passes, then secant steps on g(w) = omega(2 pi; w) - w
-    w1 = _one_turn(model, phi0, w, pieces, rtol)[0][0]
-    w2 = _one_turn(model, phi0, w1, pieces, rtol)[0][0]
+    # two fixed-point passes, then secant steps on g(w) = omega(phi0 + cycle; w) - w
+    w1 = _one_cycle(model, phi0, w, pieces, rtol)[0][0]
+    w2 = _one_cycle(model, phi0, w1, pieces, rtol)[0][0]
     a, ga, b, gb = w, w1 - w, w1, w2 - w1
     for _ in range(30):
         if gb == 0.0 or abs(gb) <= 1e-13 * abs(b):
             break
         c = b - gb * (b - a) / (gb - ga) if gb != ga else b + gb
-        gc = _one_turn(model, phi0, c, pieces, rtol)[0][0] - c
+        gc = _one_cycle(model, phi0, c, pieces, rtol)[0][0] - c
         a, ga, b, gb = b, gb, c, gc
     else:
         raise SchemeError(f"no periodic cycle found (omega1 mismatch {gb:.3g} rad/s after 30 iterations)")
-    _, dense = _one_turn(model, phi0, b, pieces, rtol, samples=True)
+    _, dense = _one_cycle(model, phi0, b, pieces, rtol, samples=True)
     rhs = _crank_angle_rhs(model)
-    phis = phi0 + np.linspace(0.0, TWO_PI, n_samples)
+    phis = phi0 + np.linspace(0.0, cycle, (n_samples - 1) * model.reduced.cycle_turns + 1)
     # add the piece ends so the extremes at a switch are seen
     phis = np.unique(np.concatenate([phis, [p for pc in pieces for p in pc]]))
     ys = np.empty((2, phis.size))
@@ -241,14 +244,16 @@ def steady_cycle(model, phi0: float = 0.0, rtol: float = 1e-11, n_samples: int =
         phis, ys = phis[order], ys[:, order]
     eps = model.equation.outputs(phis, ys[0])["epsilon1"]
     return SteadyCycle(phi1=phis, omega1=ys[0], epsilon1=eps, time=ys[1], period=float(ys[1, -1]),
-                       J_flywheel=model.reduced.J_flywheel)
+                       J_flywheel=model.reduced.J_flywheel, angle=cycle)
 
 
 def energy_swing(model, n: int = 20001) -> tuple[float, np.ndarray, np.ndarray]:
-    """dW_max (J) of eqs. 16-17 and the curve dW(phi1): the loads' work against their mean."""
+    """dW_max (J) of eqs. 16-17 and the curve dW(phi1) over the machine's cycle: the loads' work
+    against their mean."""
     breaks = cycle_breaks(model)
+    cycle, turns = model.reduced.period, model.reduced.cycle_turns
     x, wts = np.polynomial.legendre.leggauss(8)
-    grid = np.unique(np.concatenate([np.linspace(0.0, TWO_PI, n), breaks]))
+    grid = np.unique(np.concatenate([np.linspace(0.0, cycle, (n - 1) * turns + 1), breaks]))
     lo, hi = grid[:-1], grid[1:]
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     nodes = (mid[:, None] + half[:, None] * x[None, :]).ravel()
@@ -257,7 +262,7 @@ def energy_swing(model, n: int = 20001) -> tuple[float, np.ndarray, np.ndarray]:
         Q = Q + model.reduced.velocity_load(kin, np.ones_like(nodes))   # the direction of forward motion
     work = np.sum(Q.reshape(-1, x.size) * wts[None, :], axis=1) * half
     cumulative = np.concatenate([[0.0], np.cumsum(work)])
-    swing = cumulative - cumulative[-1] / TWO_PI * grid
+    swing = cumulative - cumulative[-1] / cycle * grid
     return float(swing.max() - swing.min()), grid, swing
 
 
@@ -388,8 +393,8 @@ def eq3_stability(scenario, steps_deg, turns: int = 20, steady: SteadyCycle | No
         except SchemeError as exc:
             return {"step_deg": step, "stable": False, "error": None, "reason": str(exc).split(". ")[0]}
         phi, omega = r.trajectory.y[0], r.trajectory.y[1]
-        last = phi >= phi[-1] - TWO_PI
-        ref = np.interp((phi[last] - phi0) % TWO_PI + phi0, steady.phi1, steady.omega1)
+        last = phi >= phi[-1] - steady.angle
+        ref = np.interp((phi[last] - phi0) % steady.angle + phi0, steady.phi1, steady.omega1)
         error = float(np.max(np.abs(omega[last] - ref)))
         stable = bool(np.all(np.isfinite(omega)) and error < 0.1 * steady.omega_mean)
         return {"step_deg": step, "stable": stable, "error": error,
@@ -452,7 +457,7 @@ def flywheel_study(scenario, delta: float, steps_deg=None, progress=None) -> Fly
 def _settled_angle(result, steady: SteadyCycle, offset: float) -> float | None:
     """Paper's angle (deg, from the start) after which omega1 stays within 1e-3 rad/s of the steady cycle."""
     phi = result.phi1
-    ref = np.interp((phi - offset) % TWO_PI + offset, steady.phi1, steady.omega1)
+    ref = np.interp((phi - offset) % steady.angle + offset, steady.phi1, steady.omega1)
     off = np.nonzero(np.abs(result.omega1 - ref) > 1e-3)[0]
     if off.size == 0:
         return 0.0

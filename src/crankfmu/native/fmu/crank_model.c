@@ -246,6 +246,7 @@ int cm_ensure_tables(Model* m, const char* call)
     m->tables.forces = m->mechanism.forces;
     m->tables.n_sliders = TABLE_SLIDERS;
     m->tables.n_ports = N_PORTS;
+    m->tables.period = CYCLE_TURNS * 6.283185307179586;     /* the machine's cycle (a four-stroke: 2 turns) */
     return CM_OK;
 }
 

@@ -1,0 +1,125 @@
+"""A machine cycle of several crank turns (``cycle_turns``): the single-cylinder four-stroke engine
+of tests/data/user/engine4s_scenario.toml (its gas force repeats every two turns), every path
+against the hand-written reference of tests/engine_reference.py (closed-form kinematics, its own
+J, J' and generalized force, DOP853 at 1e-12, no crankfmu code).
+
+Tolerances: the reference and the paths each integrate to about 1e-12 relative; over 1 s (about 25
+cycles of a sharp gas peak) their omega1 differ by 1e-9 to 3e-9 of its largest value, so 1e-8 is
+the bar the issue sets with a margin of 3. The steady cycle and the flywheel are found by a secant
+or Brent search to 1e-12 on an integration at 1e-11 or 1e-12: 1e-6 is the issue's bar (2.6e-9 is
+measured for the flywheel). Model Exchange adds CVode's own error: 1e-7 at its rtol 1e-12.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import crankfmu
+from crankfmu.check import check_scenario
+from crankfmu.studies.flywheel import design_flywheel
+from engine_reference import FILE, Engine, flywheel_for
+
+TIMES = np.linspace(0.0, 1.0, 1001)
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return crankfmu.load_scenario(str(FILE))
+
+
+@pytest.fixture(scope="module")
+def hand():
+    return Engine().run(TIMES)
+
+
+def relative(omega, reference):
+    return float(np.max(np.abs(np.asarray(omega) - reference)) / np.max(np.abs(reference)))
+
+
+def test_the_four_stroke_passes_the_check(scenario):
+    report = check_scenario(str(FILE))
+    assert report.status == 0, report.text()
+    assert "a cycle of 2 turns" in report.text()      # the native tables' construction says so
+
+
+@pytest.mark.parametrize("method, rtol", [("fast", 1e-12), ("reference", None)])
+def test_each_integrator_follows_the_hand_reference(scenario, hand, method, rtol):
+    result = crankfmu.simulate(scenario, method=method, rtol=rtol, output_times=TIMES)
+    assert relative(result.omega1, hand) < 1e-8
+
+
+def test_the_summary_takes_its_cycle_over_two_turns(scenario):
+    result = crankfmu.simulate(scenario, method="fast", rtol=1e-12)
+    k = scenario.experiment.summary_cycle
+    stats = result.cycle_stats(k)
+    t0, t1 = stats["t_start"], stats["t_end"]
+    phi = result.state([t0, t1])[0]
+    assert phi[1] - phi[0] == pytest.approx(4.0 * math.pi, rel=1e-9)
+    assert stats["omega1_mean"] == pytest.approx(4.0 * math.pi / (t1 - t0), rel=1e-12)
+    energy = result.summary()["energy_balance"]
+    assert abs(energy["residual"]) < 1e-8
+
+
+def test_the_steady_cycle_and_the_flywheel_match_the_hand_reference(scenario):
+    design = design_flywheel(scenario, 0.02)
+    J_hand = flywheel_for(0.02)
+    assert design.J_F_simulated == pytest.approx(J_hand, rel=1e-6)
+    _, delta_free, period_free = Engine(J_flywheel=0.0).steady()
+    assert design.delta_without_flywheel == pytest.approx(delta_free, rel=1e-6)
+    assert design.without.period == pytest.approx(period_free, rel=1e-6)
+    assert design.without.angle == pytest.approx(4.0 * math.pi)
+    assert design.delta_achieved_crank_angle == pytest.approx(0.02, rel=1e-6)
+
+
+def test_a_load_not_periodic_over_the_declared_cycle_names_the_cycle_that_holds_it(tmp_path):
+    text = FILE.read_text().replace("cycle_turns = 2\n", "")
+    path = tmp_path / "four_stroke_undeclared.toml"
+    path.write_text(text)
+    said = check_scenario(str(path)).text()
+    assert "is not periodic over one crank turn" in said, said
+    assert "declare cycle_turns = 2" in said, said
+    lone = tmp_path / "three_turns.toml"
+    lone.write_text(FILE.read_text().replace("cos(0.5*(phi1 - phi_peak))", "cos((phi1 - phi_peak)/3)"))
+    said = check_scenario(str(lone)).text()
+    assert "not periodic over the declared cycle of 2 turns (cycle_turns = 2)" in said, said
+    assert "declare cycle_turns = 6" in said, said
+
+
+@pytest.mark.parametrize("value", ["0", "1.5", "true", '"2"', "9"])
+def test_cycle_turns_must_be_a_whole_number_of_turns(tmp_path, value):
+    path = tmp_path / "bad.toml"
+    path.write_text(FILE.read_text().replace("cycle_turns = 2", f"cycle_turns = {value}"))
+    said = check_scenario(str(path)).text()
+    assert "cycle_turns" in said and ("from 1 to 8" in said or "must be" in said), said
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    from crankfmu.cli import main
+
+    out = tmp_path_factory.mktemp("engine4s")
+    built = {}
+    for kind, extra in (("python", []), ("native2", ["--native"]), ("native3", ["--native", "--fmi-version", "3"])):
+        assert main(["fmu", str(FILE), "--out", str(out / kind), *extra]) == 0
+        built[kind] = out / kind / "Engine4S.fmu"
+    return built
+
+
+@pytest.mark.parametrize("kind", ["python", "native2", "native3"])
+def test_each_fmu_follows_the_hand_reference_in_co_simulation(fmus, hand, kind):
+    import fmpy
+
+    result = fmpy.simulate_fmu(str(fmus[kind]), stop_time=1.0, output_interval=0.001, output=["omega1"])
+    assert relative(result["omega1"], hand) < 1e-8
+
+
+@pytest.mark.parametrize("kind", ["native2", "native3"])
+def test_each_native_fmu_follows_the_hand_reference_in_model_exchange(fmus, hand, kind):
+    import fmpy
+
+    result = fmpy.simulate_fmu(str(fmus[kind]), stop_time=1.0, output_interval=0.001, output=["omega1"],
+                               fmi_type="ModelExchange", relative_tolerance=1e-12)
+    assert relative(result["omega1"], hand) < 1e-7
