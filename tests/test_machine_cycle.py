@@ -123,3 +123,109 @@ def test_each_native_fmu_follows_the_hand_reference_in_model_exchange(fmus, hand
     result = fmpy.simulate_fmu(str(fmus[kind]), stop_time=1.0, output_interval=0.001, output=["omega1"],
                                fmi_type="ModelExchange", relative_tolerance=1e-12)
     assert relative(result["omega1"], hand) < 1e-7
+
+
+# ---------------------------------------------------------------------------- a load of the speed
+def as_couple(text: str, moment: str = "-c_brake*omega1") -> str:
+    """The engine with its brake moved from the motor line (B omega1) to a couple on the crank."""
+    text = text.replace('name = "user_engine4s"', 'name = "user_engine4s_couple"')
+    text = text.replace('fmu = "Engine4S"', 'fmu = "Engine4SCouple"')
+    text = text.replace('B = { value = 0.0128', 'B = { value = 0.0').replace('B_low = { value = 0.0128', 'B_low = { value = 0.0')
+    text = text.replace('g = { value = 0.0,', 'c_brake = { value = 0.0128, unit = "N.m.s/rad", min = 0, '
+                        'description = "the brake, a couple on the crank" }\ng = { value = 0.0,')
+    return text.replace("[[ports]]", f'[[loads]]\nkind = "couple"\nlink = "crank"\nmoment = "{moment}"\n\n[[ports]]', 1)
+
+
+COUPLE = FILE.parent / "engine4s_couple_scenario.toml"
+
+
+@pytest.fixture(scope="module")
+def couple_file():
+    """The twin file make bench times: the engine's file with the brake moved, and its comments."""
+    text = COUPLE.read_text()
+    assert as_couple(FILE.read_text()) == "\n".join(line for line in text.splitlines() if not line.startswith(
+        ("# This twin", "# instead of the motor", "# requires the two"))) + "\n"
+    return COUPLE
+
+
+@pytest.mark.parametrize("method, rtol", [("fast", 1e-12), ("reference", None)])
+def test_the_brake_as_a_couple_of_omega1_gives_the_same_motion(couple_file, hand, method, rtol):
+    scenario = crankfmu.load_scenario(str(couple_file))
+    assert scenario["B"] == 0.0
+    result = crankfmu.simulate(scenario, method=method, rtol=rtol, output_times=TIMES)
+    assert relative(result.omega1, hand) < 1e-8
+    energy = result.summary()["energy_balance"]
+    assert energy["W_motor"] == 0.0 and energy["W_load"] > 0.0    # the brake's work is the loads' now
+    assert abs(energy["residual"]) < 1e-8
+
+
+@pytest.fixture(scope="module")
+def couple_fmus(couple_file, tmp_path_factory):
+    from crankfmu.cli import main
+
+    out = tmp_path_factory.mktemp("couple_fmus")
+    built = {}
+    for kind, extra in (("python", []), ("native2", ["--native"]), ("native3", ["--native", "--fmi-version", "3"])):
+        assert main(["fmu", str(couple_file), "--out", str(out / kind), *extra]) == 0
+        built[kind] = out / kind / "Engine4SCouple.fmu"
+    return built
+
+
+REACTIONS = ["O_Fx", "O_Fy", "A_Fx", "A_Fy", "B_Fx", "B_Fy", "slide_N"]
+
+
+@pytest.mark.parametrize("kind", ["python", "native2", "native3"])
+def test_each_fmu_holds_the_couple_of_omega1_exactly(couple_fmus, fmus, hand, kind):
+    """omega1 against the hand reference; the joint forces against the same FMU kind of the engine
+    with the brake on the motor line: a couple on the crank moves no joint force, whatever acts it
+    (both FMUs run at rtol 1e-12, so their motions agree to about 3e-9 and the forces with them)."""
+    import fmpy
+
+    couple = fmpy.simulate_fmu(str(couple_fmus[kind]), stop_time=1.0, output_interval=0.001,
+                               output=["omega1", "M_motor", *REACTIONS])
+    motor = fmpy.simulate_fmu(str(fmus[kind]), stop_time=1.0, output_interval=0.001, output=REACTIONS)
+    assert relative(couple["omega1"], hand) < 1e-8
+    assert np.all(couple["M_motor"] == 0.0)
+    for name in REACTIONS:
+        assert relative(couple[name], motor[name]) < 1e-7, name
+
+
+def test_a_load_not_affine_in_the_speeds_is_refused_by_name(tmp_path):
+    path = tmp_path / "fan.toml"
+    path.write_text(as_couple(FILE.read_text(), "-c_brake*omega1**2"))
+    said = check_scenario(str(path)).text()
+    assert "moment = '-c_brake*omega1**2' is not affine in the speeds" in said, said
+    assert "a load in omega1**2 (a fan, a propeller) is not supported yet" in said, said
+    direction = FILE.read_text().replace(
+        'fx = "-F_gas*exp(k_peak*(cos(0.5*(phi1 - phi_peak)) - 1))"\nfy = "0"',
+        'direction_of = "B.x"\nincreasing = { fx = "-omega1" }\ndecreasing = { fx = "0" }')
+    (tmp_path / "direction.toml").write_text(direction)
+    said = check_scenario(str(tmp_path / "direction.toml")).text()
+    assert "reads the speed(s) omega1: only a force or couple without direction_of may" in said, said
+
+
+def test_a_damper_written_with_a_points_velocity_is_the_viscous_force(tmp_path):
+    """fx = "-c*B_vx" on the piston against the packaged viscous_force kind (F = -c v along x), and
+    a generator -(T0 + k omega1) on the crank against the motor line A = -T0, B = k: the same
+    torques by two routes, so the same motion to the integrator's round-off."""
+    extra = 'c_damp = { value = 2.0, unit = "N.s/m", min = 0, description = "a damper on the piston" }\ng = {'
+    base = FILE.read_text().replace("g = {", extra, 1)
+    written = base.replace("[[ports]]", '[[loads]]\nkind = "force"\nlink = "slider"\npoint = "B"\nfx = "-c_damp*B_vx"\n'
+                           'fy = "0"\n\n[[ports]]', 1)
+    packaged = base.replace("[[ports]]", '[[loads]]\nkind = "viscous_force"\nlink = "slider"\npoint = "B"\naxis = "x"\n'
+                            'coefficient = "c_damp"\n\n[[ports]]', 1)
+    generator = as_couple(FILE.read_text(), "-(T0 + c_brake*omega1)").replace(
+        "g = {", 'T0 = { value = 1.5, unit = "N.m", description = "the generator at rest" }\ng = {', 1)
+    line = FILE.read_text().replace('A = { value = 0.0,', 'A = { value = -1.5,').replace(
+        'A_low = { value = 0.0,', 'A_low = { value = -1.5,')
+    for one, other in ((written, packaged), (generator, line)):
+        runs = []
+        for i, text in enumerate((one, other)):
+            path = tmp_path / f"engine_{len(runs)}_{i}.toml"
+            path.write_text(text)
+            runs.append(crankfmu.simulate(crankfmu.load_scenario(str(path)), method="fast", rtol=1e-12,
+                                          output_times=TIMES))
+        # the same torques; the works differ (the brake's is W_load on one side, W_motor on the
+        # other) and enter the step control, so the steps differ: the integrator's error, 1e-9 at 1e-12
+        assert relative(runs[0].omega1, runs[1].omega1) < 1e-9
+        assert abs(runs[0].summary()["energy_balance"]["residual"]) < 1e-8

@@ -249,7 +249,30 @@ def check_scenario(source) -> Report:
         return report
     fmu_declarations(report, source, scenario, path)
     native_tables_check(report, scenario, path)
+    steady_cycle_check(report, scenario, path)
     return report
+
+
+def steady_cycle_check(report: Report, scenario, path):
+    """What ``crankfmu flywheel`` and the sweeps start from: the fast path's steady cycle at the
+    file's values (studies.batch, the same function). A design with no steady cycle (the motor
+    cannot drive it round) is a warning: the file is right, the study has nothing to size."""
+    from .studies.batch import SteadyBatch
+
+    try:
+        found = SteadyBatch(scenario).run([{}])
+    except CrankfmuError as exc:
+        report.add("FAIL", f"crankfmu simulate --method fast, flywheel and sweep would refuse it: {exc}",
+                   locate(path, str(exc)))
+        return
+    cycle = (f"a machine cycle of {scenario.cycle_turns} turns" if scenario.cycle_turns > 1 else "one crank turn")
+    if found.failed:
+        report.add("WARN", f"no steady cycle at the file's values over {cycle}: {found.failed[0]['reason']} "
+                   "(crankfmu flywheel and sweep have none to start from)", path or "")
+        return
+    row = found.rows[0]
+    report.add("OK", f"the fast path's steady cycle at the file's values over {cycle} (what crankfmu flywheel and "
+               f"sweep start from): omega1 mean {row['omega1_mean']:.6g} rad/s, delta {row['delta']:.4g}")
 
 
 #: the angles where each load expression is evaluated by check: every 0.1 deg, the crank's dead
@@ -263,25 +286,31 @@ def loads_finite(report: Report, model, path) -> bool:
     left for the tabulator to misread as a steep function."""
     from .dynamics.user_loads import ExpressionLoad, position_env
 
-    kin = model.mechanism.kinematics(FINITE_GRID)
+    turns = model.reduced.cycle_turns
+    grid = np.linspace(0.0, model.reduced.period, (FINITE_GRID.size - 1) * turns + 1)    # over the machine's cycle
+    kin = model.mechanism.kinematics(grid)
+    # a load of the speeds at the start speed (at least 1 rad/s): finite there is finite at any
+    # speed, its torque being affine in omega1 (Scenario.build checks that)
+    speed = max(abs(model.y0[1]), 1.0)
     env = None
     bad = []
     for number, load in enumerate(model.reduced.loads, start=1):
         if not isinstance(load, ExpressionLoad):
             continue
-        env = env or position_env(load.mechanism, kin)
+        env = env or position_env(load.mechanism, kin, speed)
         sides = ([("increasing.", load.increasing), ("decreasing.", load.decreasing)] if load.decreasing
                  else [("", load.increasing)])
         for prefix, exprs in sides:
             for key, expr in exprs.items():
                 with np.errstate(all="ignore"):
-                    values = np.broadcast_to(np.asarray(expr.evaluate(env), dtype=float), FINITE_GRID.shape)
+                    values = np.broadcast_to(np.asarray(expr.evaluate(env), dtype=float), grid.shape)
                 wrong = np.flatnonzero(~np.isfinite(values))
                 if wrong.size:
                     i = int(wrong[0])
                     bad.append(f"a load on {load.link}: {prefix}{key} = {expr.source!r} is not finite ({values[i]:g}) at "
-                               f"phi1 = {math.degrees(FINITE_GRID[i]):.2f} deg"
-                               + (f" and {wrong.size - 1} more of the 3601 angles checked" if wrong.size > 1 else ""))
+                               f"phi1 = {math.degrees(grid[i]):.2f} deg"
+                               + (f" and {wrong.size - 1} more of the {grid.size} angles checked" if wrong.size > 1
+                                  else ""))
     for text in bad:
         report.add("FAIL", text + ": a load must be a finite number at every crank angle", locate(path, text))
     return not bad

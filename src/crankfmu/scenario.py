@@ -217,8 +217,9 @@ class Scenario:
         loads = []
         for i, spec in enumerate(self.data.get("loads", [])):
             if spec.get("kind") in USER_LOADS:
-                loads += parse_user_load(spec, mechanism, {l.name for l in links}, values,
-                                         f"{self.where}: load {i + 1}")
+                made = parse_user_load(spec, mechanism, {l.name for l in links}, values, f"{self.where}: load {i + 1}")
+                _check_affine(made, mechanism, values, f"{self.where}: load {i + 1}")
+                loads += made
             else:
                 loads.append(self._make_load(spec, mechanism, links, values, found.get(i)))
         from .dynamics.ports import parse_ports
@@ -368,6 +369,24 @@ class Scenario:
             return True
         except CrankfmuError:
             return False
+
+
+def _check_affine(loads, mechanism, values, where: str) -> None:
+    """A user's load of the speeds must be affine in omega1 (user_loads.SpeedLoad): checked at 48
+    angles over (-w, 3 w), w the start speed (at least 10 rad/s), to 1e-9 of its size."""
+    from .dynamics.user_loads import SpeedLoad
+
+    for load in loads:
+        if isinstance(load, SpeedLoad):
+            kin = mechanism.kinematics((np.arange(48) + 0.5) * (2.0 * math.pi / 48))
+            gap = load.affine_gap(kin, max(abs(values["omega1_start"]), 10.0))
+            if not gap <= 1e-9:
+                written = ", ".join(f"{k} = {str(e.source)!r}" for k, e in load.increasing.items())
+                raise DefinitionError(
+                    f"{where}: {written} is not affine in the speeds (omega1, P_vx, P_vy, U_dot): its torque departs "
+                    f"from Q0 + omega1 Q1 by {gap:.2g} of its size. The fast path, the kernel and the FMUs hold a "
+                    "load of the speeds as Q0(phi1) + omega1 Q1(phi1) (a brake -c*omega1, a generator a + b*omega1, a "
+                    "damper -c*P_vx); a load in omega1**2 (a fan, a propeller) is not supported yet")
 
 
 @dataclass

@@ -19,6 +19,7 @@ applied    {term: [(link, point or None, fx, fy, moment registers or None)]}, te
 
 from __future__ import annotations
 
+from ..expressions import Expression
 from .program import BAND, REVERSALS, ROCKER, Unsupported
 
 
@@ -134,10 +135,24 @@ class LoadClauses:
                 "found": {"low": low, "high": high}, "column_names": (f"{point}.{'xy'[axis]}",),
                 "applied": {("column", 0): lambda: [(link, point, *unit, None)]}}
 
-    def _user_components(self, expressions, at):
+    def _user_components(self, expressions, at, speeds=None):
+        """The registers of a user load's fx, fy, moment; ``speeds``: None (a load of the position),
+        "rest" (its speeds at 0) or "per_omega1" (its speeds at omega1 = 1: each a transfer function)."""
         names = self.position_names()
+        if speeds is not None:
+            names.update(self.speed_names(at_rest=speeds == "rest"))
         return {k: self.c.expression(expressions[k], names, f"{at} {k}") for k in ("fx", "fy", "moment")
                 if k in expressions}
+
+    def speed_names(self, at_rest: bool):
+        """user_loads.speed_names as registers: 0 at rest, else the transfer functions (omega1 = 1)."""
+        names = {"omega1": self.zero if at_rest else self.one}
+        for u in self.unknowns:
+            names[f"{u}_dot"] = self.zero if at_rest else self.q(u)[1]
+        for p in self.points:
+            x = self.point(p)
+            names[f"{p}_vx"], names[f"{p}_vy"] = (self.zero, self.zero) if at_rest else (x[2], x[3])
+        return names
 
     def _user_torque(self, link, point, regs):
         c, parts = self.c, []
@@ -156,6 +171,25 @@ class LoadClauses:
             regs = self._user_components(expressions, at)
             return [(link, point, regs.get("fx"), regs.get("fy"), regs.get("moment"))]
         direction = spec.get("direction_of")
+        speeds = set(self.speed_names(at_rest=True))
+        if direction is None and any(Expression(str(spec[k]), at).names & speeds for k in ("fx", "fy", "moment")
+                                     if k in spec):
+            # user_loads.SpeedLoad, affine in omega1: its value at rest with the position's loads, the
+            # rest per omega1 as the viscous row (the difference of the two: the load at omega1 = 1
+            # less the load at rest)
+            def part(speeds):
+                return self._user_components(spec, at, speeds)
+
+            def per_omega(rest, unit):
+                return {k: c.emit("sub", unit[k], rest[k]) for k in rest}
+
+            def parts_record(which):
+                rest = part("rest")
+                regs = rest if which == "rest" else per_omega(rest, part("per_omega1"))
+                return [(link, point, regs.get("fx"), regs.get("fy"), regs.get("moment"))]
+            return {"position": lambda: self._user_torque(link, point, part("rest")),
+                    "viscous": lambda: self._user_torque(link, point, per_omega(part("rest"), part("per_omega1"))),
+                    "applied": {"1": lambda: parts_record("rest"), "omega1": lambda: parts_record("per_omega1")}}
         if direction is None:
             return {"position": lambda: self._user_torque(link, point, self._user_components(spec, at)),
                     "applied": {"1": lambda: record(spec)}}

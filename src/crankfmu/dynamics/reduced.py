@@ -46,7 +46,8 @@ class ReducedModel:
         self.velocity_dependent = any(not load.position_only for load in loads)
         # switched loads: constant or tabulated between switch angles, by direction (slider forces,
         # direction-dependent user loads)
-        self.sliders = [load for load in loads if hasattr(load, "switch_angles") and not load.position_only]
+        self.sliders = [load for load in loads if hasattr(load, "switch_angles") and not load.position_only
+                        and not getattr(load, "linear_in_omega1", False)]
         self._slider_schedule = None
 
     def slider_schedule(self):

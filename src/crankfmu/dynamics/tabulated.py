@@ -113,7 +113,12 @@ def _engine_values(reduced: ReducedModel, sliders, viscous, phi1) -> np.ndarray:
     J, half_dJ, Q, kin = reduced.coefficients(phi1)
     rows = [J - reduced.J_flywheel, half_dJ, Q, np.zeros_like(phi1)]
     for load in viscous:
-        rows[Q_VISCOUS] = rows[Q_VISCOUS] + load.torque(kin, 1.0)
+        if hasattr(load, "parts"):           # a user's load of the speeds: Q0 + omega1 Q1 (user_loads.SpeedLoad)
+            at_rest, per_omega = load.parts(kin)
+            rows[Q_POSITION] = rows[Q_POSITION] + at_rest
+            rows[Q_VISCOUS] = rows[Q_VISCOUS] + per_omega
+        else:
+            rows[Q_VISCOUS] = rows[Q_VISCOUS] + load.torque(kin, 1.0)
     for load in sliders:
         rows += load.columns(kin)
     for port in reduced.ports:
@@ -354,10 +359,13 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
 
     def terms(phi1):
         phi1 = np.asarray(phi1, dtype=float)
-        out = [solve(phi1, loads=fixed),
+        # the loads linear in omega1 at omega1 = 0 (a user's load of the speeds may have a part at
+        # rest: a generator's a + b omega1) join the fixed term; their term per omega1 is the rest
+        at_rest = solve(phi1, loads=viscous)
+        out = [solve(phi1, loads=fixed) + at_rest,
                solve(phi1, epsilon1=1.0, inertia=True),
                solve(phi1, omega1=1.0, inertia=True),
-               solve(phi1, omega1=1.0, loads=viscous)]
+               solve(phi1, omega1=1.0, loads=viscous) - at_rest]
         for load, j in columns:
             out.append(solve(phi1, extra=lambda kin, load=load, j=j: load.column_applied(kin, j)))
         for port in reduced.ports:

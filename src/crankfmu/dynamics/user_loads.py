@@ -3,8 +3,14 @@
 
 Each is an expression of the parameters and of the position: the crank angle ``phi1``, every
 unknown of the contours (link angles, slider coordinates) and every point's coordinates
-``P_x``, ``P_y``. Each states its power, so the energy balance and the Newton-Euler reactions
-hold for it:
+``P_x``, ``P_y``. A ``force`` or ``couple`` may also read the speeds (a brake, a generator, a
+damper on a point): ``omega1`` (rad/s), each point's velocity ``P_vx``, ``P_vy`` (m/s) and each
+unknown's rate ``U_dot`` (rad/s or m/s: ``phi2_dot``, ``xB_dot``), all omega1 times a transfer
+function of phi1. Its torque must then be affine in the speeds, Q0(phi1) + omega1 Q1(phi1),
+which the fast path, the kernel and both FMUs hold exactly at every step (Q0 with the position's
+loads, Q1 as the viscous coefficient; nothing is tabulated in omega1); a load that is not
+affine (omega1**2) is refused by name. Each states its power, so the energy balance and the
+Newton-Euler reactions hold for it:
 
 - ``force`` at a point of a link, components ``fx``, ``fy`` (N): power F . v_P, reduced to the
   crank Q = fx dx_P/dphi1 + fy dy_P/dphi1;
@@ -36,14 +42,27 @@ from ..mechanisms import Kinematics, Mechanism
 from .loads import TECHNOLOGICAL, AppliedLoad
 
 
-def position_env(mechanism: Mechanism, kin: Kinematics) -> dict:
-    """Names a load expression may use: parameters, constants, phi1, unknowns, P_x and P_y."""
+def position_env(mechanism: Mechanism, kin: Kinematics, omega1=None) -> dict:
+    """Names a load expression may use: parameters, constants, phi1, unknowns, P_x and P_y; with
+    ``omega1`` also the speeds (speed_names)."""
     env = {**mechanism.parameters, **mechanism.definition.constants, "phi1": kin.phi1}
     env.update(kin.q)
     for p in mechanism.point_names:
-        x, y = kin.point(p)[:2]
+        x, y, dx, dy = kin.point(p)[:4]
         env[f"{p}_x"], env[f"{p}_y"] = x, y
+        if omega1 is not None:
+            env[f"{p}_vx"], env[f"{p}_vy"] = dx * omega1, dy * omega1
+    if omega1 is not None:
+        env["omega1"] = np.broadcast_to(np.asarray(omega1, dtype=float), np.shape(kin.phi1))
+        for u in mechanism.unknown_names:
+            env[f"{u}_dot"] = kin.dq[u] * omega1
     return env
+
+
+def speed_names(mechanism: Mechanism) -> set[str]:
+    """The speeds a force or couple may read: omega1, P_vx, P_vy of each point, U_dot of each unknown."""
+    return ({"omega1"} | {f"{p}_v{a}" for p in mechanism.point_names for a in "xy"}
+            | {f"{u}_dot" for u in mechanism.unknown_names})
 
 
 def known_names(mechanism: Mechanism) -> set[str]:
@@ -70,14 +89,14 @@ class ExpressionLoad:
         return self.decreasing is None
 
     # ---------------------------------------------------------------- evaluation
-    def _components(self, kin, which: dict):
-        env = position_env(self.mechanism, kin)
+    def _components(self, kin, which: dict, omega1=None):
+        env = position_env(self.mechanism, kin, omega1)
         zero = np.zeros_like(kin.phi1)
         return tuple(np.broadcast_to(np.asarray(which[k].evaluate(env), dtype=float), kin.phi1.shape) if k in which
                      else zero for k in ("fx", "fy", "moment"))
 
-    def _torque_of(self, kin, which: dict):
-        fx, fy, m = self._components(kin, which)
+    def _torque_of(self, kin, which: dict, omega1=None):
+        fx, fy, m = self._components(kin, which, omega1)
         q = kin.link_angle(self.link)[1]
         out = m * q
         if self.point is not None:
@@ -137,6 +156,39 @@ class ExpressionLoad:
             raise DefinitionError(f"load on {self.link}: {self.direction_of} never changes direction over the "
                                   "turn: give one expression without direction_of")
         return [a for a, _ in found]
+
+
+@dataclass
+class SpeedLoad(ExpressionLoad):
+    """A force or couple whose expressions read the speeds (omega1, P_vx, P_vy, U_dot): evaluated
+    exactly at (phi1, omega1) by the engine; affine in omega1 (Scenario.build checks it), so the
+    tables hold it exactly as Q0(phi1) + omega1 Q1(phi1) (``parts``)."""
+
+    linear_in_omega1 = True
+
+    @property
+    def position_only(self) -> bool:
+        return False
+
+    def torque(self, kin: Kinematics, omega1=None):
+        return self._torque_of(kin, self.increasing, 0.0 if omega1 is None else omega1)
+
+    def parts(self, kin: Kinematics):
+        """(Q0, Q1) N.m and N.m.s/rad: the torque at omega1 = 0 and its change per unit omega1."""
+        at_rest = self.torque(kin, 0.0)
+        return at_rest, self.torque(kin, 1.0) - at_rest
+
+    def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
+        return [AppliedLoad(self.link, self.point,
+                            *self._components(kin, self.increasing, 0.0 if omega1 is None else omega1))]
+
+    def affine_gap(self, kin: Kinematics, speed: float) -> float:
+        """How far the torque is from affine in omega1 over (-speed, 3 speed), relative to its size:
+        0 to round-off for a brake -c*omega1 or a generator a + b*omega1, O(1) for omega1**2."""
+        q0, q1, q_back, q3 = (self.torque(kin, w) for w in (0.0, speed, -speed, 3.0 * speed))
+        scale = max(float(np.max(np.abs(np.concatenate([q0, q1, q_back, q3])))), 1e-300)
+        return float(max(np.max(np.abs(q_back - (2.0 * q0 - q1))), np.max(np.abs(q3 - (3.0 * q1 - 2.0 * q0))))
+                     / scale)
 
 
 def spring_damper_tension(k, c, d, d0, rate):
@@ -201,12 +253,20 @@ def parse_user_load(spec, mechanism: Mechanism, links: set[str], values: dict, w
     kind = spec.get("kind")
     known = known_names(mechanism)
 
-    def expression(text, key):
+    speeds = speed_names(mechanism)
+
+    def expression(text, key, may_read_speeds=False):
         expr = Expression(str(text), f"{where}: {kind} {key}")
-        strange = expr.names - known
+        strange = expr.names - known - (speeds if may_read_speeds else set())
         if strange:
+            if strange & speeds:
+                raise DefinitionError(
+                    f"{where}: {kind} {key} = {text!r} reads the speed(s) {', '.join(sorted(strange & speeds))}: only a "
+                    "force or couple without direction_of may (a spring_damper has its own damping; a "
+                    "direction-dependent load depends on the speed through its direction only)")
             raise DefinitionError(f"{where}: {kind} {key} = {text!r} uses unknown name(s) {', '.join(sorted(strange))} "
-                                  "(known: parameters, phi1, the unknowns, P_x and P_y of each point)")
+                                  "(known: parameters, phi1, the unknowns, P_x and P_y of each point; a force or couple "
+                                  "also omega1, P_vx, P_vy and U_dot of each unknown U)")
         return expr
 
     def link_of(key="link"):
@@ -230,8 +290,9 @@ def parse_user_load(spec, mechanism: Mechanism, links: set[str], values: dict, w
         if direction is None:
             if not any(k in spec for k in keys):
                 raise DefinitionError(f"{where}: {kind} needs {' or '.join(keys)} (expressions)")
-            return [ExpressionLoad(link, point, {k: expression(spec[k], k) for k in keys if k in spec},
-                                   mechanism=mechanism)]
+            expressions = {k: expression(spec[k], k, may_read_speeds=True) for k in keys if k in spec}
+            reads_speed = any(e.names & speeds for e in expressions.values())
+            return [(SpeedLoad if reads_speed else ExpressionLoad)(link, point, expressions, mechanism=mechanism)]
         if "." in str(direction):
             p, _, axis = str(direction).partition(".")
             if p not in mechanism.point_names or axis not in ("x", "y"):

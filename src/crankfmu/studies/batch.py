@@ -5,10 +5,11 @@ and keeps its tables for the next call). Designs that differ only in
 the motor line or the flywheel (``CHEAP``) share one tabulated reduced model and are integrated
 together in one call of the C kernel (``native.steady_batch``); any other parameter
 (geometry, masses, load amplitudes, g) gives its own table. Each design's steady cycle is found by
-secant shooting on omega1 after one crank turn (a turn is integrated in time by the fast
-Dormand-Prince kernel, the motor kink and the slider forces' switches located), then that turn
-gives omega1 min, max (where the interpolant's slope changes sign, located: as accurate as the
-tolerance), the time mean 2 pi / period and the coefficient of speed fluctuation
+secant shooting on omega1 after one machine cycle (one crank turn, or the scenario's cycle_turns;
+a cycle is integrated in time by the fast Dormand-Prince kernel, the motor kink and the slider
+forces' switches located), then that cycle gives omega1 min, max (where the interpolant's slope
+changes sign, located: as accurate as the tolerance), the time mean (the cycle's angle / period)
+and the coefficient of speed fluctuation
 delta = (max - min) / mean, defined as in ``Result.cycle_stats``.
 
 A design that is out of range, cannot be assembled or stalls is returned in ``failed`` with the
@@ -47,6 +48,7 @@ def _omega_guess(table, J_flywheel, motor: MotorLine, phi_grid):
     """Mean speed at which the motor line balances the mean load torque (a start for shooting)."""
     A, B, A_low, B_low, ws = motor.A, motor.B, motor.A_low, motor.B_low, motor.omega_switch
     w = max(ws, 1.0) * 2.0
+    phi_grid = phi_grid * (table.period / (2.0 * math.pi))      # over the machine's cycle
     values = table.evaluate(phi_grid)           # the table's functions do not depend on the speed
     for _ in range(3):
         Q = float(np.mean(table.coefficients_at(phi_grid, np.full_like(phi_grid, w), J_flywheel, values)[2]))

@@ -1,0 +1,64 @@
+"""A load of the speed against the motor line (issue 58): the four-stroke engine of
+tests/data/user/engine4s_scenario.toml with its brake on the motor line (M = -B omega1) and its
+twin with the brake as a couple -c_brake*omega1 on the crank (engine4s_couple_scenario.toml), the
+same motion to 1e-9. Each FMU's cost per 1 ms step, measured in this run: the native FMI 2 FMU in
+the plain C driver (the fastest of several processes) and the Python FMU through fmpy (the
+fastest of several runs). Target: the couple's step at most 1.3x the motor line's."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FILES = {"motor line": ROOT / "tests" / "data" / "user" / "engine4s_scenario.toml",
+         "couple of omega1": ROOT / "tests" / "data" / "user" / "engine4s_couple_scenario.toml"}
+IDENTIFIERS = {"motor line": "Engine4S", "couple of omega1": "Engine4SCouple"}
+
+
+def python_per_step(fmu: Path, step: float, stop: float, repeats: int) -> float:
+    """us per step of the Python FMU through fmpy: the fastest of ``repeats`` whole runs."""
+    import fmpy
+
+    best = float("inf")
+    for _ in range(repeats):
+        started = time.perf_counter()
+        fmpy.simulate_fmu(str(fmu), stop_time=stop, output_interval=step, output=["omega1"])
+        best = min(best, time.perf_counter() - started)
+    return 1e6 * best / round(stop / step)
+
+
+def measure(repeats: int = 5, stop: float = 1.0, step: float = 1e-3) -> dict:
+    from native_step import c_driver_per_step
+
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for what, path in FILES.items():
+            for kind, extra in (("native", ["--native"]), ("python", [])):
+                folder = Path(tmp) / kind / IDENTIFIERS[what]
+                subprocess.run([sys.executable, "-m", "crankfmu", "fmu", str(path), "--out", str(folder), *extra],
+                               check=True, capture_output=True)
+                fmu = folder / f"{IDENTIFIERS[what]}.fmu"
+                out[(kind, what)] = (c_driver_per_step(fmu, step, stop, repeats)["us_per_step"] if kind == "native"
+                                     else python_per_step(fmu, step, stop, repeats))
+    return {f"{kind} {what}": us for (kind, what), us in out.items()}
+
+
+def targets(measured: dict) -> list[tuple[str, str, bool]]:
+    rows = []
+    for kind in ("native", "python"):
+        motor, couple = measured[f"{kind} motor line"], measured[f"{kind} couple of omega1"]
+        rows.append((f"{kind} Engine4S FMU per 1 ms step: the brake as a couple of omega1 <= 1.3x the brake on the "
+                     "motor line", f"{couple:.2f} vs {motor:.2f} us/step, ratio {couple / motor:.2f}",
+                     couple / motor <= 1.3))
+    return rows
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    found = measure()
+    for target, figure, met in targets(found):
+        print(f"| {target} | {figure} | {'MET' if met else 'NOT MET'} |")
