@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .plots import (plot_cycles, plot_flywheel, plot_inertia, plot_moments, plot_movement, plot_reactions,
-                    plot_stability)
+                    plot_stability, plot_turning_moment)
 from .contract import COLUMNS
 from .simulation import Result
 from .atomic import replacing, write_text
@@ -109,6 +109,7 @@ def write_flywheel(study, out_dir) -> list[Path]:
         plot_inertia(study.scenario, offset, out / "J_e.png"),
         plot_movement(study.reference, study.eq3, offset, out / "movement.png"),
         plot_flywheel(study.design, offset, out / "flywheel.png", study.scenario.name),
+        plot_turning_moment(study.design, study.scenario.build(), out / "turning_moment.png", study.scenario.name),
         plot_stability(study.stability, out / "eq3_stability.png", study.scenario.name),
     ]
     summary = {**study.summary(), "plots": [p.name for p in plots]}

@@ -42,10 +42,12 @@ def legend_outside(ax, **kwargs):
                      **{"fontsize": 8, **kwargs})
 
 
-def turn_axis(ax, xlabel: str = "crank angle phi1 [deg]"):
-    """An x axis over one crank turn, 0..360 deg in steps of 45, with a light grid."""
-    ax.set_xlim(0, 360)
-    ax.set_xticks(range(0, 361, 45))
+def turn_axis(ax, xlabel: str = "crank angle phi1 [deg]", cycle: float = TWO_PI):
+    """An x axis over one crank turn, 0..360 deg in steps of 45, or over a machine cycle of several
+    (``cycle`` rad: 0..720 deg in steps of 90 for a four-stroke engine), with a light grid."""
+    end = int(round(math.degrees(cycle)))
+    ax.set_xlim(0, end)
+    ax.set_xticks(range(0, end + 1, 45 * max(1, end // 360)))
     ax.set_xlabel(xlabel)
     ax.grid(alpha=0.3)
 
@@ -449,12 +451,13 @@ def plot_movement(reference, eq3, offset, path):
 def plot_flywheel(design, offset, path, scenario: str = ""):
     plt = pyplot()
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.5), constrained_layout=True, sharex=True)
-    for c, label in ((design.without, "no flywheel"), (design.with_flywheel, f"J_F = {design.J_F_simulated:.1f} kg.m2")):
+    base = "no flywheel" if design.baseline_J_flywheel == 0.0 else f"J_F = {design.baseline_J_flywheel:.3g} kg.m2 (the file's)"
+    for c, label in ((design.without, base), (design.with_flywheel, f"J_F = {design.J_F_simulated:.3g} kg.m2")):
         a1.plot(paper_deg(c.phi1, offset), c.omega1, label=f"{label}: delta {c.delta:.4f}")
         a2.plot(paper_deg(c.phi1, offset), c.epsilon1, label=label)
     a1.set_ylabel("omega1 [rad/s]")
     a2.set_ylabel("epsilon1 [rad/s2]")
-    turn_axis(a2, "crank angle phi [deg] (steady cycle)")
+    turn_axis(a2, "crank angle phi [deg] (steady cycle)", design.without.angle)
     a1.set_title(f"steady cycle with and without flywheel (Fig. 7)\npeaks of omega1 "
                  f"-{100 * design.omega_peak_reduction:.2f} %, of |epsilon1| -{100 * design.epsilon_peak_reduction:.1f} %")
     for ax in (a1, a2):
@@ -462,6 +465,53 @@ def plot_flywheel(design, offset, path, scenario: str = ""):
         legend_outside(ax, fontsize=8)
     save_figure(fig, path, dpi=120, scenario=scenario,
                 caption="The steady cycle with the flywheel sized for the target delta (eq. 17) and without one.")
+    plt.close(fig)
+    return path
+
+
+def plot_turning_moment(design, model, path, scenario: str = ""):
+    """The turning moment diagram over the machine's cycle: the loads' torque on the crank at the
+    steady cycle's mean speed (gas and weights; a load of the speed at that speed), its mean line
+    (what a constant resisting or driving torque balances), the fluctuation-of-energy areas between
+    them, and the energy's swing dW(phi1) whose range is eq. 17's dW_max."""
+    from .studies.flywheel import energy_swing
+
+    plt = pyplot()
+    omega = design.omega_m
+    dW, grid, swing = energy_swing(model, omega1=omega)
+    kin = model.mechanism.kinematics(grid)
+    driving = model.reduced.coefficients(grid, kin)[2]           # the loads of the position: gas, weights
+    deg = np.degrees(grid)
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), constrained_layout=True, sharex=True)
+    a1.plot(deg, driving, color="black", lw=1.2, label="driving: the position's loads")
+    if model.reduced.velocity_dependent:
+        # the loads of the speed (a generator, a brake) resist: drawn with their sign turned, so the
+        # areas between the two curves are the energy the flywheel stores and gives back
+        resisting = -model.reduced.velocity_load(kin, np.full_like(grid, omega))
+        what = f"resisting: the speed's loads\n(at omega_m, mean {engineering(float(np.mean(resisting)), 'N.m')})"
+    else:
+        resisting = np.full_like(grid, float(np.trapezoid(driving, grid) / (grid[-1] - grid[0])))
+        what = f"mean {engineering(float(resisting[0]), 'N.m')}"
+    a1.plot(deg, resisting, color="tab:blue", lw=1.2, ls="--", label=what)
+    a1.fill_between(deg, driving, resisting, where=driving >= resisting, color="tab:green", alpha=0.35,
+                    interpolate=True, label="energy to the flywheel")
+    a1.fill_between(deg, driving, resisting, where=driving < resisting, color="tab:red", alpha=0.35,
+                    interpolate=True, label="energy from it")
+    a1.set_ylabel("torque on the crank [N.m]")
+    a1.set_title(f"{scenario}: turning moment, omega_m {omega:.4g} rad/s")
+    a2.plot(deg, swing, color="black", lw=1.2, label="the loads' work\nless its mean")
+    lo, hi = int(np.argmin(swing)), int(np.argmax(swing))
+    a2.plot([deg[lo], deg[hi]], [swing[lo], swing[hi]], "o", color="tab:blue", ms=5,
+            label=f"dW_max = {engineering(dW, 'J')} (eq. 17)")
+    a2.set_ylabel("energy swing dW [J]")
+    turn_axis(a2, "crank angle phi1 [deg]", grid[-1] - grid[0])
+    for ax in (a1, a2):
+        ax.grid(alpha=0.3)
+        legend_outside(ax, fontsize=8)
+    save_figure(fig, path, dpi=120, scenario=scenario,
+                caption="The loads' torque on the crank over the machine's cycle with its mean line: the green areas "
+                        "give energy to the flywheel, the red take it; the swing's range is the dW_max the flywheel "
+                        "is sized from.")
     plt.close(fig)
     return path
 

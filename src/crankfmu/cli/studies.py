@@ -231,8 +231,10 @@ def cmd_flywheel(args) -> int:
     print(f"{scenario.name}: flywheel for delta = {d.delta_target:g}")
     print(f"  J_e            {d.J_e_min:.4f} .. {d.J_e_max:.4f} kg.m2 (min at {d.J_e_min_at_deg:.1f} deg, "
           f"max at {d.J_e_max_at_deg:.1f} deg)")
-    print(f"  dW_max         {d.dW_max:.3f} J, omega_m {d.omega_m:.6f} rad/s (steady, no flywheel: "
-          f"delta {d.delta_without_flywheel:.5f})")
+    start = ("no flywheel" if d.baseline_J_flywheel == 0.0 else
+             f"the file's flywheel {d.baseline_J_flywheel:g} kg.m2, no steady cycle without one")
+    print(f"  dW_max         {d.dW_max:.3f} J, omega_m {d.omega_m:.6f} rad/s (steady, {start}: "
+          f"delta {d.without.delta:.5f})")
     print(f"  J_F eq. 17     {d.J_F_eq17:.3f} kg.m2 (gives delta {d.delta_with_J_F_eq17:.5f} when simulated)")
     print(f"  J_F eq. 16     {d.J_F_eq16:.3f} kg.m2")
     print(f"  J_F simulated  {d.J_F_simulated:.3f} kg.m2: delta {d.delta_achieved:.6f}")

@@ -80,13 +80,16 @@ class FlywheelDesign:
     steady_cycle_solves: int
     without: SteadyCycle = field(repr=False)     # the steady cycles in the crank angle (engine)
     with_flywheel: SteadyCycle = field(repr=False)
+    #: kg.m2: the flywheel of the cycle "without": 0, or the file's own where the machine has no
+    #: steady cycle without one (an engine stalls in its compression stroke)
+    baseline_J_flywheel: float = 0.0
 
     UNITS = {"J_*": "kg.m2", "dW_max": "J", "omega_*": "rad/s", "epsilon_*": "rad/s2", "delta*": "1",
              "steady_cycle_solves": "batch calls of the fast kernel (one or many flywheels each)",
              "*_reduction": "1 (fraction of the value without flywheel)", "*_at_deg": "deg (paper's phi)"}
     #: flywheel.json's keys, in order (fields and the figures derived from the two cycles)
-    SUMMARY = ("scenario", "delta_target", "J_e_min", "J_e_max", "J_e_mean", "J_e_min_at_deg", "J_e_max_at_deg",
-               "dW_max", "omega_m", "J_F_eq17", "J_F_eq16", "J_F_simulated", "delta_achieved",
+    SUMMARY = ("scenario", "delta_target", "baseline_J_flywheel", "J_e_min", "J_e_max", "J_e_mean", "J_e_min_at_deg",
+               "J_e_max_at_deg", "dW_max", "omega_m", "J_F_eq17", "J_F_eq16", "J_F_simulated", "delta_achieved",
                "delta_achieved_crank_angle", "delta_without_flywheel", "delta_without_flywheel_crank_angle",
                "delta_with_J_F_eq17", "steady_cycle_solves", "omega_peak_without", "omega_peak_with",
                "omega_peak_reduction", "epsilon_peak_without", "epsilon_peak_with", "epsilon_peak_reduction")
@@ -130,8 +133,11 @@ class FlywheelDesign:
         return float(1.0 - np.max(np.abs(self.with_flywheel.epsilon1)) / np.max(np.abs(self.without.epsilon1)))
 
     def summary(self) -> dict:
-        """The numbers (not the cycles) with their units, as flywheel.json writes them."""
-        return {**{name: getattr(self, name) for name in self.SUMMARY}, "units": self.UNITS}
+        """The numbers (not the cycles) with their units, as flywheel.json writes them (a delta
+        with no steady cycle, which is infinite, as null)."""
+        values = {name: getattr(self, name) for name in self.SUMMARY}
+        return {**{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in values.items()},
+                "units": self.UNITS}
 
 
 @dataclass
@@ -247,9 +253,10 @@ def steady_cycle(model, phi0: float = 0.0, rtol: float = 1e-11, n_samples: int =
                        J_flywheel=model.reduced.J_flywheel, angle=cycle)
 
 
-def energy_swing(model, n: int = 20001) -> tuple[float, np.ndarray, np.ndarray]:
+def energy_swing(model, n: int = 20001, omega1: float = 1.0) -> tuple[float, np.ndarray, np.ndarray]:
     """dW_max (J) of eqs. 16-17 and the curve dW(phi1) over the machine's cycle: the loads' work
-    against their mean."""
+    against their mean. The loads of the speed at ``omega1`` (rad/s: the cycle's mean speed; a
+    slider force reads only its sign)."""
     breaks = cycle_breaks(model)
     cycle, turns = model.reduced.period, model.reduced.cycle_turns
     x, wts = np.polynomial.legendre.leggauss(8)
@@ -259,7 +266,7 @@ def energy_swing(model, n: int = 20001) -> tuple[float, np.ndarray, np.ndarray]:
     nodes = (mid[:, None] + half[:, None] * x[None, :]).ravel()
     J, half_dJ, Q, kin = model.reduced.coefficients(nodes)
     if model.reduced.velocity_dependent:
-        Q = Q + model.reduced.velocity_load(kin, np.ones_like(nodes))   # the direction of forward motion
+        Q = Q + model.reduced.velocity_load(kin, np.full_like(nodes, omega1))   # forward, at the mean speed
     work = np.sum(Q.reshape(-1, x.size) * wts[None, :], axis=1) * half
     cumulative = np.concatenate([[0.0], np.cumsum(work)])
     swing = cumulative - cumulative[-1] / cycle * grid
@@ -282,18 +289,17 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
                              "(0, 1), e.g. 0.05", "delta")
     spec = scenario.data.get("flywheel", {})
     phi0 = float(spec.get("angle_offset", 0.0) if phi0 is None else phi0)
-    base = scenario.with_params(J_flywheel=0.0)
+    base, free = baseline(scenario, phi0, rtol)
     model = base.build()
     grid = np.linspace(0.0, TWO_PI, 3601)
-    J_e = model.reduced.coefficients(grid)[0]
+    J_e = model.reduced.coefficients(grid)[0] - model.reduced.J_flywheel
     # the reduced inertia's extremes located on the exact function (the mean is the grid's: the
     # trapezoid rule on a periodic smooth function is exact to rounding)
-    J_e_ext = extremes(lambda p: model.reduced.coefficients(p)[0], [0.0, TWO_PI])
-    free = steady_cycle(model, phi0, rtol)
+    J_e_ext = extremes(lambda p: model.reduced.coefficients(p)[0] - model.reduced.J_flywheel, [0.0, TWO_PI])
     if progress is not None:
         progress(1)
-    dW, _, _ = energy_swing(model)
     omega_m = free.omega_mean
+    dW, _, _ = energy_swing(model, omega1=omega_m)
     J_eq17 = dW / (omega_m ** 2 * delta)
 
     # delta(J_F) of many flywheels at once on the fast kernel, the table built once
@@ -301,12 +307,15 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
     calls = [0]
 
     def deltas(J_values) -> np.ndarray:
+        """delta of each flywheel; infinite where the machine stalls with it (too small a flywheel
+        for an engine's compression stroke), so the search brackets past it"""
         calls[0] += 1
         found = batch.run([{"J_flywheel": float(J)} for J in J_values])
-        if found.failed:
+        if len(found.failed) == len(J_values) and not found.rows:
             bad = found.failed[0]
             raise CrankfmuError(f"no steady cycle with J_flywheel = {bad['J_flywheel']:g} kg.m2: {bad['reason']}")
-        return np.array([row["delta"] for row in found.rows])
+        delta_of = {row["J_flywheel"]: row["delta"] for row in found.rows}
+        return np.array([delta_of.get(float(J), math.inf) for J in J_values])
 
     # one call brackets the root: no flywheel, eq. 17's and a ladder of factors of 2 around it
     scale = J_eq17 if math.isfinite(J_eq17) and J_eq17 > 0.0 else 1.0
@@ -355,7 +364,24 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
         steady_cycle_solves=calls[0],
         without=free,
         with_flywheel=fitted,
+        baseline_J_flywheel=float(base["J_flywheel"]),
     )
+
+
+def baseline(scenario, phi0: float, rtol: float):
+    """(scenario, steady cycle) the flywheel is sized from: without a flywheel (the papers'
+    machines), or with the file's own where there is no steady cycle without one (a single-cylinder
+    engine stalls in its compression stroke: its crank speed falls to 0)."""
+    base = scenario.with_params(J_flywheel=0.0)
+    try:
+        return base, steady_cycle(base.build(), phi0, rtol)
+    except (SchemeError, CrankfmuError) as exc:
+        J_own = float(scenario["J_flywheel"])
+        if not J_own > 0.0:
+            raise SchemeError(f"no steady cycle without a flywheel ({exc}); give the file a flywheel "
+                              "(J_flywheel > 0) to start the design from") from None
+        base = scenario.with_params(J_flywheel=J_own)
+        return base, steady_cycle(base.build(), phi0, rtol)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -434,7 +460,7 @@ def flywheel_study(scenario, delta: float, steps_deg=None, progress=None) -> Fly
     spec = scenario.data.get("flywheel", {})
     offset = float(spec.get("angle_offset", 0.0))
     design = design_flywheel(scenario, delta, phi0=offset, progress=progress)
-    base = scenario.with_params(J_flywheel=0.0)
+    base = scenario.with_params(J_flywheel=design.baseline_J_flywheel)
     steps = list(spec.get("eq3_steps_deg", [1, 2, 5, 10, 20])) if steps_deg is None else list(steps_deg)
     stability = eq3_stability(base, steps)
     if progress is not None:
