@@ -87,7 +87,7 @@ $(FMU_STAMP): $(STAMP) $(FMU_SOURCES) $(wildcard $(DEV_STAMP))
 	@touch $@
 
 fmu-python: $(STAMP)
-	@for s in seed000 seed001 seed002 seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
+	@for s in seed000 seed001 seed002 seed003 seed004 pumpjack engine1 engine4; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
 	@$(BIN)/crankfmu fmu dc_pi --drive --out build/fmus
 	@$(BIN)/crankfmu fmu seed000 --causality speed --out build/fmus
 	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --out build/fmus
@@ -96,13 +96,13 @@ fmu-python: $(STAMP)
 
 # native FMUs (C, linux64 and win64, no Python on the host)
 fmu-native-a: $(STAMP)
-	@for s in seed000 seed001 seed002; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
+	@for s in seed000 seed001 seed002 engine1; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
 	@$(BIN)/crankfmu fmu seed000 --native --causality speed --out build/fmus/native
-	@for s in seed000 seed001 seed002; do $(BIN)/crankfmu fmu $$s --native --fmi-version 3 --out build/fmus/native3 || exit 1; done
+	@for s in seed000 seed001 seed002 engine1; do $(BIN)/crankfmu fmu $$s --native --fmi-version 3 --out build/fmus/native3 || exit 1; done
 
 fmu-native-b: $(STAMP)
-	@for s in seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
-	@for s in seed003 seed004 pumpjack; do $(BIN)/crankfmu fmu $$s --native --fmi-version 3 --out build/fmus/native3 || exit 1; done
+	@for s in seed003 seed004 pumpjack engine4; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
+	@for s in seed003 seed004 pumpjack engine4; do $(BIN)/crankfmu fmu $$s --native --fmi-version 3 --out build/fmus/native3 || exit 1; done
 	@$(BIN)/crankfmu fmu dc_pi --drive --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu die_cushion --cushion --native --out build/fmus/native
@@ -153,6 +153,10 @@ demo-well: $(STAMP)
 	$(BIN)/crankfmu draw pumpjack --out $(OUT)/pumpjack/mechanism.png
 	$(BIN)/crankfmu animate pumpjack --result $(OUT)/pumpjack --out $(OUT)/pumpjack/run.gif
 	$(BIN)/crankfmu well rp11l_guo --out $(OUT)/well
+	# the engines, a machine cycle of two turns: the turning moment, omega1 over the cycle, the flywheel
+	$(BIN)/crankfmu flywheel engine1 --delta 0.02 --out $(OUT)/engine1
+	$(BIN)/crankfmu flywheel engine4 --delta 0.005 --out $(OUT)/engine4
+	$(BIN)/crankfmu draw engine1 --out $(OUT)/engine1/mechanism.png
 	$(BIN)/crankfmu animate seed000 --result $(OUT) --out $(OUT)/seed000_run.gif
 	for s in seed003 seed004; do $(BIN)/crankfmu animate $$s --out $(OUT)/$$s/mechanism.gif || exit 1; done
 

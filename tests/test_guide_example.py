@@ -14,6 +14,7 @@ from crankfmu.cli import main
 from conftest import assert_two_integrators_agree_and_energy_closes
 
 GUIDE = Path(__file__).resolve().parents[1] / "docs" / "mechanism-files.md"
+ENGINE = Path(__file__).resolve().parent / "data" / "user" / "engine4s_scenario.toml"
 
 
 @pytest.fixture(scope="module")
@@ -26,8 +27,15 @@ def files(tmp_path_factory):
         if m:
             (folder / m.group(1)).write_text(block)
             written.append(m.group(1))
-    assert written == ["press.toml", "press_scenario.toml"]
+    assert sorted(written) == ["engine4s_scenario.toml", "press.toml", "press_scenario.toml"]
     return folder
+
+
+def test_the_guides_machine_cycle_example_is_the_file_the_tests_run(files):
+    """The guide's four-stroke engine (cycle_turns) is tests/data/user/engine4s_scenario.toml, which
+    tests/test_machine_cycle.py checks against a hand-written reference: the two are one text."""
+    guide = (files / "engine4s_scenario.toml").read_text()
+    assert guide.removeprefix("# file: engine4s_scenario.toml\n") == ENGINE.read_text()
 
 
 def test_the_guides_example_passes_the_check(files):

@@ -320,15 +320,15 @@ def native_tables_check(report: Report, scenario, path):
     """What ``crankfmu fmu --native`` would refuse: its program and tables, built and checked by the
     same function (fmi.native_model.native_program), so check refuses exactly what the build would."""
     from .fmi.native_model import native_program
+    from .native.mechanism import TABLE_NAMES
 
     try:
         _, tables = native_program(scenario)
     except CrankfmuError as exc:
         report.add("FAIL", f"crankfmu fmu --native would refuse it: {exc}", locate(path, str(exc)))
         return
-    built = [f"{what} {construction} (checked error {error:.2g})"
-             for what, (error, construction) in zip(("movement equation:", "outputs and ports:", "joint reactions:"),
-                                                     tables.values())]
+    built = [f"{TABLE_NAMES[table].removeprefix('the ')}: {construction} (checked error {error:.2g})"
+             for table, (error, construction) in tables.items()]
     report.add("OK", "the native FMU's tables, built by the C model when it initialises (at the file's values): "
                + "; ".join(built))
 

@@ -90,7 +90,13 @@ class ExpressionLoad:
 
     # ---------------------------------------------------------------- evaluation
     def _components(self, kin, which: dict, omega1=None):
-        env = position_env(self.mechanism, kin, omega1)
+        # one environment per kinematics and speed, shared by the loads evaluated at them (an engine's
+        # four gas forces read the same names at every step)
+        key = (id(self.mechanism), None if omega1 is None else np.asarray(omega1, dtype=float).tobytes())
+        cache = kin.__dict__.setdefault("_load_envs", {})
+        env = cache.get(key)
+        if env is None:
+            env = cache[key] = position_env(self.mechanism, kin, omega1)
         zero = np.zeros_like(kin.phi1)
         return tuple(np.broadcast_to(np.asarray(which[k].evaluate(env), dtype=float), kin.phi1.shape) if k in which
                      else zero for k in ("fx", "fy", "moment"))

@@ -211,9 +211,10 @@ class NativeModel:
         program = self.program
         vr_of = {v.name: vr for vr, v in enumerate(self.variables())}
         coordinates = program.coordinate_names
-        errors = "; ".join(f"{what}: {construction}, checked error bound {error:.3g} at the file's values"
-                           for what, (error, construction) in zip(("the movement equation", "[[outputs]] and ports",
-                                                                   "joint reactions"), self.table_errors.values()))
+        from ..native.mechanism import TABLE_NAMES
+
+        errors = "; ".join(f"{TABLE_NAMES[table]}: {construction}, checked error bound {error:.3g} at the file's values"
+                           for table, (error, construction) in self.table_errors.items())
         ints = lambda name, a: f"static const int {name}[] = {c_ints(a)};\n"      # noqa: E731
         fields = {"code": "CODE", "sections": "SECTIONS", "terms": "TERMS", "angles": "ANGLES",
                   "chain_constants": "CHAIN_CONSTANTS", "angle_column": "ANGLE_COLUMN", "rows": "ROWS",

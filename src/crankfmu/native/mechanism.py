@@ -19,6 +19,8 @@ from . import LIBRARY
 I, D = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double)
 #: the tables a model gives (crank_mechanism.h's MM_TABLE_...)
 REDUCED, QUANTITIES, REACTIONS = range(3)
+#: what each table holds, as the build's and check's messages name it
+TABLE_NAMES = {REDUCED: "the movement equation", QUANTITIES: "[[outputs]] and ports", REACTIONS: "joint reactions"}
 
 #: crank_mechanism.h's error codes, and what each says (the Python engine's words)
 ERRORS = {

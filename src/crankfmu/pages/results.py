@@ -24,8 +24,8 @@ from ..atomic import write_text
 from ..errors import CrankfmuError
 from .markup import page
 
-#: the order of the groups: the papers' scenarios, then the beam pumping unit and its well
-ORDER = ("seed000", "seed001", "seed002", "seed003", "seed004", "pumpjack", "rp11l_guo")
+#: the order of the groups: the papers' scenarios, the beam pumping unit and its well, the engines
+ORDER = ("seed000", "seed001", "seed002", "seed003", "seed004", "pumpjack", "rp11l_guo", "engine1", "engine4")
 IMAGES = (".png", ".gif")
 
 
