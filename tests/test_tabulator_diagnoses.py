@@ -7,8 +7,8 @@ triggers it (the single-cylinder engine of tests/data/user with one thing change
 - a gas force so peaky that 2**16 intervals cannot follow it: continuous but steep, its slope and
   the intervals it would need, not a dead point;
 - a force that divides by zero: not finite, with the expression and the angle;
-- a rod barely longer than the crank: the kinematics steep, a dead point (expected to fail until
-  the C tabulator looks inside the interval too: both call it a jump today).
+- a rod barely longer than the crank: the kinematics steep, a dead point (the engine and the C
+  tabulator both look inside the interval to tell it from a jump).
 """
 
 from __future__ import annotations
@@ -89,14 +89,36 @@ def test_a_load_that_divides_by_zero_is_not_finite(tmp_path):
     assert "dead point" not in said, said
 
 
-@pytest.mark.xfail(strict=True, reason="known defect: the C tabulator's verdict (crank_tabulator.c, error_jumps: a step "
-                   "over 1e3 times the median) calls the steep kinematics near a dead point a jump, and the engine keeps "
-                   "its rule for the kinematics so that the native FMU and the CLI say one thing; the look inside the "
-                   "interval that tells them apart is in the engine for loads only so far")
 def test_a_rod_barely_longer_than_the_crank_is_near_a_dead_point(tmp_path):
     said = check(tmp_path, ENGINE.replace("l2 = { value = 0.14,", "l2 = { value = 0.0400001,"), "dead_point")
     assert "the mechanism is too close to a dead point" in said and "269.97 deg" in said, said
     assert "not periodic" not in said and "jumps" not in said, said
+
+
+def test_the_native_fmu_calls_a_dead_point_a_dead_point_in_its_own_message(tmp_path):
+    """The C tabulator looks inside the interval as the engine does: the native FMU, which tabulates
+    when it initialises, says dead point too (it said "jumps ... a discontinuity" before)."""
+    import crankfmu
+    from crankfmu.native.mechanism import REDUCED, CModel, MechanismError
+    from crankfmu.dynamics.program import parameter_values
+    from crankfmu.dynamics.program_scenario import compile_scenario
+
+    path = tmp_path / "dead_point.toml"
+    path.write_text(ENGINE.replace("l2 = { value = 0.14,", "l2 = { value = 0.0400001,"))
+    scenario = crankfmu.load_scenario(str(path))
+    program = compile_scenario(scenario)
+    model = CModel(program, parameter_values(program, scenario.values))
+    with pytest.raises(MechanismError):
+        model.cubics(REDUCED, 1e-11)
+    assert model._model.error_jumps == 0
+    step = ENGINE.replace(FORCE, 'kind = "couple"\nlink = "crank"\nmoment = "-100*max(0, sign(sin(phi1 - 1)))"')
+    path.write_text(step)
+    scenario = crankfmu.load_scenario(str(path))
+    program = compile_scenario(scenario)
+    model = CModel(program, parameter_values(program, scenario.values))
+    with pytest.raises(MechanismError):
+        model.cubics(REDUCED, 1e-11)
+    assert model._model.error_jumps == 1
 
 
 @pytest.mark.parametrize("turns", [2, 3])

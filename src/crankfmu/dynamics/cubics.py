@@ -126,9 +126,11 @@ def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance:
     head = f"{what}: {name} cannot be tabulated to {format_value(tolerance)} with {n} intervals (error {errors[row]:.2g})"
     change = values[row, (k + 1) % n] - values[row, k]
     kinematic = set(named[2]) if len(named) > 2 else set(range(values.shape[0]))
-    if engine is not None and row not in kinematic:
-        # look inside the interval: a jump stays in one sub-interval however fine; a steep function
-        # spreads its change over many
+    inside = fine = None
+    if engine is not None:
+        # look inside the interval (crank_tabulator.c does the same): a jump stays in one of 1024
+        # sub-intervals however fine; a steep function (the kinematics near a dead point, a peaky
+        # load) spreads its change over many
         fine = np.linspace(k * h, (k + 1) * h, 1025)
         inside = engine(fine)[row]
         if not np.isfinite(inside).all():
@@ -137,9 +139,7 @@ def _why_not_tabulated(values: np.ndarray, errors: np.ndarray, named, tolerance:
         sub = np.abs(np.diff(inside))
         jump = abs(change) > 0 and sub.max() > 0.5 * abs(change) and sub.max() > 1e3 * np.median(sub) + 1e-300
     else:
-        # the kinematics: the C tabulator's rule (crank_tabulator.c, error_jumps), so the native FMU
-        # and the engine give one verdict; a load is looked into above (the C model does not yet)
-        jump, inside, fine = steps[k] > 1e3 * (float(np.median(steps)) + 1e-300), None, None
+        jump = steps[k] > 1e3 * (float(np.median(steps)) + 1e-300)
     if jump:
         return (f"{head}: it jumps by {change:.4g} between {at}, a discontinuity in the crank angle (a closed "
                 "form's branch cut, or a load written with a step), not a dead point; no number of intervals follows a "

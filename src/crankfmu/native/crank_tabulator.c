@@ -109,14 +109,38 @@ static int from_samples(mm_model *m, int table, double tolerance, double **cubic
                 exact[i] = fabs(y[(i + 1) % n] - y[i]);
                 if (exact[i] > exact[k]) k = i;
             }
-            double step = y[(k + 1) % n] - y[k], largest = exact[k];
-            qsort(exact, (size_t)n, sizeof(double), mm_ascending);
-            double median = 0.5 * (exact[n / 2 - 1] + exact[n / 2]) + 1e-300;
+            double step = y[(k + 1) % n] - y[k];
+            /* look inside the interval (dynamics/cubics.py's rule): a jump stays in one of 1024
+             * sub-intervals however fine; a steep function (the kinematics near a dead point, a
+             * peaky load) spreads its change over many */
+            enum { FINE = 1024 };
+            double *fine = malloc(sizeof(double) * (size_t)rows * (FINE + 1)), *at = malloc(sizeof(double) * (FINE + 1));
+            if (!fine || !at) {
+                free(fine); free(at);
+                status = MM_NO_MEMORY;
+                break;
+            }
+            for (int j = 0; j <= FINE; ++j) at[j] = (k + (double)j / FINE) * h;
+            status = sample(m, table, at, FINE + 1, fine);
+            int jumps = 0;
+            if (status == MM_OK) {
+                const double *inside = fine + (size_t)worst * (FINE + 1);
+                double largest = 0.0;
+                for (int j = 0; j < FINE; ++j) {
+                    at[j] = fabs(inside[j + 1] - inside[j]);
+                    if (at[j] > largest) largest = at[j];
+                }
+                qsort(at, FINE, sizeof(double), mm_ascending);
+                double median = 0.5 * (at[FINE / 2 - 1] + at[FINE / 2]);
+                jumps = fabs(step) > 0.0 && largest > 0.5 * fabs(step) && largest > 1e3 * median + 1e-300;
+            }
+            free(fine); free(at);
+            if (status != MM_OK) break;                  /* not finite inside: mm_engine said where */
             m->error_index = worst;
             m->error_value = error;
             m->error_angle = k * h * mm_table_turns(m, table);          /* phi1, not theta */
             m->error_step = step;
-            m->error_jumps = largest > 1e3 * median;
+            m->error_jumps = jumps;
             status = MM_NOT_TABULATED;
             break;
         }
