@@ -229,3 +229,38 @@ def test_a_damper_written_with_a_points_velocity_is_the_viscous_force(tmp_path):
         # other) and enter the step control, so the steps differ: the integrator's error, 1e-9 at 1e-12
         assert relative(runs[0].omega1, runs[1].omega1) < 1e-9
         assert abs(runs[0].summary()["energy_balance"]["residual"]) < 1e-8
+
+
+def test_a_sweep_of_the_flywheel_gives_the_hand_references_steady_cycles(tmp_path):
+    """crankfmu sweep (the C kernel's batch of steady cycles over the two-turn cycle, shooting to
+    1e-9) against the hand reference's crank-angle steady cycle: delta and the mean speed to 1e-6."""
+    import csv
+
+    from crankfmu.cli import main
+
+    assert main(["sweep", str(FILE), "--param", "J_flywheel=0.05:0.1:2", "--out", str(tmp_path)]) == 0
+    rows = list(csv.DictReader((tmp_path / "steady.csv").open()))
+    assert len(rows) == 2
+    for row in rows:
+        _, delta, period = Engine(J_flywheel=float(row["J_flywheel"])).steady()
+        assert float(row["delta"]) == pytest.approx(delta, rel=1e-6)
+        assert float(row["omega1_mean"]) == pytest.approx(4 * math.pi / period, rel=1e-6)
+
+
+@pytest.mark.parametrize("native", [False, True])
+def test_in_speed_causality_the_couple_of_omega1_is_in_the_drive_torque(tmp_path, native):
+    """With the crank's speed imposed (an input, 240 rad/s at its default), the drive torque of the
+    twin with the couple -c_brake omega1 exceeds the motor-line engine's (whose motor line a
+    speed-causal FMU does not read) by exactly c_brake omega1 at every step."""
+    import fmpy
+
+    from crankfmu.cli import main
+
+    runs = {}
+    for name, path in (("motor", FILE), ("couple", COUPLE)):
+        out = tmp_path / name
+        assert main(["fmu", str(path), "--causality", "speed", "--out", str(out), *(["--native"] if native else [])]) == 0
+        fmu = next(out.glob("*.fmu"))
+        runs[name] = fmpy.simulate_fmu(str(fmu), stop_time=0.1, output_interval=0.001, output=["tau_drive", "M_load"])
+    gap = runs["couple"]["tau_drive"] - runs["motor"]["tau_drive"]
+    assert np.max(np.abs(gap - 0.0128 * 240.0)) < 1e-12 * np.max(np.abs(runs["motor"]["tau_drive"]))
