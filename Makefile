@@ -154,6 +154,7 @@ demo-well: $(STAMP)
 	$(BIN)/crankfmu animate pumpjack --result $(OUT)/pumpjack --out $(OUT)/pumpjack/run.gif
 	$(BIN)/crankfmu well rp11l_guo --out $(OUT)/well
 	# the engines, a machine cycle of two turns: the turning moment, omega1 over the cycle, the flywheel
+	$(BIN)/crankfmu simulate engine1 --method fast --out $(OUT)/engine1
 	$(BIN)/crankfmu flywheel engine1 --delta 0.02 --out $(OUT)/engine1
 	$(BIN)/crankfmu flywheel engine4 --delta 0.005 --out $(OUT)/engine4
 	$(BIN)/crankfmu draw engine1 --out $(OUT)/engine1/mechanism.png

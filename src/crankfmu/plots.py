@@ -70,27 +70,28 @@ def _cycle_change(result, k: int) -> float:
 
 def run_story(result, cycles: int) -> str:
     """What the run does, read from its own data: where it starts (from rest or at a speed) and
-    whether it has settled by the end of the turns drawn (SETTLED)."""
+    whether it has settled by the end of the cycles drawn (SETTLED)."""
     w0 = float(result.omega1[0])
     start = "From rest" if w0 == 0.0 else f"From omega1 = {w0:.4g} rad/s"
     change = _cycle_change(result, cycles - 1) if cycles > 1 else math.nan
     if not math.isfinite(change):
-        return f"{start}; the run ends before its turns can be compared."
+        return f"{start}; the run ends before its cycles can be compared."
     if change < SETTLED:
-        return (f"{start}, the crank settles into a periodic cycle: turn {cycles}'s mean speed is within "
-                f"{100 * change:.2g} % of turn {cycles - 1}'s.")
-    return (f"{start}; the crank has not settled by turn {cycles}: its mean speed still changes by "
-            f"{100 * change:.2g} % from turn {cycles - 1}.")
+        return (f"{start}, the crank settles into a periodic cycle: cycle {cycles}'s mean speed is within "
+                f"{100 * change:.2g} % of cycle {cycles - 1}'s.")
+    return (f"{start}; the crank has not settled by cycle {cycles}: its mean speed still changes by "
+            f"{100 * change:.2g} % from cycle {cycles - 1}.")
 
 
 def settled_story(result, k: int) -> str:
-    """Whether turn ``k`` is settled, from the run: its mean speed against turn k+1's."""
+    """Whether cycle ``k`` (a turn, or a machine cycle of several) is settled, from the run: its mean
+    speed against cycle k+1's."""
     change = _cycle_change(result, k)
     if not math.isfinite(change):
-        return f"Whether turn {k} is settled cannot be told: the run ends before turn {k + 1}."
+        return f"Whether cycle {k} is settled cannot be told: the run ends before cycle {k + 1}."
     if change < SETTLED:
-        return f"The motion has settled: turn {k + 1}'s mean speed is within {100 * change:.2g} % of this turn's."
-    return f"The motion has not settled: turn {k + 1}'s mean speed differs by {100 * change:.2g} %."
+        return f"The motion has settled: cycle {k + 1}'s mean speed is within {100 * change:.2g} % of this one's."
+    return f"The motion has not settled: cycle {k + 1}'s mean speed differs by {100 * change:.2g} %."
 
 
 def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[Path]:
@@ -99,16 +100,19 @@ def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[
 
     paths = []
     phi0 = result.phi1[0]
-    # Fig. 3: omega1 against the crank angle over `cycles` turns (or the whole run if shorter)
-    end_angle = phi0 + 2 * math.pi * cycles
+    # a machine cycle: one crank turn, or the scenario's cycle_turns (a four-stroke engine's two)
+    cycle, turns = result.scenario.cycle_angle, result.scenario.cycle_turns
+    kind = "kinematic cycles" if turns == 1 else f"machine cycles of {turns} turns"
+    # Fig. 3: omega1 against the crank angle over `cycles` cycles (or the whole run if shorter)
+    end_angle = phi0 + cycle * cycles
     sel = result.phi1 <= end_angle
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6.5), constrained_layout=True)
     ax1.plot(np.degrees(result.phi1[sel] - phi0), result.omega1[sel], lw=1.2)
     for k in range(1, cycles):
-        ax1.axvline(360 * k, color="0.8", lw=0.8, zorder=0)
+        ax1.axvline(360 * turns * k, color="0.8", lw=0.8, zorder=0)
     ax1.set_xlabel("crank angle phi1 - phi1_start [deg]")
     ax1.set_ylabel("omega1 [rad/s]")
-    ax1.set_title(f"{result.scenario.name}: crank speed over {cycles} kinematic cycles ({result.method})")
+    ax1.set_title(f"{result.scenario.name}: crank speed over {cycles} {kind} ({result.method})")
     ax1.grid(alpha=0.3)
     ax2.plot(result.time[sel], result.omega1[sel], lw=1.2, color="C1")
     ax2.set_xlabel("time t [s]")
@@ -118,27 +122,27 @@ def plot_cycles(result, out_dir: Path, cycles: int, summary_cycle: int) -> list[
     figures = dict(result.scenario.data.get("run_figures", {}))
     as_paper = f", as the paper's {figures['cycles']} draws it" if figures.get("cycles") else ""
     save_figure(fig, p, dpi=120, scenario=result.scenario.name,
-                caption=f"The crank speed omega1 from the start over {cycles} crank turns, against the crank angle (top"
+                caption=f"The crank speed omega1 from the start over {cycles} {kind}, against the crank angle (top"
                         f"{as_paper}) and against time (bottom). {run_story(result, cycles)}")
     plt.close(fig)
     paths.append(p)
 
-    # Fig. 4: omega1 over cycle `summary_cycle`, against the crank angle within the turn
+    # Fig. 4: omega1 over cycle `summary_cycle`, against the crank angle within the cycle
     stats = result.cycle_stats(summary_cycle)
-    phis = phi0 + 2 * math.pi * (summary_cycle - 1) + np.linspace(0, 2 * math.pi, 1441)
+    phis = phi0 + cycle * (summary_cycle - 1) + np.linspace(0, cycle, 1440 * turns + 1)
     omega = result.omega_at_angle(phis)
     fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
     ax.plot(np.degrees(phis - phis[0]), omega, lw=1.4)
     ax.axhline(stats["omega1_mean"], color="0.5", ls="--", lw=0.8,
                label=f"time mean {stats['omega1_mean']:.4f} rad/s")
-    turn_axis(ax, f"crank angle within cycle {summary_cycle} [deg]")
+    turn_axis(ax, f"crank angle within cycle {summary_cycle} [deg]", cycle)
     ax.set_ylabel("omega1 [rad/s]")
     ax.set_title(f"cycle {summary_cycle}: min {stats['omega1_min']:.4f}, max {stats['omega1_max']:.4f} rad/s, "
                  f"delta = {stats['delta']:.4f}")
     legend_outside(ax)
     p = out_dir / f"omega1_cycle{summary_cycle}.png"
     save_figure(fig, p, dpi=120, scenario=result.scenario.name,
-                caption=f"The crank speed over turn {summary_cycle}"
+                caption=f"The crank speed over {'turn' if turns == 1 else 'machine cycle'} {summary_cycle}"
                         + (f" (the paper's {figures['settled']})" if figures.get("settled") else "")
                         + f": its extremes and the coefficient of speed fluctuation delta = (max - min) / mean. "
                           f"{settled_story(result, summary_cycle)}")
