@@ -135,3 +135,22 @@ def test_the_period_found_is_the_loads(turns):
     said = _not_periodic(engine, ("the functions", ["J", "gas"]))
     assert said and "gas is not periodic" in said and f"repeats every {turns} turns" in said, said
     assert _not_periodic(lambda p: np.array([np.cos(np.asarray(p))]), ("the functions", ["J"])) is None
+
+
+def test_the_native_build_initialises_its_fmu_before_it_reports_success(tmp_path):
+    """crankfmu fmu --native runs the FMU it built once (instantiate, initialise at the start values,
+    one step) in a fresh process before it writes it; an FMU that does not start is refused with
+    the host's last words, and the build's own FMU passes."""
+    import shutil
+
+    from crankfmu.errors import CrankfmuError
+    from crankfmu.fmi.native_build import initialises
+
+    broken = tmp_path / "Broken.fmu"
+    broken.write_bytes(b"not a zip")
+    with pytest.raises(CrankfmuError, match="Broken: the FMU built does not initialise at its start values: "):
+        initialises(broken, "Broken")
+    built = ROOT / "build" / "fmus" / "native" / "FourBar.fmu"
+    assert built.is_file(), "make test builds the FMUs (make fmu) before the tests"
+    shutil.copy(built, tmp_path / "FourBar.fmu")
+    initialises(tmp_path / "FourBar.fmu", "FourBar")
