@@ -340,7 +340,7 @@ def plot_moments(scenario, results: list, out: Path) -> list[Path]:
     changed = ", ".join(f"{k} = {v:g}" for k, v in sorted(scenario.overrides.items()))
     for r in results:
         m = r.moment
-        deg = np.append(np.degrees(m.phi1), 360.0)
+        deg = np.append(np.degrees(m.phi1), math.degrees(r.cycle_angle))
         close = lambda a: np.append(a, a[0])  # noqa: E731
         fig, ax = plt.subplots(figsize=(9.5, 4.5), constrained_layout=True)
         ax.plot(deg, close(m.total), lw=1.6, label="1: with inertia forces\nand moments [N.m]")
@@ -351,7 +351,7 @@ def plot_moments(scenario, results: list, out: Path) -> list[Path]:
             for sign in (1.0, -1.0):
                 ax.axhline(sign * rating, color="C3", lw=1.0, ls="-.",
                            label=f"rating +/-{rating:.0f} N.m" if sign > 0 else None)
-        turn_axis(ax)
+        turn_axis(ax, cycle=r.cycle_angle)
         ax.set_ylabel(f"{label} [N.m]")
         s = r.summary()
         cite = f" ({figures[r.omega1]})" if r.omega1 in figures else ""
@@ -383,7 +383,7 @@ def plot_reactions(scenario, r, path: Path, switches_deg=()) -> Path:
         ax.plot(deg, magnitude, lw=1.2, color="C0")
         for s in switches_deg:
             ax.axvline(s, color="0.4", lw=0.8, ls=":")
-        turn_axis(ax, "crank angle phi1 [deg]" if k % rows == rows - 1 else "")
+        turn_axis(ax, "crank angle phi1 [deg]" if k % rows == rows - 1 else "", r.cycle_angle)
         ax.set_ylim(0.0, 1.12 * max(float(np.max(magnitude)), 1e-12))
         ax.set_title(f"{joint} ({r.reactions.kind[joint]}): peak {engineering(float(np.max(magnitude)), 'N')}",
                      fontsize=9, loc="left")

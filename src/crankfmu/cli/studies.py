@@ -201,8 +201,10 @@ def cmd_equilibrium(args) -> int:
         s = summary[f"{r.omega1:g}"]
         print(f"  {r.omega1:6g} {s['Me_min']:9.3f} {s['Me_max']:9.3f} {s['Me_mean']:9.4f} {s['Me_min_static']:9.3f} "
               f"{s['Me_max_static']:9.3f} {s['inertia_ratio']:8.4f}")
-    tech = results[0].tech_work
-    print(f"  technological work per turn {tech:.4f} J: over 2 pi {-tech / (2 * math.pi):.4f} N.m (= Me_mean)")
+    tech, angle = results[0].tech_work, results[0].cycle_angle
+    per = "turn" if scenario.cycle_turns == 1 else f"machine cycle ({scenario.cycle_turns} turns)"
+    print(f"  technological work per {per} {tech:.4f} J: over its {math.degrees(angle):.0f} deg {-tech / angle:.4f} N.m "
+          "(= Me_mean)")
     peaks = summary[f"{results[0].omega1:g}"]["joint_reaction_peaks"]
     print(f"  joint reaction peaks at {results[0].omega1:g} rad/s: "
           + ", ".join(f"{j} {v['max_force_N']:.0f} N" for j, v in peaks.items()))
