@@ -96,16 +96,20 @@ def test_cycle_turns_must_be_a_whole_number_of_turns(tmp_path, value):
     assert "cycle_turns" in said and ("from 1 to 8" in said or "must be" in said), said
 
 
-@pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
+def build_three(path, out) -> dict:
+    """The Python FMU and the native FMI 2 and 3 FMUs of the file at ``path``, by the CLI."""
     from crankfmu.cli import main
 
-    out = tmp_path_factory.mktemp("engine4s")
     built = {}
     for kind, extra in (("python", []), ("native2", ["--native"]), ("native3", ["--native", "--fmi-version", "3"])):
-        assert main(["fmu", str(FILE), "--out", str(out / kind), *extra]) == 0
-        built[kind] = out / kind / "Engine4S.fmu"
+        assert main(["fmu", str(path), "--out", str(out / kind), *extra]) == 0
+        built[kind] = next((out / kind).glob("*.fmu"))
     return built
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    return build_three(FILE, tmp_path_factory.mktemp("engine4s"))
 
 
 @pytest.mark.parametrize("kind", ["python", "native2", "native3"])
@@ -161,14 +165,7 @@ def test_the_brake_as_a_couple_of_omega1_gives_the_same_motion(couple_file, hand
 
 @pytest.fixture(scope="module")
 def couple_fmus(couple_file, tmp_path_factory):
-    from crankfmu.cli import main
-
-    out = tmp_path_factory.mktemp("couple_fmus")
-    built = {}
-    for kind, extra in (("python", []), ("native2", ["--native"]), ("native3", ["--native", "--fmi-version", "3"])):
-        assert main(["fmu", str(couple_file), "--out", str(out / kind), *extra]) == 0
-        built[kind] = out / kind / "Engine4SCouple.fmu"
-    return built
+    return build_three(couple_file, tmp_path_factory.mktemp("couple_fmus"))
 
 
 REACTIONS = ["O_Fx", "O_Fy", "A_Fx", "A_Fy", "B_Fx", "B_Fy", "slide_N"]
