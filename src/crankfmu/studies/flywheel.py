@@ -466,7 +466,9 @@ def flywheel_study(scenario, delta: float, steps_deg=None, progress=None) -> Fly
     design = design_flywheel(scenario, delta, phi0=offset, progress=progress)
     base = scenario.with_params(J_flywheel=design.baseline_J_flywheel)
     steps = list(spec.get("eq3_steps_deg", [1, 2, 5, 10, 20])) if steps_deg is None else list(steps_deg)
-    stability = eq3_stability(base, steps)
+    # eq. 3 starts at phi1_start: the design's steady cycle is that one where it was taken from there
+    same_start = abs(base["phi1_start"] - offset) < 1e-15
+    stability = eq3_stability(base, steps, steady=design.without if same_start else None)
     if progress is not None:
         progress(4)
     # the movement from the start (Fig. 6): the reference and eq. 3 at 1 deg, three turns
