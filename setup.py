@@ -7,9 +7,11 @@ import sys
 from pathlib import Path
 
 from setuptools import Extension, setup
+from setuptools.command.bdist_wheel import bdist_wheel
 from setuptools.command.build_ext import build_ext
 
 native = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "native" / "sources.py"))
+shim = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "fmi" / "shim" / "prebuilt.py"))
 
 
 class PlainLibrary(build_ext):
@@ -35,10 +37,28 @@ class PlainLibrary(build_ext):
                   "at its first native build instead", file=sys.stderr)
         else:
             print(f"crankfmu: native FMU objects compiled for {', '.join(used)}")
+        # the Python FMUs' linux64 shim, so that crankfmu fmu needs no compiler
+        if sys.platform.startswith("linux"):
+            into = Path(self.get_ext_fullpath("crankfmu.native.crank_kernel")).parent.parent / "fmi" / "shim"
+            try:
+                shim["prebuild"](into)
+            except (OSError, ImportError, RuntimeError) as error:
+                print(f"crankfmu: the Python FMUs' shim was not compiled ({error}); each Python FMU's build "
+                      "compiles it instead", file=sys.stderr)
+
+
+class PlainWheel(bdist_wheel):
+    """The wheel's tag says what it holds: a plain library for this platform, loaded by ctypes
+    (no Python extension module, no CPython ABI), so any Python 3 on the platform runs it:
+    py3-none-<platform>, not cp3XX-cp3XX-<platform>."""
+
+    def get_tag(self):
+        _, _, platform = super().get_tag()
+        return "py3", "none", platform
 
 
 setup(
-    cmdclass={"build_ext": PlainLibrary},
+    cmdclass={"build_ext": PlainLibrary, "bdist_wheel": PlainWheel},
     ext_modules=[Extension(
         "crankfmu.native.crank_kernel",
         sources=[f"src/crankfmu/native/{name}" for name in native["C_FILES"]],

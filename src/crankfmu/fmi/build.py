@@ -2,7 +2,8 @@
 fmu_build/build.py [--dest build/fmus]`` (this module's ``main``). What it is built from, and the
 checks before, are fmi.source's; its reference result fmi.reference's.
 
-On linux64 the FMU's binary is the shim of ``shim/fmu_shim.c`` beside this file (compiled here with gcc)
+On linux64 the FMU's binary is the shim of ``shim/fmu_shim.c`` beside this file (compiled when crankfmu
+is installed, shim/prebuilt.py; here with gcc only where its sources changed since), named ``<model>.so``,
 in front of pythonfmu's binary, renamed ``<model>_pythonfmu.so``: it makes the FMU load in plain
 C/C++ hosts and turns refusals logged by the slave into fmi2Error. ``resources/python_env.txt``
 records the Python that built the FMU, the last place the shim looks in a C host (README, "Using
@@ -223,20 +224,17 @@ def pythonfmu_binaries() -> dict[str, Path]:
 
 
 def compile_shim(name: str, out: Path) -> Path:
-    """gcc the shim for model ``name``; the FMI headers come with fmpy."""
-    import fmpy
+    """The linux64 shim of model ``name`` at ``out``: the one compiled when crankfmu was installed
+    (shim/prebuilt.py), or gcc's where the sources changed since."""
+    from .shim import prebuilt
 
-    headers = Path(fmpy.__file__).parent / "c-code"
-    cmd = ["gcc", "-shared", "-fPIC", "-O2", "-Wall", "-Werror", f"-I{headers}",
-           f'-DINNER_LIBRARY="{name}_pythonfmu.so"', "-o", str(out), str(HERE / "shim" / "fmu_shim.c"),
-           str(HERE / "shim" / "find_python.c"), "-ldl"]
     try:
-        subprocess.run(cmd, check=True, capture_output=True, text=True)
+        return prebuilt.shim(out)
     except FileNotFoundError:
-        raise CrankfmuError("build: gcc not found; it compiles the FMU's linux64 shim (apt-get install gcc)") from None
+        raise CrankfmuError("build: gcc not found; it compiles the FMU's linux64 shim (apt-get install gcc), "
+                            "which an installed crankfmu carries compiled") from None
     except subprocess.CalledProcessError as exc:
         raise CrankfmuError(f"build: compiling the shim failed:\n{exc.stderr}") from None
-    return out
 
 
 def python_env() -> str:

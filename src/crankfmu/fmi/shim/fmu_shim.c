@@ -5,8 +5,9 @@
  * libpython in the *global* symbol scope, which dlopen(RTLD_LOCAL) hosts never give. On the
  * first fmi2Instantiate this shim loads libpython with RTLD_GLOBAL (unless the host already has
  * it, e.g. a Python host), from a Python it finds on the machine (find_python.c: the order is
- * documented there and in README), then loads pythonfmu's binary (INNER_LIBRARY,
- * beside this file) and forwards every call.
+ * documented there and in README), then loads pythonfmu's binary (<model>_pythonfmu.so beside
+ * this file, <model> this file's own name: one shim, compiled when crankfmu is installed, serves
+ * every Python FMU) and forwards every call.
  *
  * Where it brings Python in, the shim also starts the interpreter itself, so pythonfmu never
  * owns it and never runs Py_Finalize: finalising an interpreter that has loaded numpy and scipy
@@ -44,10 +45,6 @@
 
 #include "fmi2Functions.h"
 #include "find_python.h"
-
-#ifndef INNER_LIBRARY
-#error "compile with -DINNER_LIBRARY=\"<model>_pythonfmu.so\""
-#endif
 
 #define MAX_CATEGORIES 16
 
@@ -279,10 +276,15 @@ static int load(const char* resources, const fmi2CallbackFunctions* cb, fmi2Stri
         host_log(cb, name, "cannot locate the FMU binary", NULL);
         return 0;
     }
+    /* <dir>/<model>.so -> <dir>/<model>_pythonfmu.so */
     snprintf(inner_path, sizeof inner_path, "%s", info.dli_fname);
-    char* slash = strrchr(inner_path, '/');
-    snprintf(slash ? slash + 1 : inner_path, sizeof inner_path - (slash ? (size_t)(slash + 1 - inner_path) : 0),
-             "%s", INNER_LIBRARY);
+    size_t length = strlen(inner_path);
+    if (length > 3 && strcmp(inner_path + length - 3, ".so") == 0) inner_path[length - 3] = '\0';
+    if (strlen(inner_path) + sizeof "_pythonfmu.so" > sizeof inner_path) {
+        host_log(cb, name, "the FMU binary's path is too long: ", info.dli_fname);
+        return 0;
+    }
+    strcat(inner_path, "_pythonfmu.so");
     void* lib = dlopen(inner_path, RTLD_NOW | RTLD_LOCAL);
     if (!lib) {
         host_log(cb, name, "cannot load pythonfmu's binary: ", dlerror());
