@@ -49,17 +49,14 @@ def build_cubics(engine, tolerance: float, n_start: int, n_max: int, loosest: fl
     not_periodic = _not_periodic(engine, named, turns)
     if not_periodic:
         raise SchemeError(not_periodic)
-    if turns == 1:
-        return (from_series(engine, tolerance)
-                or from_samples(engine, tolerance, n_start, n_max, loosest, named))
     # the constructions work on one period of 2 pi: in theta = phi1 / turns, then the cubics are
-    # rescaled to phi1 (u_phi = turns u_theta: c_k / turns^k); the intervals' count is the cycle's
-    on_theta = lambda theta: engine(np.asarray(theta) * turns)  # noqa: E731
-    built = (from_series(on_theta, tolerance)
-             or from_samples(on_theta, tolerance, n_start, n_max, loosest, named, turns))
-    coefficients, error, construction = built
-    coefficients = coefficients / (float(turns) ** np.arange(4))
-    return coefficients, error, f"{construction} over a cycle of {turns} turns"
+    # rescaled to phi1 (u_phi = turns u_theta: c_k / turns^k; exact, so one turn is unchanged)
+    on_theta = (lambda theta: engine(np.asarray(theta) * turns)) if turns != 1 else engine  # noqa: E731
+    coefficients, error, construction = (from_series(on_theta, tolerance)
+                                         or from_samples(on_theta, tolerance, n_start, n_max, loosest, named, turns))
+    if turns == 1:
+        return coefficients, error, construction
+    return coefficients / (float(turns) ** np.arange(4)), error, f"{construction} over a cycle of {turns} turns"
 
 
 def _name(named, row: int) -> str:

@@ -349,6 +349,7 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
     names = tuple(name for name, _, _ in reaction_outputs(reduced.mechanism.definition))
     fixed = [load for load in reduced.loads if load.position_only]
     viscous = [load for load in reduced.loads if getattr(load, "linear_in_omega1", False)]
+    with_rest = [load for load in viscous if hasattr(load, "parts")]       # user_loads.SpeedLoad
     columns = [(load, j) for load in reduced.sliders for j in range(len(load.column_names))]
 
     def solve(phi1, omega1=0.0, epsilon1=0.0, inertia=False, loads=(), extra=None):
@@ -359,9 +360,9 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
 
     def terms(phi1):
         phi1 = np.asarray(phi1, dtype=float)
-        # the loads linear in omega1 at omega1 = 0 (a user's load of the speeds may have a part at
-        # rest: a generator's a + b omega1) join the fixed term; their term per omega1 is the rest
-        at_rest = solve(phi1, loads=viscous)
+        # a user's load of the speeds may have a part at rest (a generator's a + b omega1): it joins
+        # the fixed term, and the term per omega1 is the rest (the dampers have none: no solve)
+        at_rest = solve(phi1, loads=with_rest) if with_rest else 0.0
         out = [solve(phi1, loads=fixed) + at_rest,
                solve(phi1, epsilon1=1.0, inertia=True),
                solve(phi1, omega1=1.0, inertia=True),
