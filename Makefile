@@ -23,7 +23,7 @@ export PATH := /usr/lib/wine:$(PATH)
 
 # the C kernel (src/crankfmu/native) is compiled by the installation: a change of its sources reinstalls.
 # What make demo uses: crankfmu and its dependencies, a C compiler; nothing else.
-$(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfmu/native/*.h)
+$(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfmu/native/*.h src/crankfmu/native/fmu/*.c src/crankfmu/native/fmu/*.h)
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version'
 	@# a C compiler builds the kernel and the FMUs' binaries
 	@command -v cc >/dev/null || command -v gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc; } \

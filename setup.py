@@ -1,6 +1,7 @@
 """Builds crankfmu's C kernel (src/crankfmu/native) with the package: a plain shared library that
-Python loads through ctypes, and the objects native FMUs link (for each FMU compiler installed), so
-a first native build compiles only its own files. Everything else is in pyproject.toml."""
+Python loads through ctypes; the native mechanism FMUs' runtimes (one per FMI version and platform
+whose compiler is installed: a native build then compiles nothing); and the objects the native
+component FMUs link. Everything else is in pyproject.toml."""
 
 import runpy
 import sys
@@ -37,6 +38,16 @@ class PlainLibrary(build_ext):
                   "at its first native build instead", file=sys.stderr)
         else:
             print(f"crankfmu: native FMU objects compiled for {', '.join(used)}")
+        # the native mechanism FMUs' runtimes, for every platform whose compiler is here: then
+        # crankfmu fmu --native compiles nothing
+        try:
+            runtimes = native["prebuild_runtimes"](folder.parent / "runtimes")
+        except (OSError, RuntimeError) as error:
+            print(f"crankfmu: the native FMUs' runtimes were not compiled ({error}); a native build compiles "
+                  "the ones it needs into the per-user cache instead", file=sys.stderr)
+        else:
+            print("crankfmu: native FMU runtimes compiled for "
+                  + ", ".join(f"FMI {version} {platform}" for version, platform in runtimes))
         # the Python FMUs' linux64 shim, so that crankfmu fmu needs no compiler
         if sys.platform.startswith("linux"):
             into = Path(self.get_ext_fullpath("crankfmu.native.crank_kernel")).parent.parent / "fmi" / "shim"

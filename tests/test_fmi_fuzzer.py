@@ -35,7 +35,7 @@ def build_fuzzer(where: Path) -> Path:
         pytest.skip("make fmu builds build/fmus/native/FourBar.fmu")
     with zipfile.ZipFile(fmu) as z:
         for member in z.namelist():
-            if member.startswith("sources/"):
+            if member.startswith(("sources/", "resources/")):
                 z.extract(member, where)
     sources = sorted(str(p) for p in (where / "sources").glob("*.c"))
     out = where / "fmi2_fuzzer"
@@ -53,7 +53,8 @@ def run_fuzzer(fuzzer: Path, where: Path, seconds: int) -> str:
     shutil.copytree(ROOT / "tests" / "fuzz" / "corpus", corpus)
     done = subprocess.run([str(fuzzer), f"-max_total_time={seconds}", "-timeout=20", "-rss_limit_mb=2048",
                            "-print_final_stats=1", f"-artifact_prefix={where}/", str(corpus)],
-                          capture_output=True, text=True, timeout=seconds + 300)
+                          capture_output=True, text=True, timeout=seconds + 300,
+                          env={**os.environ, "FUZZ_RESOURCES": str(where / "resources")})
     output = done.stdout + done.stderr
     assert done.returncode == 0, output[-4000:]
     assert not list(where.glob("crash-*")) and not list(where.glob("timeout-*")) and not list(where.glob("leak-*"))

@@ -41,7 +41,8 @@ def test_eight_threads_of_instances_of_other_geometry_equal_one_thread_under_tsa
     md = read_model_description(str(fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     done = subprocess.run(["env", "-i", "TSAN_OPTIONS=halt_on_error=1", str(host), str(library), md.guid,
-                           str(vr["l1"]), str(vr["J_flywheel"]), str(vr["omega1"]), "8", "2", "200"],
+                           str(vr["l1"]), str(vr["J_flywheel"]), str(vr["omega1"]), "8", "2", "200",
+                           f"file://{tmp_path / 'fmu' / 'resources'}"],
                           capture_output=True, text=True, timeout=600)
     assert "ThreadSanitizer" not in done.stderr, done.stderr[-4000:]
     assert done.returncode == 0, done.stdout + done.stderr[-4000:]

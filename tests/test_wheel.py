@@ -1,7 +1,8 @@
-"""The wheel (issue 56, in part): `pip wheel --no-deps .` gives a wheel whose tag says what it holds
-(a plain library loaded by ctypes: py3-none-<platform>), with the C kernel, the native FMUs'
-objects and the Python FMUs' shim compiled at installation, so that `crankfmu fmu` builds a Python
-FMU with no compiler on PATH (the shim carried, checked against its sources' digest)."""
+"""The wheel: `pip wheel --no-deps .` gives a wheel whose tag says what it holds (a plain library
+loaded by ctypes: py3-none-<platform>), with the C kernel, the native mechanism FMUs' runtimes (one
+per FMI version and platform whose compiler the building machine has), the native component FMUs'
+objects and the Python FMUs' shim, so that `crankfmu fmu` builds a Python FMU, and `crankfmu fmu
+--native` a native one for every platform the wheel carries, with no compiler on PATH."""
 
 from __future__ import annotations
 
@@ -34,11 +35,23 @@ def test_the_wheels_tag_says_what_it_holds(wheel):
     assert wheel.name.endswith(f"-py3-none-{platform}.whl"), wheel.name
 
 
-def test_the_wheel_carries_the_kernel_the_objects_and_the_shim(wheel):
+#: the runtimes a wheel built here carries: every platform whose compiler is installed
+def _platforms_here() -> dict:
+    from crankfmu.native.sources import PLATFORMS
+
+    return {version: sorted(folder for folder, cc in platforms if shutil.which(cc))
+            for version, platforms in PLATFORMS.items()}
+
+
+def test_the_wheel_carries_the_kernel_the_runtimes_the_objects_and_the_shim(wheel):
     from crankfmu.fmi.shim import prebuilt
 
     with zipfile.ZipFile(wheel) as z:
         names = set(z.namelist())
+        for version, folders in _platforms_here().items():
+            for folder in folders:
+                assert any(n.startswith(f"crankfmu/native/runtimes/fmi{version[0]}/{folder}/crankfmu-") for n in names), \
+                    (version, folder)
         assert "crankfmu/native/crank_kernel.so" in names
         assert any(n.startswith("crankfmu/native/objects/") and n.endswith(".o") for n in names)
         assert "crankfmu/fmi/shim/fmu_shim.so" in names
@@ -65,3 +78,52 @@ def test_a_python_fmu_is_built_with_no_compiler_from_the_shim_installed(tmp_path
     with pytest.raises(CrankfmuError, match="gcc not found"):
         compile_shim("FourBar", tmp_path / "again.so")
     assert os.environ["PATH"] == str(Path(sys.executable).parent)
+
+
+@pytest.fixture(scope="module")
+def installed(wheel, tmp_path_factory):
+    """The wheel installed on its own (its dependencies are this environment's), and an environment
+    with no compiler on PATH, a fresh HOME and a fresh crankfmu cache."""
+    where = tmp_path_factory.mktemp("installed")
+    done = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--quiet", "--target",
+                           str(where / "site"), str(wheel)], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    env = {"PATH": str(Path(sys.executable).parent), "HOME": str(where / "home"), "PYTHONPATH": str(where / "site"),
+           "CRANKFMU_CACHE": str(where / "cache"), "MPLBACKEND": "Agg"}
+    (where / "home").mkdir()
+    return where, env
+
+
+@pytest.mark.parametrize("version", ["2", "3"])
+def test_a_native_fmu_is_built_from_the_wheel_with_no_compiler_for_every_platform(installed, version):
+    """`crankfmu fmu seed000 --native` from the installed wheel, no gcc on PATH: it compiles nothing,
+    names every platform in its summary and carries the wheel's runtime of each; fmpy runs the FMU
+    and it gives the in-process reference within 1e-8 (FMI 2.0; FMI 3.0 likewise)."""
+    import fmpy
+    import numpy as np
+
+    where, env = installed
+    assert not any(shutil.which(cc, path=env["PATH"]) for cc in ("gcc", "cc", "x86_64-w64-mingw32-gcc"))
+    located = subprocess.run([sys.executable, "-c", "import crankfmu; print(crankfmu.__file__)"], env=env,
+                             capture_output=True, text=True)
+    assert located.stdout.startswith(str(where / "site")), located
+    out = where / f"fmi{version}"
+    done = subprocess.run([sys.executable, "-m", "crankfmu", "fmu", "seed000", "--native", "--fmi-version", version,
+                           "--out", str(out)], env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    folders = _platforms_here()[f"{version}.0"]
+    assert done.stdout.strip().endswith(f"(binaries: {', '.join(folders)})"), done.stdout
+    fmu = out / "FourBar.fmu"
+    with zipfile.ZipFile(fmu) as z:
+        carried = sorted({n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") == 2})
+        assert carried == folders
+        runtimes = {f: z.read(f"binaries/{f}/FourBar{'.dll' if 'win' in f else '.so'}") for f in folders}
+    for folder, binary in runtimes.items():       # the wheel's runtime, byte for byte: nothing compiled
+        (shipped,) = (where / "site" / "crankfmu" / "native" / "runtimes" / f"fmi{version}" / folder).glob("crankfmu-*")
+        assert shipped.read_bytes() == binary, folder
+    assert not (where / "cache" / "runtimes").exists()
+    reference = np.genfromtxt(out / "FourBar_ref.csv", delimiter=",", names=True)
+    result = fmpy.simulate_fmu(str(fmu), stop_time=float(reference["time"][-1]), output=["omega1"],
+                               output_interval=float(reference["time"][1] - reference["time"][0]))
+    scale = np.max(np.abs(reference["omega1"]))
+    assert np.max(np.abs(result["omega1"] - reference["omega1"])) <= 1e-8 * scale

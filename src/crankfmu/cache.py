@@ -12,6 +12,9 @@ imported anything of the package it carries.
   objects/           native FMUs' objects the installation did not compile (native/sources.py's
                      PREBUILT), each named by its compiler, flags and content
   references/        each design's reference run (fmi.reference.reference_result)
+  figures/           an FMU's documentation figures, by what they are drawn from (fmi.documentation)
+  runtimes/          native FMUs' runtimes the installation did not compile (native/sources.py's
+                     RUNTIMES), each named by its sources, compiler and flags
 
 Each folder and file is named by the content hash of what it holds and written whole under a
 temporary name, then renamed: a process sees a complete one or none, and a changed content gets a new
@@ -48,3 +51,24 @@ def install(folder: Path, fill) -> Path:
         if not folder.is_dir():
             raise
     return folder
+
+
+def kept(kind: str, key: str, make, encoding: str | None = None):
+    """What ``make()`` returns (bytes, or text where ``encoding`` is given), kept in the cache as
+    ``<kind>/<key>``: read from it when it is there, else made and written whole. A cache that cannot
+    be written keeps nothing (the value is returned all the same)."""
+    path = cache_root() / kind / key
+    try:
+        data = path.read_bytes()
+        return data.decode(encoding) if encoding else data
+    except OSError:
+        pass
+    value = make()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(f"{path.name}.{os.getpid()}")
+        partial.write_bytes(value.encode(encoding) if encoding else value)
+        os.replace(partial, path)
+    except OSError:
+        pass
+    return value

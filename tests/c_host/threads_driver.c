@@ -26,6 +26,7 @@ static fmi2SetRealTYPE* set_real;
 static fmi2GetRealTYPE* get_real;
 static fmi2DoStepTYPE* do_step;
 static const char* guid;
+static const char* resources;      /* the FMU's resources, a file: URI: its model file is there */
 static fmi2ValueReference vr_l1, vr_j, vr_omega;
 static int instances, steps;
 
@@ -50,7 +51,7 @@ static int run(int first, int count, int total, double* omega)
     for (int k = first; k < first + count; k++) {
         char name[32];
         snprintf(name, sizeof name, "design%d", k);
-        fmi2Component c = instantiate(name, fmi2CoSimulation, guid, "", &callbacks, fmi2False, fmi2False);
+        fmi2Component c = instantiate(name, fmi2CoSimulation, guid, resources, &callbacks, fmi2False, fmi2False);
         if (!c) return 2;
         double values[2];
         design(k, total, &values[0], &values[1]);
@@ -81,8 +82,8 @@ static void* worker(void* arg)
 
 int main(int argc, char** argv)
 {
-    if (argc != 9) {
-        fprintf(stderr, "usage: %s LIBRARY GUID VR_L1 VR_J_FLYWHEEL VR_OMEGA1 THREADS INSTANCES STEPS\n", argv[0]);
+    if (argc != 10) {
+        fprintf(stderr, "usage: %s LIBRARY GUID VR_L1 VR_J_FLYWHEEL VR_OMEGA1 THREADS INSTANCES STEPS RESOURCES_URI\n", argv[0]);
         return 2;
     }
     Library lib = open_library(argv[1]);
@@ -94,6 +95,7 @@ int main(int argc, char** argv)
     int threads = atoi(argv[6]);
     instances = atoi(argv[7]);
     steps = atoi(argv[8]);
+    resources = argv[9];
     instantiate = (fmi2InstantiateTYPE*)symbol(lib, "fmi2Instantiate");
     free_instance = (fmi2FreeInstanceTYPE*)symbol(lib, "fmi2FreeInstance");
     setup = (fmi2SetupExperimentTYPE*)symbol(lib, "fmi2SetupExperiment");

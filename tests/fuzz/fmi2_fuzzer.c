@@ -3,6 +3,10 @@
  * and the kernel), it reads each input as a host's life: Co-Simulation or Model Exchange, logging
  * on or off, then up to 64 calls in any order with parameter values and step sizes drawn from the
  * input (finite, huge, negative, NaN, infinite), FMU states got, set, serialized and corrupted.
+ * One input in four is instead the FMU's model file (resources/crankfmu-model.bin) corrupted: a
+ * byte changed, the file cut short or grown, as it lies (the digest must refuse it at instantiation,
+ * with a message) or with its digest made to match (the reader must refuse it or read it whole,
+ * never step outside it).
  *
  * What every call is held to (a violation traps, which libFuzzer reports with the input):
  * - its status is fmi2OK or fmi2Error (never fmi2Discard or fmi2Fatal, never a crash: ASan and
@@ -12,17 +16,42 @@
  * A hang is caught by libFuzzer's -timeout.
  *
  *   tests/test_fmi_fuzzer.py builds and runs it briefly (make test); make soak runs it long.
- *   The corpus it starts from: tests/fuzz/corpus/. */
+ *   The corpus it starts from: tests/fuzz/corpus/. FUZZ_RESOURCES: the FMU's resources folder. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "crank_variables.h"
+#include "sha256.h"
 #include "fmi2Functions.h"
 
 static int errors_logged;
+/* the FMU's model file, its resources' URI, and the model it holds (read once) */
+static unsigned char* model_bytes;
+static size_t model_size;
+static char resources_uri[4200];
+static const ModelData* model;
+
+int LLVMFuzzerInitialize(int* argc, char*** argv)
+{
+    (void)argc, (void)argv;
+    const char* folder = getenv("FUZZ_RESOURCES");
+    char why[1024], path[4200];
+    if (!folder || !(model = md_load(folder, 0, why, sizeof why))) {
+        fprintf(stderr, "fmi2_fuzzer: FUZZ_RESOURCES must name the FMU's resources: %s\n", folder ? why : "unset");
+        exit(2);
+    }
+    snprintf(resources_uri, sizeof resources_uri, "file://%s", folder);
+    snprintf(path, sizeof path, "%s/%s", folder, CM_MODEL_FILE);
+    FILE* f = fopen(path, "rb");
+    model_bytes = (unsigned char*)malloc(1 << 20);
+    model_size = f ? fread(model_bytes, 1, 1 << 20, f) : 0;
+    if (f) fclose(f);
+    return 0;
+}
 
 static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
                    fmi2String message, ...)
@@ -75,13 +104,43 @@ static void held(fmi2Status status, int logged_before)
         last = s_;                        \
     } while (0)
 
+/* the model file corrupted (header byte: which way): the reader refuses it with a message, or, its
+ * digest made to match, reads it whole or refuses it; never a crash, a leak or a read outside it */
+static void corrupt_model_file(Input* in, unsigned head)
+{
+    size_t size = model_size;
+    unsigned char* bytes = (unsigned char*)malloc(model_size + 64);
+    memcpy(bytes, model_bytes, model_size);
+    unsigned how = (head >> 4) & 3;
+    size_t at = ((size_t)byte(in) << 16 | (size_t)byte(in) << 8 | byte(in)) % model_size;
+    if (how == 0) size = at;                                        /* cut short */
+    else if (how == 1) memset(bytes + size, byte(in), 64), size += 1 + byte(in) % 63;   /* grown */
+    else bytes[at] ^= (unsigned char)(1 + byte(in) % 255);          /* a byte changed */
+    for (int k = 0; k < 8 && how == 3; k++) {                       /* more bytes, and the digest made to match */
+        size_t more = ((size_t)byte(in) << 8 | byte(in)) % (model_size - 64);
+        bytes[64 + more] = (unsigned char)byte(in);
+    }
+    if (how == 3) sha256(bytes + 64, size - 64, bytes + 32);
+    char why[1024];
+    why[0] = 0;
+    ModelData* d = md_parse(bytes, size, "fuzzed", why, sizeof why);
+    if (!d && strncmp(why, "the model file fuzzed ", 22) != 0) __builtin_trap();   /* refused, and says why */
+    if (d && how != 3) __builtin_trap();                            /* as it lies: the digest refuses every change */
+    md_free(d);
+    free(bytes);
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
 {
     Input in = {data, size, 0};
     unsigned head = byte(&in);
-    int me = !CAUSALITY_SPEED && (head & 1);
+    if ((head & 0xC) == 0xC) {
+        corrupt_model_file(&in, head);
+        return 0;
+    }
+    int me = !model->causality_speed && (head & 1);
     fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
-    fmi2Component c = fmi2Instantiate("fuzz", me ? fmi2ModelExchange : fmi2CoSimulation, MODEL_GUID, "file:///tmp",
+    fmi2Component c = fmi2Instantiate("fuzz", me ? fmi2ModelExchange : fmi2CoSimulation, model->guid, resources_uri,
                                       &cb, fmi2False, (head >> 1) & 1);
     if (!c) __builtin_trap();
     fmi2FMUstate state = NULL;
@@ -89,7 +148,7 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
     fmi2Status last = fmi2OK;
     for (int n = 0; n < 64 && in.at < in.size; n++) {
         unsigned op = byte(&in) % 16;
-        fmi2ValueReference vr = (fmi2ValueReference)(byte(&in) % (N_VARIABLES + 2));
+        fmi2ValueReference vr = (fmi2ValueReference)(byte(&in) % (model->n_variables + 2));
         switch (op) {
         case 0:
             CALL(fmi2SetupExperiment(c, fmi2False, 0.0, value(&in, 0.0), byte(&in) & 1, value(&in, 10.0)));
@@ -98,7 +157,7 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
         case 2: CALL(fmi2ExitInitializationMode(c)); break;
         case 3:
         case 4: {
-            double x = value(&in, vr < N_VARIABLES ? VARIABLES[vr].start : 1.0);
+            double x = value(&in, vr < model->n_variables ? model->variables[vr].start : 1.0);
             CALL(fmi2SetReal(c, &vr, 1, &x));
             break;
         }
@@ -117,11 +176,11 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
                 CALL(fmi2DoStep(c, t, h, fmi2True));
                 if (last == fmi2OK) {
                     t += h;
-                    double out[N_OUTPUTS];
-                    fmi2ValueReference vrs[N_OUTPUTS];
-                    for (int j = 0; j < N_OUTPUTS; j++) vrs[j] = (fmi2ValueReference)j;
-                    if (fmi2GetReal(c, vrs, N_OUTPUTS, out) != fmi2OK) __builtin_trap();
-                    for (int j = 0; j < N_OUTPUTS; j++)
+                    double out[64];
+                    fmi2ValueReference vrs[64];
+                    for (int j = 0; j < model->n_outputs; j++) vrs[j] = (fmi2ValueReference)j;
+                    if (fmi2GetReal(c, vrs, model->n_outputs, out) != fmi2OK) __builtin_trap();
+                    for (int j = 0; j < model->n_outputs; j++)
                         if (!isfinite(out[j])) __builtin_trap();
                 }
             }
@@ -157,7 +216,7 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
             } else {
                 double x = value(&in, 1.0);
                 fmi2Integer order = (fmi2Integer)(byte(&in) % 3);
-                fmi2ValueReference input = VR_CRANK_INPUT;
+                fmi2ValueReference input = model->vr_crank_input;
                 CALL(fmi2SetRealInputDerivatives(c, &input, 1, &order, &x));
             }
             break;

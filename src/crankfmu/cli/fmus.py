@@ -44,8 +44,18 @@ def cmd_fmu(args) -> int:
             path = _build_fmu(args, kind, values)
     finally:
         line.close()
-    print(f"built {path}")
+    print(f"built {path} ({_platforms(path)})")
     return 0
+
+
+def _platforms(path: Path) -> str:
+    """What the FMU carries binaries for, as its build's summary names them."""
+    import zipfile
+
+    with zipfile.ZipFile(path) as z:
+        folders = sorted({n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") >= 2
+                          and not n.endswith("/")})
+    return "binaries: " + (", ".join(folders) or "none")
 
 
 def _build_fmu(args, kind: str, values: dict) -> Path:

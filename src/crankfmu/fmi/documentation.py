@@ -13,6 +13,7 @@ turns them into MathML); each names the module that implements it. Nothing here 
 
 from __future__ import annotations
 
+import hashlib
 import html
 import io
 from dataclasses import fields
@@ -187,7 +188,16 @@ def signals_table(model_description: bytes) -> str:
 
 def experiment_plot(reference_csv: str, title: str) -> bytes:
     """PNG of the reference result over the default experiment: omega1 and the motor torque (phi1
-    and the drive torque in speed causality)."""
+    and the drive torque in speed causality); drawn once per result, title and code (the per-user
+    cache keeps it: matplotlib's import and drawing are most of a native build without compilers)."""
+    from ..cache import kept
+    from .reference import code_digest
+
+    key = hashlib.sha256(repr((reference_csv, title, code_digest())).encode()).hexdigest()[:24]
+    return kept("figures", f"experiment_{key}.png", lambda: _experiment_plot(reference_csv, title))
+
+
+def _experiment_plot(reference_csv: str, title: str) -> bytes:
     import numpy as np
 
     from ..plots import pyplot
@@ -221,7 +231,17 @@ def experiment_plot(reference_csv: str, title: str) -> bytes:
 
 
 def mechanism_png(scenario) -> bytes:
-    """The scenario's drawing (its [drawing] angle and overlays) as PNG."""
+    """The scenario's drawing (its [drawing] angle and overlays) as PNG, drawn once per design and
+    code (the per-user cache keeps it, as experiment_plot's)."""
+    from ..cache import kept
+    from .reference import code_digest
+
+    key = hashlib.sha256(repr((scenario.data, scenario.mechanism_definition(), sorted(scenario.values.items()),
+                               code_digest())).encode()).hexdigest()[:24]
+    return kept("figures", f"mechanism_{key}.png", lambda: _mechanism_png(scenario))
+
+
+def _mechanism_png(scenario) -> bytes:
     from ..plots import pyplot
     from ..pictures.draw import draw_figure, drawing_section
 

@@ -1,16 +1,20 @@
 """``crankfmu fmu SCENARIO --native``: a native FMI 2.0 (or 3.0) FMU that needs nothing on the host
-machine, no Python and no numpy: its model (fmi.native_model, fmi.native_fmi3) compiled and packaged.
+machine, no Python and no numpy, and whose build compiles nothing.
 
-The FMU is the C kernel (``native/crank_kernel.c``) and the C mechanism model
-(``native/crank_mechanism.c``) behind one FMI shell (``native/fmu/crank_fmi2.c``), and the scenario as
-data (``model_config.h`` and ``model_data.c``, fmi.native_model). The FMU builds its tables when
+The FMU's binary is a runtime compiled when crankfmu was installed (native/sources.py: the C kernel,
+the C mechanism model and the model behind one FMI shell, one binary per FMI version and platform),
+and the scenario is data: the model file in ``resources/`` (fmi.native_model, fmi.model_file), which
+the runtime reads and checks when a host makes an instance. The FMU builds its tables when
 initialisation ends, at the values the host set; the build checks that the file's values give
-them. It is compiled for linux64 with gcc and, where Debian's ``x86_64-w64-mingw32-gcc`` is
-installed, for win64; both link libgcc statically and nothing beyond the C library. The kernel's and
-the mechanism model's objects come from the installation (native/sources.py) or the per-user cache.
-The FMU carries its C sources (``sources/``, with the modelDescription's SourceFiles, a
-``buildDescription.xml`` and a ``CMakeLists.txt``) so that ``fmpy compile`` or a tool on another
-platform builds it.
+them. It carries every platform the installation has a runtime for (FMI 2.0: linux64, win64; FMI
+3.0: x86_64-linux, x86_64-windows, aarch64-linux), each linking libgcc statically and nothing
+beyond the C library; a runtime the installation lacks (an editable installation whose sources
+changed) is compiled into the per-user cache where its compiler is installed. The FMU carries the
+runtime's C sources (``sources/``, with the modelDescription's SourceFiles, a
+``buildDescription.xml`` and a ``CMakeLists.txt``) so that ``fmpy compile`` or CMake on another
+platform builds the same runtime, which reads the same model file.
+
+The native component FMUs (fmi.native_components) are still compiled, from their generated data.
 """
 
 from __future__ import annotations
@@ -25,25 +29,15 @@ from pathlib import Path
 
 from ..atomic import replacing
 from ..errors import CrankfmuError
-from ..native.sources import (AARCH64_CC, FMU_COMPILERS, WIN64_CC, HERE as NATIVE, KERNEL as KERNEL_SOURCES, MECHANISM as MECHANISM_SOURCES,
-                               PREBUILT, compile_object, fmu_flags, includes, object_name)
+from ..native.sources import (FMI_HEADERS, FMU_COMPILERS, PLATFORMS, PREBUILT, RUNTIMES, WIN64_CC, compile_object,
+                               compile_runtime, fmu_flags, includes, object_name, runtime, runtime_files)
 from .background import reference_beside
 from .reference import LS_REF, LS_REF_MANIFEST, cross_check_options
 from .source import NATIVE_USER_FILES, preflight
 from .stages import stage
+from .model_file import NAME as MODEL_FILE
 from .native_model import NativeModel
 
-SHELL = NATIVE / "fmu"
-#: the model behind either FMI shell (crank_model.h), and each version's shell
-MODEL_SOURCES = ("crank_model.c", "crank_model_variables.c", "crank_model_me.c", "crank_model.h", "fmu_states.h",
-                 "crank_model_internal.h", "crank_variables.h")
-SHELL_SOURCES = {"2.0": ("crank_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
-                 "3.0": ("crank_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}
-#: each FMI version's binaries: (platform folder, compiler; whether it makes a DLL is
-#: sources.FMU_COMPILERS'); the first is always built, the others where their cross compiler is
-#: installed (Windows: or where asked for)
-PLATFORMS = {"2.0": (("linux64", "gcc"), ("win64", WIN64_CC)),
-             "3.0": (("x86_64-linux", "gcc"), ("x86_64-windows", WIN64_CC), ("aarch64-linux", AARCH64_CC))}
 FMI_VERSIONS = tuple(PLATFORMS)
 
 
@@ -56,15 +50,10 @@ def build_description(identifier: str, sources: list[str]) -> str:
             f'    </SourceFileSet>\n  </BuildConfiguration>\n</fmiBuildDescription>\n')
 
 
-#: the FMI headers each version's sources carry (from fmpy, BSD-2-Clause): a source build needs nothing else
-FMI_HEADERS = {"2.0": ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
-               "3.0": ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
-
-
 def cmake_lists(identifier: str) -> str:
-    """sources/CMakeLists.txt: the FMU's binary from its sources alone, as compile_binary builds it
-    (C99, no FMA contraction, only the FMI functions exported), on any platform CMake knows:
-    cmake -S sources -B build && cmake --build build."""
+    """sources/CMakeLists.txt: the FMU's binary from its sources alone, as the runtimes and
+    compile_binary are built (C99, no FMA contraction, only the FMI functions exported), on any
+    platform CMake knows: cmake -S sources -B build && cmake --build build."""
     return f"""# builds {identifier}'s binary from these sources alone: cmake -S sources -B build && cmake --build build
 cmake_minimum_required(VERSION 3.10)
 project({identifier} C)
@@ -144,7 +133,7 @@ def compile_binary(compiler: str, folder: Path, out: Path, windows: bool, genera
 
 def package_native(source, dest: Path, copied, generated: dict, describe, parameters: dict, win64: bool | None,
                    reference: str | None, extra: dict, about: dict, written: ExitStack,
-                   fmi_version: str = "2.0") -> Path:
+                   fmi_version: str = "2.0", runtimes: dict | None = None) -> Path:
     """Compile and write a native FMU (a mechanism's or a component's) into ``dest``: the sources
     ``copied`` ((folder, names) pairs) and ``generated`` (name -> text) compiled for each platform
     of ``fmi_version`` (PLATFORMS: Linux x86_64 always; Windows where MinGW-w64 is installed
@@ -152,13 +141,16 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
     the modelDescription ``describe(sources)`` gives; the documentation (its ``about``: the tables'
     error bound); the ``extra`` files (path in the FMU -> text or bytes). ``reference``: the
     reference CSV, or a function that waits for it (the documentation calls it once its drawings,
-    made while the run goes on, are done; else it is called before the FMU is written). The FMU replaces
-    ``dest/<identifier>.fmu`` when ``written`` closes without an error."""
+    made while the run goes on, are done; else it is called before the FMU is written). ``runtimes``:
+    the binaries, prebuilt (platform folder -> path), instead of compiling ``copied`` and
+    ``generated``. The FMU replaces ``dest/<identifier>.fmu`` when ``written`` closes without an
+    error."""
     fmu = source.fmu
     if win64 is None:
         win64 = shutil.which(WIN64_CC) is not None
-    platforms = [(folder, cc, FMU_COMPILERS[cc]) for folder, cc in PLATFORMS[fmi_version]
-                 if cc == "gcc" or (win64 if FMU_COMPILERS[cc] else shutil.which(cc) is not None)]
+    platforms = [] if runtimes is not None else [
+        (folder, cc, FMU_COMPILERS[cc]) for folder, cc in PLATFORMS[fmi_version]
+        if cc == "gcc" or (win64 if FMU_COMPILERS[cc] else shutil.which(cc) is not None)]
     dest.mkdir(parents=True, exist_ok=True)
     out = dest / f"{fmu}.fmu"
     with tempfile.TemporaryDirectory() as tmp:
@@ -175,11 +167,11 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
             shutil.copy2(Path(fmpy.__file__).parent / "c-code" / n, src / n)
         (src / "CMakeLists.txt").write_text(cmake_lists(fmu), encoding="utf-8")
         sources = sorted(p.name for p in src.iterdir())
-        binaries = {}
+        binaries = {folder: path for folder, path in (runtimes or {}).items()}
         # every platform's compiler at once, the reference run beside them; this process writes
         # the modelDescription and draws the documentation meanwhile (the compilers are other
         # processes: waiting for them first left its core to them alone)
-        with ThreadPoolExecutor(max_workers=len(platforms)) as pool:
+        with ThreadPoolExecutor(max_workers=max(len(platforms), 1)) as pool:
             compiling = []
             for folder, cc, windows in platforms:
                 binaries[folder] = Path(tmp) / folder / f"{fmu}{'.dll' if windows else '.so'}"
@@ -187,6 +179,20 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
                 compiling.append((folder, pool.submit(compile_binary, cc, src, binaries[folder], windows, generated)))
             with stage(fmu, "the modelDescription"):
                 md = describe(sources)
+            # prebuilt binaries: the FMU starts in a host (its model file read and its tables built)
+            # beside the documentation, from a folder of what it needs, instead of after the zip
+            check = None
+            host = [folder for folder in binaries if folder in HOST_PLATFORMS] if runtimes is not None else []
+            if host:
+                unzipped = Path(tmp) / "unzipped"
+                (unzipped / "binaries" / host[0]).mkdir(parents=True)
+                (unzipped / "modelDescription.xml").write_bytes(md)
+                shutil.copy2(binaries[host[0]], unzipped / "binaries" / host[0] / f"{fmu}{binaries[host[0]].suffix}")
+                for path, content in extra.items():
+                    if path.startswith("resources/"):
+                        (unzipped / path).parent.mkdir(parents=True, exist_ok=True)
+                        (unzipped / path).write_bytes(content if isinstance(content, bytes) else content.encode())
+                check = initialising(unzipped, fmu)
             with stage(fmu, "the documentation"):
                 # a mechanism's documentation draws it before it waits for the reference run to plot
                 docs = source.documentation(fmu, md, parameters, reference, build="native",
@@ -200,15 +206,15 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
         with stage(fmu, "writing the FMU"), zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", md)
             for folder, binary in binaries.items():
-                z.write(binary, f"binaries/{folder}/{binary.name}")
+                z.write(binary, f"binaries/{folder}/{fmu}{binary.suffix}")
             for n in sources:
                 z.write(src / n, f"sources/{n}")
             z.writestr("sources/buildDescription.xml", build_description(fmu, sources))
             for path, content in {**docs, **extra}.items():
                 z.writestr(path, content)
-        if any(folder in HOST_PLATFORMS for folder in binaries):
+        if check is not None or any(folder in HOST_PLATFORMS for folder in binaries):
             with stage(fmu, "initialising the FMU at its start values"):
-                initialises(partial, fmu)
+                (check or initialising(partial, fmu))()
     return out
 
 
@@ -221,6 +227,12 @@ def initialises(path: Path, fmu: str) -> None:
     interval, in a fresh process (fmpy, as a host does): a build reports success only for an FMU
     that starts, and a crash cannot take the build with it. CrankfmuError with the FMU's own
     message otherwise (the FMU is then not written)."""
+    initialising(path, fmu)()
+
+
+def initialising(path: Path, fmu: str):
+    """initialises' check started (``path``: the FMU, or a folder of it unpacked): returns the
+    function that waits for it and raises where it failed."""
     import sys
 
     script = ("import sys, fmpy\n"
@@ -229,11 +241,48 @@ def initialises(path: Path, fmu: str) -> None:
               "start = float(e.startTime or 0.0) if e else 0.0\n"
               "step = float(e.stepSize or 1e-3) if e else 1e-3\n"
               "fmpy.simulate_fmu(sys.argv[1], start_time=start, stop_time=start + step, output_interval=step)\n")
-    done = subprocess.run([sys.executable, "-c", script, str(path)], capture_output=True, text=True, timeout=300)
-    if done.returncode != 0:
-        said = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
-        raise CrankfmuError(f"{fmu}: the FMU built does not initialise at its start values: "
-                            + (said[-1] if said else f"the host process exited with {done.returncode}"))
+    process = subprocess.Popen([sys.executable, "-c", script, str(path)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+
+    def wait() -> None:
+        try:
+            out, err = process.communicate(timeout=300)
+        finally:
+            if process.poll() is None:
+                process.kill()
+        if process.returncode != 0:
+            said = [line for line in (out + err).splitlines() if line.strip()]
+            raise CrankfmuError(f"{fmu}: the FMU built does not initialise at its start values: "
+                                + (said[-1] if said else f"the host process exited with {process.returncode}"))
+    return wait
+
+
+def mechanism_runtimes(fmi_version: str, win64: bool | None) -> dict:
+    """{platform folder: runtime} for a native mechanism FMU: each platform of ``fmi_version`` whose
+    runtime the installation has (native/runtimes) or the per-user cache has, else compiled into
+    the cache where its compiler is installed. Linux x86_64 always (refused, saying why, where it
+    can be had neither way); Windows unless ``win64`` is False (and required where it is True)."""
+    from ..cache import cache_root
+
+    roots = [RUNTIMES, cache_root() / "runtimes"]
+    found = {}
+    for folder, cc in PLATFORMS[fmi_version]:
+        windows = FMU_COMPILERS[cc]
+        if windows and win64 is False:
+            continue
+        path = runtime(fmi_version, folder, cc, roots)
+        if path is None and shutil.which(cc):
+            from ..native.sources import runtime_name
+
+            path = compile_runtime(fmi_version, cc, roots[1] / f"fmi{fmi_version[0]}" / folder /
+                                   runtime_name(fmi_version, cc, windows),
+                                   run=lambda command, cc=cc: _run(command, cc))
+        if path is not None:
+            found[folder] = path
+        elif cc == "gcc" or (windows and win64):
+            raise CrankfmuError(f"no {folder} runtime of FMI {fmi_version} in this installation for its sources "
+                                f"(reinstall crankfmu), and {cc} is not installed to compile one")
+    return found
 
 
 def build_native(data_name: str, dest: Path, name: str | None = None, win64: bool | None = None,
@@ -274,11 +323,16 @@ def _build_native(source, data_name, dest: Path, win64, fmi_version: str, refere
         with stage(fmu, "the terminals and icon"):
             extra["terminalsAndIcons/terminalsAndIcons.xml"] = native_fmi3.terminals_and_icons(model)
             extra["terminalsAndIcons/icon.png"] = mechanism_png(model.scenario)
+    with stage(fmu, "the runtimes"):
+        runtimes = mechanism_runtimes(fmi_version, win64)
+    extra[f"resources/{MODEL_FILE}"] = model.model_file()
+    # the runtime's sources (package_native adds the FMI headers)
+    files = [path for path in runtime_files(fmi_version) if path.name not in FMI_HEADERS[fmi_version]]
     with ExitStack() as written:
-        out = package_native(source, dest, ((NATIVE, KERNEL_SOURCES + MECHANISM_SOURCES), (SHELL, MODEL_SOURCES + SHELL_SOURCES[fmi_version])),
-                             {"model_config.h": model.config_h(), "model_data.c": model.data_c()},
+        out = package_native(source, dest, [(path.parent, (path.name,)) for path in files], {},
                              describe, model.parameters(), win64, reference, extra,
-                             {"table_error": max(e for e, _ in model.table_errors.values())}, written, fmi_version)
+                             {"table_error": max(e for e, _ in model.table_errors.values())}, written, fmi_version,
+                             runtimes=runtimes)
         Path(written.enter_context(replacing(dest / f"{fmu}_ref.csv"))).write_text(computed["csv"], encoding="utf-8")
         Path(written.enter_context(replacing(dest / f"{fmu}_ref.opt"))).write_text(cross_check_options(source),
                                                                                    encoding="utf-8")

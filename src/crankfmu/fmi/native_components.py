@@ -29,9 +29,10 @@ from ..native.sources import COMPONENTS, HERE as NATIVE
 #: the components' physics and the numbers of their messages
 PHYSICS_SOURCES = (*COMPONENTS, "crank_numbers.c", "crank_numbers.h")
 from .source import preflight, vendor_annotations
-from .native_build import SHELL, package_native
+from .native_build import package_native
 from .native_model import c_double, c_string, default_experiment, unit_definitions
 
+SHELL = NATIVE / "fmu"
 #: the component's model behind either FMI shell, and each version's shell
 MODEL_SOURCES = ("component_model.c", "component_model.h", "component_variables.h", "component_models.c",
                  "fmu_states.h")

@@ -6,7 +6,6 @@ the cross-check files ``<model>_ref.csv`` and ``<model>_ref.opt``.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 #: the crankfmu package: its Python sources name a reference run in the cache
@@ -35,36 +34,26 @@ def reference_result(scenario) -> str:
 
     from crankfmu import COLUMNS, simulate
 
-    from ..cache import cache_root
+    from ..cache import kept
 
     key = hashlib.sha256(repr((scenario.data, scenario.mechanism_definition(), sorted(scenario.values.items()),
-                               _code_digest())).encode()).hexdigest()[:24]
-    cached = cache_root() / "references" / f"{key}.csv"
-    try:
-        return cached.read_text(encoding="utf-8")
-    except OSError:
-        pass
-    exp = scenario.experiment
-    n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
-    times = exp.start_time + exp.output_interval * np.arange(n + 1)
-    result = simulate(scenario, t_end=exp.stop_time, output_times=times)
-    lines = [",".join(f'"{c}"' for c in COLUMNS)]
-    lines += [",".join(f"{getattr(result, c)[i]:.17g}" for c in COLUMNS) for i in range(times.size)]
-    text = "\n".join(lines) + "\n"
-    try:
-        cached.parent.mkdir(parents=True, exist_ok=True)
-        partial = cached.with_name(f"{cached.name}.{os.getpid()}")
-        partial.write_text(text, encoding="utf-8")
-        os.replace(partial, cached)
-    except OSError:                   # a cache that cannot be written: the run is not kept
-        pass
-    return text
+                               code_digest())).encode()).hexdigest()[:24]
+
+    def run() -> str:
+        exp = scenario.experiment
+        n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
+        times = exp.start_time + exp.output_interval * np.arange(n + 1)
+        result = simulate(scenario, t_end=exp.stop_time, output_times=times)
+        lines = [",".join(f'"{c}"' for c in COLUMNS)]
+        lines += [",".join(f"{getattr(result, c)[i]:.17g}" for c in COLUMNS) for i in range(times.size)]
+        return "\n".join(lines) + "\n"
+    return kept("references", f"{key}.csv", run, encoding="utf-8")
 
 
 _CODE_DIGEST = []
 
 
-def _code_digest() -> str:
+def code_digest() -> str:
     """The hash of crankfmu's Python sources (what the reference run's numbers depend on), once per process."""
     import hashlib
 

@@ -1,7 +1,9 @@
 """The C kernel's sources and their content hash: what the library is compiled from and the name
-of what it was compiled from; and the objects native FMUs link, compiled for every FMU compiler
-when the package is installed (a first native build then compiles only its own files). The
-standard library only: setup.py runs this file by its path before anything is installed."""
+of what it was compiled from; the native mechanism FMUs' runtimes, one binary per FMI version and
+platform that reads its scenario from the FMU's resources (RUNTIME_*), compiled for every platform
+whose compiler is installed when the package is built, so that ``crankfmu fmu --native`` compiles
+nothing; and the objects the native component FMUs link. The standard library only: setup.py runs
+this file by its path before anything is installed."""
 
 import hashlib
 import os
@@ -46,6 +48,105 @@ FMU_COMPILERS = {"gcc": False, WIN64_CC: True, AARCH64_CC: False}
 #: the objects of this folder's C files compiled for native FMUs when the package was installed
 #: (setup.py; make test again once MinGW is there), named as object_name names them
 PREBUILT = HERE / "objects"
+
+
+#: the mechanism FMU's runtime besides the kernel and the mechanism model (in fmu/): the model behind
+#: either FMI shell and its model file's reader, and each FMI version's shell
+RUNTIME_MODEL = ("crank_model.c", "crank_model_variables.c", "crank_model_me.c", "crank_model_refusals.c",
+                 "crank_model_file.c", "sha256.c", "crank_model.h", "crank_model_internal.h", "crank_variables.h",
+                 "sha256.h", "fmu_states.h")
+RUNTIME_SHELL = {"2.0": ("crank_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
+                 "3.0": ("crank_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}
+#: the FMI headers each version's sources carry (from fmpy, BSD-2-Clause): a source build needs nothing else
+FMI_HEADERS = {"2.0": ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
+               "3.0": ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
+#: each FMI version's binaries: (platform folder, compiler; whether it makes a DLL is FMU_COMPILERS')
+PLATFORMS = {"2.0": (("linux64", "gcc"), ("win64", WIN64_CC)),
+             "3.0": (("x86_64-linux", "gcc"), ("x86_64-windows", WIN64_CC), ("aarch64-linux", AARCH64_CC))}
+#: the runtimes compiled when the package is built: RUNTIMES/fmi<v>/<platform>/crankfmu-<digest>.so|dll
+RUNTIMES = HERE / "runtimes"
+
+
+def runtime_files(fmi_version: str) -> list[Path]:
+    """Every file a runtime is compiled from, the FMI headers too: what an FMU's sources/ carry."""
+    return ([HERE / n for n in KERNEL + MECHANISM if n not in ("crank_numbers.c", "crank_numbers.h")]
+            + [HERE / "crank_numbers.c", HERE / "crank_numbers.h"]
+            + [HERE / "fmu" / n for n in RUNTIME_MODEL + RUNTIME_SHELL[fmi_version]]
+            + [fmi_headers() / n for n in FMI_HEADERS[fmi_version]])
+
+
+def fmi_headers() -> Path:
+    """fmpy's folder of the FMI headers (a build requirement; found without importing fmpy)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("fmpy")
+    if spec is None or not spec.origin:
+        raise RuntimeError("fmpy is not installed: its FMI headers compile the native FMUs' runtimes")
+    return Path(spec.origin).parent / "c-code"
+
+
+def runtime_flags(windows: bool) -> list:
+    return fmu_flags(windows) + ["-shared", "-static-libgcc"]
+
+
+def runtime_name(fmi_version: str, compiler: str, windows: bool) -> str:
+    """The runtime's file name: its sources' content, the compiler and the flags, so an installed
+    runtime is never paired with other sources."""
+    h = hashlib.sha256(repr((fmi_version, compiler, runtime_flags(windows))).encode())
+    for path in runtime_files(fmi_version):
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return f"crankfmu-{h.hexdigest()[:20]}{'.dll' if windows else '.so'}"
+
+
+def compile_runtime(fmi_version: str, compiler: str, out: Path, run=None) -> Path:
+    """One runtime compiled from its files (in a temporary folder, as an FMU's sources/ are laid out)
+    to ``out``, written whole or not at all."""
+    import tempfile
+
+    windows = FMU_COMPILERS[compiler]
+    with tempfile.TemporaryDirectory() as tmp:
+        for path in runtime_files(fmi_version):
+            shutil.copy2(path, Path(tmp) / path.name)
+        sources = sorted(str(p) for p in Path(tmp).glob("*.c"))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        partial = out.with_name(f"{out.name}.{os.getpid()}.{threading.get_ident()}")
+        try:
+            (run or _run)([compiler, *runtime_flags(windows), f"-I{tmp}", "-o", str(partial), *sources,
+                           *([] if windows else ["-lm"])])
+            os.replace(partial, out)
+        finally:
+            partial.unlink(missing_ok=True)
+    return out
+
+
+def runtime(fmi_version: str, folder: str, compiler: str, roots) -> Path | None:
+    """The runtime of ``folder`` (a platform) for these sources in the first of ``roots`` that has it."""
+    name = runtime_name(fmi_version, compiler, FMU_COMPILERS[compiler])
+    for root in roots:
+        path = Path(root) / f"fmi{fmi_version[0]}" / folder / name
+        if path.is_file():
+            return path
+    return None
+
+
+def prebuild_runtimes(root: Path = RUNTIMES) -> list:
+    """Every runtime whose compiler is installed, compiled into ``root`` (the others' folders are
+    left as they are; runtimes of earlier sources removed). Returns [(FMI version, platform)]."""
+    jobs = {}
+    for version, platforms in PLATFORMS.items():
+        for folder, cc in platforms:
+            if shutil.which(cc):
+                name = runtime_name(version, cc, FMU_COMPILERS[cc])
+                jobs[(version, folder)] = (cc, root / f"fmi{version[0]}" / folder / name)
+    for version, folder in jobs:
+        for old in (root / f"fmi{version[0]}" / folder).glob("crankfmu-*"):
+            if old != jobs[(version, folder)][1]:
+                old.unlink()
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        for done in [pool.submit(compile_runtime, version, cc, out) for (version, _), (cc, out) in jobs.items()
+                     if not out.is_file()]:
+            done.result()
+    return sorted(jobs)
 
 
 def digest(folder: Path = HERE) -> str:
@@ -144,11 +245,14 @@ def prebuild(folder: Path = PREBUILT) -> list:
 
 if __name__ == "__main__":
     # python src/crankfmu/native/sources.py --prebuild (by its path, as setup.py reads it): the
-    # objects again once a cross compiler is installed
+    # objects and runtimes again once a cross compiler is installed
     if sys.argv[1:] != ["--prebuild"]:
         sys.exit("usage: python sources.py --prebuild")
     try:
         used = prebuild()
+        runtimes = prebuild_runtimes()
     except (OSError, RuntimeError) as error:
         sys.exit(f"sources.py --prebuild: {error}")
     print(f"native FMU objects compiled for {', '.join(used) or 'no compiler found'} in {PREBUILT}")
+    print(f"runtimes of the native mechanism FMUs: {', '.join(f'FMI {v} {p}' for v, p in runtimes) or 'none'} "
+          f"in {RUNTIMES}")

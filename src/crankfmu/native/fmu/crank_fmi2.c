@@ -33,7 +33,6 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmi2String fmuResourceLocation, const fmi2CallbackFunctions* functions,
                               fmi2Boolean visible, fmi2Boolean loggingOn)
 {
-    (void)fmuResourceLocation;
     (void)visible;
     if (!functions || !functions->allocateMemory || !functions->freeMemory) return NULL;
     Instance probe;
@@ -46,28 +45,34 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         cm_fail(&probe.model, "%s", "fmi2Instantiate: fmuType is neither fmi2ModelExchange nor fmi2CoSimulation");
         return NULL;
     }
-    if (CAUSALITY_SPEED && fmuType == fmi2ModelExchange) {
-        cm_fail(&probe.model, "%s", "fmi2Instantiate: this FMU is Co-Simulation only: in speed causality tau_drive "
-                "needs omega1's derivative, which a Model Exchange host cannot pass");
+    /* the model: the file in the FMU's resources (its scenario), read and checked */
+    if (cm_init(&probe.model, "fmi2Instantiate", fmuResourceLocation, 1, fmuType == fmi2ModelExchange, log_to_host,
+                &probe) != CM_OK)
         return NULL;
-    }
-    if (!fmuGUID || strcmp(fmuGUID, MODEL_GUID) != 0) {
-        cm_fail(&probe.model, "the GUID %s is not this FMU's (" MODEL_GUID ")", fmuGUID ? fmuGUID : "(null)");
-        return NULL;
-    }
-    Instance* in = (Instance*)functions->allocateMemory(1, sizeof(Instance));
-    if (!in) return NULL;
-    in->cb = *functions;
+    const ModelData* d = probe.model.d;
+    const char* refused = NULL;
+    if (d->causality_speed && fmuType == fmi2ModelExchange)
+        refused = "fmi2Instantiate: this FMU is Co-Simulation only: in speed causality tau_drive needs omega1's "
+                  "derivative, which a Model Exchange host cannot pass";
+    else if (!fmuGUID || strcmp(fmuGUID, d->guid) != 0)
+        cm_fail(&probe.model, "the GUID %s is not this FMU's (%s, in %s)", fmuGUID ? fmuGUID : "(null)", d->guid,
+                CM_MODEL_FILE), refused = "";
+    Instance* in = refused ? NULL : (Instance*)functions->allocateMemory(1, sizeof(Instance));
     size_t n = strlen(probe.name) + 1;
-    char* name = (char*)functions->allocateMemory(n, 1);
+    char* name = in ? (char*)functions->allocateMemory(n, 1) : NULL;
     if (!name) {
-        functions->freeMemory(in);
+        if (refused && *refused) cm_fail(&probe.model, "%s", refused);
+        else if (!refused) cm_fail(&probe.model, "%s", "fmi2Instantiate: out of memory");
+        if (in) functions->freeMemory(in);
+        cm_free(&probe.model);
         return NULL;
     }
     memcpy(name, probe.name, n);
+    in->cb = *functions;
     in->name = name;
     in->logging_on = loggingOn;
-    cm_init(&in->model, fmuType == fmi2ModelExchange, log_to_host, in);
+    in->model = probe.model;
+    in->model.host = in;
     return in;
 }
 
@@ -76,7 +81,7 @@ void fmi2FreeInstance(fmi2Component c)
     Instance* in = (Instance*)c;
     if (!in) return;
     fmi2CallbackFreeMemory release = in->cb.freeMemory;
-    cm_release(&in->model);
+    cm_free(&in->model);
     release((void*)in->name);
     release(in);
 }
@@ -223,7 +228,7 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte b
 {
     if (!c || !state || !bytes) return fmi2Error;
     if (size < cm_serialized_size()) return status_of(cm_fail(MODEL(c), "%s", "fmi2SerializeFMUstate: the buffer is too small"));
-    cm_serialize((const Snapshot*)state, (unsigned char*)bytes);
+    cm_serialize(MODEL(c), (const Snapshot*)state, (unsigned char*)bytes);
     return fmi2OK;
 }
 

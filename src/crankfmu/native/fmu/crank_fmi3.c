@@ -17,8 +17,9 @@
 #include "fmi3Functions.h"
 #include "fmi3_refusals.h"
 
-#define VR_FIRST_INDICATOR N_VARIABLES
-#define VR_TIME (N_VARIABLES + CK_N_SLOTS)
+#define N_VARIABLES(m) ((unsigned)(m)->d->n_variables)
+#define VR_FIRST_INDICATOR(m) N_VARIABLES(m)
+#define VR_TIME(m) (N_VARIABLES(m) + CK_N_SLOTS)
 
 typedef struct {
     Model model;
@@ -44,9 +45,9 @@ static fmi3Status status_of(int result) { return result == CM_OK ? fmi3OK : fmi3
 
 #define MODEL(c) (&((Instance*)(c))->model)
 
-static Instance* instantiate(fmi3String instanceName, fmi3String instantiationToken, fmi3Boolean loggingOn,
-                             fmi3InstanceEnvironment environment, fmi3LogMessageCallback logMessage, int model_exchange,
-                             int event_mode_used)
+static Instance* instantiate(const char* call, fmi3String instanceName, fmi3String instantiationToken,
+                             fmi3String resourcePath, fmi3Boolean loggingOn, fmi3InstanceEnvironment environment,
+                             fmi3LogMessageCallback logMessage, int model_exchange, int event_mode_used)
 {
     Instance probe;
     memset(&probe, 0, sizeof probe);
@@ -55,32 +56,32 @@ static Instance* instantiate(fmi3String instanceName, fmi3String instantiationTo
     probe.log_message = logMessage;
     probe.model.log = log_to_host;
     probe.model.host = &probe;
-    if (CAUSALITY_SPEED && model_exchange) {
+    /* the model: the file in the FMU's resources (its scenario), read and checked */
+    if (cm_init(&probe.model, call, resourcePath, 0, model_exchange, log_to_host, &probe) != CM_OK) return NULL;
+    const ModelData* d = probe.model.d;
+    Instance* in = NULL;
+    if (d->causality_speed && model_exchange)
         cm_fail(&probe.model, "%s", "fmi3InstantiateModelExchange: this FMU is Co-Simulation only: in speed causality "
                 "tau_drive needs omega1's derivative, which a Model Exchange host cannot pass");
-        return NULL;
-    }
-    if (CAUSALITY_SPEED && event_mode_used) {     /* refused here, as the Reference FMUs do, not at the first event */
+    else if (d->causality_speed && event_mode_used)   /* refused here, as the Reference FMUs do, not at the first event */
         cm_fail(&probe.model, "%s", "fmi3InstantiateCoSimulation: eventModeUsed = true, but this FMU has no event mode "
                 "(hasEventMode = false in its modelDescription: in speed causality the host's omega1 drives it, no switch "
                 "is located): instantiate with eventModeUsed = false");
-        return NULL;
-    }
-    if (!instantiationToken || strcmp(instantiationToken, MODEL_GUID) != 0) {
-        cm_fail(&probe.model, "the instantiation token %s is not this FMU's (" MODEL_GUID ")",
-                instantiationToken ? instantiationToken : "(null)");
-        return NULL;
-    }
-    Instance* in = (Instance*)calloc(1, sizeof(Instance));
-    if (!in) {
+    else if (!instantiationToken || strcmp(instantiationToken, d->guid) != 0)
+        cm_fail(&probe.model, "the instantiation token %s is not this FMU's (%s, in %s)",
+                instantiationToken ? instantiationToken : "(null)", d->guid, CM_MODEL_FILE);
+    else if (!(in = (Instance*)calloc(1, sizeof(Instance))))
         cm_fail(&probe.model, "%s", "out of memory for the instance");
+    if (!in) {
+        cm_free(&probe.model);
         return NULL;
     }
     memcpy(in->name, probe.name, sizeof in->name);
     in->environment = environment;
     in->log_message = logMessage;
     in->logging_on = loggingOn;
-    cm_init(&in->model, model_exchange, log_to_host, in);
+    in->model = probe.model;
+    in->model.host = in;
     return in;
 }
 
@@ -100,9 +101,9 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
                                           fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
                                           fmi3InstanceEnvironment instanceEnvironment, fmi3LogMessageCallback logMessage)
 {
-    (void)resourcePath;
     (void)visible;
-    return instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 1, 0);
+    return instantiate("fmi3InstantiateModelExchange", instanceName, instantiationToken, resourcePath, loggingOn,
+                       instanceEnvironment, logMessage, 1, 0);
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
@@ -114,12 +115,12 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                                          fmi3LogMessageCallback logMessage,
                                          fmi3IntermediateUpdateCallback intermediateUpdate)
 {
-    (void)resourcePath;
     (void)visible;
     (void)requiredIntermediateVariables;
     (void)nRequiredIntermediateVariables;
     (void)intermediateUpdate;
-    Instance* in = instantiate(instanceName, instantiationToken, loggingOn, instanceEnvironment, logMessage, 0, eventModeUsed);
+    Instance* in = instantiate("fmi3InstantiateCoSimulation", instanceName, instantiationToken, resourcePath, loggingOn,
+                               instanceEnvironment, logMessage, 0, eventModeUsed);
     if (in) {
         in->event_mode_used = eventModeUsed;
         in->early_return_allowed = earlyReturnAllowed;
@@ -129,7 +130,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
 
 void fmi3FreeInstance(fmi3Instance instance)
 {
-    if (instance) cm_release(&((Instance*)instance)->model);
+    if (instance) cm_free(&((Instance*)instance)->model);
     free(instance);
 }
 
@@ -207,20 +208,20 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
     /* the model's variables only (a host reading its outputs): one read, which computes the
      * quantities and the joint reactions once for all of them */
     size_t model_only = 0;
-    while (model_only < nValueReferences && valueReferences[model_only] < N_VARIABLES) model_only++;
+    while (model_only < nValueReferences && valueReferences[model_only] < N_VARIABLES(m)) model_only++;
     if (model_only == nValueReferences)
         return status_of(cm_get(m, "fmi3GetFloat64", valueReferences, nValueReferences, values));
     for (size_t i = 0; i < nValueReferences; i++) {
         fmi3ValueReference vr = valueReferences[i];
-        if (vr < N_VARIABLES) {
+        if (vr < N_VARIABLES(m)) {
             if (cm_get(m, "fmi3GetFloat64", &vr, 1, &values[i]) != CM_OK) return fmi3Error;
-        } else if (vr == VR_TIME) {
+        } else if (vr == VR_TIME(m)) {
             values[i] = m->now.time;
-        } else if (vr < VR_TIME && m->model_exchange && m->now.phase != CM_INSTANTIATED) {
+        } else if (vr < VR_TIME(m) && m->model_exchange && m->now.phase != CM_INSTANTIATED) {
             double z[CK_N_SLOTS];
             if (cm_me_get_indicators(m, "fmi3GetFloat64", z, CK_N_SLOTS) != CM_OK) return fmi3Error;
-            values[i] = z[vr - VR_FIRST_INDICATOR];
-        } else if (vr < VR_TIME) {
+            values[i] = z[vr - VR_FIRST_INDICATOR(m)];
+        } else if (vr < VR_TIME(m)) {
             values[i] = 0.0;                 /* an event indicator before the model exists, or Co-Simulation */
         } else {
             return status_of(cm_fail(m, "fmi3GetFloat64: no variable has value reference %u", (unsigned)vr));
@@ -238,10 +239,10 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
         return status_of(cm_fail(m, "fmi3SetFloat64: %u values for %u value references (every variable is a scalar)",
                                  (unsigned)nValues, (unsigned)nValueReferences));
     for (size_t i = 0; i < nValueReferences; i++)
-        if (valueReferences && valueReferences[i] >= N_VARIABLES)
+        if (valueReferences && valueReferences[i] >= N_VARIABLES(m))
             return status_of(cm_fail(m, "fmi3SetFloat64: value reference %u is %s", (unsigned)valueReferences[i],
-                                     valueReferences[i] < VR_TIME ? "an event indicator: it cannot be set"
-                                     : valueReferences[i] == VR_TIME ? "the time: it cannot be set"
+                                     valueReferences[i] < VR_TIME(m) ? "an event indicator: it cannot be set"
+                                     : valueReferences[i] == VR_TIME(m) ? "the time: it cannot be set"
                                                                      : "no variable's"));
     return status_of(cm_set(m, "fmi3SetFloat64", valueReferences, nValueReferences, values));
 }
@@ -298,7 +299,7 @@ fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState FMUState, f
     if (!instance || !FMUState || !serializedState) return fmi3Error;
     if (size < cm_serialized_size())
         return status_of(cm_fail(MODEL(instance), "%s", "fmi3SerializeFMUState: the buffer is too small"));
-    cm_serialize((const Snapshot*)FMUState, serializedState);
+    cm_serialize(MODEL(instance), (const Snapshot*)FMUState, serializedState);
     return fmi3OK;
 }
 

@@ -27,7 +27,8 @@ typedef struct {
     double S[CK_STATE_SIZE];       /* the kernel's whole state */
     double P[CK_PARAM_SIZE];       /* the kernel's parameters */
     double row[CK_OUT_SIZE];       /* the outputs at the current time */
-    double values[N_VARIABLES];    /* every variable's value (outputs are read from row) */
+    double values[CM_MAX_VARIABLES];   /* every variable's value (outputs are read from row); the
+                                          model file's count used (crank_variables.h) */
     double time;
     double t_limit;                /* the stop time: steps may run to it, communication points come
                                       from the dense output (the trajectory does not depend on the
@@ -39,9 +40,9 @@ typedef struct {
     int pending;                   /* a tunable or the input changed: restart at the next step
                                       (Model Exchange: at the next event update) */
     double dydt[N_STATES];         /* Model Exchange: the derivatives at the current state */
-    double input_rate[N_INPUTS];   /* Co-Simulation: each input's first derivative (1/s), from
+    double input_rate[CM_MAX_INPUTS];   /* Co-Simulation: each input's first derivative (1/s), from
                                       fmi2SetRealInputDerivatives; 0 (held) once the input is set */
-    int rate_given[N_INPUTS];      /* whether the host gave it since it last set the input (speed
+    int rate_given[CM_MAX_INPUTS];    /* whether the host gave it since it last set the input (speed
                                       causality: else omega1's slope is a backward difference) */
 } Snapshot;
 
@@ -51,6 +52,7 @@ typedef void (*CmLogger)(void* host, int kind, const char* message);
 enum { CM_REDUCED, CM_QUANTITIES, CM_REACTIONS, CM_TABLES };
 
 typedef struct {
+    const ModelData* d;            /* the scenario: the model file, read at instantiation */
     Snapshot now;
     CkTables tables;
     int model_exchange;
@@ -62,13 +64,18 @@ typedef struct {
     mm_model mechanism;
     double* cubics[CM_TABLES];
     int intervals[CM_TABLES];
-    double built_for[N_PROGRAM_PARAMETERS + 1];
+    double* built_for;             /* n_program_parameters + 1 (with the scratch below: cm_init) */
+    double* scratch;               /* a read's quantities and reactions, a design's trial values */
     int have_tables;
     int tables_stale;              /* a parameter or the state changed since: compare before the next use */
 } Model;
 
-/* the model at its start values; log(host, ...) says what goes wrong. cm_release frees its tables */
-void cm_init(Model* m, int model_exchange, CmLogger log, void* host);
+/* the model of the file in ``resources`` (crank_variables.h's md_load: a URI where is_uri) at its
+ * start values; log(host, ...) says what goes wrong. CM_ERROR, logged, where the file is refused or
+ * memory lacks. cm_free releases what cm_init took; cm_release only the tables */
+int cm_init(Model* m, const char* call, const char* resources, int is_uri, int model_exchange, CmLogger log,
+            void* host);
+void cm_free(Model* m);
 void cm_release(Model* m);
 /* an FMU state back (fmi2SetFMUstate, fmi3SetFMUState): its values may be another design's */
 void cm_restore(Model* m, const Snapshot* state);
@@ -114,7 +121,7 @@ int cm_me_get_nominals(Model* m, const char* call, double* nominals, size_t n);
 
 /* the FMU state as bytes: a tag, then the snapshot (the same machine and build reads it back) */
 size_t cm_serialized_size(void);
-void cm_serialize(const Snapshot* s, unsigned char* bytes);
+void cm_serialize(const Model* m, const Snapshot* s, unsigned char* bytes);
 int cm_deserialize(const Model* m, const char* call, const unsigned char* bytes, size_t size, Snapshot* s);
 
 #endif

@@ -8,10 +8,13 @@
 /* the tables of the values the model holds: built (again) where they are missing or stale, or the
  * design refused with the CLI's message (CM_ERROR) */
 int cm_ensure_tables(Model* m, const char* call);
+/* the refusal of a design the C model cannot build (its mm status at these program values), in the
+ * engine's words; CM_ERROR (crank_model_refusals.c) */
+int cm_refuse_design(const Model* m, const char* call, int status, const double* values);
 /* the kernel's parameters from the variables' values */
 void cm_load_parameters(Model* m);
 /* whether setting this variable sets the initial state (phi1_start, omega1_start) */
-int cm_sets_initial_state(int vr);
+int cm_sets_initial_state(const Model* m, int vr);
 /* Model Exchange: the state and mode at the start; the derivatives and outputs there (1 when
  * finite) */
 void cm_me_start(Model* m);

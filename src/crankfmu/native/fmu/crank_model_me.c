@@ -71,7 +71,7 @@ static int states_call(Model* m, const char* call, int initialization_too, const
 int cm_me_set_states(Model* m, const char* call, const double* x, size_t n)
 {
     if (states_call(m, call, 0, x, n) != CM_OK) return CM_ERROR;
-    static const char* const names[N_STATES] = STATE_NAMES;
+    static const char* const names[N_STATES] = {"phi1", "omega1", "W_motor", "W_load", "W_ext"};
     for (size_t j = 0; j < n; j++)
         if (!isfinite(x[j])) return cm_fail(m, "%s: state %u (%s) is not finite", call, (unsigned)j, names[j]);
     memcpy(m->now.S + CK_Y, x, N_STATES * sizeof(double));

@@ -11,11 +11,24 @@
 
 /* what one read evaluates once for all the variables it reads */
 typedef struct {
-    double quantities[N_QUANTITIES + 1], quantity_scratch[3 * N_QUANTITY_COORDINATES + 1];
+    double *quantities, *quantity_scratch;
     int have_quantities;
-    double reactions[N_REACTIONS + 1], reaction_scratch[N_REACTIONS * REACTION_TERMS + REACTION_TERMS + 1];
+    double *reactions, *reaction_scratch;
     int have_reactions;
 } Reads;
+
+/* a read's arrays, in the model's scratch after a design's values and trial values (cm_init) */
+static Reads reads_of(const Model* m)
+{
+    const ModelData* d = m->d;
+    Reads reads;
+    reads.quantities = m->scratch + 2 * ((size_t)d->n_program_parameters + 1);
+    reads.quantity_scratch = reads.quantities + d->n_quantities + 1;
+    reads.reactions = reads.quantity_scratch + 3 * d->n_quantity_coordinates + 1;
+    reads.reaction_scratch = reads.reactions + d->n_reactions + 1;
+    reads.have_quantities = reads.have_reactions = 0;
+    return reads;
+}
 
 /* the outputs of the output row: the contract's, the scenario's [[outputs]] and the joint
  * reactions (all of each kind at once, from their tables, by the kernel's ck_quantity_values and
@@ -23,19 +36,19 @@ typedef struct {
 static double output_value(const Model* m, int vr, Reads* reads)
 {
     const double* row = m->now.row;
-    const Variable* v = &VARIABLES[vr];
+    const Variable* v = &m->d->variables[vr];
     if (v->kind == KIND_REACTION) {
         if (!reads->have_reactions) {
-            ck_reaction_values(m->cubics[CM_REACTIONS], N_REACTIONS, REACTION_TERMS, m->intervals[CM_REACTIONS], m->now.S,
+            ck_reaction_values(m->cubics[CM_REACTIONS], m->d->n_reactions, m->d->reaction_terms, m->intervals[CM_REACTIONS], m->now.S,
                                m->now.time, row[ROW_PHI1], row[ROW_OMEGA1], row[ROW_EPSILON1], &m->tables, m->now.P,
                                reads->reaction_scratch, reads->reactions);
             reads->have_reactions = 1;
         }
-        return reads->reactions[vr - VR_FIRST_REACTION];
+        return reads->reactions[vr - m->d->vr_first_reaction];
     }
     if (v->kind == KIND_DERIVATIVE) {
         double omega = row[ROW_OMEGA1];
-        switch (vr - VR_FIRST_DERIVATIVE) {
+        switch (vr - m->d->vr_first_derivative) {
         case 0: return omega;
         case 1: return row[ROW_EPSILON1];
         case 2: return row[ROW_M_MOTOR] * omega;
@@ -45,16 +58,16 @@ static double output_value(const Model* m, int vr, Reads* reads)
     }
     if (v->kind == KIND_QUANTITY) {
         if (!reads->have_quantities) {
-            ck_quantity_values(m->cubics[CM_QUANTITIES], N_QUANTITY_COORDINATES, m->intervals[CM_QUANTITIES],
+            ck_quantity_values(m->cubics[CM_QUANTITIES], m->d->n_quantity_coordinates, m->intervals[CM_QUANTITIES],
                                m->mechanism.coordinate_winding,
-                               N_QUANTITIES, QUANTITY_COORDINATE, QUANTITY_ORDER, row[ROW_PHI1], row[ROW_OMEGA1],
+                               m->d->n_quantities, m->d->quantity_coordinate, m->d->quantity_order, row[ROW_PHI1], row[ROW_OMEGA1],
                                row[ROW_EPSILON1], reads->quantity_scratch, reads->quantities);
             reads->have_quantities = 1;
         }
-        return reads->quantities[vr - VR_FIRST_QUANTITY];
+        return reads->quantities[vr - m->d->vr_first_quantity];
     }
-    if (vr == VR_E_KIN) return ck_kinetic_energy(row[ROW_J_RED], row[ROW_OMEGA1]);
-    return row[OUTPUT_ROW[vr]];
+    if (vr == m->d->vr_e_kin) return ck_kinetic_energy(row[ROW_J_RED], row[ROW_OMEGA1]);
+    return row[m->d->output_row[vr]];
 }
 
 static int is_computed(int kind)
@@ -63,25 +76,24 @@ static int is_computed(int kind)
 }
 
 /* an input's place among the inputs: the crank's 0, port i 1 + i */
-static int input_index(int vr) { return vr == VR_CRANK_INPUT ? 0 : 1 + (vr - VR_FIRST_PORT); }
+static int input_index(const Model* m, int vr) { return vr == m->d->vr_crank_input ? 0 : 1 + (vr - m->d->vr_first_port); }
 
 int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* value)
 {
     if (n > 0 && (!vr || !value)) return cm_fail(m, "%s: null arrays", call);
-    Reads reads;
-    reads.have_quantities = reads.have_reactions = 0;
+    Reads reads = reads_of(m);
     const Model* source = m;
     Model preview;
     int tables_checked = 0;                 /* once per call, at its first computed variable */
     for (size_t i = 0; i < n; i++) {
-        if (vr[i] >= N_VARIABLES) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
+        if (vr[i] >= (unsigned)m->d->n_variables) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
         int k = (int)vr[i];
-        if (!is_computed(VARIABLES[k].kind)) {
+        if (!is_computed(m->d->variables[k].kind)) {
             value[i] = m->now.values[k];
             continue;
         }
         if (m->now.phase == CM_INSTANTIATED) {
-            value[i] = VARIABLES[k].start;
+            value[i] = m->d->variables[k].start;
             continue;
         }
         /* the tables of the values the state holds (an FMU state of another design, a design
@@ -111,11 +123,11 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
     if (n > 0 && (!vr || !value)) return cm_fail(m, "%s: null arrays", call);
     int changed = 0;
     for (size_t i = 0; i < n; i++) {
-        if (vr[i] >= N_VARIABLES) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
-        const Variable* v = &VARIABLES[vr[i]];
+        if (vr[i] >= (unsigned)m->d->n_variables) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
+        const Variable* v = &m->d->variables[vr[i]];
         double x = value[i];
         if (is_computed(v->kind)) return cm_fail(m, "%s is computed by the FMU: it cannot be set", v->name);
-        int fixed_variability = v->kind == KIND_FIXED || cm_sets_initial_state((int)vr[i]);
+        int fixed_variability = v->kind == KIND_FIXED || cm_sets_initial_state(m, (int)vr[i]);
         if (fixed_variability && m->now.phase >= CM_STEPPING)
             return cm_fail(m, "%s is a fixed parameter: it can be set before the end of initialisation only (reset, "
                            "then set it)", v->name);
@@ -124,13 +136,13 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
         if (!isfinite(x) || (v->has_min && (v->min_inclusive ? x < v->min : x <= v->min)) ||
             (v->has_max && x > v->max))
             return cm_fail(m, "parameter %s = %s is out of range: valid range %s", v->name, shortest(x).text, v->range);
-        if (v->kind == KIND_INPUT) m->now.rate_given[input_index((int)vr[i])] = 0;
+        if (v->kind == KIND_INPUT) m->now.rate_given[input_index(m, (int)vr[i])] = 0;
         /* the value it has (an input also held, no derivative given): nothing changes, no restart */
-        if (x == m->now.values[vr[i]] && (v->kind != KIND_INPUT || m->now.input_rate[input_index((int)vr[i])] == 0.0))
+        if (x == m->now.values[vr[i]] && (v->kind != KIND_INPUT || m->now.input_rate[input_index(m, (int)vr[i])] == 0.0))
             continue;
         m->now.values[vr[i]] = x;
         if (v->kind == KIND_FIXED || v->kind == KIND_TUNABLE) m->tables_stale = 1;
-        if (v->kind == KIND_INPUT) m->now.input_rate[input_index((int)vr[i])] = 0.0;   /* held, unless a derivative follows */
+        if (v->kind == KIND_INPUT) m->now.input_rate[input_index(m, (int)vr[i])] = 0.0;   /* held, unless a derivative follows */
         if (m->now.phase < CM_STEPPING) continue;
         changed = 1;
         /* Co-Simulation: takes effect from the next step. Model Exchange: a tunable also
@@ -152,48 +164,61 @@ int cm_set_input_derivatives(Model* m, const char* call, const unsigned* vr, siz
                        call);
     if (n > 0 && (!vr || !order || !value)) return cm_fail(m, "%s: null arrays", call);
     for (size_t i = 0; i < n; i++) {
-        if (vr[i] >= N_VARIABLES || VARIABLES[vr[i]].kind != KIND_INPUT)
+        if (vr[i] >= (unsigned)m->d->n_variables || m->d->variables[vr[i]].kind != KIND_INPUT)
             return cm_fail(m, "%s: value reference %u is not an input of this FMU", call, vr[i]);
         if (order[i] != 1)
-            return cm_fail(m, "%s: %s: order %d; this FMU takes the first derivative only", call, VARIABLES[vr[i]].name,
+            return cm_fail(m, "%s: %s: order %d; this FMU takes the first derivative only", call, m->d->variables[vr[i]].name,
                            order[i]);
         if (!isfinite(value[i]))
-            return cm_fail(m, "%s: %s: the derivative %s must be finite", call, VARIABLES[vr[i]].name,
+            return cm_fail(m, "%s: %s: the derivative %s must be finite", call, m->d->variables[vr[i]].name,
                            shortest(value[i]).text);
     }
     for (size_t i = 0; i < n; i++) {
-        double* rate = &m->now.input_rate[input_index((int)vr[i])];
+        double* rate = &m->now.input_rate[input_index(m, (int)vr[i])];
         if (*rate != value[i] && m->now.phase >= CM_STEPPING) m->now.pending = 1;
         *rate = value[i];
-        m->now.rate_given[input_index((int)vr[i])] = 1;
+        m->now.rate_given[input_index(m, (int)vr[i])] = 1;
     }
     return CM_OK;
 }
 
 /* ------------------------------------------------------------------------------ FMU state */
 
-/* a serialized state: a tag, then the snapshot's bytes */
-static const char STATE_TAG[16] = MODEL_GUID_PREFIX16;
+/* a serialized state: a tag (the first 16 characters of the model's GUID inside its braces), then
+ * the snapshot's bytes */
+enum { STATE_TAG = 16 };
 
-size_t cm_serialized_size(void) { return sizeof STATE_TAG + sizeof(Snapshot); }
-
-void cm_serialize(const Snapshot* s, unsigned char* bytes)
+static void state_tag(const Model* m, char tag[STATE_TAG])
 {
-    memcpy(bytes, STATE_TAG, sizeof STATE_TAG);
-    memcpy(bytes + sizeof STATE_TAG, s, sizeof(Snapshot));
+    const char* guid = m->d->guid;
+    memset(tag, 0, STATE_TAG);
+    size_t n = strlen(guid);
+    if (n > 1) memcpy(tag, guid + 1, n - 1 < STATE_TAG ? n - 1 : STATE_TAG);
+}
+
+size_t cm_serialized_size(void) { return STATE_TAG + sizeof(Snapshot); }
+
+void cm_serialize(const Model* m, const Snapshot* s, unsigned char* bytes)
+{
+    char tag[STATE_TAG];
+    state_tag(m, tag);
+    memcpy(bytes, tag, STATE_TAG);
+    memcpy(bytes + STATE_TAG, s, sizeof(Snapshot));
 }
 
 int cm_deserialize(const Model* m, const char* call, const unsigned char* bytes, size_t size, Snapshot* s)
 {
     Snapshot read;
+    char tag[STATE_TAG];
+    state_tag(m, tag);
     /* each refusal says what it judged: the size, the tag, the phase */
     if (!bytes || size != cm_serialized_size())
         return cm_fail(m, "%s: not a serialized state of this FMU: %lu bytes, where its states are %lu", call,
                        (unsigned long)size, (unsigned long)cm_serialized_size());
-    if (memcmp(bytes, STATE_TAG, sizeof STATE_TAG) != 0)
+    if (memcmp(bytes, tag, STATE_TAG) != 0)
         return cm_fail(m, "%s: not a serialized state of this FMU: %lu bytes of the right size, but they do not start "
                        "with its states' tag (another FMU's or another build's state?)", call, (unsigned long)size);
-    memcpy(&read, bytes + sizeof STATE_TAG, sizeof read);
+    memcpy(&read, bytes + STATE_TAG, sizeof read);
     if (read.phase < CM_INSTANTIATED || read.phase > CM_FAILED)
         return cm_fail(m, "%s: not a serialized state of this FMU: its phase is %d, not one of %d to %d", call,
                        (int)read.phase, (int)CM_INSTANTIATED, (int)CM_FAILED);

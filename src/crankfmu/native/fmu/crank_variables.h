@@ -1,14 +1,31 @@
-/* The native mechanism FMU's variables (crank_model.c, behind the FMI 2.0 and 3.0 shells): the
- * contract's variables at fixed value references, and the data `crankfmu fmu --native` generates
- * for one scenario (model_config.h: its identifier, GUID and counts; model_data.c: its compiled
- * program and the table of every variable). */
+/* The native mechanism FMU's model file and its variables. One runtime binary serves every
+ * scenario: what a scenario adds is data, written by `crankfmu fmu --native` into the FMU's
+ * resources/ (fmi/model_file.py) and read here when an instance is made (crank_model_file.c): its
+ * identifier, GUID, counts and causality, its compiled program (dynamics/program_scenario.py) and
+ * the table of every variable (name, kind, start, range, unit).
+ *
+ * The file: 16 bytes of magic ("crankfmu model\0\0"), the format version (uint32, little-endian),
+ * its kind (uint32: 1, a mechanism), the payload's size (uint64), the payload's SHA-256 (32 bytes),
+ * then the payload (fmi/model_file.py writes it, in the order crank_model_file.c reads it). A
+ * missing, truncated or altered file, or one of another format version, is refused at
+ * instantiation with a message naming the file. */
 #ifndef CRANK_VARIABLES_H
 #define CRANK_VARIABLES_H
 
-#include "crank_kernel.h"
-#include "model_config.h"
+#include <stddef.h>
 
-enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED, KIND_QUANTITY, KIND_DERIVATIVE, KIND_REACTION };
+#include "crank_kernel.h"
+#include "crank_mechanism.h"
+
+#define CM_MODEL_FILE "crankfmu-model.bin"      /* its name in resources/ */
+#define CM_MODEL_MAGIC "crankfmu model\0\0"
+#define CM_MODEL_FORMAT 1
+#define CM_MODEL_MECHANISM 1
+/* what an FMU state holds at most: a file with more variables or ports is refused (its build too) */
+#define CM_MAX_VARIABLES 1024
+#define CM_MAX_INPUTS (1 + CK_MAX_PORTS)
+
+enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED, KIND_QUANTITY, KIND_DERIVATIVE, KIND_REACTION, KIND_COUNT };
 
 typedef struct {
     const char* name;
@@ -20,62 +37,66 @@ typedef struct {
     const char* unit;
 } Variable;
 
-/* value references, in the order of native_build.NativeModel.data_c's table: the outputs first
- * (N_OUTPUTS, model_config.h), then the crank's input (VR_CRANK_INPUT), the tunables
- * (native_build.TUNABLE's order, or SPEED_TUNABLE's), the fixed parameters (N_FIXED), the
- * scenario's [[outputs]] and its ports' outputs (N_QUANTITIES), the derivatives of the Model
- * Exchange states (phi1, omega1, W_motor, W_load, W_ext: the kernel's y; none in speed causality),
- * the ports' inputs (N_PORTS) and the joint reactions (N_REACTIONS).
- *
- * Torque causality (CAUSALITY_SPEED 0): the input tau_ext, the motor line, Co-Simulation and
- * Model Exchange. Speed causality (1): the input omega1, the outputs tau_drive and W_drive in the
- * output row's M_motor and W_motor places (crank_kernel.h, ck_speed_*), Co-Simulation only:
- * tau_drive needs omega1's derivative, which a Model Exchange host has no call to pass. */
-#if CAUSALITY_SPEED
-enum { VR_CRANK_INPUT = N_OUTPUTS, VR_J_FLYWHEEL, VR_PHI1_START, VR_FIRST_FIXED };
-#define N_DERIVATIVES 0
-#else
-enum {
-    VR_CRANK_INPUT = N_OUTPUTS,
-    VR_A, VR_B, VR_A_LOW, VR_B_LOW, VR_OMEGA_SWITCH, VR_J_FLYWHEEL, VR_PHI1_START, VR_OMEGA1_START, VR_RTOL,
-    VR_FIRST_FIXED
-};
-#define N_DERIVATIVES N_STATES
-#endif
+/* the output row's places (crank_kernel.h: phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor,
+ * M_load, J_red, tau_e; the native package's ROW_FIELDS) */
+enum { ROW_PHI1, ROW_OMEGA1, ROW_W_MOTOR, ROW_W_LOAD, ROW_W_EXT, ROW_EPSILON1, ROW_M_MOTOR, ROW_M_LOAD, ROW_J_RED,
+       ROW_TAU_E };
 #define N_STATES CK_N_Y
-#define VR_FIRST_QUANTITY (VR_FIRST_FIXED + N_FIXED)
-#define VR_FIRST_DERIVATIVE (VR_FIRST_QUANTITY + N_QUANTITIES)
-#define VR_FIRST_PORT (VR_FIRST_DERIVATIVE + N_DERIVATIVES)
-#define VR_FIRST_REACTION (VR_FIRST_PORT + N_PORTS)
-#define N_VARIABLES (VR_FIRST_REACTION + N_REACTIONS)
-/* the inputs: the crank's (0) and the ports' (1 + i) */
-#define N_INPUTS (1 + N_PORTS)
 
-/* each output's place in the kernel's output row (-1: E_kin, computed from J_red and omega1) */
-extern const int OUTPUT_ROW[N_OUTPUTS];
+/* A scenario's model as the file gives it. Value references, in the order of the variables' table:
+ * the outputs first (n_outputs), then the crank's input (vr_crank_input: tau_ext, or omega1 in
+ * speed causality), the tunables (native_model.TUNABLE's order, or SPEED_TUNABLE's), the fixed
+ * parameters (n_fixed), the scenario's [[outputs]] and its ports' outputs (n_quantities), the
+ * derivatives of the Model Exchange states (phi1, omega1, W_motor, W_load, W_ext: the kernel's y;
+ * none in speed causality), the ports' inputs (n_ports) and the joint reactions (n_reactions).
+ *
+ * Torque causality: the input tau_ext, the motor line, Co-Simulation and Model Exchange. Speed
+ * causality: the input omega1, the outputs tau_drive and W_drive in the output row's M_motor and
+ * W_motor places (ck_speed_*), Co-Simulation only: tau_drive needs omega1's derivative, which a
+ * Model Exchange host has no call to pass. */
+typedef struct {
+    const char *identifier, *guid, *mechanism_name, *mechanism_branch;
+    int causality_speed, cycle_turns;
+    int n_outputs, n_fixed, n_quantities, n_ports, n_reactions, reaction_terms, n_quantity_coordinates;
+    int table_functions, table_sliders, vr_e_kin;
+    double default_start_time, table_tolerance, reaction_tolerance;
+    int n_variables;
+    const Variable* variables;
+    const int* output_row;          /* each output's place in the output row (-1: E_kin, from J_red and omega1) */
+    /* the [[outputs]]: quantity k is order quantity_order[k] (0 position, 1 velocity, 2
+     * acceleration) of coordinate quantity_coordinate[k]; the C model's [[outputs]] table holds
+     * coordinate c's q - winding phi1, q' and q'' (dynamics/tabulated.py, QuantityTable). The joint
+     * reactions: reaction k is sum_j reaction_terms weights (ck_reaction_weights) times the
+     * reactions table's cubics k reaction_terms + j (ReactionTable) */
+    const int *quantity_coordinate, *quantity_order;
+    /* the scenario compiled for the C mechanism model, and each of its parameters' value reference
+     * (-1: a parameter the FMU does not declare, at program_parameter_value), name; the names of
+     * its checks and unknowns; the geometry parameters a refused assembly names, and the
+     * parameters its tables depend on (the others, the motor line for one, do not) */
+    mm_program program;
+    int n_program_parameters;
+    const int* program_parameter_vr;
+    const double* program_parameter_value;
+    const char* const* program_parameter_name;
+    int n_check_names, n_geometry_parameters, n_table_parameters, n_unknown_names;
+    const char* const* check_names;
+    const int *geometry_parameters, *table_parameters;
+    const char* const* unknown_names;
+    /* the value references that follow from the counts */
+    int vr_crank_input, vr_first_fixed, vr_first_quantity, vr_first_derivative, vr_first_port, vr_first_reaction;
+    int n_derivatives, n_inputs;
+    int vr_a, vr_b, vr_a_low, vr_b_low, vr_omega_switch, vr_j_flywheel, vr_phi1_start, vr_omega1_start, vr_rtol;
+    /* what md_free releases */
+    void** blocks;
+    int n_blocks, blocks_size;
+} ModelData;
 
-extern const Variable VARIABLES[N_VARIABLES];
-
-/* the scenario compiled for the C mechanism model (dynamics/program_scenario.py): its program, and
- * each of its parameters' value reference (-1: a parameter the FMU does not declare, at
- * PROGRAM_PARAMETER_VALUE), name, and the geometry parameters a refused assembly names */
-#include "crank_mechanism.h"
-extern const mm_program PROGRAM;
-extern const int PROGRAM_PARAMETER_VR[N_PROGRAM_PARAMETERS];
-extern const double PROGRAM_PARAMETER_VALUE[N_PROGRAM_PARAMETERS];
-extern const char* const PROGRAM_PARAMETER_NAME[N_PROGRAM_PARAMETERS];
-extern const char* const PROGRAM_CHECK_NAME[];
-extern const int GEOMETRY_PARAMETERS[];
-/* the program's parameters its tables depend on (the others, the motor line for one, do not) */
-extern const int TABLE_PARAMETERS[];
-extern const char* const UNKNOWN_NAMES[];
-
-/* the [[outputs]]: quantity k is order QUANTITY_ORDER[k] (0 position, 1 velocity, 2 acceleration)
- * of coordinate QUANTITY_COORDINATE[k]; the C model's [[outputs]] table holds coordinate c's
- * q - winding phi1, q' and q'' (dynamics/tabulated.py, QuantityTable). The joint reactions: reaction
- * k is sum_j REACTION_TERMS weights (ck_reaction_weights) times the reactions table's cubics
- * k REACTION_TERMS + j (ReactionTable) */
-extern const int QUANTITY_COORDINATE[];
-extern const int QUANTITY_ORDER[];
+/* The model file in the resources a host gave (fmi2's fmuResourceLocation, a file: URI, when
+ * is_uri; fmi3's resourcePath, a path), read and checked: NULL with the reason (naming the file)
+ * in why. md_free releases it. */
+ModelData* md_load(const char* resources, int is_uri, char* why, size_t why_size);
+/* the same from bytes (the fuzzer's), ``file`` naming them in messages */
+ModelData* md_parse(const unsigned char* bytes, size_t size, const char* file, char* why, size_t why_size);
+void md_free(ModelData* d);
 
 #endif
