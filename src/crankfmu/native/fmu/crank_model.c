@@ -142,9 +142,10 @@ int cm_ensure_tables(Model* m, const char* call)
         status = mm_tabulate(&m->mechanism, k, tolerance[k], &m->cubics[k], &m->intervals[k], &error, &series);
     }
     if (status != MM_OK) {
-        int refused = cm_refuse_design(m, call, status, values);
+        char text[2048];
+        cm_design_refusal(m, call, status, values, text, sizeof text);
         cm_release(m);
-        return refused;
+        return cm_fail(m, "%s", text);
     }
     memcpy(m->built_for, values, sizeof(double) * m->d->n_program_parameters);
     m->have_tables = 1;

@@ -9,8 +9,8 @@
  * design refused with the CLI's message (CM_ERROR) */
 int cm_ensure_tables(Model* m, const char* call);
 /* the refusal of a design the C model cannot build (its mm status at these program values), in the
- * engine's words; CM_ERROR (crank_model_refusals.c) */
-int cm_refuse_design(const Model* m, const char* call, int status, const double* values);
+ * engine's words, into out (crank_model_refusals.c) */
+void cm_design_refusal(const Model* m, const char* call, int status, const double* values, char* out, size_t size);
 /* the kernel's parameters from the variables' values */
 void cm_load_parameters(Model* m);
 /* whether setting this variable sets the initial state (phi1_start, omega1_start) */

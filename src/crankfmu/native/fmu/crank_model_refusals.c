@@ -49,7 +49,7 @@ static void bounds(const Model* m, const double* values, char* text, size_t size
 }
 
 /* the refusal of a design the C model cannot build, in the engine's words */
-int cm_refuse_design(const Model* m, const char* call, int status, const double* values)
+void cm_design_refusal(const Model* m, const char* call, int status, const double* values, char* out, size_t size)
 {
     const mm_model* mm = &m->mechanism;
     char reason[512], text[2048];
@@ -83,45 +83,57 @@ int cm_refuse_design(const Model* m, const char* call, int status, const double*
                                      m->d->program_parameter_name[m->d->geometry_parameters[g]], values[m->d->geometry_parameters[g]]);
         if (used < sizeof text) snprintf(text + used, sizeof text - used, ")");
         bounds(m, values, text, sizeof text);
-        return cm_fail(m, "%s", text);
+        snprintf(out, size, "%s", text);
+        return;
     }
     switch (status) {
     case MM_CLOSED_FORM:
-        return cm_fail(m, "%s: %s: the closed form does not satisfy the contour equations (residual %.3g m); check the "
+        snprintf(out, size, "%s: %s: the closed form does not satisfy the contour equations (residual %.3g m); check the "
                        "mechanism file", call, m->d->mechanism_name, mm->error_value);
+        return;
     case MM_CHECK:
-        return cm_fail(m, "%s: %s: %s = %g must be >= 0 and finite", call, m->d->mechanism_name,
+        snprintf(out, size, "%s: %s: %s = %g must be >= 0 and finite", call, m->d->mechanism_name,
                        m->d->check_names[mm->error_index], mm->error_value);
+        return;
     case MM_NOT_ROCKER:
-        return cm_fail(m, "%s: %s: a dead-point moment's link is not a rocker with two extreme positions per crank turn "
+        snprintf(out, size, "%s: %s: a dead-point moment's link is not a rocker with two extreme positions per crank turn "
                        "(found %g extremes)", call, m->d->mechanism_name, mm->error_value);
+        return;
     case MM_NO_REVERSAL:
-        return cm_fail(m, "%s: %s: a slider force's point, or a direction-dependent load's coordinate, never reverses "
+        snprintf(out, size, "%s: %s: a slider force's point, or a direction-dependent load's coordinate, never reverses "
                        "over the turn", call, m->d->mechanism_name);
+        return;
     case MM_NOT_TABULATED:
-        if (mm->error_jumps)
-            return cm_fail(m, "%s: %s: function %d of the tables cannot be tabulated with 65536 intervals (error %.2g): "
+        if (mm->error_jumps) {
+            snprintf(out, size, "%s: %s: function %d of the tables cannot be tabulated with 65536 intervals (error %.2g): "
                            "it jumps by %.4g near phi1 = %.3f deg, a discontinuity in the crank angle (a closed form's "
                            "branch cut?), not a dead point", call, m->d->mechanism_name, mm->error_index, mm->error_value,
                            mm->error_step, at);
-        return cm_fail(m, "%s: %s: function %d of the tables cannot be tabulated with 65536 intervals (error %.2g): it "
+            return;
+        }
+        snprintf(out, size, "%s: %s: function %d of the tables cannot be tabulated with 65536 intervals (error %.2g): it "
                        "changes fastest near phi1 = %.3f deg; the mechanism is too close to a dead point there", call,
                        m->d->mechanism_name, mm->error_index, mm->error_value, at);
+        return;
     case MM_JUMPS: {
         int angle = m->d->program.angle_column[mm->error_index];
-        return cm_fail(m, "%s: %s: the closed form of %s jumps by %.4g %s at phi1 = %.4f deg (%s); write it continuous "
+        snprintf(out, size, "%s: %s: the closed form of %s jumps by %.4g %s at phi1 = %.4f deg (%s); write it continuous "
                        "along the turn, or give a guess instead of a closed form", call, m->d->mechanism_name,
                        m->d->unknown_names[mm->error_index - 1], mm->error_value, angle ? "rad" : "m",
                        mm->error_angle * (180.0 / 3.141592653589793),
                        angle ? "not a whole turn, so it cannot be made continuous" : "a length cannot jump");
+        return;
     }
     case MM_NOT_FINITE:
-        return cm_fail(m, "%s: %s: a function of the tables is %g at phi1 = %.3f deg (not finite, or beyond 1e150)",
+        snprintf(out, size, "%s: %s: a function of the tables is %g at phi1 = %.3f deg (not finite, or beyond 1e150)",
                        call, m->d->mechanism_name, mm->error_value, at);
+        return;
     case MM_TOO_MANY_SWITCHES:
-        return cm_fail(m, "%s: %s: over %d switch angles of the loads in one turn", call, m->d->mechanism_name,
+        snprintf(out, size, "%s: %s: over %d switch angles of the loads in one turn", call, m->d->mechanism_name,
                        MM_MAX_SWITCHES);
+        return;
     default:
-        return cm_fail(m, "%s: %s: out of memory building the tables", call, m->d->mechanism_name);
+        snprintf(out, size, "%s: %s: out of memory building the tables", call, m->d->mechanism_name);
+        return;
     }
 }
