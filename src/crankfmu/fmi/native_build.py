@@ -30,7 +30,8 @@ from pathlib import Path
 from ..atomic import replacing
 from ..errors import CrankfmuError
 from ..native.sources import (FMI_HEADERS, FMU_COMPILERS, PLATFORMS, PREBUILT, RUNTIMES, WIN64_CC, compile_object,
-                               compile_runtime, fmu_flags, includes, object_name, runtime, runtime_files)
+                               compile_runtime, fmu_flags, includes, object_name, runtime, runtime_files,
+                               runtime_name)
 from .background import reference_beside
 from .reference import LS_REF, LS_REF_MANIFEST, cross_check_options
 from .source import NATIVE_USER_FILES, preflight
@@ -167,7 +168,7 @@ def package_native(source, dest: Path, copied, generated: dict, describe, parame
             shutil.copy2(Path(fmpy.__file__).parent / "c-code" / n, src / n)
         (src / "CMakeLists.txt").write_text(cmake_lists(fmu), encoding="utf-8")
         sources = sorted(p.name for p in src.iterdir())
-        binaries = {folder: path for folder, path in (runtimes or {}).items()}
+        binaries = dict(runtimes or {})
         # every platform's compiler at once, the reference run beside them; this process writes
         # the modelDescription and draws the documentation meanwhile (the compilers are other
         # processes: waiting for them first left its core to them alone)
@@ -272,8 +273,6 @@ def mechanism_runtimes(fmi_version: str, win64: bool | None) -> dict:
             continue
         path = runtime(fmi_version, folder, cc, roots)
         if path is None and shutil.which(cc):
-            from ..native.sources import runtime_name
-
             path = compile_runtime(fmi_version, cc, roots[1] / f"fmi{fmi_version[0]}" / folder /
                                    runtime_name(fmi_version, cc, windows),
                                    run=lambda command, cc=cc: _run(command, cc))

@@ -69,8 +69,7 @@ RUNTIMES = HERE / "runtimes"
 
 def runtime_files(fmi_version: str) -> list[Path]:
     """Every file a runtime is compiled from, the FMI headers too: what an FMU's sources/ carry."""
-    return ([HERE / n for n in KERNEL + MECHANISM if n not in ("crank_numbers.c", "crank_numbers.h")]
-            + [HERE / "crank_numbers.c", HERE / "crank_numbers.h"]
+    return ([HERE / n for n in KERNEL + MECHANISM]
             + [HERE / "fmu" / n for n in RUNTIME_MODEL + RUNTIME_SHELL[fmi_version]]
             + [fmi_headers() / n for n in FMI_HEADERS[fmi_version]])
 

@@ -112,45 +112,35 @@ static const char* read_string(Reader* r, const char* what)
     return s;
 }
 
+/* an array's count (each item at least ``item`` bytes in the file) and its memory (``size`` bytes
+ * each); NULL, *count 0, where the file or the memory fails */
+static void* read_array(Reader* r, const char* what, size_t item, size_t size, int* count)
+{
+    int n = read_count(r, what, item);
+    void* a = r->failed ? NULL : keep(r, (size_t)n * size);
+    if (!a && !r->failed) refuse(r, "could not be read: out of memory");
+    *count = a ? n : 0;
+    return a;
+}
+
 static const int* read_ints(Reader* r, const char* what, int* count)
 {
-    int n = read_count(r, what, 4);
-    int* a = r->failed ? NULL : (int*)keep(r, (size_t)n * sizeof(int));
-    if (!a) {
-        if (!r->failed) refuse(r, "could not be read: out of memory");
-        *count = 0;
-        return NULL;
-    }
-    for (int i = 0; i < n; i++) a[i] = read_int(r, what);
-    *count = n;
+    int* a = (int*)read_array(r, what, 4, sizeof(int), count);
+    for (int i = 0; i < *count; i++) a[i] = read_int(r, what);
     return a;
 }
 
 static const double* read_doubles(Reader* r, const char* what, int* count)
 {
-    int n = read_count(r, what, 8);
-    double* a = r->failed ? NULL : (double*)keep(r, (size_t)n * sizeof(double));
-    if (!a) {
-        if (!r->failed) refuse(r, "could not be read: out of memory");
-        *count = 0;
-        return NULL;
-    }
-    for (int i = 0; i < n; i++) a[i] = read_double(r, what);
-    *count = n;
+    double* a = (double*)read_array(r, what, 8, sizeof(double), count);
+    for (int i = 0; i < *count; i++) a[i] = read_double(r, what);
     return a;
 }
 
 static const char* const* read_strings(Reader* r, const char* what, int* count)
 {
-    int n = read_count(r, what, 4);
-    const char** a = r->failed ? NULL : (const char**)keep(r, (size_t)n * sizeof(char*));
-    if (!a) {
-        if (!r->failed) refuse(r, "could not be read: out of memory");
-        *count = 0;
-        return NULL;
-    }
-    for (int i = 0; i < n; i++) a[i] = read_string(r, what);
-    *count = n;
+    const char** a = (const char**)read_array(r, what, 4, sizeof(char*), count);
+    for (int i = 0; i < *count; i++) a[i] = read_string(r, what);
     return a;
 }
 
