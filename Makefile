@@ -21,23 +21,32 @@ OUT    ?= build/demo
 # fmpy starts its remoting server as `wine64`, which Debian installs as /usr/lib/wine/wine64
 export PATH := /usr/lib/wine:$(PATH)
 
-# the C kernel (src/crankfmu/native) is compiled by the installation: a change of its sources reinstalls.
-# What make demo uses: crankfmu and its dependencies, a C compiler; nothing else.
+# crankfmu is installed as a user installs it: from its wheel (pip wheel --no-deps .), which carries
+# the C kernel and the native FMUs' runtimes compiled when the wheel is built: gcc builds them (the
+# runtimes also for Windows and aarch64 Linux where MinGW-w64 and the aarch64 cross compiler are
+# installed); installing the wheel and building FMUs compile nothing. A change of the C sources
+# builds the wheel again. What make demo uses: crankfmu and its dependencies, gcc; nothing else.
+WHEEL_DIR := build/wheel
 $(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfmu/native/*.h src/crankfmu/native/fmu/*.c src/crankfmu/native/fmu/*.h)
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version'
-	@# a C compiler builds the kernel and the FMUs' binaries
-	@command -v cc >/dev/null || command -v gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc; } \
-	  || { echo "make: no C compiler and apt-get could not install gcc (as root)"; exit 1; }
-	@echo "installing crankfmu and its dependencies into $(VENV) ..."
+	@# the wheel's build compiles the C kernel and the runtimes with gcc
+	@command -v gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc; } \
+	  || { echo "make: no gcc and apt-get could not install it (as root): building crankfmu's wheel needs it"; exit 1; }
+	@echo "building crankfmu's wheel and installing it with its dependencies into $(VENV) ..."
 	@$(PYTHON) -m venv $(VENV)
 	@$(BIN)/python -m pip install --quiet --upgrade pip
-	@$(BIN)/python -m pip install --quiet -e . > $(VENV)/install.log 2>&1 \
-	  || { cat $(VENV)/install.log; echo "make: pip install failed (the log above: $(VENV)/install.log)"; exit 1; }
+	@rm -rf $(WHEEL_DIR)
+	@$(BIN)/python -m pip wheel --quiet --no-deps --wheel-dir $(WHEEL_DIR) . > $(VENV)/install.log 2>&1 \
+	  || { cat $(VENV)/install.log; echo "make: pip wheel failed (the log above: $(VENV)/install.log)"; exit 1; }
+	@$(BIN)/python -m pip install --quiet --force-reinstall $(WHEEL_DIR)/crankfmu-*.whl >> $(VENV)/install.log 2>&1 \
+	  || { cat $(VENV)/install.log; echo "make: pip install of the wheel failed (the log above: $(VENV)/install.log)"; exit 1; }
+	@echo "installed $$(cd $(WHEEL_DIR) && ls crankfmu-*.whl)"
 	@touch $(STAMP)
 
 # What make test, hosts, soak and bench add: the test tools and masters, the native FMUs' win64
 # cross compiler (MinGW), wine to run those DLLs, Debian's libtbb12 for the ecos master, and
 # headless Chromium for the pages' tests
+# (and crankfmu again, editable: the tests run the tree's sources as they are edited)
 $(DEV_STAMP): $(STAMP)
 	@$(BIN)/python -m pip install --quiet -e '.[dev]' > $(VENV)/install-dev.log 2>&1 \
 	  || { cat $(VENV)/install-dev.log; echo "make: pip install of the test tools failed"; exit 1; }
@@ -55,8 +64,8 @@ $(DEV_STAMP): $(STAMP)
 	  || echo "make: could not install gcc-aarch64-linux-gnu (apt-get, as root): FMI 3.0 FMUs get no aarch64-linux binary"
 	@command -v qemu-aarch64 >/dev/null || { apt-get update -qq && apt-get install -y -qq qemu-user; } \
 	  || echo "make: could not install qemu-user (apt-get, as root): the aarch64-linux checks will fail"
-	@# the kernel's objects for the cross compilers just installed (the installation compiled them
-	@# for those it found): a first native build then compiles only its own files
+	@# the native FMUs' runtimes for the cross compilers just installed (the installation compiled
+	@# them for those it found): a native build then carries every platform and compiles nothing
 	@$(BIN)/python src/crankfmu/native/sources.py --prebuild
 	@# the coverage-guided fuzzer of the native FMU's FMI API: Debian's clang (libFuzzer, sanitizers)
 	@command -v clang >/dev/null || { apt-get update -qq && apt-get install -y -qq clang; } \

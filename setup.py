@@ -1,7 +1,7 @@
 """Builds crankfmu's C kernel (src/crankfmu/native) with the package: a plain shared library that
-Python loads through ctypes; the native mechanism FMUs' runtimes (one per FMI version and platform
-whose compiler is installed: a native build then compiles nothing); and the objects the native
-component FMUs link. Everything else is in pyproject.toml."""
+Python loads through ctypes; and the native FMUs' runtimes (one per FMI version and platform whose
+compiler is installed: a native build then compiles nothing). Everything else is in
+pyproject.toml."""
 
 import runpy
 import sys
@@ -28,20 +28,11 @@ class PlainLibrary(build_ext):
 
     def run(self):
         super().run()
-        # beside the library, where the installed package looks for them (native/sources.PREBUILT);
-        # a native build without them compiles them into the per-user cache instead
-        folder = Path(self.get_ext_fullpath("crankfmu.native.crank_kernel")).parent / "objects"
+        # the native FMUs' runtimes beside the library, for every platform whose compiler is here:
+        # then crankfmu fmu --native compiles nothing (native/sources.RUNTIMES)
+        folder = Path(self.get_ext_fullpath("crankfmu.native.crank_kernel")).parent
         try:
-            used = native["prebuild"](folder)
-        except (OSError, RuntimeError) as error:
-            print(f"crankfmu: the native FMUs' objects were not compiled ({error}); each is compiled "
-                  "at its first native build instead", file=sys.stderr)
-        else:
-            print(f"crankfmu: native FMU objects compiled for {', '.join(used)}")
-        # the native mechanism FMUs' runtimes, for every platform whose compiler is here: then
-        # crankfmu fmu --native compiles nothing
-        try:
-            runtimes = native["prebuild_runtimes"](folder.parent / "runtimes")
+            runtimes = native["prebuild_runtimes"](folder / "runtimes")
         except (OSError, RuntimeError) as error:
             print(f"crankfmu: the native FMUs' runtimes were not compiled ({error}); a native build compiles "
                   "the ones it needs into the per-user cache instead", file=sys.stderr)

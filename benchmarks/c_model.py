@@ -12,7 +12,7 @@
   engine's (CRANKFMU_TABLES=python, today's path before the C model) and against BASELINE's code
   (the issue's "today's code"), the same sweep every way, each in a fresh process;
 - each packaged scenario's native FMU (FMI 2.0): `crankfmu fmu NAME --native` wall time and the
-  FMU's size, now (the first build after installation; without the objects the installation
+  FMU's size, now (the first build after installation; without the runtimes the installation
   compiled; a new design; warm) and at BASELINE (the commit before the C model: tables compiled in),
   run from `git archive` of it with the same Python and packages; and the scenario's reference run
   alone (the build's longest single task, which it runs beside the rest);
@@ -181,17 +181,17 @@ def sweep(side: int, tmp: Path, baseline_env: dict) -> dict:
 def native_builds(names, tmp: Path, before_env: dict) -> list[dict]:
     """`crankfmu fmu NAME --native` (FMI 2.0, linux64 and win64 where MinGW is installed): wall time
     and size, each in a fresh process: with this tree's code on an empty per-user cache (the first
-    build after installation: the kernel's and mechanism model's objects are the installation's,
-    the reference run and the shell's objects made), the same from a copy of the package without the
-    installation's objects (every object compiled), on the first cache without its reference runs (a
+    build after installation: the runtimes are the installation's, the reference run made), the
+    same from a copy of the package without the installation's runtimes (each compiled into the
+    cache), on the first cache without its reference runs (a
     new design), again on the whole cache (warm: what `make fmu`'s second and third FMU of a
     scenario pay), and with BASELINE's code (its kernel library compiled beforehand)."""
-    from crankfmu.native.sources import PREBUILT
+    from crankfmu.native.sources import RUNTIMES
 
     rows = []
-    # the package as a user's installation where setup.py compiled no objects
+    # the package as a user's installation where setup.py compiled no runtimes
     bare = tmp / "bare"
-    shutil.copytree(ROOT / "src", bare, ignore=shutil.ignore_patterns(PREBUILT.name, "__pycache__"))
+    shutil.copytree(ROOT / "src", bare, ignore=shutil.ignore_patterns(RUNTIMES.name, "__pycache__"))
 
     def build(label, name, env):
         out = tmp / label / name
@@ -307,7 +307,7 @@ def report(result: dict) -> list[str]:
               f"delta of the same designs agrees to {s['delta_agreement']:.1e} relative.", "",
               f"Native FMUs (FMI 2.0), `crankfmu fmu NAME --native` in a fresh process, now and at {BASELINE} "
               "(tables compiled in):", "",
-              "| scenario | build now, first after installation (s) | without the installation's objects (s) | "
+              "| scenario | build now, first after installation (s) | without the installation's runtimes (s) | "
               "a new design (s) | warm cache (s) | its reference run alone (s) | size now (MB) | build before (s) | "
               "size before (MB) |",
               "|---|---|---|---|---|---|---|---|---|"]

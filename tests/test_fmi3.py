@@ -1,5 +1,5 @@
 """FMI 3.0 native FMUs (crankfmu fmu SCENARIO --native --fmi-version 3): the model and kernel of
-the FMI 2.0 FMU behind crank_fmi3.c, and what hosts see of it.
+the FMI 2.0 FMU behind fmi3_shell.c, and what hosts see of it.
 
 - fmpy's validation is clean; the variables are the FMI 2.0 FMU's at the same value references,
   each of a Float64Type with its SI unit, plus the event indicators and time;
@@ -97,7 +97,7 @@ def test_fmpy_validates_it_and_its_variables_are_the_fmi2_fmus(fmus):
     assert root.find("CoSimulation").get("hasEventMode") == "true"
     assert root.find("CoSimulation").get("mightReturnEarlyFromDoStep") == "true"
     assert {f"binaries/{p}/{FMU}{s}" for p, s in (("x86_64-linux", ".so"), ("x86_64-windows", ".dll"))} <= names
-    assert {"terminalsAndIcons/terminalsAndIcons.xml", "terminalsAndIcons/icon.png", "sources/crank_fmi3.c",
+    assert {"terminalsAndIcons/terminalsAndIcons.xml", "terminalsAndIcons/icon.png", "sources/fmi3_shell.c",
             "sources/crank_model.c", "sources/buildDescription.xml", "documentation/index.html"} <= names
 
 
@@ -370,7 +370,7 @@ COMPONENTS = {"Drive": ("omega",), "DriveSpeed": ("tau_load",), "DieCushion": ("
 
 @pytest.mark.parametrize("name", list(COMPONENTS))
 def test_each_component_in_fmi3_is_its_fmi2_fmu_bit_for_bit(name):
-    """Drive.fmu, DriveSpeed.fmu, DieCushion.fmu and RodString.fmu in FMI 3.0 (component_fmi3.c on
+    """Drive.fmu, DriveSpeed.fmu, DieCushion.fmu and RodString.fmu in FMI 3.0 (fmi3_shell.c on
     the components' model, component_model.c): fmpy validates each, and on the same inputs over
     2 s every output equals the FMI 2.0 FMU's, bit for bit."""
     import fmpy

@@ -130,7 +130,7 @@ def test_the_binaries_link_nothing_beyond_the_c_library(native, tmp_path):
     with zipfile.ZipFile(native) as z:
         z.extractall(tmp_path)
         names = set(z.namelist())
-    assert {"sources/crank_kernel.c", "sources/crank_fmi2.c", "sources/crank_model_file.c",
+    assert {"sources/crank_kernel.c", "sources/fmi2_shell.c", "sources/crank_model_file.c",
             "resources/crankfmu-model.bin",
             "sources/buildDescription.xml", "documentation/index.html",
             "extra/org.fmi-standard.fmi-ls-ref/FourBar_out.csv"} <= names
@@ -292,35 +292,6 @@ def test_third_party_masters_run_it(master, native, reference):
         assert np.max(np.abs(got - expected)) <= 1e-6 * np.max(np.abs(expected)), name
 
 
-def test_a_second_build_takes_the_kernel_and_the_mechanism_model_compiled_from_the_cache(tmp_path, monkeypatch):
-    """The kernel and the mechanism model are the same C for every scenario: without the objects
-    of the installation, compiled once into the per-user cache, then linked into every FMU, though
-    each build copies its sources to a new temporary folder (the object's name is its compiler,
-    flags and content, not that folder's)."""
-    import os
-
-    from crankfmu.fmi import native_build
-    from crankfmu.native.sources import HERE as NATIVE, KERNEL, fmu_flags
-
-    monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setattr(native_build, "PREBUILT", tmp_path / "not installed")
-    compiled = []
-    run = native_build._run
-    monkeypatch.setattr(native_build, "_run", lambda cmd, cc: (compiled.append(cmd), run(cmd, cc))[1])
-    objects = []
-    for build in ("first", "second"):
-        folder = tmp_path / build / "sources"
-        folder.mkdir(parents=True)
-        for name in ("crank_kernel.c", *(n for n in KERNEL if n.endswith(".h"))):
-            shutil.copy2(NATIVE / name, folder / name)
-        compiled.clear()
-        objects.append(native_build._cached_object("gcc", fmu_flags(False) + [f"-I{folder}"],
-                                                   folder / "crank_kernel.c", ()))
-    assert objects[0] == objects[1] and objects[0].is_file()
-    assert not any("-c" in cmd for cmd in compiled)          # the second build compiled nothing
-    assert os.listdir(tmp_path / "cache" / "objects") == [objects[0].name]
-
-
 def test_a_native_build_compiles_nothing_and_ships_the_installations_runtimes(tmp_path, monkeypatch):
     """The installation compiles the runtimes for every platform whose compiler is there (setup.py,
     and make test's set-up once MinGW and the aarch64 compiler are installed): a native build on an
@@ -343,19 +314,17 @@ def test_a_native_build_compiles_nothing_and_ships_the_installations_runtimes(tm
     assert commands == [] and not (tmp_path / "cache" / "runtimes").exists()
 
 
-def test_a_compiler_that_fails_at_installation_is_one_line_and_leaves_no_object(tmp_path):
+def test_a_compiler_that_fails_at_installation_is_one_line_and_leaves_no_runtime(tmp_path):
     """sources.py --prebuild (make test's set-up, after it installs the cross compilers) where a
-    compiler fails: one line naming the compiler, the file and its message, no traceback, a
-    non-zero exit, and no object (whole or partial) in the folder a build would link from."""
+    compiler fails: one line naming the compiler and its message, no traceback, a non-zero exit,
+    and no runtime (whole or partial) in the folder a build takes them from."""
     import os
     import sys
 
     from crankfmu.native.sources import HERE as NATIVE
 
     copy = tmp_path / "native"
-    copy.mkdir()
-    for path in [NATIVE / "sources.py", *NATIVE.glob("*.[ch]")]:
-        shutil.copy2(path, copy / path.name)
+    shutil.copytree(NATIVE, copy, ignore=shutil.ignore_patterns("runtimes", "__pycache__", "*.so"))
     fake = tmp_path / "bin"
     fake.mkdir()
     (fake / "gcc").write_text("#!/bin/sh\necho 'crank_kernel.c:1: error: the disk is full' >&2\nexit 1\n")
@@ -365,35 +334,8 @@ def test_a_compiler_that_fails_at_installation_is_one_line_and_leaves_no_object(
     assert done.returncode != 0
     assert "Traceback" not in done.stderr
     lines = done.stderr.strip().splitlines()
-    assert len(lines) == 1 and "gcc failed on crank_" in lines[0] and "the disk is full" in lines[0], lines
-    assert list((copy / "objects").iterdir()) == []
-
-
-def test_the_include_scan_lists_what_gcc_lists(tmp_path):
-    """The object cache names an object by the files its source includes, read by a scan of the
-    "name" includes instead of one `gcc -MM` per source and platform: for every C file of the
-    native FMUs (kernel, mechanism model, shells of both FMI versions, components) the scan gives
-    gcc's list exactly, a component's generated header included."""
-    import subprocess
-
-    import fmpy
-
-    from crankfmu.native.sources import HERE as NATIVE, includes
-
-    folder = tmp_path / "sources"
-    folder.mkdir()
-    for path in [*NATIVE.glob("*.[ch]"), *(NATIVE / "fmu").glob("*.[ch]")]:
-        shutil.copy2(path, folder / path.name)
-    (folder / "component_config.h").write_text("#define COMPONENT_DRIVE 1\n")
-    headers = Path(fmpy.__file__).parent / "c-code"
-    sources = sorted(folder.glob("*.c"))
-    assert len(sources) > 15
-    for source in sources:
-        listed = subprocess.run(["gcc", "-std=c99", f"-I{folder}", f"-I{headers}", "-MM", str(source)],
-                                capture_output=True, text=True, check=True).stdout
-        by_gcc = {Path(p).resolve() for p in listed.replace("\\\n", " ").split()[1:]}
-        scanned = {p.resolve() for p in [source, *includes(source, [folder, headers])]}
-        assert scanned == by_gcc, source.name
+    assert len(lines) == 1 and "gcc failed compiling" in lines[0] and "the disk is full" in lines[0], lines
+    assert [p for p in (copy / "runtimes").rglob("*") if p.is_file()] == []
 
 
 def test_a_build_on_a_terminal_shows_its_stage_and_time_then_clears_the_line(tmp_path):
@@ -430,12 +372,12 @@ def test_a_build_on_a_terminal_shows_its_stage_and_time_then_clears_the_line(tmp
 
 
 def test_a_missing_compiler_is_named():
-    """The compilers run under nice (a lower priority beside the reference run): a compiler that is
-    not installed is still named as missing, not reported as nice's failure."""
+    """A runtime the installation lacks is compiled into the per-user cache: a compiler that is not
+    installed is named as missing, in one line."""
     from crankfmu.errors import CrankfmuError
     from crankfmu.fmi.native_build import _run
 
-    with pytest.raises(CrankfmuError, match="no-such-cc not found; it compiles the native FMU's binary"):
+    with pytest.raises(CrankfmuError, match="no-such-cc not found; it compiles the native FMUs' runtime"):
         _run(["no-such-cc", "-c", "x.c"], "no-such-cc")
 
 

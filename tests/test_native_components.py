@@ -148,7 +148,7 @@ def test_native_declares_what_the_python_fmu_declares(fmus, name):
     with zipfile.ZipFile(native) as z:
         names = set(z.namelist())
         page = z.read("documentation/index.html").decode()
-    assert {"sources/component_fmi2.c", "sources/crank_components.c", "sources/buildDescription.xml"} <= names
+    assert {"sources/fmi2_shell.c", "sources/crank_components.c", "sources/buildDescription.xml"} <= names
     assert "native: C" in page and "<math" in page
 
 

@@ -9,8 +9,6 @@ imported anything of the package it carries.
                      library does not match them (crankfmu.native)
   fmu_<digest>/      the package an FMU carries, unpacked from the archive in its resources
                      (fmi/slave_script.py.in)
-  objects/           native FMUs' objects the installation did not compile (native/sources.py's
-                     PREBUILT), each named by its compiler, flags and content
   references/        each design's reference run (fmi.reference.reference_result)
   figures/           an FMU's documentation figures, by what they are drawn from (fmi.documentation)
   runtimes/          native FMUs' runtimes the installation did not compile (native/sources.py's

@@ -6,7 +6,7 @@ def format_value(value) -> str:
     """A number as its user wrote it: the shortest text that reads back as the same double, as
     Python's repr writes it (``0.1``, not ``0.10000000000000001``; ``1e-11``, not
     ``9.999999999999999e-12``; ``2.0``); the native FMU's messages write it the same way
-    (crank_fmi2.c: shortest). Anything else as ``str``."""
+    (fmi2_shell.c: shortest). Anything else as ``str``."""
     try:
         return repr(float(value))
     except (TypeError, ValueError):

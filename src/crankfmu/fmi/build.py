@@ -71,16 +71,16 @@ def copy_runtime(dest: Path, files: dict | None = None, data=()):
     import tomllib
 
     from .. import native
-    from ..native.sources import PREBUILT
+    from ..native.sources import RUNTIMES
 
     # the C kernel travels compiled for linux64 (and its sources): the library this process loaded;
-    # not the objects native FMUs link
+    # not the native FMUs' runtimes
     library = native.LIBRARY_PATH
 
     def ignore(folder, names):
         skip = {n for n in names if n == "__pycache__" or n.endswith((".so", ".dll", ".o"))}
-        if Path(folder) == PREBUILT.parent:
-            skip.add(PREBUILT.name)
+        if Path(folder) == RUNTIMES.parent:
+            skip.add(RUNTIMES.name)
         inside = Path(folder).relative_to(PACKAGE).as_posix()
         if inside in DATA_FOLDERS:
             skip |= {n for n in names if f"{inside}/{n}" not in data}

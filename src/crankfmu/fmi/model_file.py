@@ -1,7 +1,7 @@
-"""The native mechanism FMU's model file (``resources/crankfmu-model.bin``): what one prebuilt runtime
-needs of a scenario, written by ``crankfmu fmu --native`` and read by the runtime when a host makes
-an instance (``native/fmu/crank_model_file.c``, which refuses a missing, truncated, altered or
-other-format file by name).
+"""A native FMU's model file (``resources/crankfmu-model.bin``): what the one prebuilt runtime needs of
+a mechanism's scenario or of a component, written by ``crankfmu fmu --native`` and read by the
+runtime when a host makes an instance (``native/fmu/crank_model_file.c``, which refuses a missing,
+truncated, altered or other-format file by name).
 
 The layout is stated once per side: here in ``payload``'s order, there in ``md_parse``'s (the two
 are compared by tests/test_model_file.py, which reads every packaged scenario's file back through
@@ -20,8 +20,11 @@ import numpy as np
 NAME = "crankfmu-model.bin"
 MAGIC = b"crankfmu model\0\0"
 #: the layout's version; a runtime reads only its own (crank_variables.h's CM_MODEL_FORMAT)
-FORMAT = 1
+FORMAT = 2
+#: what the file's model is (crank_variables.h's CM_MODEL_...): a mechanism, or a component by its
+#: (data file kind, causality)
 MECHANISM = 1
+COMPONENTS = {("drive", "torque"): 2, ("drive", "speed"): 3, ("cushion", "torque"): 4, ("well", "torque"): 5}
 #: the variables' kinds (crank_variables.h's KIND_...)
 KINDS = {"OUTPUT": 0, "INPUT": 1, "TUNABLE": 2, "FIXED": 3, "QUANTITY": 4, "DERIVATIVE": 5, "REACTION": 6}
 #: the program's int arrays and scalars, in the order md_parse reads them (mm_program's fields)
@@ -63,31 +66,42 @@ class _Writer:
             self.string(t)
 
 
-def payload(header: dict, variables: list, output_row, quantity_coordinate, quantity_order, program,
-            parameter_vr, parameter_value, geometry_parameters, unknown_names) -> bytes:
-    """The model's bytes in md_parse's order. ``header``: the strings (identifier, guid,
-    mechanism_name, mechanism_branch), the counts and the reals named in HEADER_FIELDS;
-    ``variables``: (name, kind, start, has_min, min_inclusive, has_max, min, max, range, unit)."""
-    w = _Writer()
-    for key in ("identifier", "guid", "mechanism_name", "mechanism_branch"):
-        w.string(header[key])
-    for key in ("causality_speed", "cycle_turns", "n_outputs", "n_fixed", "n_quantities", "n_ports", "n_reactions",
-                "reaction_terms", "n_quantity_coordinates", "table_functions", "table_sliders", "vr_e_kin"):
-        w.int(header[key])
-    for key in ("default_start_time", "table_tolerance", "reaction_tolerance"):
-        w.double(header[key])
+def _common(w: _Writer, identifier: str, guid: str, start_time: float, variables: list) -> None:
+    """Every kind's part: the identifier, the GUID, the start time and the variables, each (name,
+    kind, start, has_min, min_inclusive, has_max, max_inclusive, min, max, range, unit, description)."""
+    w.string(identifier)
+    w.string(guid)
+    w.double(start_time)
     w.int(len(variables))
-    for name, kind, start, has_min, min_inclusive, has_max, low, high, range_text, unit in variables:
+    for (name, kind, start, has_min, min_inclusive, has_max, max_inclusive, low, high, range_text, unit,
+         description) in variables:
         w.string(name)
         w.int(KINDS[kind])
         w.double(start)
         w.int(has_min)
         w.int(min_inclusive)
         w.int(has_max)
+        w.int(max_inclusive)
         w.double(low)
         w.double(high)
         w.string(range_text)
         w.string(unit)
+        w.string(description)
+
+
+def payload(header: dict, variables: list, output_row, quantity_coordinate, quantity_order, program,
+            parameter_vr, parameter_value, geometry_parameters, unknown_names) -> bytes:
+    """A mechanism's bytes in md_parse's order. ``header``: the strings (identifier, guid,
+    mechanism_name, mechanism_branch), the counts and the reals; ``variables``: as _common takes them."""
+    w = _Writer()
+    _common(w, header["identifier"], header["guid"], header["default_start_time"], variables)
+    for key in ("mechanism_name", "mechanism_branch"):
+        w.string(header[key])
+    for key in ("causality_speed", "cycle_turns", "n_outputs", "n_fixed", "n_quantities", "n_ports", "n_reactions",
+                "reaction_terms", "n_quantity_coordinates", "table_functions", "table_sliders", "vr_e_kin"):
+        w.int(header[key])
+    for key in ("table_tolerance", "reaction_tolerance"):
+        w.double(header[key])
     w.ints(output_row)
     w.ints(quantity_coordinate)
     w.ints(quantity_order)
@@ -108,6 +122,13 @@ def payload(header: dict, variables: list, output_row, quantity_coordinate, quan
     return b"".join(w.parts)
 
 
-def wrap(body: bytes) -> bytes:
+def component_payload(identifier: str, guid: str, start_time: float, variables: list) -> bytes:
+    """A component's bytes: every kind's part alone (its model finds its variables by name)."""
+    w = _Writer()
+    _common(w, identifier, guid, start_time, variables)
+    return b"".join(w.parts)
+
+
+def wrap(body: bytes, kind: int = MECHANISM) -> bytes:
     """The file: the magic, the format, the kind, the payload's size and SHA-256, the payload."""
-    return MAGIC + struct.pack("<IIQ", FORMAT, MECHANISM, len(body)) + hashlib.sha256(body).digest() + body
+    return MAGIC + struct.pack("<IIQ", FORMAT, kind, len(body)) + hashlib.sha256(body).digest() + body

@@ -14,7 +14,7 @@ runtime's C sources (``sources/``, with the modelDescription's SourceFiles, a
 ``buildDescription.xml`` and a ``CMakeLists.txt``) so that ``fmpy compile`` or CMake on another
 platform builds the same runtime, which reads the same model file.
 
-The native component FMUs (fmi.native_components) are still compiled, from their generated data.
+The native component FMUs (fmi.native_components) are the same runtime with a component's model file.
 """
 
 from __future__ import annotations
@@ -23,15 +23,12 @@ import shutil
 import subprocess
 import tempfile
 import zipfile
-from concurrent.futures import ThreadPoolExecutor
 from contextlib import ExitStack
 from pathlib import Path
 
 from ..atomic import replacing
 from ..errors import CrankfmuError
-from ..native.sources import (FMI_HEADERS, FMU_COMPILERS, PLATFORMS, PREBUILT, RUNTIMES, WIN64_CC, compile_object,
-                               compile_runtime, fmu_flags, includes, object_name, runtime, runtime_files,
-                               runtime_name)
+from ..native.sources import FMU_COMPILERS, PLATFORMS, RUNTIMES, compile_runtime, runtime, runtime_files, runtime_name
 from .background import reference_beside
 from .reference import LS_REF, LS_REF_MANIFEST, cross_check_options
 from .source import NATIVE_USER_FILES, preflight
@@ -52,9 +49,9 @@ def build_description(identifier: str, sources: list[str]) -> str:
 
 
 def cmake_lists(identifier: str) -> str:
-    """sources/CMakeLists.txt: the FMU's binary from its sources alone, as the runtimes and
-    compile_binary are built (C99, no FMA contraction, only the FMI functions exported), on any
-    platform CMake knows: cmake -S sources -B build && cmake --build build."""
+    """sources/CMakeLists.txt: the FMU's binary from its sources alone, as the runtimes are built
+    (C99, no FMA contraction, only the FMI functions exported), on any platform CMake knows: cmake
+    -S sources -B build && cmake --build build."""
     return f"""# builds {identifier}'s binary from these sources alone: cmake -S sources -B build && cmake --build build
 cmake_minimum_required(VERSION 3.10)
 project({identifier} C)
@@ -73,149 +70,70 @@ endif()
 """
 
 
-#: the compilers run at a lower priority: a build's longest single task is the reference run, one
-#: process from the build's start to its end (fmi.background); the compilers' work can be spread
-#: over what the cores have left, and where they are busy (two cores: the reference run, two
-#: compilers and the documentation) the build then ends when the reference run does
-_YIELDING = ["nice", "-n", "10"] if shutil.which("nice") else []
-
-
 def _run(cmd: list, compiler: str) -> str:
+    """A compiler's run (a runtime the installation lacks, compiled into the per-user cache)."""
     try:
-        if _YIELDING and shutil.which(cmd[0]) is None:      # nice would say it, in its words
-            raise FileNotFoundError(cmd[0])
-        done = subprocess.run([*_YIELDING, *cmd], capture_output=True, text=True)
+        done = subprocess.run(cmd, capture_output=True, text=True)
     except FileNotFoundError:
-        raise CrankfmuError(f"{compiler} not found; it compiles the native FMU's binary") from None
+        raise CrankfmuError(f"{compiler} not found; it compiles the native FMUs' runtime") from None
     if done.returncode != 0:
-        raise CrankfmuError(f"compiling the native FMU with {compiler} failed: {done.stderr.strip()}")
+        raise CrankfmuError(f"compiling the native FMUs' runtime with {compiler} failed: {done.stderr.strip()}")
     return done.stdout
 
 
-def _cached_object(compiler: str, flags: list, source: Path, generated) -> Path | None:
-    """The object of ``source``: the one installed with the package (sources.PREBUILT), else the
-    per-user cache's (compiled into it the first time), where nothing it includes is generated per
-    FMU (the kernel and the mechanism model are the same for every scenario: only their compiler,
-    flags and content name the object); None otherwise."""
-    from ..cache import cache_root
-
-    made = [source, *includes(source, [Path(f[2:]) for f in flags if f.startswith("-I")])]
-    if any(Path(dep).name in generated for dep in made):
-        return None
-    name = object_name(compiler, flags, made)
-    if (PREBUILT / name).is_file():
-        return PREBUILT / name
-    obj = cache_root() / "objects" / name
-    if not obj.is_file():
-        obj.parent.mkdir(parents=True, exist_ok=True)
-        compile_object(compiler, flags, source, obj, run=lambda command: _run(command, compiler))
-    return obj
-
-
-def compile_binary(compiler: str, folder: Path, out: Path, windows: bool, generated=()):
-    """The FMU's binary from the sources in ``folder``: C99, libgcc linked statically, nothing beyond
-    the C library (and libm on Linux); the FMI headers come with fmpy. The sources that include
-    nothing ``generated`` (the kernel, the mechanism model) come compiled: installed with the
-    package, else from the per-user cache."""
-    import fmpy
-
-    headers = Path(fmpy.__file__).parent / "c-code"
-    flags = fmu_flags(windows) + [f"-I{folder}", f"-I{headers}"]
-    inputs = []
-    for source in sorted(folder.glob("*.c")):
-        try:
-            cached = None if source.name in generated else _cached_object(compiler, flags, source, generated)
-        except OSError:                # a cache that cannot be written: compile it here
-            cached = None
-        inputs.append(str(cached or source))
-    cmd = [compiler, *flags, "-shared", "-static-libgcc", "-o", str(out), *inputs]
-    _run(cmd + ([] if windows else ["-lm"]), compiler)
-
-
-def package_native(source, dest: Path, copied, generated: dict, describe, parameters: dict, win64: bool | None,
-                   reference: str | None, extra: dict, about: dict, written: ExitStack,
-                   fmi_version: str = "2.0", runtimes: dict | None = None) -> Path:
-    """Compile and write a native FMU (a mechanism's or a component's) into ``dest``: the sources
-    ``copied`` ((folder, names) pairs) and ``generated`` (name -> text) compiled for each platform
-    of ``fmi_version`` (PLATFORMS: Linux x86_64 always; Windows where MinGW-w64 is installed
-    (``win64`` None) or asked for; FMI 3.0's aarch64 Linux where its cross compiler is installed);
-    the modelDescription ``describe(sources)`` gives; the documentation (its ``about``: the tables'
-    error bound); the ``extra`` files (path in the FMU -> text or bytes). ``reference``: the
-    reference CSV, or a function that waits for it (the documentation calls it once its drawings,
-    made while the run goes on, are done; else it is called before the FMU is written). ``runtimes``:
-    the binaries, prebuilt (platform folder -> path), instead of compiling ``copied`` and
-    ``generated``. The FMU replaces ``dest/<identifier>.fmu`` when ``written`` closes without an
+def package_native(source, dest: Path, describe, parameters: dict, reference, extra: dict, about: dict,
+                   written: ExitStack, fmi_version: str, runtimes: dict) -> Path:
+    """Write a native FMU (a mechanism's or a component's) into ``dest``: the ``runtimes`` (platform
+    folder -> the prebuilt binary: native_runtimes) with the runtime's sources (``sources/``, the
+    FMI headers, a buildDescription.xml and a CMakeLists.txt); the modelDescription
+    ``describe(sources)`` gives; the documentation (its ``about``: the tables' error bound); the
+    ``extra`` files (path in the FMU -> text or bytes: the model file among them). ``reference``:
+    the reference CSV, or a function that waits for it (the documentation calls it once its
+    drawings, made while the run goes on, are done; else it is called before the FMU is written).
+    Before it is written the FMU starts in a host, from a folder of what it needs, beside the
+    documentation. The FMU replaces ``dest/<identifier>.fmu`` when ``written`` closes without an
     error."""
     fmu = source.fmu
-    if win64 is None:
-        win64 = shutil.which(WIN64_CC) is not None
-    platforms = [] if runtimes is not None else [
-        (folder, cc, FMU_COMPILERS[cc]) for folder, cc in PLATFORMS[fmi_version]
-        if cc == "gcc" or (win64 if FMU_COMPILERS[cc] else shutil.which(cc) is not None)]
     dest.mkdir(parents=True, exist_ok=True)
     out = dest / f"{fmu}.fmu"
+    files = runtime_files(fmi_version)
+    sources = sorted([path.name for path in files] + ["CMakeLists.txt"])
     with tempfile.TemporaryDirectory() as tmp:
-        src = Path(tmp) / "sources"
-        src.mkdir()
-        for folder, names in copied:
-            for n in names:
-                shutil.copy2(folder / n, src / n)
-        for n, text in generated.items():
-            (src / n).write_text(text, encoding="utf-8")
-        import fmpy
-
-        for n in FMI_HEADERS[fmi_version]:
-            shutil.copy2(Path(fmpy.__file__).parent / "c-code" / n, src / n)
-        (src / "CMakeLists.txt").write_text(cmake_lists(fmu), encoding="utf-8")
-        sources = sorted(p.name for p in src.iterdir())
-        binaries = dict(runtimes or {})
-        # every platform's compiler at once, the reference run beside them; this process writes
-        # the modelDescription and draws the documentation meanwhile (the compilers are other
-        # processes: waiting for them first left its core to them alone)
-        with ThreadPoolExecutor(max_workers=max(len(platforms), 1)) as pool:
-            compiling = []
-            for folder, cc, windows in platforms:
-                binaries[folder] = Path(tmp) / folder / f"{fmu}{'.dll' if windows else '.so'}"
-                binaries[folder].parent.mkdir()
-                compiling.append((folder, pool.submit(compile_binary, cc, src, binaries[folder], windows, generated)))
-            with stage(fmu, "the modelDescription"):
-                md = describe(sources)
-            # prebuilt binaries: the FMU starts in a host (its model file read and its tables built)
-            # beside the documentation, from a folder of what it needs, instead of after the zip
-            check = None
-            host = [folder for folder in binaries if folder in HOST_PLATFORMS] if runtimes is not None else []
-            if host:
-                unzipped = Path(tmp) / "unzipped"
-                (unzipped / "binaries" / host[0]).mkdir(parents=True)
-                (unzipped / "modelDescription.xml").write_bytes(md)
-                shutil.copy2(binaries[host[0]], unzipped / "binaries" / host[0] / f"{fmu}{binaries[host[0]].suffix}")
-                for path, content in extra.items():
-                    if path.startswith("resources/"):
-                        (unzipped / path).parent.mkdir(parents=True, exist_ok=True)
-                        (unzipped / path).write_bytes(content if isinstance(content, bytes) else content.encode())
-                check = initialising(unzipped, fmu)
-            with stage(fmu, "the documentation"):
-                # a mechanism's documentation draws it before it waits for the reference run to plot
-                docs = source.documentation(fmu, md, parameters, reference, build="native",
-                                            platforms=list(binaries), **about)
-            for folder, job in compiling:
-                with stage(fmu, f"compiling the {folder} binary"):
-                    job.result()
+        with stage(fmu, "the modelDescription"):
+            md = describe(sources)
+        check = None
+        host = [folder for folder in runtimes if folder in HOST_PLATFORMS]
+        if host:
+            unzipped = Path(tmp) / "unzipped"
+            (unzipped / "binaries" / host[0]).mkdir(parents=True)
+            (unzipped / "modelDescription.xml").write_bytes(md)
+            binary = runtimes[host[0]]
+            shutil.copy2(binary, unzipped / "binaries" / host[0] / f"{fmu}{binary.suffix}")
+            for path, content in extra.items():
+                if path.startswith("resources/"):
+                    (unzipped / path).parent.mkdir(parents=True, exist_ok=True)
+                    (unzipped / path).write_bytes(content if isinstance(content, bytes) else content.encode())
+            check = initialising(unzipped, fmu)
+        with stage(fmu, "the documentation"):
+            # a mechanism's documentation draws it before it waits for the reference run to plot
+            docs = source.documentation(fmu, md, parameters, reference, build="native", platforms=list(runtimes),
+                                        **about)
         if callable(reference):             # a documentation without the plot: the run's CSV all the same
             reference()
         partial = written.enter_context(replacing(out))
         with stage(fmu, "writing the FMU"), zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", md)
-            for folder, binary in binaries.items():
+            for folder, binary in runtimes.items():
                 z.write(binary, f"binaries/{folder}/{fmu}{binary.suffix}")
-            for n in sources:
-                z.write(src / n, f"sources/{n}")
+            for path in files:
+                z.write(path, f"sources/{path.name}")
+            z.writestr("sources/CMakeLists.txt", cmake_lists(fmu))
             z.writestr("sources/buildDescription.xml", build_description(fmu, sources))
             for path, content in {**docs, **extra}.items():
                 z.writestr(path, content)
-        if check is not None or any(folder in HOST_PLATFORMS for folder in binaries):
+        if check is not None:
             with stage(fmu, "initialising the FMU at its start values"):
-                (check or initialising(partial, fmu))()
+                check()
     return out
 
 
@@ -258,8 +176,8 @@ def initialising(path: Path, fmu: str):
     return wait
 
 
-def mechanism_runtimes(fmi_version: str, win64: bool | None) -> dict:
-    """{platform folder: runtime} for a native mechanism FMU: each platform of ``fmi_version`` whose
+def native_runtimes(fmi_version: str, win64: bool | None) -> dict:
+    """{platform folder: runtime} for a native FMU: each platform of ``fmi_version`` whose
     runtime the installation has (native/runtimes) or the per-user cache has, else compiled into
     the cache where its compiler is installed. Linux x86_64 always (refused, saying why, where it
     can be had neither way); Windows unless ``win64`` is False (and required where it is True)."""
@@ -323,15 +241,12 @@ def _build_native(source, data_name, dest: Path, win64, fmi_version: str, refere
             extra["terminalsAndIcons/terminalsAndIcons.xml"] = native_fmi3.terminals_and_icons(model)
             extra["terminalsAndIcons/icon.png"] = mechanism_png(model.scenario)
     with stage(fmu, "the runtimes"):
-        runtimes = mechanism_runtimes(fmi_version, win64)
+        runtimes = native_runtimes(fmi_version, win64)
     extra[f"resources/{MODEL_FILE}"] = model.model_file()
-    # the runtime's sources (package_native adds the FMI headers)
-    files = [path for path in runtime_files(fmi_version) if path.name not in FMI_HEADERS[fmi_version]]
     with ExitStack() as written:
-        out = package_native(source, dest, [(path.parent, (path.name,)) for path in files], {},
-                             describe, model.parameters(), win64, reference, extra,
+        out = package_native(source, dest, describe, model.parameters(), reference, extra,
                              {"table_error": max(e for e, _ in model.table_errors.values())}, written, fmi_version,
-                             runtimes=runtimes)
+                             runtimes)
         Path(written.enter_context(replacing(dest / f"{fmu}_ref.csv"))).write_text(computed["csv"], encoding="utf-8")
         Path(written.enter_context(replacing(dest / f"{fmu}_ref.opt"))).write_text(cross_check_options(source),
                                                                                    encoding="utf-8")

@@ -3,20 +3,19 @@ with ``--causality speed``), ``crankfmu fmu die_cushion --cushion --native`` (Di
 ``crankfmu fmu rp11l_guo --well --native`` (RodString.fmu).
 
 The same data files, variables (names, order, units, ranges, starts, descriptions), DefaultExperiment
-and documentation as the Python FMU of the file (fmi.source's Source and Declared), but C: one
-model for every component (native/fmu/component_model.c) behind an FMI 2.0 or 3.0 shell
-(component_fmi2.c, component_fmi3.c), the components' models (native/fmu/component_models.c) on
-the components' physics (native/crank_components.c, which the Python FMUs call too), and the
-file's variables generated as data (component_config.h, component_data.c). Co-Simulation; FMI
-2.0 for linux64 and, where Debian's MinGW-w64 is installed, win64; FMI 3.0 (``--fmi-version 3``)
-for x86_64 Linux and Windows and aarch64 Linux; each binary links only the platform's C library.
+and documentation as the Python FMU of the file (fmi.source's Source and Declared), but C: the
+native mechanism FMUs' runtime (fmi.native_build: one prebuilt binary per FMI version and
+platform, nothing compiled), which reads the component's model file (fmi.model_file: its kind and
+its variables) and runs its model (native/fmu/component_model.c, component_models.c) on the
+components' physics (native/crank_components.c, which the Python FMUs call too). Co-Simulation;
+FMI 2.0 for linux64 and win64, FMI 3.0 (``--fmi-version 3``) for x86_64 Linux and Windows and
+aarch64 Linux, as the installation has them; each binary links only the platform's C library.
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
-import re
 from contextlib import ExitStack
 from pathlib import Path
 from xml.dom.minidom import parseString
@@ -24,24 +23,10 @@ from xml.etree import ElementTree as ET
 
 from .. import units as si
 from ..errors import CrankfmuError
-from ..native.sources import COMPONENTS, HERE as NATIVE
-
-#: the components' physics and the numbers of their messages
-PHYSICS_SOURCES = (*COMPONENTS, "crank_numbers.c", "crank_numbers.h")
+from . import model_file
+from .native_build import native_runtimes, package_native
+from .native_model import default_experiment, unit_definitions
 from .source import preflight, vendor_annotations
-from .native_build import package_native
-from .native_model import c_double, c_string, default_experiment, unit_definitions
-
-SHELL = NATIVE / "fmu"
-#: the component's model behind either FMI shell, and each version's shell
-MODEL_SOURCES = ("component_model.c", "component_model.h", "component_variables.h", "component_models.c",
-                 "fmu_states.h")
-SHELL_SOURCES = {"2.0": ("component_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
-                 "3.0": ("component_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}
-#: which model of component_models.c a (kind, causality) builds
-MODELS = {("drive", "torque"): "COMPONENT_DRIVE", ("drive", "speed"): "COMPONENT_DRIVE_SPEED",
-          ("cushion", "torque"): "COMPONENT_CUSHION", ("well", "torque"): "COMPONENT_ROD_STRING"}
-KINDS = {"OUTPUT": 0, "INPUT": 1, "TUNABLE": 2, "FIXED": 3}
 
 
 class ComponentModel:
@@ -51,9 +36,9 @@ class ComponentModel:
         self.source = source
         self.declared = source.variables()
         key = (source.kind, source.causality)
-        if key not in MODELS:
+        if key not in model_file.COMPONENTS:
             raise CrankfmuError(f"a {source.kind} file has no native build in {source.causality} causality")
-        self.model = MODELS[key]
+        self.kind = model_file.COMPONENTS[key]
         # (name, kind, start, min, max, min_inclusive, max_inclusive, unit, range text, description)
         rows = [(v.name, "OUTPUT", 0.0, -math.inf, math.inf, True, True, v.unit, "", v.description)
                 for v in self.declared.outputs]
@@ -66,7 +51,7 @@ class ComponentModel:
                          math.inf if p.max is None else p.max, p.min_inclusive, p.max_inclusive, p.unit,
                          p.range_text(), p.description))
         self.rows = rows
-        digest = hashlib.sha256(repr((source.fmu, self.model, rows)).encode()).hexdigest()
+        digest = hashlib.sha256(repr((source.fmu, self.kind, rows)).encode()).hexdigest()
         self.guid = "{" + f"{digest[:8]}-{digest[8:12]}-{digest[12:16]}-{digest[16:20]}-{digest[20:32]}" + "}"
 
     def parameters(self) -> dict:
@@ -92,38 +77,14 @@ class ComponentModel:
                                             **bounds))
         return table
 
-    # ------------------------------------------------------------------ generated C
-    def _string_layout(self) -> str:
-        """A rod string's value references of its tapers' and design's values, in the order of
-        crank_components.h (TAPER_KEYS per taper, STRING_KEYS = its CD_* order)."""
-        from ..dynamics.well import STRING_KEYS, TAPER_KEYS
-
-        vr = {row[0]: k for k, row in enumerate(self.rows)}
-        n = sum(1 for name in vr if re.fullmatch(r"taper\d+_length", name))
-        tapers = ", ".join("{" + ", ".join(str(vr[f"taper{i}_{k}"]) for k in TAPER_KEYS) + "}" for i in range(1, n + 1))
-        return (f"#define N_TAPERS {n}\n"
-                f"static const int TAPER_VR[N_TAPERS][4] = {{{tapers}}};\n"
-                f"static const int DESIGN_VR[] = {{{', '.join(str(vr[k]) for k in STRING_KEYS)}}};\n")
-
-    def config_h(self) -> str:
-        names = "\n".join(f"    VR_{row[0]} = {vr}," for vr, row in enumerate(self.rows))
-        return (f"/* generated by crankfmu fmu {self.source.name} --native: {self.source.fmu}.fmu */\n"
-                "#ifndef COMPONENT_CONFIG_H\n#define COMPONENT_CONFIG_H\n"
-                f"#define MODEL_IDENTIFIER {c_string(self.source.fmu)}\n"
-                f"#define MODEL_GUID {c_string(self.guid)}\n"
-                f"#define {self.model} 1\n"
-                f"#define N_VARIABLES {len(self.rows)}\n"
-                f"#define DEFAULT_START_TIME {c_double(self.source.experiment.start_time)}\n"
-                f"enum {{\n{names}\n}};\n"
-                + (self._string_layout() if self.model == "COMPONENT_ROD_STRING" else "") + "#endif\n")
-
-    def data_c(self) -> str:
-        entries = ",\n".join(
-            f"    {{{c_string(n)}, KIND_{kind}, {c_double(start)}, {c_double(lo)}, {c_double(hi)}, {int(lo_in)}, "
-            f"{int(hi_in)}, {c_string(unit)}, {c_string(text)}, {c_string(description)}}}"
-            for n, kind, start, lo, hi, lo_in, hi_in, unit, text, description in self.rows)
-        return ('#include <math.h>\n\n#include "component_variables.h"\n\n'
-                f"const Variable VARIABLES[N_VARIABLES] = {{\n{entries}\n}};\n")
+    # ------------------------------------------------------------------ the model file
+    def model_file(self) -> bytes:
+        """resources/crankfmu-model.bin: the component's kind and variables, as the runtime reads them."""
+        rows = [(name, kind, start, int(math.isfinite(lo)), int(lo_in), int(math.isfinite(hi)), int(hi_in),
+                 lo if math.isfinite(lo) else 0.0, hi if math.isfinite(hi) else 0.0, text, unit, description)
+                for name, kind, start, lo, hi, lo_in, hi_in, unit, text, description in self.rows]
+        body = model_file.component_payload(self.source.fmu, self.guid, self.source.experiment.start_time, rows)
+        return model_file.wrap(body, self.kind)
 
     # ------------------------------------------------------------------ modelDescription
     def model_description(self, sources: list[str]) -> bytes:
@@ -180,8 +141,8 @@ def build_native_component(kind: str, data_name: str, dest: Path, name: str | No
                            causality: str | None = None, win64: bool | None = None, fmi_version: str = "2.0") -> Path:
     """The native FMU of a drive file (``kind`` "drive", either causality), a cushion file
     ("cushion") or a well file ("well": the rod string) in ``dest``, from the same Source the
-    Python FMU is built from; FMI ``fmi_version`` "2.0" or "3.0" (the same model behind the
-    other shell)."""
+    Python FMU is built from; FMI ``fmi_version`` "2.0" or "3.0" (the same runtime, the other
+    shell). ``win64``: the Windows binary too (default: where the installation has it)."""
     source = preflight(kind, data_name, name, causality)
     model = ComponentModel(source)
     describe = model.model_description
@@ -191,7 +152,7 @@ def build_native_component(kind: str, data_name: str, dest: Path, name: str | No
         describe = lambda sources: native_fmi3.describe(source, model.guid, source.title, source.experiment,  # noqa: E731
                                                         model.variables(), model_exchange=False, events=False,
                                                         indicators=0)
+    runtimes = native_runtimes(fmi_version, win64)
     with ExitStack() as written:
-        return package_native(source, dest, ((NATIVE, PHYSICS_SOURCES), (SHELL, MODEL_SOURCES + SHELL_SOURCES[fmi_version])),
-                              {"component_config.h": model.config_h(), "component_data.c": model.data_c()},
-                              describe, model.parameters(), win64, None, {}, {}, written, fmi_version)
+        return package_native(source, dest, describe, model.parameters(), None,
+                              {f"resources/{model_file.NAME}": model.model_file()}, {}, written, fmi_version, runtimes)

@@ -1,15 +1,15 @@
 """FMI 3.0 for the native mechanism FMU (``crankfmu fmu SCENARIO --native --fmi-version 3``): the same
 model and kernel as the FMI 2.0 FMU (``native/fmu/crank_model.c``, the same variables in the same
-order: ``NativeModel.variables``) behind ``native/fmu/crank_fmi3.c``. Here: its modelDescription
+order: ``NativeModel.variables``) behind ``native/fmu/fmi3_shell.c``. Here: its modelDescription
 3.0 and its ``terminalsAndIcons/``.
 
 - Variables are Float64, each of a ``Float64Type`` named after its quantity (Torque, Angle, ...)
   carrying the SI unit; the states' derivatives name their state (``derivative``); Model Exchange
   adds one variable per event indicator (the kernel's event slots: the motor's kink, its sliding
   mode, the two ends of the slider forces' switch interval, omega1 = 0) and every FMU the
-  independent variable ``time``, after the FMI 2.0 variables (crank_fmi3.c's value references).
+  independent variable ``time``, after the FMI 2.0 variables (fmi3_shell.c's value references).
 - ModelStructure: Output, ContinuousStateDerivative, InitialUnknown, EventIndicator.
-- Co-Simulation: ``hasEventMode`` and ``mightReturnEarlyFromDoStep`` (crank_fmi3.c: a switch the
+- Co-Simulation: ``hasEventMode`` and ``mightReturnEarlyFromDoStep`` (fmi3_shell.c: a switch the
   kernel locates inside a step is the host's event, or ends the step early, as the host asks).
 - terminalsAndIcons: the mechanism's drawing as the icon, and one terminal per port grouping its
   input and its outputs with each member's role (the force or couple flows in; the position,
@@ -55,7 +55,7 @@ def describe(source, guid: str, title: str, experiment, table: list, model_excha
     """modelDescription.xml 3.0 of a native FMU (a mechanism's or a component's): the variables of
     ``table`` (NativeVariable, in value-reference order), ``indicators`` event indicators (Model
     Exchange) and time after them, past the ``reserved`` value references the shell keeps for
-    indicators (crank_fmi3.c: always the kernel's slots); Co-Simulation with event mode and early
+    indicators (fmi3_shell.c: always the kernel's slots); Co-Simulation with event mode and early
     return where ``events`` (a switch the kernel locates)."""
     root = ET.Element("fmiModelDescription", fmiVersion="3.0", modelName=source.fmu, instantiationToken=guid,
                       description=title, generationTool="crankfmu (native)", variableNamingConvention="structured")

@@ -153,9 +153,9 @@ class NativeModel:
 
         def variable(name, kind, start=0.0, p=None, unit=""):
             if p is None:
-                return (name, kind, start, 0, 1, 0, 0.0, 0.0, "", unit)
+                return (name, kind, start, 0, 1, 0, 1, 0.0, 0.0, "", unit, "")
             return (name, kind, p.value, int(p.min is not None), int(p.min_inclusive), int(p.max is not None),
-                    p.min or 0.0, p.max or 0.0, p.range_text(), p.unit)
+                    int(p.max_inclusive), p.min or 0.0, p.max or 0.0, p.range_text(), p.unit, "")
 
         rows = [variable(v.name, "OUTPUT", unit=v.unit) for v in self.outputs]
         rows.append(variable(self.input.name, "INPUT", self.input_start, unit=self.input.unit))

@@ -2,7 +2,7 @@
  * same model, the independent reference its tests compare with), the die cushion's law and the
  * rod string's steps with its valve pump (dynamics/rodstring.py: the reference). The Python FMUs
  * (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu, RodString.fmu) and the in-process well call these
- * through the kernel library; the native component FMUs compile them in (fmu/component_fmi2.c). */
+ * through the kernel library; the native FMUs' runtime runs them (fmu/component_models.c). */
 #ifndef CRANK_COMPONENTS_H
 #define CRANK_COMPONENTS_H
 

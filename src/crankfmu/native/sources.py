@@ -1,13 +1,12 @@
 """The C kernel's sources and their content hash: what the library is compiled from and the name
-of what it was compiled from; the native mechanism FMUs' runtimes, one binary per FMI version and
-platform that reads its scenario from the FMU's resources (RUNTIME_*), compiled for every platform
-whose compiler is installed when the package is built, so that ``crankfmu fmu --native`` compiles
-nothing; and the objects the native component FMUs link. The standard library only: setup.py runs
-this file by its path before anything is installed."""
+of what it was compiled from; and the native FMUs' runtime, one binary per FMI version and platform
+that reads its model (a mechanism's scenario or a component) from the FMU's resources (RUNTIME_*),
+compiled for every platform whose compiler is installed when the package is built, so that
+``crankfmu fmu --native`` compiles nothing. The standard library only: setup.py runs this file by
+its path before anything is installed."""
 
 import hashlib
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -34,9 +33,6 @@ MECHANISM = ("crank_mechanism.c", "crank_assembly.c", "crank_engine.c", "crank_t
 SOURCES = KERNEL + COMPONENTS + WELL + MECHANISM
 #: the C files the library is compiled from (the mechanism's kernel, the components' physics, the well)
 C_FILES = tuple(name for name in SOURCES if name.endswith(".c"))
-#: the C files native FMUs link: the mechanism's kernel and model, the components' physics (the
-#: well's coupling runs in process only)
-FMU_C_FILES = tuple(name for name in KERNEL + COMPONENTS + MECHANISM if name.endswith(".c"))
 #: how the library is compiled, by setup.py and by the fallback: C99, no FMA contraction (the
 #: numbers do not depend on the CPU the library was compiled for)
 CFLAGS = ["-std=c99", "-O2", "-ffp-contract=off", "-fPIC"]
@@ -45,18 +41,17 @@ AARCH64_CC = "aarch64-linux-gnu-gcc"
 #: the native FMUs' compilers, each with whether it makes a Windows DLL: Linux x86_64, and where they
 #: are installed Windows x86_64 (MinGW-w64) and Linux aarch64 (FMI 3.0)
 FMU_COMPILERS = {"gcc": False, WIN64_CC: True, AARCH64_CC: False}
-#: the objects of this folder's C files compiled for native FMUs when the package was installed
-#: (setup.py; make test again once MinGW is there), named as object_name names them
-PREBUILT = HERE / "objects"
 
 
-#: the mechanism FMU's runtime besides the kernel and the mechanism model (in fmu/): the model behind
-#: either FMI shell and its model file's reader, and each FMI version's shell
-RUNTIME_MODEL = ("crank_model.c", "crank_model_variables.c", "crank_model_me.c", "crank_model_refusals.c",
-                 "crank_model_file.c", "sha256.c", "crank_model.h", "crank_model_internal.h", "crank_variables.h",
-                 "sha256.h", "fmu_states.h")
-RUNTIME_SHELL = {"2.0": ("crank_fmi2.c", "fmi2_messages.c", "fmi2_messages.h"),
-                 "3.0": ("crank_fmi3.c", "fmi3_refusals.c", "fmi3_refusals.h")}
+#: the native FMUs' runtime besides the kernel, the mechanism model and the components' physics (in
+#: fmu/): the one model API (fmu_model.c) and its model file's reader, the mechanism's model and the
+#: components' behind it, and each FMI version's shell
+RUNTIME_MODEL = ("fmu_model.c", "crank_model.c", "crank_model_variables.c", "crank_model_me.c",
+                 "crank_model_refusals.c", "component_model.c", "component_models.c", "crank_model_file.c", "sha256.c",
+                 "fmu_model.h", "model_status.h", "crank_model.h", "crank_model_internal.h", "component_model.h",
+                 "crank_variables.h", "sha256.h", "fmu_states.h")
+RUNTIME_SHELL = {"2.0": ("fmi2_shell.c", "fmi2_messages.c", "fmi2_messages.h"),
+                 "3.0": ("fmi3_shell.c", "fmi3_refusals.c", "fmi3_refusals.h")}
 #: the FMI headers each version's sources carry (from fmpy, BSD-2-Clause): a source build needs nothing else
 FMI_HEADERS = {"2.0": ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                "3.0": ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
@@ -69,7 +64,7 @@ RUNTIMES = HERE / "runtimes"
 
 def runtime_files(fmi_version: str) -> list[Path]:
     """Every file a runtime is compiled from, the FMI headers too: what an FMU's sources/ carry."""
-    return ([HERE / n for n in KERNEL + MECHANISM]
+    return ([HERE / n for n in KERNEL + COMPONENTS + MECHANISM]
             + [HERE / "fmu" / n for n in RUNTIME_MODEL + RUNTIME_SHELL[fmi_version]]
             + [fmi_headers() / n for n in FMI_HEADERS[fmi_version]])
 
@@ -169,89 +164,19 @@ def fmu_flags(windows: bool) -> list:
     return flags + ([] if windows else ["-fvisibility=hidden"])
 
 
-_INCLUDE = re.compile(rb'^[ \t]*#[ \t]*include[ \t]*"([^"]+)"', re.MULTILINE)
-
-
-def includes(source: Path, folders: list) -> set:
-    """The files ``source`` includes by "name", each found first beside the file that includes it,
-    then in ``folders`` (the -I folders), and what they include in turn: the list gcc -MM gives,
-    read here instead of by one compiler process per source and platform (0.03 s each, in series
-    with the compiles). An include under an #if counts either way: one dependency too many costs at
-    most a cache miss, never a stale object."""
-    found, todo = set(), [Path(source)]
-    while todo:
-        including = todo.pop()
-        for name in _INCLUDE.findall(including.read_bytes()):
-            for folder in (including.parent, *folders):
-                candidate = Path(folder) / name.decode()
-                if candidate.is_file():
-                    if candidate not in found:
-                        found.add(candidate)
-                        todo.append(candidate)
-                    break
-    return found
-
-
-def object_name(compiler: str, flags: list, made: list) -> str:
-    """The name of the object a compiler makes of ``made`` (the source, then every file it
-    includes) with ``flags``: the compiler, the flags and each file's name and content, not the
-    folders (-I) they were read from, which differ between builds and installations."""
-    h = hashlib.sha256(repr((compiler, [f for f in flags if not f.startswith("-I")])).encode())
-    for dep in sorted(made, key=lambda p: (Path(p).name, str(p))):
-        h.update(Path(dep).name.encode() + b"\0" + Path(dep).read_bytes())
-    return f"{Path(made[0]).stem}_{h.hexdigest()[:20]}.o"
-
-
-def compile_object(compiler: str, flags: list, source: Path, obj: Path, run=None) -> None:
-    """Compile ``source`` to ``obj`` under a temporary name, then rename it: a reader sees a whole
-    object or none. ``run(command)`` runs the compiler and raises where it fails (default: a
-    RuntimeError with the compiler's message)."""
-    partial = obj.with_name(f"{obj.name}.{os.getpid()}.{threading.get_ident()}")
-    try:
-        (run or _run)([compiler, *flags, "-c", "-o", str(partial), str(source)])
-        os.replace(partial, obj)
-    finally:
-        partial.unlink(missing_ok=True)
-
-
 def _run(command: list) -> None:
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
-        raise RuntimeError(f"{command[0]} failed on {Path(command[-1]).name}: {done.stderr.strip()}")
-
-
-def prebuild(folder: Path = PREBUILT) -> list:
-    """The objects of FMU_C_FILES compiled into ``folder`` for every FMU compiler installed, all at
-    once: a first native build then compiles only its own generated files. Objects of earlier
-    sources are removed. Returns the compilers used."""
-    compilers = [cc for cc in FMU_COMPILERS if shutil.which(cc)]
-    folder.mkdir(parents=True, exist_ok=True)
-    jobs = {}
-    for cc in compilers:
-        flags = fmu_flags(FMU_COMPILERS[cc]) + [f"-I{HERE}"]
-        for name in FMU_C_FILES:
-            source = HERE / name
-            obj = folder / object_name(cc, flags, [source, *includes(source, [HERE])])
-            jobs[obj] = (cc, flags, source)
-    for old in folder.glob("*.o"):
-        if old not in jobs:
-            old.unlink()
-    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-        for done in [pool.submit(compile_object, *job, obj) for obj, job in jobs.items() if not obj.is_file()]:
-            done.result()
-    return compilers
+        raise RuntimeError(f"{command[0]} failed compiling the native FMUs' runtime: {done.stderr.strip()}")
 
 
 if __name__ == "__main__":
     # python src/crankfmu/native/sources.py --prebuild (by its path, as setup.py reads it): the
-    # objects and runtimes again once a cross compiler is installed
+    # runtimes again once a cross compiler is installed, or the sources changed
     if sys.argv[1:] != ["--prebuild"]:
         sys.exit("usage: python sources.py --prebuild")
     try:
-        used = prebuild()
         runtimes = prebuild_runtimes()
     except (OSError, RuntimeError) as error:
         sys.exit(f"sources.py --prebuild: {error}")
-    print(f"native FMU objects compiled for {', '.join(used) or 'no compiler found'} in {PREBUILT}")
-    print(f"runtimes of the native mechanism FMUs: {', '.join(f'FMI {v} {p}' for v, p in runtimes) or 'none'} "
-          f"in {RUNTIMES}")
+    print(f"runtimes of the native FMUs: {', '.join(f'FMI {v} {p}' for v, p in runtimes) or 'none'} in {RUNTIMES}")

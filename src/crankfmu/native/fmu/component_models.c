@@ -1,211 +1,244 @@
-/* The native component FMUs' models: the drive (torque out, speed in), the drive in speed
- * causality (it carries the rotor: speed out, the mechanism's torque in), the die cushion and the
- * rod string, each on the components' physics (crank_components.c). component_config.h says which one this FMU is
- * and where each variable is (VR_<name>: the names of the data file, dynamics/drive.py and
- * dynamics/cushion.py require them). */
+/* The native component FMUs' models: the drive (torque out, speed in), the drive in speed causality
+ * (it carries the rotor: speed out, the mechanism's torque in), the die cushion and the rod string,
+ * each on the components' physics (crank_components.c). The model file says which one an FMU is
+ * (its kind) and what its variables are; each model finds the variables it uses by their names,
+ * which the data files require (dynamics/drive.py, dynamics/cushion.py, dynamics/well.py). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
-#include "component_variables.h"
+#include "component_model.h"
 #include "crank_components.h"
 
-#if defined(COMPONENT_DRIVE) || defined(COMPONENT_DRIVE_SPEED)
-static void constants(const double* v, double* d)
-{
-    d[CC_R] = v[VR_R];
-    d[CC_L] = v[VR_L];
-    d[CC_K_T] = v[VR_k_t];
-    d[CC_N_GEAR] = v[VR_n_gear];
-    d[CC_KP] = v[VR_Kp];
-    d[CC_KI] = v[VR_Ki];
-}
-#endif
+/* the names each kind uses, in its slots' order (c->slot[k] is the value reference of name k) */
+enum { DR_R, DR_L, DR_K_T, DR_N_GEAR, DR_KP, DR_KI, DR_OMEGA, DR_OMEGA_SET, DR_I_START, DR_X_START, DR_TAU, DR_I, DR_U,
+       DR_P_EL, DR_OMEGA_START, DR_TAU_LOAD, DR_J_DRIVE };
+static const char* const DRIVE[] = {"R", "L", "k_t", "n_gear", "Kp", "Ki", "omega", "omega_set", "i_start", "x_start",
+                                    "tau", "i", "u", "P_el", "omega_start", "tau_load", "J_drive"};
+enum { CU_K, CU_C, CU_L_FREE, CU_S_SEAT, CU_S, CU_V, CU_F };
+static const char* const CUSHION[] = {"k", "c", "L_free", "s_seat", "s", "v", "F"};
+/* the rod string's: its ports, then its design in crank_components.h's CD_ order (dynamics/well.py's
+ * STRING_KEYS), then per taper (top first) TAPER_KEYS */
+enum { RS_S, RS_V, RS_F, RS_U_PUMP, RS_F_PUMP, RS_W_POLISHED, RS_W_HYDRAULIC, RS_DESIGN };
+static const char* const ROD_STRING[] = {"s", "v", "F", "u_pump", "F_pump", "W_polished", "W_hydraulic", "rho_fluid",
+                                         "rho_steel", "plunger_diameter", "fluid_level", "p_tubing", "p_casing",
+                                         "damping", "friction", "fillage", "g", "segment", "courant"};
+#define RS_TAPERS (RS_DESIGN + CD_SIZE)
+static const char* const TAPER_KEYS[] = {"length", "diameter", "E", "mass_per_length"};
 
-#if defined(COMPONENT_DRIVE)
-/* state: the armature current i (A), the integral x of the speed error (rad); omega an input */
-int model_state_size(const double* v, char* why, int why_size)
+static int find(const ModelData* d, const char* name)
 {
-    (void)v;
-    (void)why;
-    (void)why_size;
-    return 2;
-}
-
-void model_start(const double* v, double t, double* s)
-{
-    (void)t;
-    s[0] = v[VR_i_start];
-    s[1] = v[VR_x_start];
+    for (int vr = 0; vr < d->n_variables; vr++)
+        if (strcmp(d->variables[vr].name, name) == 0) return vr;
+    return -1;
 }
 
-void model_step(const double* v, double* s, double h)
+static int bind_names(Component* c, const char* const* names, int n, int first, char* why, size_t why_size)
 {
-    double d[CC_DRIVE_SIZE], out[2];
-    constants(v, d);
-    cc_drive_step(d, s[0], s[1], v[VR_omega], v[VR_omega_set], h, out);
-    s[0] = out[0];
-    s[1] = out[1];
+    for (int k = 0; k < n; k++)
+        if ((c->slot[first + k] = find(c->d, names[k])) < 0) {
+            snprintf(why, why_size, "it has no variable %s, which its model needs", names[k]);
+            return -1;
+        }
+    return 0;
 }
 
-void model_outputs(double* v, const double* s)
+int model_bind(Component* c, char* why, size_t why_size)
+{
+    switch (c->d->kind) {
+    case CM_MODEL_DRIVE: return bind_names(c, DRIVE, DR_OMEGA_START, 0, why, why_size);
+    case CM_MODEL_DRIVE_SPEED: return bind_names(c, DRIVE, DR_J_DRIVE + 1, 0, why, why_size);
+    case CM_MODEL_CUSHION: return bind_names(c, CUSHION, CU_F + 1, 0, why, why_size);
+    case CM_MODEL_ROD_STRING: {
+        if (bind_names(c, ROD_STRING, RS_TAPERS, 0, why, why_size) != 0) return -1;
+        char name[64];
+        c->n_tapers = 0;
+        for (;;) {               /* taper1_length, taper2_length, ... as long as they go on */
+            snprintf(name, sizeof name, "taper%d_%s", c->n_tapers + 1, TAPER_KEYS[0]);
+            if (find(c->d, name) < 0 || RS_TAPERS + 4 * (c->n_tapers + 1) > CM_MAX_VARIABLES) break;
+            for (int k = 0; k < 4; k++) {
+                snprintf(name, sizeof name, "taper%d_%s", c->n_tapers + 1, TAPER_KEYS[k]);
+                const char* one[] = {name};
+                if (bind_names(c, one, 1, RS_TAPERS + 4 * c->n_tapers + k, why, why_size) != 0) return -1;
+            }
+            c->n_tapers++;
+        }
+        if (c->n_tapers == 0) {
+            snprintf(why, why_size, "it has no variable taper1_length: a rod string has at least one taper");
+            return -1;
+        }
+        return 0;
+    }
+    default: snprintf(why, why_size, "its kind %d is no component's", c->d->kind); return -1;
+    }
+}
+
+/* ------------------------------------------------------------------------------ the drive */
+
+#define V(k) v[c->slot[k]]
+
+static void drive_constants(const Component* c, const double* v, double* d)
+{
+    d[CC_R] = V(DR_R);
+    d[CC_L] = V(DR_L);
+    d[CC_K_T] = V(DR_K_T);
+    d[CC_N_GEAR] = V(DR_N_GEAR);
+    d[CC_KP] = V(DR_KP);
+    d[CC_KI] = V(DR_KI);
+}
+
+/* the drive's state: the armature current i (A), the integral x of the speed error (rad), and in
+ * speed causality the crank speed omega (rad/s), which it outputs (in torque causality an input) */
+static void drive_outputs(const Component* c, double* v, const double* s, int speed)
 {
     double d[CC_DRIVE_SIZE];
-    constants(v, d);
-    double u = cc_drive_voltage(d, s[1], v[VR_omega], v[VR_omega_set]);
-    v[VR_tau] = cc_drive_torque(d, s[0]);
-    v[VR_i] = s[0];
-    v[VR_u] = u;
-    v[VR_P_el] = u * s[0];
-}
-#elif defined(COMPONENT_DRIVE_SPEED)
-/* state: i, x and the crank speed omega (rad/s), which the drive outputs */
-int model_state_size(const double* v, char* why, int why_size)
-{
-    (void)v;
-    (void)why;
-    (void)why_size;
-    return 3;
+    drive_constants(c, v, d);
+    if (speed) V(DR_OMEGA) = s[2];
+    double u = cc_drive_voltage(d, s[1], V(DR_OMEGA), V(DR_OMEGA_SET));
+    V(DR_TAU) = cc_drive_torque(d, s[0]);
+    V(DR_I) = s[0];
+    V(DR_U) = u;
+    V(DR_P_EL) = u * s[0];
 }
 
-void model_start(const double* v, double t, double* s)
-{
-    (void)t;
-    s[0] = v[VR_i_start];
-    s[1] = v[VR_x_start];
-    s[2] = v[VR_omega_start];
-}
-
-void model_step(const double* v, double* s, double h)
+static void drive_step(const Component* c, const double* v, double* s, double h, int speed)
 {
     double d[CC_DRIVE_SIZE], out[3];
-    constants(v, d);
-    cc_drive_step_with_rotor(d, s[0], s[1], s[2], v[VR_omega_set], v[VR_tau_load], v[VR_J_drive], h, out);
+    drive_constants(c, v, d);
+    if (speed) {
+        cc_drive_step_with_rotor(d, s[0], s[1], s[2], V(DR_OMEGA_SET), V(DR_TAU_LOAD), V(DR_J_DRIVE), h, out);
+        s[2] = out[2];
+    } else {
+        cc_drive_step(d, s[0], s[1], V(DR_OMEGA), V(DR_OMEGA_SET), h, out);
+    }
     s[0] = out[0];
     s[1] = out[1];
-    s[2] = out[2];
 }
 
-void model_outputs(double* v, const double* s)
-{
-    double d[CC_DRIVE_SIZE];
-    constants(v, d);
-    double u = cc_drive_voltage(d, s[1], s[2], v[VR_omega_set]);
-    v[VR_omega] = s[2];
-    v[VR_tau] = cc_drive_torque(d, s[0]);
-    v[VR_i] = s[0];
-    v[VR_u] = u;
-    v[VR_P_el] = u * s[0];
-}
-#elif defined(COMPONENT_CUSHION)
-/* no state: the force is the law at the inputs as the host set them */
-int model_state_size(const double* v, char* why, int why_size)
-{
-    (void)v;
-    (void)why;
-    (void)why_size;
-    return 1;
-}
+/* ------------------------------------------------------------------------------ the rod string */
 
-void model_start(const double* v, double t, double* s)
-{
-    (void)v;
-    (void)t;
-    (void)s;
-}
-
-void model_step(const double* v, double* s, double h)
-{
-    (void)v;
-    (void)s;
-    (void)h;
-}
-
-void model_outputs(double* v, const double* s)
-{
-    (void)s;
-    v[VR_F] = cc_cushion_force(v[VR_k], v[VR_c], v[VR_L_free], v[VR_s_seat], v[VR_s], v[VR_v]);
-}
-#elif defined(COMPONENT_ROD_STRING)
 /* The rod string (fmi/rodstring.py is the Python FMU of the same file): the state is the grid
  * (node masses and weights, segment stiffnesses), Gibbs' c, the pump, dt_max, whether the string
  * was hung at the first step, then the positions, velocities, the last positions, the scalars
  * and a scratch row. The string hangs at rest from the polished rod's position at the first step
  * (a master sets connected inputs after initialisation); each step moves the polished rod linearly
  * to s + v h. */
-enum { RS_N, RS_C, RS_FO, RS_FRICTION, RS_FILLAGE, RS_DT_MAX, RS_HUNG, RS_HEAD };
-
-static void values_of(const double* v, double* tapers, double* design)
-{
-    for (int i = 0; i < N_TAPERS; i++)
-        for (int k = 0; k < 4; k++) tapers[4 * i + k] = v[TAPER_VR[i][k]];
-    for (int k = 0; k < CD_SIZE; k++) design[k] = v[DESIGN_VR[k]];
-}
-
-int model_state_size(const double* v, char* why, int why_size)
-{
-    double tapers[4 * N_TAPERS], design[CD_SIZE];
-    values_of(v, tapers, design);
-    int n = cc_string_nodes(N_TAPERS, tapers, design, why, why_size);
-    return n ? RS_HEAD + 7 * n + CS_SIZE : 0;
-}
-
+enum { ST_N, ST_C, ST_FO, ST_FRICTION, ST_FILLAGE, ST_DT_MAX, ST_HUNG, ST_HEAD };
 /* the pieces of the state */
-#define RS_NODES(s) ((int)(s)[RS_N])
-#define RS_MASS(s) ((s) + RS_HEAD)
-#define RS_WEIGHT(s) (RS_MASS(s) + RS_NODES(s))
-#define RS_STIFFNESS(s) (RS_WEIGHT(s) + RS_NODES(s))
-#define RS_U(s) (RS_STIFFNESS(s) + RS_NODES(s))
-#define RS_V(s) (RS_U(s) + RS_NODES(s))
-#define RS_LAST(s) (RS_V(s) + RS_NODES(s))
-#define RS_X(s) (RS_LAST(s) + RS_NODES(s))
-#define RS_SCRATCH(s) (RS_X(s) + CS_SIZE)
+#define ST_NODES(s) ((int)(s)[ST_N])
+#define ST_MASS(s) ((s) + ST_HEAD)
+#define ST_WEIGHT(s) (ST_MASS(s) + ST_NODES(s))
+#define ST_STIFFNESS(s) (ST_WEIGHT(s) + ST_NODES(s))
+#define ST_U(s) (ST_STIFFNESS(s) + ST_NODES(s))
+#define ST_V(s) (ST_U(s) + ST_NODES(s))
+#define ST_LAST(s) (ST_V(s) + ST_NODES(s))
+#define ST_X(s) (ST_LAST(s) + ST_NODES(s))
+#define ST_SCRATCH(s) (ST_X(s) + CS_SIZE)
 
-void model_start(const double* v, double t, double* s)
+/* the tapers (4 per taper, crank_components.h's order) and the design (CD_ order) from the values */
+static void string_values(const Component* c, const double* v, double* tapers, double* design)
 {
-    double tapers[4 * N_TAPERS], design[CD_SIZE], out[4];
+    for (int i = 0; i < 4 * c->n_tapers; i++) tapers[i] = V(RS_TAPERS + i);
+    for (int k = 0; k < CD_SIZE; k++) design[k] = V(RS_DESIGN + k);
+}
+
+static int string_state_size(const Component* c, const double* v, char* why, int why_size)
+{
+    double tapers[CM_MAX_VARIABLES], design[CD_SIZE];
+    string_values(c, v, tapers, design);
+    int n = cc_string_nodes(c->n_tapers, tapers, design, why, why_size);
+    return n ? ST_HEAD + 7 * n + CS_SIZE : 0;
+}
+
+static void string_start(const Component* c, const double* v, double t, double* s)
+{
+    double tapers[CM_MAX_VARIABLES], design[CD_SIZE], out[4];
     char why[8];
-    values_of(v, tapers, design);
-    int n = cc_string_nodes(N_TAPERS, tapers, design, why, sizeof why);
-    s[RS_N] = n;
-    cc_string_grid(N_TAPERS, tapers, design, RS_MASS(s), RS_WEIGHT(s), RS_STIFFNESS(s), out);
-    s[RS_C] = out[0];
-    s[RS_FO] = out[1];
-    s[RS_FRICTION] = design[CD_FRICTION];
-    s[RS_FILLAGE] = design[CD_FILLAGE];
-    s[RS_DT_MAX] = out[2];
-    s[RS_HUNG] = 0.0;
-    double* x = RS_X(s);
+    string_values(c, v, tapers, design);
+    int n = cc_string_nodes(c->n_tapers, tapers, design, why, sizeof why);
+    s[ST_N] = n;
+    cc_string_grid(c->n_tapers, tapers, design, ST_MASS(s), ST_WEIGHT(s), ST_STIFFNESS(s), out);
+    s[ST_C] = out[0];
+    s[ST_FO] = out[1];
+    s[ST_FRICTION] = design[CD_FRICTION];
+    s[ST_FILLAGE] = design[CD_FILLAGE];
+    s[ST_DT_MAX] = out[2];
+    s[ST_HUNG] = 0.0;
+    double* x = ST_X(s);
     memset(x, 0, CS_SIZE * sizeof(double));
     x[CS_U_TOP] = x[CS_U_BOTTOM] = NAN;          /* no stroke seen yet */
-    cc_string_hang(n, RS_WEIGHT(s), RS_STIFFNESS(s), t, v[VR_s], RS_U(s), RS_V(s), x);
-    memcpy(RS_LAST(s), RS_U(s), (size_t)n * sizeof(double));
+    cc_string_hang(n, ST_WEIGHT(s), ST_STIFFNESS(s), t, V(RS_S), ST_U(s), ST_V(s), x);
+    memcpy(ST_LAST(s), ST_U(s), (size_t)n * sizeof(double));
 }
 
-void model_step(const double* v, double* s, double h)
+static void string_step(const Component* c, const double* v, double* s, double h)
 {
-    int n = RS_NODES(s);
-    double* x = RS_X(s);
+    int n = ST_NODES(s);
+    double* x = ST_X(s);
     if (!(h > 0.0)) return;
-    if (s[RS_HUNG] == 0.0) {
-        cc_string_hang(n, RS_WEIGHT(s), RS_STIFFNESS(s), x[CS_T], v[VR_s], RS_U(s), RS_V(s), x);
-        s[RS_HUNG] = 1.0;
+    if (s[ST_HUNG] == 0.0) {
+        cc_string_hang(n, ST_WEIGHT(s), ST_STIFFNESS(s), x[CS_T], V(RS_S), ST_U(s), ST_V(s), x);
+        s[ST_HUNG] = 1.0;
     }
-    double pump[3] = {s[RS_FO], s[RS_FRICTION], s[RS_FILLAGE]};
-    cc_string_advance(n, RS_MASS(s), RS_WEIGHT(s), RS_STIFFNESS(s), s[RS_C], pump, RS_U(s), RS_V(s), RS_LAST(s), x,
-                      v[VR_s] + v[VR_v] * h, h, s[RS_DT_MAX], RS_SCRATCH(s));
+    double pump[3] = {s[ST_FO], s[ST_FRICTION], s[ST_FILLAGE]};
+    cc_string_advance(n, ST_MASS(s), ST_WEIGHT(s), ST_STIFFNESS(s), s[ST_C], pump, ST_U(s), ST_V(s), ST_LAST(s), x,
+                      V(RS_S) + V(RS_V) * h, h, s[ST_DT_MAX], ST_SCRATCH(s));
 }
 
-void model_outputs(double* v, const double* s)
+static void string_outputs(const Component* c, double* v, const double* s)
 {
-    int n = RS_NODES(s);
-    const double *u = RS_U(s), *k = RS_STIFFNESS(s), *x = RS_X(s);
-    v[VR_F] = k[0] * (u[1] - u[0]) + RS_WEIGHT(s)[0];
-    v[VR_u_pump] = u[n - 1];
-    v[VR_F_pump] = k[n - 2] * (u[n - 1] - u[n - 2]);
-    v[VR_W_polished] = x[CS_WORK];
-    v[VR_W_hydraulic] = x[CS_HYDRAULIC];
+    int n = ST_NODES(s);
+    const double *u = ST_U(s), *k = ST_STIFFNESS(s), *x = ST_X(s);
+    V(RS_F) = k[0] * (u[1] - u[0]) + ST_WEIGHT(s)[0];
+    V(RS_U_PUMP) = u[n - 1];
+    V(RS_F_PUMP) = k[n - 2] * (u[n - 1] - u[n - 2]);
+    V(RS_W_POLISHED) = x[CS_WORK];
+    V(RS_W_HYDRAULIC) = x[CS_HYDRAULIC];
 }
-#else
-#error "component_config.h names no component (COMPONENT_DRIVE, COMPONENT_DRIVE_SPEED, COMPONENT_CUSHION or COMPONENT_ROD_STRING)"
-#endif
+
+/* ------------------------------------------------------------------------------ by kind */
+
+int model_state_size(const Component* c, const double* v, char* why, int why_size)
+{
+    switch (c->d->kind) {
+    case CM_MODEL_DRIVE: return 2;
+    case CM_MODEL_DRIVE_SPEED: return 3;
+    case CM_MODEL_CUSHION: return 1;            /* no state: the force is the law at the inputs as set */
+    default: return string_state_size(c, v, why, why_size);
+    }
+}
+
+void model_start(const Component* c, const double* v, double t, double* s)
+{
+    switch (c->d->kind) {
+    case CM_MODEL_DRIVE_SPEED: s[2] = V(DR_OMEGA_START); /* fall through */
+    case CM_MODEL_DRIVE:
+        s[0] = V(DR_I_START);
+        s[1] = V(DR_X_START);
+        return;
+    case CM_MODEL_CUSHION: return;
+    default: string_start(c, v, t, s);
+    }
+}
+
+void model_step(const Component* c, const double* v, double* s, double h)
+{
+    switch (c->d->kind) {
+    case CM_MODEL_DRIVE:
+    case CM_MODEL_DRIVE_SPEED: drive_step(c, v, s, h, c->d->kind == CM_MODEL_DRIVE_SPEED); return;
+    case CM_MODEL_CUSHION: return;
+    default: string_step(c, v, s, h);
+    }
+}
+
+void model_outputs(const Component* c, double* v, const double* s)
+{
+    switch (c->d->kind) {
+    case CM_MODEL_DRIVE:
+    case CM_MODEL_DRIVE_SPEED: drive_outputs(c, v, s, c->d->kind == CM_MODEL_DRIVE_SPEED); return;
+    case CM_MODEL_CUSHION:
+        V(CU_F) = cc_cushion_force(V(CU_K), V(CU_C), V(CU_L_FREE), V(CU_S_SEAT), V(CU_S), V(CU_V));
+        return;
+    default: string_outputs(c, v, s);
+    }
+}

@@ -33,12 +33,10 @@
 
 int cm_fail(const Model* m, const char* format, ...)
 {
-    char text[1024];
     va_list args;
     va_start(args, format);
-    vsnprintf(text, sizeof text, format, args);
+    cm_refusal(m ? m->log : NULL, m ? m->host : NULL, format, args);
     va_end(args);
-    if (m && m->log) m->log(m->host, CM_LOG_ERROR, text);
     return CM_ERROR;
 }
 
@@ -61,16 +59,12 @@ void cm_restore(Model* m, const Snapshot* state)
     m->tables_stale = 1;
 }
 
-int cm_init(Model* m, const char* call, const char* resources, int is_uri, int model_exchange, CmLogger log,
-            void* host)
+int cm_init(Model* m, const char* call, const ModelData* d, int model_exchange, CmLogger log, void* host)
 {
-    char why[1024];
     memset(m, 0, sizeof *m);
     m->model_exchange = model_exchange;
     m->log = log;
     m->host = host;
-    ModelData* d = md_load(resources, is_uri, why, sizeof why);
-    if (!d) return cm_fail(m, "%s: %s", call, why);
     m->d = d;
     /* built_for, then the scratch: a design's values and trial values (cm_ensure_tables, bounds),
      * then a read's quantities and reactions (cm_get) */
@@ -92,8 +86,6 @@ void cm_free(Model* m)
     cm_release(m);
     free(m->built_for);
     m->built_for = m->scratch = NULL;
-    md_free((ModelData*)m->d);
-    m->d = NULL;
 }
 
 void cm_release(Model* m)

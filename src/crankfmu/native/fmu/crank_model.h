@@ -1,8 +1,8 @@
-/* The native mechanism FMU's model, whatever FMI version fronts it: its variables' values, the
- * kernel's state and parameters, initialisation, Co-Simulation steps (with or without a stop at
- * each located switch), the Model Exchange calls, and the FMU state as bytes. The FMI 2.0 shell
- * (crank_fmi2.c) and the FMI 3.0 shell (crank_fmi3.c) are thin translations of their calls into
- * these; what a host is told is said here, once, with the calling function's name.
+/* The native mechanism FMU's model behind the one model API (fmu_model.h), whatever FMI version
+ * fronts it: its variables' values, the kernel's state and parameters, initialisation,
+ * Co-Simulation steps (with or without a stop at each located switch), the Model Exchange calls,
+ * and the FMU state as bytes. What a host is told is said here, once, with the calling function's
+ * name.
  *
  * Every function that can refuse returns CM_OK or CM_ERROR; a refusal is logged through the
  * model's logger (the shell's: whatever loggingOn says) with the reason, and a model whose step
@@ -16,11 +16,7 @@
 #include "crank_mechanism.h"
 #include "crank_variables.h"
 #include "fmu_states.h"
-
-enum { CM_OK = 0, CM_ERROR = 1 };
-enum { CM_INSTANTIATED, CM_INITIALIZATION, CM_STEPPING, CM_TERMINATED, CM_FAILED };
-/* what a message is: the shells map these to their status values */
-enum { CM_LOG_OK, CM_LOG_WARNING, CM_LOG_ERROR };
+#include "model_status.h"
 
 typedef struct {
     FmuStateMark mark;             /* first: what makes a copy an FMU state the shells know (fmu_states.h) */
@@ -46,8 +42,6 @@ typedef struct {
                                       causality: else omega1's slope is a backward difference) */
 } Snapshot;
 
-typedef void (*CmLogger)(void* host, int kind, const char* message);
-
 /* the tables the model builds (crank_mechanism.h's MM_TABLE_...) */
 enum { CM_REDUCED, CM_QUANTITIES, CM_REACTIONS, CM_TABLES };
 
@@ -70,11 +64,10 @@ typedef struct {
     int tables_stale;              /* a parameter or the state changed since: compare before the next use */
 } Model;
 
-/* the model of the file in ``resources`` (crank_variables.h's md_load: a URI where is_uri) at its
- * start values; log(host, ...) says what goes wrong. CM_ERROR, logged, where the file is refused or
- * memory lacks. cm_free releases what cm_init took; cm_release only the tables */
-int cm_init(Model* m, const char* call, const char* resources, int is_uri, int model_exchange, CmLogger log,
-            void* host);
+/* the mechanism of the model file d (read by fmu_model.c, which keeps it) at its start values;
+ * log(host, ...) says what goes wrong. CM_ERROR, logged, where memory lacks. cm_free releases what
+ * cm_init took; cm_release only the tables */
+int cm_init(Model* m, const char* call, const ModelData* d, int model_exchange, CmLogger log, void* host);
 void cm_free(Model* m);
 void cm_release(Model* m);
 /* an FMU state back (fmi2SetFMUstate, fmi3SetFMUState): its values may be another design's */

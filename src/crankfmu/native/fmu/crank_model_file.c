@@ -1,5 +1,5 @@
-/* The native mechanism FMU's model file (crank_variables.h): found in the resources a host gives,
- * its SHA-256 checked, read into a ModelData, and checked for what the model relies on (each
+/* A native FMU's model file (crank_variables.h): found in the resources a host gives, its SHA-256
+ * checked, read into a ModelData, and checked for what the model relies on (a mechanism's: each
  * variable where its value reference says, of the kind it is there; every index the program and
  * the tables hold inside what it indexes). Every refusal names the file and what was wrong with it.
  *
@@ -262,50 +262,11 @@ static void check_program(Reader* r, int n_literals)
             refuse(r, "is damaged: term %d's chain is out of range", t);
 }
 
-ModelData* md_parse(const unsigned char* bytes, size_t size, const char* file, char* why, size_t why_size)
+/* the variables' table (every kind's) */
+static void read_variables(Reader* r)
 {
-    ModelData* d = (ModelData*)calloc(1, sizeof(ModelData));
-    Reader r0 = {bytes, size, file, "its header", d, why, why_size, 0};
-    Reader* r = &r0;
-    if (!d) {
-        snprintf(why, why_size, "the model file %s could not be read: out of memory", file);
-        return NULL;
-    }
-    /* the header: magic, format, kind, the payload's size and digest */
-    const unsigned char* magic = take(r, 16);
-    if (magic && memcmp(magic, CM_MODEL_MAGIC, 16) != 0) refuse(r, "is not a crankfmu model file (its first bytes)");
-    int format = read_int(r, "its header"), kind = read_int(r, "its header");
-    if (!r->failed && format != CM_MODEL_FORMAT)
-        refuse(r, "is of format %d; this FMU's binary reads format %d (rebuild the FMU with the crankfmu that built "
-               "its binary)", format, CM_MODEL_FORMAT);
-    if (!r->failed && kind != CM_MODEL_MECHANISM) refuse(r, "is of kind %d, not a mechanism's (%d)", kind, CM_MODEL_MECHANISM);
-    const unsigned char* sized = take(r, 8);
-    const unsigned char* digest = take(r, 32);
-    if (!r->failed) {
-        uint64_t payload = (uint64_t)u32(sized) | (uint64_t)u32(sized + 4) << 32;
-        unsigned char found[32];
-        if (payload != r->left) {
-            refuse(r, "is %s: its header says %llu bytes of model, it holds %lu", payload > r->left ? "truncated" : "not whole",
-                   (unsigned long long)payload, (unsigned long)r->left);
-        } else {
-            sha256(r->at, r->left, found);
-            if (memcmp(found, digest, 32) != 0)
-                refuse(r, "was altered: its SHA-256 is not the one its header records (rebuild the FMU)");
-        }
-    }
-    /* the payload, in fmi/model_file.py's order */
-    d->identifier = read_string(r, "the identifier");
-    d->guid = read_string(r, "the GUID");
-    d->mechanism_name = read_string(r, "the mechanism's name");
-    d->mechanism_branch = read_string(r, "the mechanism's branch");
-    int* ints[] = {&d->causality_speed, &d->cycle_turns, &d->n_outputs, &d->n_fixed, &d->n_quantities, &d->n_ports,
-                   &d->n_reactions, &d->reaction_terms, &d->n_quantity_coordinates, &d->table_functions,
-                   &d->table_sliders, &d->vr_e_kin};
-    for (size_t k = 0; k < sizeof ints / sizeof ints[0]; k++) *ints[k] = read_int(r, "the counts");
-    d->default_start_time = read_double(r, "the start time");
-    d->table_tolerance = read_double(r, "the tolerances");
-    d->reaction_tolerance = read_double(r, "the tolerances");
-    d->n_variables = read_count(r, "the variables", 44);
+    ModelData* d = r->d;
+    d->n_variables = read_count(r, "the variables", 52);
     Variable* variables = r->failed ? NULL : (Variable*)keep(r, (size_t)d->n_variables * sizeof(Variable));
     for (int i = 0; variables && i < d->n_variables && !r->failed; i++) {
         Variable* v = &variables[i];
@@ -315,13 +276,31 @@ ModelData* md_parse(const unsigned char* bytes, size_t size, const char* file, c
         v->has_min = read_int(r, "a variable");
         v->min_inclusive = read_int(r, "a variable");
         v->has_max = read_int(r, "a variable");
+        v->max_inclusive = read_int(r, "a variable");
         v->min = read_double(r, "a variable");
         v->max = read_double(r, "a variable");
         v->range = read_string(r, "a variable's range");
         v->unit = read_string(r, "a variable's unit");
+        v->description = read_string(r, "a variable's description");
         if (!r->failed && (v->kind < 0 || v->kind >= KIND_COUNT)) refuse(r, "is damaged: variable %d's kind is %d", i, v->kind);
     }
     d->variables = variables;
+    if (!r->failed && d->n_variables > CM_MAX_VARIABLES)
+        refuse(r, "has %d variables; this binary takes at most %d", d->n_variables, CM_MAX_VARIABLES);
+}
+
+/* a mechanism's payload after the variables, in fmi/model_file.py's order */
+static void read_mechanism(Reader* r)
+{
+    ModelData* d = r->d;
+    d->mechanism_name = read_string(r, "the mechanism's name");
+    d->mechanism_branch = read_string(r, "the mechanism's branch");
+    int* ints[] = {&d->causality_speed, &d->cycle_turns, &d->n_outputs, &d->n_fixed, &d->n_quantities, &d->n_ports,
+                   &d->n_reactions, &d->reaction_terms, &d->n_quantity_coordinates, &d->table_functions,
+                   &d->table_sliders, &d->vr_e_kin};
+    for (size_t k = 0; k < sizeof ints / sizeof ints[0]; k++) *ints[k] = read_int(r, "the counts");
+    d->table_tolerance = read_double(r, "the tolerances");
+    d->reaction_tolerance = read_double(r, "the tolerances");
     int n_output_row, n_coordinate, n_order, n_literals;
     d->output_row = read_ints(r, "the output row", &n_output_row);
     d->quantity_coordinate = read_ints(r, "the [[outputs]]' coordinates", &n_coordinate);
@@ -368,8 +347,6 @@ ModelData* md_parse(const unsigned char* bytes, size_t size, const char* file, c
         refuse(r, "is damaged: its counts are out of range");
     if (!r->failed && (d->n_ports < 0 || d->n_ports > CK_MAX_PORTS))
         refuse(r, "has %d ports; this binary takes at most %d", d->n_ports, CK_MAX_PORTS);
-    if (!r->failed && d->n_variables > CM_MAX_VARIABLES)
-        refuse(r, "has %d variables; this binary takes at most %d", d->n_variables, CM_MAX_VARIABLES);
     if (!r->failed) place_variables(r);
     expect_count(r, "output places", n_output_row, d->n_outputs);
     within(r, "the output row", d->output_row, n_output_row, -1, CK_OUT_SIZE);
@@ -393,6 +370,60 @@ ModelData* md_parse(const unsigned char* bytes, size_t size, const char* file, c
     if (!r->failed && d->n_program_parameters > p->n_registers) refuse(r, "is damaged: more parameters than registers");
     check_program(r, n_literals);
     expect_count(r, "coordinates of the program", p->n_coordinates, d->n_quantity_coordinates);
+}
+
+/* a component's payload is its variables: each an output, an input or a parameter (the model finds
+ * the ones it needs by name when an instance is made) */
+static void read_component(Reader* r)
+{
+    ModelData* d = r->d;
+    if (!r->failed && r->left) refuse(r, "is damaged: %lu bytes follow its model", (unsigned long)r->left);
+    for (int vr = 0; vr < d->n_variables && !r->failed; vr++)
+        if (d->variables[vr].kind > KIND_FIXED)
+            refuse(r, "is damaged: variable %d (%s) is of kind %d, which no component has", vr, d->variables[vr].name,
+                   d->variables[vr].kind);
+}
+
+ModelData* md_parse(const unsigned char* bytes, size_t size, const char* file, char* why, size_t why_size)
+{
+    ModelData* d = (ModelData*)calloc(1, sizeof(ModelData));
+    Reader r0 = {bytes, size, file, "its header", d, why, why_size, 0};
+    Reader* r = &r0;
+    if (!d) {
+        snprintf(why, why_size, "the model file %s could not be read: out of memory", file);
+        return NULL;
+    }
+    /* the header: magic, format, kind, the payload's size and digest */
+    const unsigned char* magic = take(r, 16);
+    if (magic && memcmp(magic, CM_MODEL_MAGIC, 16) != 0) refuse(r, "is not a crankfmu model file (its first bytes)");
+    int format = read_int(r, "its header");
+    d->kind = read_int(r, "its header");
+    if (!r->failed && format != CM_MODEL_FORMAT)
+        refuse(r, "is of format %d; this FMU's binary reads format %d (rebuild the FMU with the crankfmu that built "
+               "its binary)", format, CM_MODEL_FORMAT);
+    if (!r->failed && (d->kind < CM_MODEL_MECHANISM || d->kind >= CM_MODEL_KINDS))
+        refuse(r, "is of kind %d; this binary runs kinds %d to %d", d->kind, CM_MODEL_MECHANISM, CM_MODEL_KINDS - 1);
+    const unsigned char* sized = take(r, 8);
+    const unsigned char* digest = take(r, 32);
+    if (!r->failed) {
+        uint64_t payload = (uint64_t)u32(sized) | (uint64_t)u32(sized + 4) << 32;
+        unsigned char found[32];
+        if (payload != r->left) {
+            refuse(r, "is %s: its header says %llu bytes of model, it holds %lu", payload > r->left ? "truncated" : "not whole",
+                   (unsigned long long)payload, (unsigned long)r->left);
+        } else {
+            sha256(r->at, r->left, found);
+            if (memcmp(found, digest, 32) != 0)
+                refuse(r, "was altered: its SHA-256 is not the one its header records (rebuild the FMU)");
+        }
+    }
+    /* the payload, in fmi/model_file.py's order: every kind's, then the kind's own */
+    d->identifier = read_string(r, "the identifier");
+    d->guid = read_string(r, "the GUID");
+    d->default_start_time = read_double(r, "the start time");
+    read_variables(r);
+    if (d->kind == CM_MODEL_MECHANISM) read_mechanism(r);
+    else read_component(r);
     if (r->failed) {
         md_free(d);
         return NULL;

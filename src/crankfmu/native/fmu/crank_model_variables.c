@@ -134,7 +134,7 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
         if (v->kind == KIND_INPUT && !isfinite(x))
             return cm_fail(m, "input %s = %s: an input must be finite (%s)", v->name, shortest(x).text, v->unit);
         if (!isfinite(x) || (v->has_min && (v->min_inclusive ? x < v->min : x <= v->min)) ||
-            (v->has_max && x > v->max))
+            (v->has_max && (v->max_inclusive ? x > v->max : x >= v->max)))
             return cm_fail(m, "parameter %s = %s is out of range: valid range %s", v->name, shortest(x).text, v->range);
         if (v->kind == KIND_INPUT) m->now.rate_given[input_index(m, (int)vr[i])] = 0;
         /* the value it has (an input also held, no derivative given): nothing changes, no restart */

@@ -1,11 +1,12 @@
-/* The native mechanism FMU's model file and its variables. One runtime binary serves every
- * scenario: what a scenario adds is data, written by `crankfmu fmu --native` into the FMU's
- * resources/ (fmi/model_file.py) and read here when an instance is made (crank_model_file.c): its
- * identifier, GUID, counts and causality, its compiled program (dynamics/program_scenario.py) and
- * the table of every variable (name, kind, start, range, unit).
+/* A native FMU's model file and its variables. One runtime binary serves every native FMU, a
+ * mechanism's or a component's: what an FMU adds is data, written by `crankfmu fmu --native` into
+ * its resources/ (fmi/model_file.py) and read here when an instance is made (crank_model_file.c):
+ * its kind, identifier, GUID, start time and the table of every variable (name, kind, start, range,
+ * unit, description); a mechanism's counts, causality and compiled program
+ * (dynamics/program_scenario.py) besides.
  *
  * The file: 16 bytes of magic ("crankfmu model\0\0"), the format version (uint32, little-endian),
- * its kind (uint32: 1, a mechanism), the payload's size (uint64), the payload's SHA-256 (32 bytes),
+ * its kind (uint32: CM_MODEL_...), the payload's size (uint64), the payload's SHA-256 (32 bytes),
  * then the payload (fmi/model_file.py writes it, in the order crank_model_file.c reads it). A
  * missing, truncated or altered file, or one of another format version, is refused at
  * instantiation with a message naming the file. */
@@ -19,8 +20,12 @@
 
 #define CM_MODEL_FILE "crankfmu-model.bin"      /* its name in resources/ */
 #define CM_MODEL_MAGIC "crankfmu model\0\0"
-#define CM_MODEL_FORMAT 1
-#define CM_MODEL_MECHANISM 1
+#define CM_MODEL_FORMAT 2
+/* what the file's model is: a mechanism (crank_model.c), or a component (component_model.c): the
+ * drive (torque out, speed in), the drive in speed causality (it carries the rotor), the die
+ * cushion, the rod string */
+enum { CM_MODEL_MECHANISM = 1, CM_MODEL_DRIVE, CM_MODEL_DRIVE_SPEED, CM_MODEL_CUSHION, CM_MODEL_ROD_STRING,
+       CM_MODEL_KINDS };
 /* what an FMU state holds at most: a file with more variables or ports is refused (its build too) */
 #define CM_MAX_VARIABLES 1024
 #define CM_MAX_INPUTS (1 + CK_MAX_PORTS)
@@ -31,10 +36,11 @@ typedef struct {
     const char* name;
     int kind;
     double start;
-    int has_min, min_inclusive, has_max;
+    int has_min, min_inclusive, has_max, max_inclusive;
     double min, max;
     const char* range;     /* the valid range as the refusal message states it */
     const char* unit;
+    const char* description;
 } Variable;
 
 /* the output row's places (crank_kernel.h: phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor,
@@ -43,8 +49,9 @@ enum { ROW_PHI1, ROW_OMEGA1, ROW_W_MOTOR, ROW_W_LOAD, ROW_W_EXT, ROW_EPSILON1, R
        ROW_TAU_E };
 #define N_STATES CK_N_Y
 
-/* A scenario's model as the file gives it. Value references, in the order of the variables' table:
- * the outputs first (n_outputs), then the crank's input (vr_crank_input: tau_ext, or omega1 in
+/* A model as the file gives it. A component's variables are its data file's, in the Python FMU's
+ * order (its model finds those it needs by name: component_models.c). A mechanism's value
+ * references, in the order of the variables' table: the outputs first (n_outputs), then the crank's input (vr_crank_input: tau_ext, or omega1 in
  * speed causality), the tunables (native_model.TUNABLE's order, or SPEED_TUNABLE's), the fixed
  * parameters (n_fixed), the scenario's [[outputs]] and its ports' outputs (n_quantities), the
  * derivatives of the Model Exchange states (phi1, omega1, W_motor, W_load, W_ext: the kernel's y;
@@ -55,13 +62,18 @@ enum { ROW_PHI1, ROW_OMEGA1, ROW_W_MOTOR, ROW_W_LOAD, ROW_W_EXT, ROW_EPSILON1, R
  * W_motor places (ck_speed_*), Co-Simulation only: tau_drive needs omega1's derivative, which a
  * Model Exchange host has no call to pass. */
 typedef struct {
-    const char *identifier, *guid, *mechanism_name, *mechanism_branch;
+    /* every kind's: what the model is, its identifier and GUID, its variables */
+    int kind;
+    const char *identifier, *guid;
+    double default_start_time;
+    int n_variables;
+    const Variable* variables;
+    /* a mechanism's */
+    const char *mechanism_name, *mechanism_branch;
     int causality_speed, cycle_turns;
     int n_outputs, n_fixed, n_quantities, n_ports, n_reactions, reaction_terms, n_quantity_coordinates;
     int table_functions, table_sliders, vr_e_kin;
-    double default_start_time, table_tolerance, reaction_tolerance;
-    int n_variables;
-    const Variable* variables;
+    double table_tolerance, reaction_tolerance;
     const int* output_row;          /* each output's place in the output row (-1: E_kin, from J_red and omega1) */
     /* the [[outputs]]: quantity k is order quantity_order[k] (0 position, 1 velocity, 2
      * acceleration) of coordinate quantity_coordinate[k]; the C model's [[outputs]] table holds

@@ -1,4 +1,4 @@
-/* What the native FMUs' FMI 2.0 shells (crank_fmi2.c, component_fmi2.c) say to a host, written
+/* What the native FMUs' FMI 2.0 shell (fmi2_shell.c) says to a host, written
  * once: the logger call (warnings and errors whatever loggingOn says) and numbers as a user wrote
  * them. */
 #ifndef FMI2_MESSAGES_H

@@ -1,4 +1,4 @@
-/* What an FMI 3.0 shell of crankfmu's native FMUs (crank_fmi3.c, component_fmi3.c) refuses, written
+/* What an FMI 3.0 shell of crankfmu's native FMUs (fmi3_shell.c) refuses, written
  * once: the variable types other than Float64, binaries and clocks (the FMUs have none), and the
  * calls they do not provide (dependencies, directional and adjoint derivatives, configuration
  * mode, clocks' intervals and shifts, scheduled execution, output derivatives). Each refusal is

@@ -10,7 +10,7 @@
  * the mark (its top bit set: no user-space address), so reading the first 8 bytes tells the two
  * apart; both reads are of memory the host gave.
  *
- * Header only: the mechanism's and the components' shells, FMI 2 and 3, include it. */
+ * Header only: the FMI 2.0 and 3.0 shells include it (through fmu_model.h). */
 #ifndef FMU_STATES_H
 #define FMU_STATES_H
 
@@ -49,5 +49,22 @@ static inline void* fmu_state_to_free(void** given, int* slipped)
 
 /* before a state's memory is released: a later free of the same pointer finds no mark */
 static inline void fmu_state_unmark(void* state) { memset(state, 0, sizeof(FmuStateMark)); }
+
+/* The six FMU-state calls of an FMI shell, written once for both versions (which name them apart):
+ * each a forward to the one model API (fmu_model.h's fm_state_...), which checks that a state is
+ * one of this FMU's. The shell defines FORWARD(instance, model call) and MODEL(instance). */
+#define FMU_STATE_CALLS(Status, Instance, State, Byte, GET, SET, FREE, SIZE, SERIALIZE, DESERIALIZE)             \
+    Status GET(Instance c, State* s) { return FORWARD(c, fm_state_save(MODEL(c), #GET, s)); }                     \
+    Status SET(Instance c, State s) { return FORWARD(c, fm_state_restore(MODEL(c), #SET, s)); }                   \
+    Status FREE(Instance c, State* s) { return FORWARD(c, fm_state_release(MODEL(c), #FREE, s)); }                \
+    Status SIZE(Instance c, State s, size_t* n) { return FORWARD(c, fm_state_size(MODEL(c), #SIZE, s, n)); }      \
+    Status SERIALIZE(Instance c, State s, Byte b[], size_t n)                                                     \
+    {                                                                                                             \
+        return FORWARD(c, fm_state_write(MODEL(c), #SERIALIZE, s, (unsigned char*)b, n));                         \
+    }                                                                                                             \
+    Status DESERIALIZE(Instance c, const Byte b[], size_t n, State* s)                                            \
+    {                                                                                                             \
+        return FORWARD(c, fm_state_read(MODEL(c), #DESERIALIZE, (const unsigned char*)b, n, s));                  \
+    }
 
 #endif
