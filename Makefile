@@ -27,7 +27,7 @@ export PATH := /usr/lib/wine:$(PATH)
 # installed); installing the wheel and building FMUs compile nothing. A change of the C sources
 # builds the wheel again. What make demo uses: crankfmu and its dependencies, gcc; nothing else.
 WHEEL_DIR := build/wheel
-$(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*.c src/crankfmu/native/*.h src/crankfmu/native/fmu/*.c src/crankfmu/native/fmu/*.h)
+$(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*/*.c src/crankfmu/native/*/*.h)
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "crankfmu needs Python 3.11+, found " + sys.version'
 	@# the wheel's build compiles the C kernel and the runtimes with gcc
 	@command -v gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc; } \

@@ -27,6 +27,10 @@ class PlainLibrary(build_ext):
         return []
 
     def run(self):
+        # compiled every time: the library records the digest of its sources (CK_SOURCE_DIGEST),
+        # which changes with their names and content where setuptools' timestamps may not (a file
+        # moved keeps its time), and a stale library in an in-tree build/ would go into the wheel
+        self.force = True
         super().run()
         # the native FMUs' runtimes beside the library, for every platform whose compiler is here:
         # then crankfmu fmu --native compiles nothing (native/sources.RUNTIMES)
@@ -65,6 +69,7 @@ setup(
         "crankfmu.native.crank_kernel",
         sources=[f"src/crankfmu/native/{name}" for name in native["C_FILES"]],
         depends=[f"src/crankfmu/native/{name}" for name in native["SOURCES"]],
+        include_dirs=[f"src/crankfmu/native/{folder}" for folder in native["FOLDERS"]],
         extra_compile_args=[f for f in native["CFLAGS"] if f != "-fPIC"],
         define_macros=[("CK_SOURCE_DIGEST", f'"{native["digest"]()}"')],
         libraries=[] if sys.platform == "win32" else ["m"],

@@ -8,7 +8,7 @@ import os
 import subprocess
 from pathlib import Path
 
-from crankfmu.native.sources import C_FILES, CFLAGS, HERE, digest
+from crankfmu.native.sources import C_FILES, CFLAGS, HERE, digest, include_flags
 
 
 def sanitized_library(library: Path, extra_sources=(), link_flags=()) -> dict:
@@ -16,7 +16,7 @@ def sanitized_library(library: Path, extra_sources=(), link_flags=()) -> dict:
     library; the environment that loads it with the ASan runtime preloaded."""
     flags = [f for f in CFLAGS if f != "-O2"] + ["-O1", "-g", "-fno-omit-frame-pointer",
                                                   "-fsanitize=address,undefined", "-fno-sanitize-recover=undefined"]
-    subprocess.run(["gcc", *flags, f'-DCK_SOURCE_DIGEST="{digest()}"', "-shared", "-o", str(library),
+    subprocess.run(["gcc", *flags, *include_flags(), f'-DCK_SOURCE_DIGEST="{digest()}"', "-shared", "-o", str(library),
                     *(str(HERE / n) for n in C_FILES), *(str(s) for s in extra_sources), *link_flags, "-lm"],
                    check=True)
     runtime = subprocess.run(["gcc", "-print-file-name=libasan.so"], capture_output=True, text=True).stdout.strip()

@@ -1,4 +1,4 @@
-"""The C mechanism model (native/crank_mechanism.c, run from dynamics/program.py's compiled
+"""The C mechanism model (native/mechanism/crank_mechanism.c, run from dynamics/program.py's compiled
 program) against the Python contour engine, its independent reference, point by point.
 
 Both evaluate the same closed forms and solve the same linear systems, in different orders: they

@@ -168,7 +168,7 @@ def test_the_fmu_ships_only_what_runs_inside_it(fmu_path):
                   "integrators/time_domain.py", "integrators/crank_angle.py", "pictures/draw.py"):
         assert study not in shipped
     assert not any(n.startswith(("studies/", "pictures/")) for n in shipped)    # no study, no drawing
-    assert {"fmi/slave.py", "native/crank_kernel.so", "native/crank_kernel.c", "dynamics/modes.py", "contract.py", "scenarios/seed000.toml"} <= shipped
+    assert {"fmi/slave.py", "native/crank_kernel.so", "native/kernel/crank_kernel.c", "dynamics/modes.py", "contract.py", "scenarios/seed000.toml"} <= shipped
     assert not any("__pycache__" in n for n in shipped)
 
 

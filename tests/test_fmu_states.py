@@ -2,7 +2,7 @@
 as fmusim (modelica/Reference-FMUs 0.0.39) does after saving a state to a file and after restoring
 one, crashed every crankfmu FMU (SIGSEGV in the free). Each FMU now frees that state and goes on:
 the Python FMU (its shim remembers the states pythonfmu hands out), the native mechanism and
-component FMUs, FMI 2.0 and 3.0 (their states carry a mark, native/fmu/fmu_states.h). Each runs in
+component FMUs, FMI 2.0 and 3.0 (their states carry a mark, native/model/fmu_states.h). Each runs in
 a fresh process, logging off; a crash is a non-zero exit."""
 
 from __future__ import annotations

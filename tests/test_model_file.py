@@ -1,5 +1,5 @@
 """The native mechanism FMU's model file (resources/crankfmu-model.bin, fmi/model_file.py) read by the
-prebuilt runtime (native/fmu/crank_model_file.c): both sides state the same layout, the runtime
+prebuilt runtime (native/model/crank_model_file.c): both sides state the same layout, the runtime
 gives back what the build wrote (every variable's name, start and range), and a missing,
 truncated, altered or other-format file is refused at instantiation with fmi2Error/fmi3Error and a
 message naming the file, logging on or off."""
@@ -17,7 +17,7 @@ import pytest
 from crankfmu.fmi import model_file
 from crankfmu.native.sources import HERE as NATIVE
 
-HEADER = (NATIVE / "fmu" / "crank_variables.h").read_text()
+HEADER = (NATIVE / "model" / "crank_variables.h").read_text()
 
 
 def test_the_layout_is_stated_alike_on_both_sides():

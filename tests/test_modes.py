@@ -1,5 +1,5 @@
 """The movement equation's hybrid rules (dynamics.modes): each rule on hand-worked cases, and the
-C kernel's rules (native/crank_modes.h: what the fast path and the FMUs run) giving the engine's
+C kernel's rules (native/kernel/crank_modes.h: what the fast path and the FMUs run) giving the engine's
 answers (dynamics.modes: what the scipy reference runs), rule by rule, on every mode, slot and
 edge (ties, zeros, NaN)."""
 

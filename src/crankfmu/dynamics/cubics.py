@@ -1,6 +1,6 @@
 """Periodic functions of the crank angle as piecewise cubics with a checked error bound: the
 construction every table of dynamics/tabulated.py uses (the reduced model, the [[outputs]], the
-joint reactions), and native/crank_tabulator.c repeats in C.
+joint reactions), and native/mechanism/crank_tabulator.c repeats in C.
 
 A function is sampled from its engine (a callable of an array of crank angles giving one row per
 function) and held as one local cubic per interval of a uniform grid over the turn, so evaluating

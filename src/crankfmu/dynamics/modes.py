@@ -13,7 +13,7 @@ switching surface, an *event slot*:
   REST            omega1 = 0 with slider forces (they change direction)
 
 These are the rules the scipy engine (``MovementEquation``, the independent reference) runs. The
-C kernel (``native/crank_modes.h``) states each again in C, for the fast path and the FMUs:
+C kernel (``native/kernel/crank_modes.h``) states each again in C, for the fast path and the FMUs:
 tests/test_modes.py compares the two rule by rule on every mode and edge. Motor branches and
 directions are floats (what the kernel's state array holds).
 """

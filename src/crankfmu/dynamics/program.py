@@ -1,4 +1,4 @@
-"""The C model's program (native/crank_mechanism.c): what a scenario compiles to
+"""The C model's program (native/mechanism/crank_mechanism.c): what a scenario compiles to
 (program_scenario.py), an instruction list of one small register machine and the tables of the
 contour terms, links, joints and loads.
 

@@ -259,8 +259,8 @@ def c_model(scenario, values: dict):
 
 
 def c_table(scenario, values: dict, tolerance: float = 1e-11, model=None) -> ReducedTable | None:
-    """The reduced model's table built by the C model (native/crank_mechanism.c; its tabulator
-    native/crank_tabulator.c) from the scenario's compiled program at ``values`` (or by ``model``, a
+    """The reduced model's table built by the C model (native/mechanism/crank_mechanism.c; its tabulator
+    native/mechanism/crank_tabulator.c) from the scenario's compiled program at ``values`` (or by ``model``, a
     c_model of them), with the same constructions and checked bound as :func:`tabulate`; None
     where the scenario does not compile to it or the C model refuses the values (the Python engine
     then builds the table, or says why it cannot). With the environment variable

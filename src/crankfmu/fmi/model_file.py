@@ -1,6 +1,6 @@
 """A native FMU's model file (``resources/crankfmu-model.bin``): what the one prebuilt runtime needs of
 a mechanism's scenario or of a component, written by ``crankfmu fmu --native`` and read by the
-runtime when a host makes an instance (``native/fmu/crank_model_file.c``, which refuses a missing,
+runtime when a host makes an instance (``native/model/crank_model_file.c``, which refuses a missing,
 truncated, altered or other-format file by name).
 
 The layout is stated once per side: here in ``payload``'s order, there in ``md_parse``'s (the two

@@ -6,8 +6,8 @@ The same data files, variables (names, order, units, ranges, starts, description
 and documentation as the Python FMU of the file (fmi.source's Source and Declared), but C: the
 native mechanism FMUs' runtime (fmi.native_build: one prebuilt binary per FMI version and
 platform, nothing compiled), which reads the component's model file (fmi.model_file: its kind and
-its variables) and runs its model (native/fmu/component_model.c, component_models.c) on the
-components' physics (native/crank_components.c, which the Python FMUs call too). Co-Simulation;
+its variables) and runs its model (native/components/component_model.c, component_models.c) on the
+components' physics (native/components/crank_components.c, which the Python FMUs call too). Co-Simulation;
 FMI 2.0 for linux64 and win64, FMI 3.0 (``--fmi-version 3``) for x86_64 Linux and Windows and
 aarch64 Linux, as the installation has them; each binary links only the platform's C library.
 """

@@ -1,6 +1,6 @@
 """FMI 3.0 for the native mechanism FMU (``crankfmu fmu SCENARIO --native --fmi-version 3``): the same
-model and kernel as the FMI 2.0 FMU (``native/fmu/crank_model.c``, the same variables in the same
-order: ``NativeModel.variables``) behind ``native/fmu/fmi3_shell.c``. Here: its modelDescription
+model and kernel as the FMI 2.0 FMU (``native/model/crank_model.c``, the same variables in the same
+order: ``NativeModel.variables``) behind ``native/shells/fmi3_shell.c``. Here: its modelDescription
 3.0 and its ``terminalsAndIcons/``.
 
 - Variables are Float64, each of a ``Float64Type`` named after its quantity (Torque, Angle, ...)

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CrankfmuError
-from .sources import C_FILES, CFLAGS, HERE, digest, library_name
+from .sources import C_FILES, CFLAGS, HERE, digest, include_flags, library_name
 
 DIGEST = digest()
 
@@ -58,7 +58,7 @@ def _compile_into_cache() -> Path:
 
     def build(partial: Path):
         partial.mkdir(parents=True, exist_ok=True)
-        done = subprocess.run([compiler, *CFLAGS, f'-DCK_SOURCE_DIGEST="{DIGEST}"', "-shared", "-o",
+        done = subprocess.run([compiler, *CFLAGS, *include_flags(), f'-DCK_SOURCE_DIGEST="{DIGEST}"', "-shared", "-o",
                                str(partial / library.name), *(str(HERE / n) for n in C_FILES), "-lm"],
                               capture_output=True, text=True)
         if done.returncode != 0:

@@ -15,21 +15,31 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+#: the C's parts, each a folder here (an FMU's sources/ holds them side by side; each folder is an
+#: include path of the others): the kernel, the mechanism model, the components, the coupled well,
+#: the native FMUs' model behind the one model API, and the FMI shells
+FOLDERS = ("kernel", "mechanism", "components", "well", "model", "shells")
+
+
+def _in(folder: str, names: tuple) -> tuple:
+    return tuple(f"{folder}/{name}" for name in names)
+
+
 #: the mechanism's kernel: its stepper (crank_kernel.c), the drivers callers run (crank_drivers.c),
 #: the speed-causal step (crank_speed.c), Model Exchange (crank_me.c), the outputs read from their
 #: tables (crank_outputs.c), its constants and rules one by one (crank_facts.c); numbers in messages
-KERNEL = ("crank_kernel.c", "crank_drivers.c", "crank_speed.c", "crank_me.c", "crank_outputs.c", "crank_facts.c",
-          "crank_kernel.h", "crank_kernel_internal.h", "crank_modes.h", "crank_tableau.h", "crank_numbers.c",
-          "crank_numbers.h")
+KERNEL = _in("kernel", ("crank_kernel.c", "crank_drivers.c", "crank_speed.c", "crank_me.c", "crank_outputs.c",
+                        "crank_facts.c", "crank_kernel.h", "crank_kernel_internal.h", "crank_modes.h",
+                        "crank_tableau.h", "crank_numbers.c", "crank_numbers.h"))
 #: the components' physics (the drive, the cushion, the rod string)
-COMPONENTS = ("crank_components.c", "crank_components.h")
+COMPONENTS = _in("components", ("crank_components.c", "crank_components.h"))
 #: the pumping well as one model: the kernel and the string's steps coupled (crankfmu well runs it)
-WELL = ("crank_well.c", "crank_well.h")
+WELL = _in("well", ("crank_well.c", "crank_well.h"))
 #: the mechanism model: a scenario's compiled program evaluated (crank_mechanism.c), checked and
 #: searched (crank_assembly.c), its tables' functions (crank_engine.c) tabulated (crank_tabulator.c)
 #: with Fourier series (crank_fourier.c)
-MECHANISM = ("crank_mechanism.c", "crank_assembly.c", "crank_engine.c", "crank_tabulator.c", "crank_fourier.c",
-             "crank_mechanism.h", "crank_mechanism_internal.h", "crank_fourier.h")
+MECHANISM = _in("mechanism", ("crank_mechanism.c", "crank_assembly.c", "crank_engine.c", "crank_tabulator.c",
+                              "crank_fourier.c", "crank_mechanism.h", "crank_mechanism_internal.h", "crank_fourier.h"))
 SOURCES = KERNEL + COMPONENTS + WELL + MECHANISM
 #: the C files the library is compiled from (the mechanism's kernel, the components' physics, the well)
 C_FILES = tuple(name for name in SOURCES if name.endswith(".c"))
@@ -43,15 +53,16 @@ AARCH64_CC = "aarch64-linux-gnu-gcc"
 FMU_COMPILERS = {"gcc": False, WIN64_CC: True, AARCH64_CC: False}
 
 
-#: the native FMUs' runtime besides the kernel, the mechanism model and the components' physics (in
-#: fmu/): the one model API (fmu_model.c) and its model file's reader, the mechanism's model and the
-#: components' behind it, and each FMI version's shell
-RUNTIME_MODEL = ("fmu_model.c", "crank_model.c", "crank_model_variables.c", "crank_model_me.c",
-                 "crank_model_refusals.c", "component_model.c", "component_models.c", "crank_model_file.c", "sha256.c",
-                 "fmu_model.h", "model_status.h", "crank_model.h", "crank_model_internal.h", "component_model.h",
-                 "crank_variables.h", "sha256.h", "fmu_states.h")
-RUNTIME_SHELL = {"2.0": ("fmi2_shell.c", "fmi2_messages.c", "fmi2_messages.h"),
-                 "3.0": ("fmi3_shell.c", "fmi3_refusals.c", "fmi3_refusals.h")}
+#: the native FMUs' runtime besides the kernel, the mechanism model and the components' physics: the
+#: one model API (model/fmu_model.c) and its model file's reader, the mechanism's model and the
+#: components' (components/component_model.c) behind it, and each FMI version's shell (shells/)
+RUNTIME_MODEL = (_in("model", ("fmu_model.c", "model_status.c", "crank_model.c", "crank_model_variables.c",
+                                "crank_model_me.c", "crank_model_refusals.c", "crank_model_file.c", "sha256.c",
+                                "fmu_model.h", "model_status.h", "crank_model.h", "crank_model_internal.h",
+                                "crank_variables.h", "sha256.h", "fmu_states.h"))
+                 + _in("components", ("component_model.c", "component_models.c", "component_model.h")))
+RUNTIME_SHELL = {"2.0": _in("shells", ("fmi2_shell.c", "fmi2_messages.c", "fmi2_messages.h")),
+                 "3.0": _in("shells", ("fmi3_shell.c", "fmi3_refusals.c", "fmi3_refusals.h"))}
 #: the FMI headers each version's sources carry (from fmpy, BSD-2-Clause): a source build needs nothing else
 FMI_HEADERS = {"2.0": ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                "3.0": ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
@@ -64,8 +75,7 @@ RUNTIMES = HERE / "runtimes"
 
 def runtime_files(fmi_version: str) -> list[Path]:
     """Every file a runtime is compiled from, the FMI headers too: what an FMU's sources/ carry."""
-    return ([HERE / n for n in KERNEL + COMPONENTS + MECHANISM]
-            + [HERE / "fmu" / n for n in RUNTIME_MODEL + RUNTIME_SHELL[fmi_version]]
+    return ([HERE / n for n in KERNEL + COMPONENTS + MECHANISM + RUNTIME_MODEL + RUNTIME_SHELL[fmi_version]]
             + [fmi_headers() / n for n in FMI_HEADERS[fmi_version]])
 
 
@@ -141,6 +151,11 @@ def prebuild_runtimes(root: Path = RUNTIMES) -> list:
                      if not out.is_file()]:
             done.result()
     return sorted(jobs)
+
+
+def include_flags() -> list:
+    """The -I flags of the library's and the runtime's parts (FOLDERS): each part includes the others' headers."""
+    return [f"-I{HERE / folder}" for folder in FOLDERS]
 
 
 def digest(folder: Path = HERE) -> str:

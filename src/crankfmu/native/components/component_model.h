@@ -13,7 +13,9 @@
 
 #include <stddef.h>
 
-#include "crank_model.h"
+#include "crank_variables.h"
+#include "fmu_states.h"
+#include "model_status.h"
 
 typedef struct {
     FmuStateMark mark;             /* first: what makes a copy an FMU state the shells know (fmu_states.h) */

@@ -6,14 +6,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-int cm_refusal(CmLogger log, void* host, const char* format, va_list args)
-{
-    char text[1024];
-    vsnprintf(text, sizeof text, format, args);
-    if (log) log(host, CM_LOG_ERROR, text);
-    return CM_ERROR;
-}
-
 int fm_fail(const FmuModel* f, const char* format, ...)
 {
     va_list args;
