@@ -30,6 +30,13 @@ def test_the_layout_is_stated_alike_on_both_sides():
     assert int(re.search(r"#define CM_MODEL_FORMAT (\d+)", HEADER).group(1)) == model_file.FORMAT
     kinds = re.search(r"enum \{ (KIND_OUTPUT[^}]+)\}", HEADER).group(1).replace("KIND_", "").split(",")
     assert [k.strip() for k in kinds if k.strip() != "COUNT"] == list(model_file.KINDS)
+    # what a file's model is: the mechanism first, then the components in the writer's codes
+    models = [m.strip() for m in re.search(r"enum \{ (CM_MODEL_MECHANISM[^}]+)\}", HEADER).group(1).split(",")]
+    assert models[0] == "CM_MODEL_MECHANISM = 1" and model_file.MECHANISM == 1
+    assert models[1:-1] == ["CM_MODEL_DRIVE", "CM_MODEL_DRIVE_SPEED", "CM_MODEL_CUSHION", "CM_MODEL_ROD_STRING"]
+    assert sorted(model_file.COMPONENTS.values()) == list(range(2, 2 + len(models) - 2))
+    assert [model_file.COMPONENTS[k] for k in (("drive", "torque"), ("drive", "speed"), ("cushion", "torque"),
+                                               ("well", "torque"))] == [2, 3, 4, 5]
 
 
 @pytest.fixture(scope="module")
@@ -165,3 +172,29 @@ def test_a_resource_location_that_is_no_file_uri_is_refused(built, tmp_path):
     for location in (b"http://example.com/resources", None):
         assert library.fmi2Instantiate(b"x", 1, md.guid.encode(), location, ctypes.byref(cb), 0, 0) is None
         assert f"resources/{model_file.NAME}" in messages[-1], messages
+
+
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_a_component_file_its_model_cannot_run_is_refused_by_name(tmp_path, version):
+    """A component's model finds the variables it uses by their names: a file (its digest right)
+    that lacks one, or names a kind no runtime has, is refused at instantiation with the file and
+    what was wrong, logging off; the file as built instantiates."""
+    from crankfmu.fmi.native_components import ComponentModel, build_native_component
+    from crankfmu.fmi.source import preflight
+
+    fmu = build_native_component("drive", "dc_pi", tmp_path / "built", fmi_version=version)
+    model = ComponentModel(preflight("drive", "dc_pi", None, None))
+    good = model.model_file()
+    model.rows = [("R_renamed", *row[1:]) if row[0] == "R" else row for row in model.rows]
+    renamed = model.model_file()
+    unknown = model_file.MAGIC + struct.pack("<IIQ", model_file.FORMAT, 9, len(good) - 64) + good[32:]
+    for data, said in ((renamed, "has no variable R, which its model needs"), (unknown, "is of kind 9")):
+        unzipped = _unzip(fmu, tmp_path / f"x{len(said)}")
+        (unzipped / "resources" / model_file.NAME).write_bytes(data)
+        instance, messages = _instantiate(fmu, unzipped, version, logging=False)
+        assert instance is None and messages and said in messages[-1] and model_file.NAME in messages[-1], messages
+    unzipped = _unzip(fmu, tmp_path / "good")
+    assert (unzipped / "resources" / model_file.NAME).read_bytes() == good
+    instance, messages = _instantiate(fmu, unzipped, version, logging=False)
+    assert instance is not None and messages == [], messages
+    instance.freeInstance()

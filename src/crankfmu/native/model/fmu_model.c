@@ -63,12 +63,11 @@ void fm_free(FmuModel* f)
     f->d = NULL;
 }
 
-int fm_has_events(const FmuModel* f) { return MECHANISM(f) && !f->d->causality_speed; }
-
 const char* fm_event_mode_refusal(const FmuModel* f)
 {
-    if (fm_has_events(f)) return NULL;
-    return MECHANISM(f) ? "in speed causality the host's omega1 drives it, no switch is located" : "it has no events";
+    /* the events are a torque-causal mechanism's switches */
+    if (!MECHANISM(f)) return "it has no events";
+    return f->d->causality_speed ? "in speed causality the host's omega1 drives it, no switch is located" : NULL;
 }
 
 int fm_is_model_exchange(const FmuModel* f) { return MECHANISM(f) && f->mechanism.model_exchange; }

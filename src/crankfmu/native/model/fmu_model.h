@@ -35,10 +35,9 @@ int fm_fail(const FmuModel* f, const char* format, ...);
 /* the host's loggingOn; CM_OK */
 int fm_set_logging(FmuModel* f, int on);
 
-/* what the FMU offers: events (a mechanism in torque causality: its switches), and the event
- * indicators and continuous states a Model Exchange instance has (0 otherwise) */
-int fm_has_events(const FmuModel* f);
-/* NULL, or why a Co-Simulation host's event mode is refused at instantiation */
+/* what the FMU offers: events (NULL: a mechanism in torque causality, its switches; else why a
+ * Co-Simulation host's event mode is refused at instantiation), and the event indicators and
+ * continuous states a Model Exchange instance has (0 otherwise) */
 const char* fm_event_mode_refusal(const FmuModel* f);
 int fm_is_model_exchange(const FmuModel* f);
 size_t fm_n_indicators(const FmuModel* f);
