@@ -136,9 +136,9 @@ class Mechanism(TurnChecks):
         theta = np.where(self._distinct_has, q[:, self._distinct_idx], 0.0) + self._distinct_offset
         return L, np.cos(theta)[:, self._angle_of_term], np.sin(theta)[:, self._angle_of_term]
 
-    def _chain_sums(self, L, c, s, dq=None, ddq=None, second: bool = True):
-        """Positions, and with dq (and ddq) first (and second) derivatives, of every chain; with
-        ``second`` False the second derivatives are NaN, not computed."""
+    def _chain_sums(self, L, c, s, dq=None, second: bool = True):
+        """Positions, and with dq first derivatives and the second derivatives at ddq = 0, of every
+        chain; with ``second`` False the second derivatives are NaN, not computed."""
         x = (L * c) @ self._sum + self._const[0]
         y = (L * s) @ self._sum + self._const[1]
         if dq is None:
@@ -150,17 +150,21 @@ class Mechanism(TurnChecks):
         if not second:
             unknown = np.full_like(dx, np.nan)
             return x, y, dx, dy, unknown, unknown
-        if ddq is None:
-            ddL = ddth = 0.0
-        else:
-            ddL = self._coef * (ddq @ self._len_incidence.T)
-            ddth = ddq @ self._ang_incidence.T
-        # r'' = L'' u + L th'' n + 2 L' th' n - L th'^2 u
-        along = ddL - L * dth * dth
-        across = L * ddth + 2.0 * dL * dth
+        # r'' = L'' u + L th'' n + 2 L' th' n - L th'^2 u: here its part quadratic in dq (ddq = 0),
+        # _second_linear_part adds the rest
+        along = -L * dth * dth
+        across = 2.0 * dL * dth
         ddx = (along * c - across * s) @ self._sum
         ddy = (along * s + across * c) @ self._sum
         return x, y, dx, dy, ddx, ddy
+
+    def _second_linear_part(self, L, c, s, ddq, ddx0, ddy0):
+        """Every chain's second derivatives: ``ddx0, ddy0`` (those at ddq = 0, _chain_sums) plus
+        the part linear in ddq, L'' u + L theta'' n."""
+        ddL = self._coef * (ddq @ self._len_incidence.T)
+        ddth = ddq @ self._ang_incidence.T
+        return (ddx0 + (ddL * c - L * ddth * s) @ self._sum,
+                ddy0 + (ddL * s + L * ddth * c) @ self._sum)
 
     def _jacobian(self, L, c, s):
         """dF/dq for the contour rows: shape (N, 2k, n_q)."""
@@ -356,17 +360,21 @@ class Mechanism(TurnChecks):
             raise self._assembly_error(q[0, 0], "the contour Jacobian is singular (dead point)") from None
         k = self._n_contour_rows
         if second:
-            _, _, _, _, ddx0, ddy0 = self._chain_sums(L, c, s, dq)  # ddq = 0: the quadratic part
+            # every chain's position and derivatives, its second derivatives those at ddq = 0 (the
+            # part quadratic in dq): the contour rows of that part are the second solve's right side
+            sums = self._chain_sums(L, c, s, dq)
             rhs = np.empty((n, 2 * k))
-            rhs[:, 0::2] = ddx0[:, :k]
-            rhs[:, 1::2] = ddy0[:, :k]
+            rhs[:, 0::2] = sums[4][:, :k]
+            rhs[:, 1::2] = sums[5][:, :k]
             ddq = np.zeros_like(q)
             ddq[:, 1:] = np.linalg.solve(Ju, -rhs[..., None])[..., 0]
         else:
             ddq = np.full_like(q, np.nan)
 
         def points():
-            x, y, dx, dy, ddx, ddy = self._chain_sums(L, c, s, dq, ddq, second)
+            # r'' is linear in ddq: the quadratic part above plus L'' u + L theta'' n
+            x, y, dx, dy, ddx, ddy = (sums[:4] + self._second_linear_part(L, c, s, ddq, *sums[4:]) if second
+                                      else self._chain_sums(L, c, s, dq, second=False))
             return {p: PointMotion(x[:, k + i], y[:, k + i], dx[:, k + i], dy[:, k + i], ddx[:, k + i], ddy[:, k + i])
                     for i, p in enumerate(self.point_names)}
         names = self.unknown_names
