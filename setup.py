@@ -1,7 +1,8 @@
 """Builds crankfmu's C kernel (src/crankfmu/native) with the package: a plain shared library that
 Python loads through ctypes; and the native FMUs' runtimes (one per FMI version and platform whose
-compiler is installed: a native build then compiles nothing). Everything else is in
-pyproject.toml."""
+compiler is installed: a native build then compiles nothing); and, in a wheel, the packaged
+scenarios' reference runs and documentation figures (fmi/prebuilt_results.py). Everything else is
+in pyproject.toml."""
 
 import runpy
 import sys
@@ -13,6 +14,7 @@ from setuptools.command.build_ext import build_ext
 
 native = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "native" / "sources.py"))
 shim = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "fmi" / "shim" / "prebuilt.py"))
+results = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "fmi" / "prebuilt_results.py"))
 
 
 class PlainLibrary(build_ext):
@@ -51,6 +53,18 @@ class PlainLibrary(build_ext):
             except (OSError, ImportError, RuntimeError) as error:
                 print(f"crankfmu: the Python FMUs' shim was not compiled ({error}); each Python FMU's build "
                       "compiles it instead", file=sys.stderr)
+        # the packaged scenarios' reference runs and figures, made by building their native FMUs
+        # with the package just built (a wheel's build only: an editable install runs the tree's
+        # sources, whose results the per-user cache keeps as they change)
+        if not (self.inplace or getattr(self, "editable_mode", False)):
+            package = Path(self.get_ext_fullpath("crankfmu.native.crank_kernel")).parent.parent
+            try:
+                names = results["prebuild"](package)
+            except (OSError, RuntimeError) as error:
+                print(f"crankfmu: the packaged scenarios' reference runs and figures were not made ({error}); "
+                      "a build of one makes them into the per-user cache instead", file=sys.stderr)
+            else:
+                print("crankfmu: reference runs and documentation figures made for " + ", ".join(names))
 
 
 class PlainWheel(bdist_wheel):

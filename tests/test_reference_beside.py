@@ -56,3 +56,4 @@ def test_a_build_that_fails_first_stops_the_child():
             assert len(children) == 1
             raise RuntimeError("the tables were refused")
     assert not any(child.is_alive() for child in children)
+

@@ -1,8 +1,10 @@
 """The wheel: `pip wheel --no-deps .` gives a wheel whose tag says what it holds (a plain library
 loaded by ctypes: py3-none-<platform>), with the C kernel, the native mechanism FMUs' runtimes (one
-per FMI version and platform whose compiler the building machine has), the native component FMUs'
-objects and the Python FMUs' shim, so that `crankfmu fmu` builds a Python FMU, and `crankfmu fmu
---native` a native one for every platform the wheel carries, with no compiler on PATH."""
+per FMI version and platform whose compiler the building machine has, for the mechanisms and
+the components alike) and the Python FMUs' shim, so that `crankfmu fmu` builds a Python FMU, and `crankfmu fmu
+--native` a native one for every platform the wheel carries, with no compiler on PATH; and the
+packaged scenarios' reference runs and documentation figures (fmi/prebuilt_results.py), so that a
+packaged scenario's native build integrates and draws nothing."""
 
 from __future__ import annotations
 
@@ -56,6 +58,11 @@ def test_the_wheel_carries_the_kernel_the_runtimes_and_the_shim(wheel):
         assert "crankfmu/fmi/shim/fmu_shim.so" in names
         assert z.read("crankfmu/fmi/shim/fmu_shim.digest").decode().strip() == prebuilt.digest()
         assert "crankfmu/scenarios/engine1.toml" in names and "crankfmu/mechanisms/files/inline4.toml" in names
+        # one reference run, one mechanism drawing and one default-experiment plot per packaged scenario
+        scenarios = len(list((ROOT / "src" / "crankfmu" / "scenarios").glob("*.toml")))
+        for kind, count in (("references/", scenarios), ("figures/mechanism_", scenarios),
+                            ("figures/experiment_", scenarios)):
+            assert sum(n.startswith(f"crankfmu/prebuilt/{kind}") for n in names) == count, kind
 
 
 def test_a_python_fmu_is_built_with_no_compiler_from_the_shim_installed(tmp_path, monkeypatch):
@@ -121,8 +128,30 @@ def test_a_native_fmu_is_built_from_the_wheel_with_no_compiler_for_every_platfor
         (shipped,) = (where / "site" / "crankfmu" / "native" / "runtimes" / f"fmi{version}" / folder).glob("crankfmu-*")
         assert shipped.read_bytes() == binary, folder
     assert not (where / "cache" / "runtimes").exists()
+    # the reference run and the figures are the wheel's: the per-user cache has none of them
+    assert not (where / "cache" / "references").exists() and not (where / "cache" / "figures").exists()
     reference = np.genfromtxt(out / "FourBar_ref.csv", delimiter=",", names=True)
     result = fmpy.simulate_fmu(str(fmu), stop_time=float(reference["time"][-1]), output=["omega1"],
                                output_interval=float(reference["time"][1] - reference["time"][0]))
+    scale = np.max(np.abs(reference["omega1"]))
+    assert np.max(np.abs(result["omega1"] - reference["omega1"])) <= 1e-8 * scale
+
+
+def test_a_design_the_wheel_does_not_carry_is_run_and_drawn_in_its_build(installed, tmp_path):
+    """seed000 at another crank length: the wheel has no reference of it, so the build integrates it
+    and keeps it in the per-user cache; its FMU gives that reference within 1e-8 in fmpy."""
+    import fmpy
+    import numpy as np
+
+    _, env = installed
+    env = {**env, "CRANKFMU_CACHE": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "-m", "crankfmu", "fmu", "seed000", "--native", "--set", "l1=0.21",
+                           "--out", str(tmp_path)], env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert len(list((tmp_path / "cache" / "references").glob("*.csv"))) == 1
+    assert len(list((tmp_path / "cache" / "figures").glob("*.png"))) == 2
+    reference = np.genfromtxt(tmp_path / "FourBar_ref.csv", delimiter=",", names=True)
+    result = fmpy.simulate_fmu(str(tmp_path / "FourBar.fmu"), stop_time=float(reference["time"][-1]),
+                               output=["omega1"], output_interval=float(reference["time"][1] - reference["time"][0]))
     scale = np.max(np.abs(reference["omega1"]))
     assert np.max(np.abs(result["omega1"] - reference["omega1"])) <= 1e-8 * scale

@@ -17,6 +17,10 @@ imported anything of the package it carries.
 Each folder and file is named by the content hash of what it holds and written whole under a
 temporary name, then renamed: a process sees a complete one or none, and a changed content gets a new
 one.
+
+An installation from the wheel also carries, read-only, the references/ and figures/ of its
+packaged scenarios (``prebuilt/`` beside this file, fmi/prebuilt_results.py): ``kept`` reads them
+where the per-user cache has none.
 """
 
 from __future__ import annotations
@@ -51,16 +55,22 @@ def install(folder: Path, fill) -> Path:
     return folder
 
 
+#: what the installation carries of the cache (fmi/prebuilt_results.py): made when the wheel was built
+INSTALLED = Path(__file__).resolve().parent / "prebuilt"
+
+
 def kept(kind: str, key: str, make, encoding: str | None = None):
     """What ``make()`` returns (bytes, or text where ``encoding`` is given), kept in the cache as
-    ``<kind>/<key>``: read from it when it is there, else made and written whole. A cache that cannot
-    be written keeps nothing (the value is returned all the same)."""
+    ``<kind>/<key>``: read from it (or from what the installation carries) when it is there, else
+    made and written whole. A cache that cannot be written keeps nothing (the value is returned all
+    the same)."""
     path = cache_root() / kind / key
-    try:
-        data = path.read_bytes()
-        return data.decode(encoding) if encoding else data
-    except OSError:
-        pass
+    for found in (path, INSTALLED / kind / key):
+        try:
+            data = found.read_bytes()
+            return data.decode(encoding) if encoding else data
+        except OSError:
+            pass
     value = make()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

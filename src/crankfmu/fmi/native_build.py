@@ -213,7 +213,7 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
         raise CrankfmuError(f"--fmi-version must be one of {', '.join(v.removesuffix('.0') for v in FMI_VERSIONS)}, "
                             f"got {fmi_version!r}")
     source = preflight("scenario", data_name, name, causality, values)
-    # the reference run from now until the FMU is written, beside the tables and the compilers
+    # the reference run from now until the FMU is written, beside the tables and the drawing
     with reference_beside(source.reference) as reference_text:
         return _build_native(source, data_name, dest, win64, fmi_version, reference_text)
 
