@@ -22,3 +22,16 @@ def test_the_cache_reads_what_the_installation_carries_after_the_users_own(tmp_p
     assert cache.kept("references", "a.csv", make, encoding="utf-8") == "user"
     assert cache.kept("references", "b.csv", make, encoding="utf-8") == "made" and made == [1]
     assert (tmp_path / "user" / "references" / "b.csv").read_text() == "made"
+
+
+def test_the_cache_runs_from_its_text_as_a_python_fmus_slave_script_runs_it(tmp_path, monkeypatch):
+    """A Python FMU's slave script executes cache.py's text (no __file__) before its package is
+    unpacked: it has no installation to read from, and keeps and reads the per-user cache alike."""
+    from crankfmu import cache
+
+    monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path))
+    namespace = {"__name__": "crankfmu_cache"}
+    exec(compile(open(cache.__file__).read(), "cache.py", "exec"), namespace)
+    assert namespace["INSTALLED"] is None
+    assert namespace["kept"]("figures", "a.png", lambda: b"drawn") == b"drawn"
+    assert namespace["kept"]("figures", "a.png", lambda: b"again") == b"drawn"

@@ -55,8 +55,9 @@ def install(folder: Path, fill) -> Path:
     return folder
 
 
-#: what the installation carries of the cache (fmi/prebuilt_results.py): made when the wheel was built
-INSTALLED = Path(__file__).resolve().parent / "prebuilt"
+#: what the installation carries of the cache (fmi/prebuilt_results.py): made when the wheel was built.
+#: None where this file runs from its text (a Python FMU's slave script: it reads no results)
+INSTALLED = Path(__file__).resolve().parent / "prebuilt" if "__file__" in globals() else None
 
 
 def kept(kind: str, key: str, make, encoding: str | None = None):
@@ -65,7 +66,7 @@ def kept(kind: str, key: str, make, encoding: str | None = None):
     made and written whole. A cache that cannot be written keeps nothing (the value is returned all
     the same)."""
     path = cache_root() / kind / key
-    for found in (path, INSTALLED / kind / key):
+    for found in (path,) if INSTALLED is None else (path, INSTALLED / kind / key):
         try:
             data = found.read_bytes()
             return data.decode(encoding) if encoding else data
