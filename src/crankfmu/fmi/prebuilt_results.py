@@ -41,7 +41,10 @@ def prebuild(package: Path, lanes: int = 2) -> list[str]:
     shutil.rmtree(into, ignore_errors=True)
     with tempfile.TemporaryDirectory(prefix="crankfmu-prebuild-") as work:
         work = Path(work)
-        env = {**os.environ, "PYTHONPATH": str(package.parent), "CRANKFMU_CACHE": str(work / "cache"),
+        # the package being built first, then what the build's environment has on the path (pip's
+        # isolated build environment is a PYTHONPATH entry: numpy, scipy, matplotlib and fmpy there)
+        path = os.pathsep.join(p for p in (str(package.parent), os.environ.get("PYTHONPATH", "")) if p)
+        env = {**os.environ, "PYTHONPATH": path, "CRANKFMU_CACHE": str(work / "cache"),
                "MPLCONFIGDIR": str(work / "matplotlib"), "MPLBACKEND": "Agg"}
 
         def build(name: str):
