@@ -234,11 +234,9 @@ def mechanism_png(scenario) -> bytes:
     """The scenario's drawing (its [drawing] angle and overlays) as PNG, drawn once per design and
     code (the per-user cache keeps it, as experiment_plot's)."""
     from ..cache import kept
-    from .reference import code_digest
+    from .reference import design_digest
 
-    key = hashlib.sha256(repr((scenario.data, scenario.mechanism_definition(), sorted(scenario.values.items()),
-                               code_digest())).encode()).hexdigest()[:24]
-    return kept("figures", f"mechanism_{key}.png", lambda: _mechanism_png(scenario))
+    return kept("figures", f"mechanism_{design_digest(scenario)}.png", lambda: _mechanism_png(scenario))
 
 
 def _mechanism_png(scenario) -> bytes:

@@ -45,17 +45,6 @@ N_STATES = N_Y
 N_EVENT_INDICATORS = layout()["N_SLOTS"]
 
 
-def c_string(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
-
-
-def c_double(value: float) -> str:
-    """A hexadecimal float literal: the exact binary value, whatever the compiler's parsing (math.h's
-    NAN and INFINITY where it is not finite)."""
-    v = float(value)
-    return v.hex() if v == v and abs(v) != float("inf") else ("NAN" if v != v else ("INFINITY" if v > 0 else "-INFINITY"))
-
-
 def native_program(scenario):
     """(the scenario's program, {table: (checked error bound, construction)}): what a native FMU of
     ``scenario`` carries, and its tables built by the C model at the file's values, as the FMU
@@ -183,13 +172,6 @@ class NativeModel:
             [self.scenario.values[n] for n in program.parameters], self.geometry_parameters(),
             self.definition.unknowns)
         return model_file.wrap(body)
-
-    def table_summary(self) -> str:
-        """The tables' constructions and checked error bounds at the file's values (the documentation's)."""
-        from ..native.mechanism import TABLE_NAMES
-
-        return "; ".join(f"{TABLE_NAMES[table]}: {construction}, checked error bound {error:.3g} at the file's values"
-                         for table, (error, construction) in self.table_errors.items())
 
     def derivatives(self) -> list[tuple[str, str]]:
         """(state, unit of its derivative) of the Model Exchange states: the kernel's y (none in

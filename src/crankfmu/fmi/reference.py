@@ -26,18 +26,12 @@ LS_REF_MANIFEST = """<?xml version="1.0" encoding="UTF-8"?>
 def reference_result(scenario) -> str:
     """The default experiment's outputs (CSV, quoted header) from the in-process reference: run once
     per design and code (``make fmu`` builds three FMUs of each scenario), then read from the
-    per-user cache under the hash of the scenario's data, its mechanism, its values and crankfmu's
-    Python sources."""
-    import hashlib
-
+    per-user cache (or the installation's) under its design_digest."""
     import numpy as np
 
     from crankfmu import COLUMNS, simulate
 
     from ..cache import kept
-
-    key = hashlib.sha256(repr((scenario.data, scenario.mechanism_definition(), sorted(scenario.values.items()),
-                               code_digest())).encode()).hexdigest()[:24]
 
     def run() -> str:
         exp = scenario.experiment
@@ -47,7 +41,16 @@ def reference_result(scenario) -> str:
         lines = [",".join(f'"{c}"' for c in COLUMNS)]
         lines += [",".join(f"{getattr(result, c)[i]:.17g}" for c in COLUMNS) for i in range(times.size)]
         return "\n".join(lines) + "\n"
-    return kept("references", f"{key}.csv", run, encoding="utf-8")
+    return kept("references", f"{design_digest(scenario)}.csv", run, encoding="utf-8")
+
+
+def design_digest(scenario) -> str:
+    """What a design's results are kept under in the cache (its reference run, its drawing): the hash
+    of the scenario's data, its mechanism, its values and crankfmu's Python sources."""
+    import hashlib
+
+    return hashlib.sha256(repr((scenario.data, scenario.mechanism_definition(), sorted(scenario.values.items()),
+                                code_digest())).encode()).hexdigest()[:24]
 
 
 _CODE_DIGEST = []

@@ -90,7 +90,11 @@ def fmi_headers() -> Path:
 
 
 def runtime_flags(windows: bool) -> list:
-    return fmu_flags(windows) + ["-shared", "-static-libgcc"]
+    """How a runtime is compiled, besides its -I folder: as the library, no -fPIC for a DLL, CK_API
+    empty (the runtime exports its shell, not the kernel), on Linux nothing visible but the FMI
+    functions; a shared library with libgcc linked statically."""
+    flags = [f for f in CFLAGS if not (windows and f == "-fPIC")] + ["-DCK_API="]
+    return flags + ([] if windows else ["-fvisibility=hidden"]) + ["-shared", "-static-libgcc"]
 
 
 def runtime_name(fmi_version: str, compiler: str, windows: bool) -> str:
@@ -169,14 +173,6 @@ def digest(folder: Path = HERE) -> str:
 
 def library_name(platform: str) -> str:
     return "crank_kernel.dll" if platform == "win32" else "crank_kernel.so"
-
-
-def fmu_flags(windows: bool) -> list:
-    """How a native FMU's sources are compiled, besides its -I folders: as the library, no -fPIC
-    for a DLL, CK_API empty (the FMU exports its shell, not the kernel), and on Linux nothing
-    visible but the FMI functions."""
-    flags = [f for f in CFLAGS if not (windows and f == "-fPIC")] + ["-DCK_API="]
-    return flags + ([] if windows else ["-fvisibility=hidden"])
 
 
 def _run(command: list) -> None:

@@ -281,22 +281,19 @@ int cm_exit_initialization(Model* m, const char* call)
     if (m->now.phase != CM_INITIALIZATION) return cm_fail(m, "%s without entering initialisation mode", call);
     /* refused: the instance stays in initialisation, for other values or a reset */
     if (cm_ensure_tables(m, call) != CM_OK) return CM_ERROR;
+    int finite;
     if (m->model_exchange) {
         cm_me_start(m);
-        if (!cm_me_evaluate(m)) {
-            char judged[512];
-            m->now.phase = CM_FAILED;
-            return cm_fail(m, "the initial state gives non-finite derivatives or outputs (%s): check the parameters",
-                           judged_row(m, judged, sizeof judged));
-        }
+        finite = cm_me_evaluate(m);
     } else {
         cm_cs_start(m);
-        if (!outputs_finite(m)) {
-            char judged[512];
-            m->now.phase = CM_FAILED;
-            return cm_fail(m, "the initial state gives non-finite outputs (%s): check the parameters",
-                           judged_row(m, judged, sizeof judged));
-        }
+        finite = outputs_finite(m);
+    }
+    if (!finite) {
+        char judged[512];
+        m->now.phase = CM_FAILED;
+        return cm_fail(m, "the initial state gives non-finite %s (%s): check the parameters",
+                       m->model_exchange ? "derivatives or outputs" : "outputs", judged_row(m, judged, sizeof judged));
     }
     m->now.phase = CM_STEPPING;
     m->now.pending = 0;
