@@ -36,6 +36,7 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from .. import units as si
+from ..contract import direct_dependencies
 from ..atomic import replacing
 from ..errors import CrankfmuError
 from .background import reference_beside
@@ -185,6 +186,17 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
     root.insert(position + 1, vendor_annotations(source, "python"))
 
     structure = root.find("ModelStructure")
+    # each output's direct dependencies on the inputs (contract.Variable.depends): a Python FMU
+    # declares no states, so an output that depends on none lists none (no algebraic loop through it)
+    declared = source.variables()
+    by_name = {v.name: v for v in declared.outputs}
+    input_names = [p.name for p in declared.inputs]
+    name_at = {i: name for name, i in index.items()}
+    for unknown in structure.find("Outputs").findall("Unknown"):
+        v = by_name[name_at[int(unknown.get("index"))]]
+        depends = direct_dependencies(v.depends, declared.outputs, input_names)
+        unknown.set("dependencies", " ".join(str(index[n]) for n in depends))
+        unknown.set("dependenciesKind", " ".join("dependent" for _ in depends))
     for old in structure.findall("InitialUnknowns"):
         structure.remove(old)
     initial = ET.SubElement(structure, "InitialUnknowns")

@@ -315,6 +315,8 @@ class SlaveCore:
         if v != self.values[name]:
             self.values[name] = v
             self.pending.add(name)
+            if self.phase == STEPPING and not self.errors:
+                self.inputs_set()
         self.errors.pop(name, None)
 
     # ------------------------------------------------------------------ life cycle
@@ -433,6 +435,11 @@ class SlaveCore:
 
     def outputs_now(self) -> np.ndarray:
         raise NotImplementedError
+
+    def inputs_set(self):
+        """An input changed between two steps: the outputs that depend on it at once are computed
+        again (a master that solves a loop by setting inputs and reading outputs reads them at the
+        values it set); the state moves at the next step."""
 
     def outputs_text(self) -> str:
         return ", ".join(f"{v:g}" for v in self.outputs_now())

@@ -41,6 +41,9 @@ class CushionCore(SlaveCore):
     def advance(self, target: float):
         self._update_outputs()
 
+    def inputs_set(self):
+        self._update_outputs()
+
     def outputs_now(self) -> np.ndarray:
         return self.out
 

@@ -78,6 +78,9 @@ class DriveCore(SlaveCore):
         self.state[:] = self.step(target - self.time)
         self._update_outputs()
 
+    def inputs_set(self):
+        self._update_outputs()
+
     def outputs_now(self) -> np.ndarray:
         return self.out
 

@@ -22,10 +22,11 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from .. import units as si
+from ..contract import direct_dependencies
 from ..errors import CrankfmuError
 from . import model_file
 from .native_build import native_runtimes, package_native
-from .native_model import default_experiment, unit_definitions
+from .native_model import MAX_OUTPUT_DERIVATIVE_ORDER, default_experiment, dependency_attributes, unit_definitions
 from .source import preflight, vendor_annotations
 
 
@@ -57,17 +58,31 @@ class ComponentModel:
     def parameters(self) -> dict:
         return {p.name: p for p in (*self.declared.inputs, *self.declared.parameters)}
 
+    @property
+    def derivatives(self) -> bool:
+        """Whether the FMU gives output and directional derivatives: a rod string's explicit grid
+        has no smooth equations to take them of (the runtime refuses the calls)."""
+        return self.source.kind != "well"
+
+    def dependencies(self) -> dict[str, list[str]]:
+        """Each output's direct dependencies: the inputs it feeds through from (a component
+        declares no continuous states)."""
+        inputs = [p.name for p in self.declared.inputs]
+        return {v.name: direct_dependencies(v.depends, self.declared.outputs, inputs)
+                for v in self.declared.outputs}
+
     def variables(self) -> list:
         """The variables in value-reference order, as FMI 3.0's description takes them (NativeVariable)."""
         from .native_model import NativeVariable
 
         table = []
+        depends = self.dependencies()
         for name, kind, start, lo, hi, _, _, unit, text, description in self.rows:
             bounds = {"min": repr(float(lo)) if math.isfinite(lo) else None,
                       "max": repr(float(hi)) if math.isfinite(hi) else None}
             if kind == "OUTPUT":
                 table.append(NativeVariable(name, unit, description, "output", "continuous", initial="calculated",
-                                            **bounds))
+                                            depends=depends[name], **bounds))
             elif kind == "INPUT":
                 table.append(NativeVariable(name, unit, description, "input", "continuous", start=repr(float(start)),
                                             **bounds))
@@ -94,7 +109,9 @@ class ComponentModel:
                           variableNamingConvention="structured", numberOfEventIndicators="0")
         cs = ET.SubElement(root, "CoSimulation", modelIdentifier=self.source.fmu, canGetAndSetFMUstate="true",
                            canSerializeFMUstate="true", canNotUseMemoryManagementFunctions="false",
-                           canHandleVariableCommunicationStepSize="true", canInterpolateInputs="false")
+                           canHandleVariableCommunicationStepSize="true", canInterpolateInputs="true",
+                           maxOutputDerivativeOrder=str(MAX_OUTPUT_DERIVATIVE_ORDER if self.derivatives else 0),
+                           providesDirectionalDerivative=str(self.derivatives).lower())
         files = ET.SubElement(cs, "SourceFiles")
         for name in sources:
             if name.endswith(".c"):
@@ -129,8 +146,10 @@ class ComponentModel:
                 element.set("unit", si.fmi_name(unit))
         structure = ET.SubElement(root, "ModelStructure")
         listed = ET.SubElement(structure, "Outputs")
+        table = self.variables()
+        index_of = {v.name: i + 1 for i, v in enumerate(table)}
         for i in outputs:
-            ET.SubElement(listed, "Unknown", index=str(i))
+            ET.SubElement(listed, "Unknown", index=str(i), **dependency_attributes(table[i - 1], index_of))
         initial = ET.SubElement(structure, "InitialUnknowns")
         for i in outputs:
             ET.SubElement(initial, "Unknown", index=str(i), dependencies=" ".join(str(k) for k in knowns))
@@ -151,7 +170,7 @@ def build_native_component(kind: str, data_name: str, dest: Path, name: str | No
 
         describe = lambda sources: native_fmi3.describe(source, model.guid, source.title, source.experiment,  # noqa: E731
                                                         model.variables(), model_exchange=False, events=False,
-                                                        indicators=0)
+                                                        indicators=0, derivatives=model.derivatives)
     runtimes = native_runtimes(fmi_version, win64)
     with ExitStack() as written:
         return package_native(source, dest, describe, model.parameters(), None,

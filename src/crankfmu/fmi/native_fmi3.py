@@ -23,7 +23,8 @@ from xml.etree import ElementTree as ET
 
 from .. import units as si
 from .source import fmi3_annotations
-from .native_model import N_EVENT_INDICATORS, NativeModel, default_experiment, unit_definitions
+from .native_model import (MAX_OUTPUT_DERIVATIVE_ORDER, N_EVENT_INDICATORS, NativeModel, default_experiment,
+                           dependency_attributes, unit_definitions)
 
 #: a unit's quantity, the name of its Float64Type (a unit not listed gets a type named after it)
 QUANTITIES = {
@@ -51,18 +52,22 @@ def model_description(model: NativeModel, sources: list[str]) -> bytes:
 
 
 def describe(source, guid: str, title: str, experiment, table: list, model_exchange: bool, events: bool,
-             indicators: int, reserved: int = 0) -> bytes:
+             indicators: int, reserved: int = 0, derivatives: bool = True) -> bytes:
     """modelDescription.xml 3.0 of a native FMU (a mechanism's or a component's): the variables of
     ``table`` (NativeVariable, in value-reference order), ``indicators`` event indicators (Model
     Exchange) and time after them, past the ``reserved`` value references the shell keeps for
     indicators (fmi3_shell.c: always the kernel's slots); Co-Simulation with event mode and early
-    return where ``events`` (a switch the kernel locates)."""
+    return where ``events`` (a switch the kernel locates); directional, adjoint and output
+    derivatives where ``derivatives`` (every native FMU but the rod string)."""
     root = ET.Element("fmiModelDescription", fmiVersion="3.0", modelName=source.fmu, instantiationToken=guid,
                       description=title, generationTool="crankfmu (native)", variableNamingConvention="structured")
-    common = dict(modelIdentifier=source.fmu, canGetAndSetFMUState="true", canSerializeFMUState="true")
+    common = dict(modelIdentifier=source.fmu, canGetAndSetFMUState="true", canSerializeFMUState="true",
+                  providesDirectionalDerivatives=str(derivatives).lower(),
+                  providesAdjointDerivatives=str(derivatives).lower())
     if model_exchange:
         ET.SubElement(root, "ModelExchange", **common, needsCompletedIntegratorStep="false")
     ET.SubElement(root, "CoSimulation", **common, canHandleVariableCommunicationStepSize="true",
+                  maxOutputDerivativeOrder=str(MAX_OUTPUT_DERIVATIVE_ORDER if derivatives else 0),
                   hasEventMode="true" if events else "false", mightReturnEarlyFromDoStep="true" if events else "false",
                   canReturnEarlyAfterIntermediateUpdate="false", providesIntermediateUpdate="false")
     units = sorted({v.unit for v in table} | {"s"})
@@ -95,10 +100,11 @@ def describe(source, guid: str, title: str, experiment, table: list, model_excha
     structure = ET.SubElement(root, "ModelStructure")
     for vr, v in enumerate(table):
         if v.causality == "output":
-            ET.SubElement(structure, "Output", valueReference=str(vr))
+            ET.SubElement(structure, "Output", valueReference=str(vr), **dependency_attributes(v, vr_of))
     for vr, v in enumerate(table):
         if v.derivative_of:
-            ET.SubElement(structure, "ContinuousStateDerivative", valueReference=str(vr))
+            ET.SubElement(structure, "ContinuousStateDerivative", valueReference=str(vr),
+                          **dependency_attributes(v, vr_of))
     for vr, v in enumerate(table):
         if v.causality == "output" or v.derivative_of:
             ET.SubElement(structure, "InitialUnknown", valueReference=str(vr))

@@ -25,7 +25,7 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from .. import units as si
-from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS
+from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS, STATE_DERIVATIVE_DEPENDS, direct_dependencies
 from ..errors import CrankfmuError
 from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
 from .source import vendor_annotations
@@ -87,6 +87,27 @@ class NativeVariable:
     min: str | None = None
     max: str | None = None
     derivative_of: str | None = None    # a Model Exchange derivative: its state's name
+    #: an output's or a derivative's direct dependencies (ModelStructure): names of the FMU's
+    #: continuous states and inputs (contract.direct_dependencies); None: not declared
+    depends: list | None = None
+
+
+#: what every native FMU offers a master besides its values (the runtime's fmu_derivatives.c): the
+#: outputs' first and second time derivatives and directional derivatives (FMI 3.0 adjoint ones
+#: too); a rod string's grid has no smooth equations, so it offers none
+MAX_OUTPUT_DERIVATIVE_ORDER = 2
+
+
+def dependency_attributes(v: NativeVariable, reference: dict) -> dict:
+    """ModelStructure's dependencies and dependenciesKind of ``v``, its knowns referred to by
+    ``reference`` (name -> FMI 2.0 index or FMI 3.0 value reference): "constant" where the unknown is
+    the known itself or der(phi1) of omega1, "dependent" otherwise (a factor that varies with the
+    state)."""
+    if v.depends is None:
+        return {}
+    constant = {(v.name, v.name), ("der(phi1)", "omega1")}
+    return {"dependencies": " ".join(str(reference[n]) for n in v.depends),
+            "dependenciesKind": " ".join("constant" if (v.name, n) in constant else "dependent" for n in v.depends)}
 
 
 class NativeModel:
@@ -182,6 +203,20 @@ class NativeModel:
         units = {v.name: v.unit for v in self.outputs}
         return [(name, per_second[units[name]]) for name in ROW_FIELDS[:N_STATES]]
 
+    def dependencies(self) -> dict[str, list[str]]:
+        """Each output's and state derivative's direct dependencies: names of the continuous states
+        (Model Exchange's, declared with their derivatives in both interfaces; none in speed
+        causality) and of the inputs."""
+        from .slave import quantity_variables
+
+        inputs = [self.input.name, *(p.input_name for p in self.ports)]
+        states = [name for name, _ in self.derivatives()]
+        outputs = [*self.outputs, *quantity_variables(self.scenario), *self.reactions]
+        found = {v.name: direct_dependencies(v.depends, outputs, inputs, states) for v in outputs}
+        for name in states:
+            found[f"der({name})"] = direct_dependencies(STATE_DERIVATIVE_DEPENDS[name], outputs, inputs, states)
+        return found
+
     def output_rows(self) -> list[int]:
         """Each contract output's place in the kernel's output row; -1 for E_kin (from J_red, omega1)."""
         fields = SPEED_ROW_FIELDS if self.speed else ROW_FIELDS
@@ -212,7 +247,8 @@ class NativeModel:
                   for p in self.ports]
         table += [NativeVariable(v.name, v.unit, v.description, "output", "continuous", initial="calculated")
                   for v in self.reactions]
-        return table
+        depends = self.dependencies()
+        return [replace(v, depends=depends[v.name]) if v.name in depends else v for v in table]
 
     def units_used(self) -> list[str]:
         return sorted({v.unit for v in self.variables() if v.unit != "1"})
@@ -224,10 +260,11 @@ class NativeModel:
                           variableNamingConvention="structured",
                           numberOfEventIndicators=str(0 if self.speed else N_EVENT_INDICATORS))
         common = dict(modelIdentifier=self.source.fmu, canGetAndSetFMUstate="true", canSerializeFMUstate="true",
-                      canNotUseMemoryManagementFunctions="false")
+                      canNotUseMemoryManagementFunctions="false", providesDirectionalDerivative="true")
         interfaces = (("ModelExchange", {"completedIntegratorStepNotNeeded": "true"}),
                       ("CoSimulation", {"canHandleVariableCommunicationStepSize": "true",
-                                        "canInterpolateInputs": "true"}))
+                                        "canInterpolateInputs": "true",
+                                        "maxOutputDerivativeOrder": str(MAX_OUTPUT_DERIVATIVE_ORDER)}))
         for kind, extra in interfaces[1:] if self.speed else interfaces:
             files = ET.SubElement(ET.SubElement(root, kind, **common, **extra), "SourceFiles")
             for name in sources:
@@ -259,7 +296,7 @@ class NativeModel:
                 continue           # (speed causality: no states; an empty element is not allowed)
             element = ET.SubElement(structure, tag)
             for i in indices:
-                ET.SubElement(element, "Unknown", index=str(i))
+                ET.SubElement(element, "Unknown", index=str(i), **dependency_attributes(table[i - 1], index_of))
         initial = ET.SubElement(structure, "InitialUnknowns")
         everything = " ".join(str(i) for i in inputs)
         for i in sorted(outputs + derivative_indices):

@@ -57,6 +57,9 @@ class RodStringCore(SlaveCore):
         self.string.advance(self.values["s"] + self.values["v"] * h, h)
         self._update_outputs()
 
+    def inputs_set(self):
+        self._update_outputs()
+
     def outputs_now(self) -> np.ndarray:
         return self.out
 

@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS, Variable
+from ..contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS, QUANTITY_DEPENDS, REACTION_DEPENDS, Variable
 from ..dynamics import MotorLine
 from ..dynamics import modes
 from ..dynamics.tabulated import c_output_tables, table_of, tabulate_quantities, tabulate_reactions
@@ -111,13 +111,21 @@ def output_quantities(scenario, ports=None) -> list:
                                     for q in port.quantities)]
 
 
+def quantity_variables(scenario) -> list:
+    """The outputs of output_quantities, each depending at once on what its order needs."""
+    definition = scenario.mechanism_definition()
+    return [Variable(q.name, q.unit(definition), q.description, depends=QUANTITY_DEPENDS[q.order])
+            for q in output_quantities(scenario)]
+
+
 def reaction_variables(scenario) -> list:
     """The joint reactions' outputs (dynamics.reactions.reaction_outputs) of a mechanism file that
     declares its [[joints]]; none otherwise."""
     from ..dynamics.reactions import reaction_outputs
 
     definition = scenario.mechanism_definition()
-    return [Variable(*v) for v in reaction_outputs(definition)] if definition.joints else []
+    return ([Variable(*v, depends=REACTION_DEPENDS) for v in reaction_outputs(definition)]
+            if definition.joints else [])
 
 
 #: the FMU's integrator tolerance: below 1e-14 the error control asks for steps near the kernel's
@@ -138,8 +146,7 @@ def declared(scenario) -> Declared:
     and its ports' outputs, the inputs tau_ext and one per port, the scenario's parameters and the
     integrator's rtol."""
     definition = scenario.mechanism_definition()
-    outputs = [*OUTPUTS, *(Variable(q.name, q.unit(definition), q.description) for q in output_quantities(scenario)),
-               *reaction_variables(scenario)]
+    outputs = [*OUTPUTS, *quantity_variables(scenario), *reaction_variables(scenario)]
     inputs = [Parameter(TAU_EXT.name, 0.0, TAU_EXT.unit, TAU_EXT.description),
               *(Parameter(p.input_name, 0.0, p.input_unit, p.input_description) for p in scenario.ports)]
     parameters = [*scenario.parameters.values(), rtol_parameter(scenario.experiment.tolerance)]
@@ -323,6 +330,12 @@ class FmuCore(RowOutputs, SlaveCore):
             self.log(warning, "warning")
         self.quantities = output_quantities(self.scenario, self.model.reduced.ports)
         self.reads = output_reads(design, self.quantities, self.stepper)
+        self._clear()
+
+    def inputs_set(self):
+        self.stepper.set_tau_ext(self.values[TAU_EXT.name])
+        self.stepper.set_port_inputs([self.values[n] for n in self.port_inputs])
+        self.stepper.refresh(self.time)
         self._clear()
 
     def advance(self, target: float):

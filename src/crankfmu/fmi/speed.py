@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contract import MOTOR_PARAMETERS, SPEED_INPUTS, SPEED_OUTPUTS, Variable
+from ..contract import MOTOR_PARAMETERS, SPEED_INPUTS, SPEED_OUTPUTS
 from ..integrators.fast import SpeedStepper
 from ..native import SPEED_ROW_FIELDS
 from ..parameters import Parameter
 from .core import Declared, SlaveCore
 from .slave import (RowOutputs, build_design, fmu_scenario, lazy_outputs, output_quantities, output_reads,
-                    reaction_variables)
+                    quantity_variables, reaction_variables)
 
 (OMEGA1,) = SPEED_INPUTS
 #: parameters the speed-causal FMU does not have: the motor line (the drive is outside) and the
@@ -35,10 +35,7 @@ NOT_DECLARED = (*MOTOR_PARAMETERS, "omega1_start")
 
 def declared(scenario) -> Declared:
     """The variables of the speed-causal FMU of ``scenario``."""
-    definition = scenario.mechanism_definition()
-    outputs = [*SPEED_OUTPUTS,
-               *(Variable(q.name, q.unit(definition), q.description) for q in output_quantities(scenario)),
-               *reaction_variables(scenario)]
+    outputs = [*SPEED_OUTPUTS, *quantity_variables(scenario), *reaction_variables(scenario)]
     inputs = [Parameter(OMEGA1.name, scenario.parameters["omega1_start"].value, OMEGA1.unit, OMEGA1.description),
               *(Parameter(p.input_name, 0.0, p.input_unit, p.input_description) for p in scenario.ports)]
     parameters = [p for n, p in scenario.parameters.items() if n not in NOT_DECLARED]
@@ -79,6 +76,11 @@ class SpeedCore(RowOutputs, SlaveCore):
 
     def _ports(self):
         return [self.values[n] for n in self.port_inputs]
+
+    def inputs_set(self):
+        self.stepper.set_port_inputs(self._ports(), t_input=self.time)
+        self.stepper.refresh(self.values[OMEGA1.name])
+        self._clear()
 
     def advance(self, target: float):
         # the ports' inputs held over the step from its start; omega1's slope from the last step

@@ -174,6 +174,13 @@ class FastStepper:
         self.state[kernel.N_RHS] += n_rhs
         self.state[kernel.N_STEPS] = n_steps
 
+    def refresh(self, t: float) -> np.ndarray:
+        """The output row at t (the last communication point) with the inputs as set now in P: an
+        output that depends on an input at once is read at the value just set (the next step
+        restarts from it)."""
+        kernel.row_at(self.state, t, self.tables, self.P, self.row)
+        return self.row
+
     def advance(self, t_target: float, t_limit: float) -> np.ndarray:
         """Step to t_target (steps may end up to t_limit); the output row at t_target
         (phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red, tau_e)."""
@@ -204,6 +211,12 @@ class SpeedStepper:
 
     def start(self, t: float, phi1: float, omega1: float) -> np.ndarray:
         self.bound.speed_begin(float(t), float(phi1), float(omega1))
+        return self.row
+
+    def refresh(self, omega1: float) -> np.ndarray:
+        """The output row now with the input omega1 just set (and the ports' inputs in P): what the
+        next step starts from, tau_drive with its slope."""
+        kernel.speed_row_at(self.state, omega1, self.tables, self.P, self.row)
         return self.row
 
     def advance(self, t_target: float, omega1: float, rate: float | None = None) -> np.ndarray:

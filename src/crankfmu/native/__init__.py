@@ -87,6 +87,10 @@ def _load() -> ctypes.CDLL:
         "ck_begin": (None, [D, ctypes.c_double, D, T, D, D]),
         "ck_advance": (ctypes.c_int, [D, ctypes.c_double, ctypes.c_double, T, D, D]),
         "ck_dense": (None, [D, ctypes.c_double, D]),
+        "ck_point": (None, [D, ctypes.c_double, D]),
+        "ck_me_derivatives": (ctypes.c_int, [D, D, T, D, D, D]),
+        "ck_speed_row": (None, [D, T, D, D]),
+        "ck_speed_slope": (ctypes.c_double, [D, ctypes.c_double, ctypes.c_double, ctypes.c_int]),
         "ck_speed_begin": (None, [D, ctypes.c_double, ctypes.c_double, ctypes.c_double, T, D, D]),
         "ck_speed_advance": (ctypes.c_int, [D, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_int, T,
                                             D, D]),
@@ -270,6 +274,24 @@ class Bound:
 
 def dense(S, t, out):
     LIBRARY.ck_dense(_d(S), t, _d(out))
+
+
+def row_at(S, t: float, tables: "Tables", P, row):
+    """The output row at t within S's last step (or at its end) with the parameters and inputs P:
+    the state there by the dense output, in that step's mode (ck_point, ck_me_derivatives)."""
+    point = np.zeros(STATE_SIZE)
+    LIBRARY.ck_point(_d(S), float(t), _d(point))
+    if LIBRARY.ck_me_derivatives(_d(point), _d(point[Y:]), tables.pointer, _d(P), None, _d(row)) != 0:
+        raise CrankfmuError("the kernel's state is corrupted")
+
+
+def speed_row_at(S, omega: float, tables: "Tables", P, row):
+    """The speed-causal output row at S's time with the input omega1 just set: what the next step
+    starts from (its slope by the kernel's rule, ck_speed_slope; no derivative given)."""
+    point = np.array(S, dtype=float)
+    point[Y + 1] = omega
+    point[F_ + 1] = LIBRARY.ck_speed_slope(_d(S), float(omega), 0.0, 0)
+    LIBRARY.ck_speed_row(_d(point), tables.pointer, _d(P), _d(row))
 
 
 def run_chunk(S, t_end, times, i_out, rows, step_store, n_store, events, n_events, modes, n_modes,

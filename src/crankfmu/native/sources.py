@@ -58,9 +58,11 @@ FMU_COMPILERS = {"gcc": False, WIN64_CC: True, AARCH64_CC: False}
 #: components' (components/component_model.c) behind it, and each FMI version's shell (shells/)
 RUNTIME_MODEL = (_in("model", ("fmu_model.c", "model_status.c", "crank_model.c", "crank_model_variables.c",
                                 "crank_model_me.c", "crank_model_refusals.c", "crank_model_file.c", "sha256.c",
-                                "fmu_model.h", "model_status.h", "crank_model.h", "crank_model_internal.h",
-                                "crank_variables.h", "sha256.h", "fmu_states.h"))
-                 + _in("components", ("component_model.c", "component_models.c", "component_model.h")))
+                                "crank_model_derivatives.c", "fmu_derivatives.c", "fmu_model.h", "model_status.h",
+                                "crank_model.h", "crank_model_internal.h", "crank_variables.h", "sha256.h",
+                                "fmu_states.h", "fmu_derivatives.h"))
+                 + _in("components", ("component_model.c", "component_models.c", "component_derivatives.c",
+                                      "component_model.h")))
 RUNTIME_SHELL = {"2.0": _in("shells", ("fmi2_shell.c", "fmi2_messages.c", "fmi2_messages.h")),
                  "3.0": _in("shells", ("fmi3_shell.c", "fmi3_refusals.c", "fmi3_refusals.h"))}
 #: the FMI headers each version's sources carry (from fmpy, BSD-2-Clause): a source build needs nothing else

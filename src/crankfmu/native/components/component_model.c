@@ -16,7 +16,7 @@
 
 static const char* PHASE[] = {"instantiated", "initialization mode", "stepping", "terminated", "failed"};
 
-static int co_fail(const Component* c, const char* format, ...)
+int co_fail(const Component* c, const char* format, ...)
 {
     va_list args;
     va_start(args, format);
@@ -179,7 +179,7 @@ int co_do_step(Component* c, const char* call, double t, double h)
     if (r >= 0)
         return co_fail(c, "%s: cannot step: %s has no valid value (valid range %s)", call, c->d->variables[r].name,
                        c->d->variables[r].range);
-    model_step(c, c->now.values, c->now.state, target - c->now.time);
+    model_step(c, c->now.values, c->now.rate, c->now.state, target - c->now.time);
     model_outputs(c, c->now.values, c->now.state);
     if (!outputs_finite(c)) {
         c->now.phase = CM_FAILED;
@@ -258,15 +258,35 @@ int co_set(Component* c, const char* call, const unsigned* vr, size_t n, const d
         }
         c->now.refused[vr[k]] = 0;
         c->now.values[vr[k]] = x;
+        if (v->kind == KIND_INPUT) c->now.rate[vr[k]] = 0.0;     /* held, unless a derivative follows */
         if (c->now.phase == CM_INITIALIZATION) c->stale = 1;
     }
-    /* stepping, the outputs are those of the last step (or of the initialisation), as the Python
-     * FMU's: a value set now enters the next step */
+    /* stepping, an output that depends on an input at once (the drive's voltage and power, the
+     * cushion's force) is read at the inputs just set, as a master solving a loop by setting and
+     * reading expects (the Python FMU's the same); the state moves at the next step */
+    if (c->now.phase == CM_STEPPING && c->now.n_state > 0) model_outputs(c, c->now.values, c->now.state);
     return status;
 }
 
+int co_set_input_derivatives(Component* c, const char* call, const unsigned* vr, size_t n, const int* order,
+                             const double* value)
+{
+    if (n > 0 && (!vr || !order || !value)) return co_fail(c, "%s: null arrays", call);
+    for (size_t k = 0; k < n; k++) {
+        if (bad_reference(c, vr[k], call)) return CM_ERROR;
+        const Variable* v = &c->d->variables[vr[k]];
+        if (v->kind != KIND_INPUT) return co_fail(c, "%s: %s is not an input of this FMU", call, v->name);
+        if (order[k] != 1)
+            return co_fail(c, "%s: %s: order %d; this FMU takes the first derivative only", call, v->name, order[k]);
+        if (!isfinite(value[k]))
+            return co_fail(c, "%s: %s: the derivative %s must be finite", call, v->name, shortest(value[k]).text);
+    }
+    for (size_t k = 0; k < n; k++) c->now.rate[vr[k]] = value[k];
+    return CM_OK;
+}
+
 /* ---------------------------------------------------------------------------- FMU state */
-static const char STATE_TAG[16] = "crankfmu-comp-03";
+static const char STATE_TAG[16] = "crankfmu-comp-04";
 
 int co_copy(CoSnapshot* to, const CoSnapshot* from)
 {

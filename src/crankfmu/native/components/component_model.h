@@ -20,6 +20,8 @@
 typedef struct {
     FmuStateMark mark;             /* first: what makes a copy an FMU state the shells know (fmu_states.h) */
     double values[CM_MAX_VARIABLES];
+    double rate[CM_MAX_VARIABLES]; /* an input's first derivative (1/s) from the host, over the next step;
+                                      0 (held) once the input is set again */
     double time;
     int phase;
     int refused[CM_MAX_VARIABLES]; /* a refused value: initialisation and steps fail until it is set well */
@@ -51,6 +53,20 @@ int co_exit_initialization(Component* c, const char* call);
 int co_do_step(Component* c, const char* call, double t, double h);
 int co_get(Component* c, const char* call, const unsigned* vr, size_t n, double* value);
 int co_set(Component* c, const char* call, const unsigned* vr, size_t n, const double* value);
+/* inputs' first derivatives at the current communication point (each input then a line over the
+ * next step) */
+int co_set_input_derivatives(Component* c, const char* call, const unsigned* vr, size_t n, const int* order,
+                             const double* value);
+/* for masters, after the end of initialisation (component_derivatives.c): the Jacobian of the
+ * outputs with respect to the inputs and the outputs that are states, jacobian[i * n_knowns + k];
+ * the outputs' first and second time derivatives along the next step (either may be NULL). A rod
+ * string refuses both (its grid's explicit steps are not smooth equations) */
+int co_jacobian(Component* c, const char* call, const unsigned* unknowns, size_t n_unknowns, const unsigned* knowns,
+                size_t n_knowns, double* jacobian);
+int co_output_derivatives(Component* c, const char* call, const unsigned* vr, size_t n, double* first,
+                          double* second);
+/* a refusal, logged; CM_ERROR */
+int co_fail(const Component* c, const char* format, ...);
 
 /* FMU states: a copy of the snapshot and its model state (0 when out of memory), its release,
  * and its bytes (a tag, the snapshot, the model's state) */
@@ -68,7 +84,13 @@ int co_deserialize(const Component* c, const char* call, const unsigned char* by
 int model_bind(Component* c, char* why, size_t why_size);
 int model_state_size(const Component* c, const double* values, char* why, int why_size);
 void model_start(const Component* c, const double* values, double t, double* state);
-void model_step(const Component* c, const double* values, double* state, double h);
+void model_step(const Component* c, const double* values, const double* rates, double* state, double h);
 void model_outputs(const Component* c, double* values, const double* state);
+/* the smooth models' equations: how many continuous states (the first of the state array; -1: a
+ * rod string, none the derivatives can use), their names where an output is one (else NULL), and
+ * their rates at the values and state */
+int model_smooth_states(const Component* c);
+const char* model_state_output(const Component* c, int j);
+void model_rates(const Component* c, const double* values, const double* state, double* rates);
 
 #endif

@@ -101,15 +101,19 @@ static void drive_outputs(const Component* c, double* v, const double* s, int sp
     V(DR_P_EL) = u * s[0];
 }
 
-static void drive_step(const Component* c, const double* v, double* s, double h, int speed)
+/* the inputs lines in time over the step where the host gave their derivatives (rates) */
+static void drive_step(const Component* c, const double* v, const double* rates, double* s, double h, int speed)
 {
     double d[CC_DRIVE_SIZE], out[3];
     drive_constants(c, v, d);
+    const double* r = rates;
     if (speed) {
-        cc_drive_step_with_rotor(d, s[0], s[1], s[2], V(DR_OMEGA_SET), V(DR_TAU_LOAD), V(DR_J_DRIVE), h, out);
+        cc_drive_step_with_rotor_ramp(d, s[0], s[1], s[2], V(DR_OMEGA_SET), V(DR_TAU_LOAD), r[c->slot[DR_OMEGA_SET]],
+                                      r[c->slot[DR_TAU_LOAD]], V(DR_J_DRIVE), h, out);
         s[2] = out[2];
     } else {
-        cc_drive_step(d, s[0], s[1], V(DR_OMEGA), V(DR_OMEGA_SET), h, out);
+        cc_drive_step_ramp(d, s[0], s[1], V(DR_OMEGA), V(DR_OMEGA_SET), r[c->slot[DR_OMEGA]], r[c->slot[DR_OMEGA_SET]],
+                           h, out);
     }
     s[0] = out[0];
     s[1] = out[1];
@@ -171,7 +175,9 @@ static void string_start(const Component* c, const double* v, double t, double* 
     memcpy(ST_LAST(s), ST_U(s), (size_t)n * sizeof(double));
 }
 
-static void string_step(const Component* c, const double* v, double* s, double h)
+/* the polished rod moves linearly over the step: to s + v h, or with s's derivative given, to
+ * s + ds/dt h */
+static void string_step(const Component* c, const double* v, const double* rates, double* s, double h)
 {
     int n = ST_NODES(s);
     double* x = ST_X(s);
@@ -182,7 +188,8 @@ static void string_step(const Component* c, const double* v, double* s, double h
     }
     double pump[3] = {s[ST_FO], s[ST_FRICTION], s[ST_FILLAGE]};
     cc_string_advance(n, ST_MASS(s), ST_WEIGHT(s), ST_STIFFNESS(s), s[ST_C], pump, ST_U(s), ST_V(s), ST_LAST(s), x,
-                      V(RS_S) + V(RS_V) * h, h, s[ST_DT_MAX], ST_SCRATCH(s));
+                      V(RS_S) + (rates[c->slot[RS_S]] != 0.0 ? rates[c->slot[RS_S]] : V(RS_V)) * h, h, s[ST_DT_MAX],
+                      ST_SCRATCH(s));
 }
 
 static void string_outputs(const Component* c, double* v, const double* s)
@@ -221,14 +228,41 @@ void model_start(const Component* c, const double* v, double t, double* s)
     }
 }
 
-void model_step(const Component* c, const double* v, double* s, double h)
+void model_step(const Component* c, const double* v, const double* rates, double* s, double h)
 {
     switch (c->d->kind) {
     case CM_MODEL_DRIVE:
-    case CM_MODEL_DRIVE_SPEED: drive_step(c, v, s, h, c->d->kind == CM_MODEL_DRIVE_SPEED); return;
+    case CM_MODEL_DRIVE_SPEED: drive_step(c, v, rates, s, h, c->d->kind == CM_MODEL_DRIVE_SPEED); return;
     case CM_MODEL_CUSHION: return;
-    default: string_step(c, v, s, h);
+    default: string_step(c, v, rates, s, h);
     }
+}
+
+int model_smooth_states(const Component* c)
+{
+    switch (c->d->kind) {
+    case CM_MODEL_DRIVE: return 2;             /* i, x */
+    case CM_MODEL_DRIVE_SPEED: return 3;       /* i, x, omega */
+    case CM_MODEL_CUSHION: return 0;
+    default: return -1;
+    }
+}
+
+const char* model_state_output(const Component* c, int j)
+{
+    if (j == 0) return DRIVE[DR_I];
+    if (j == 2 && c->d->kind == CM_MODEL_DRIVE_SPEED) return DRIVE[DR_OMEGA];
+    return NULL;
+}
+
+void model_rates(const Component* c, const double* v, const double* s, double* rates)
+{
+    double d[CC_DRIVE_SIZE];
+    if (model_smooth_states(c) <= 0) return;
+    drive_constants(c, v, d);
+    int rotor = c->d->kind == CM_MODEL_DRIVE_SPEED;
+    cc_drive_rates(d, s[0], s[1], rotor ? s[2] : V(DR_OMEGA), V(DR_OMEGA_SET), rotor ? V(DR_TAU_LOAD) : 0.0,
+                   rotor ? V(DR_J_DRIVE) : 1.0, rotor, rates);
 }
 
 void model_outputs(const Component* c, double* v, const double* s)

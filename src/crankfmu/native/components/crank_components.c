@@ -16,40 +16,58 @@ double cc_drive_voltage(const double* d, double x, double omega, double omega_se
 
 double cc_drive_torque(const double* d, double i) { return d[CC_N_GEAR] * d[CC_K_T] * i; }
 
-/* With the inputs held, x grows linearly (dx/dt = e) and L di/dt = p L + q L t - R i: the current
- * relaxes with the time constant L/R towards an affine function of time, solved in closed form
- * (expm1 keeps 1 - exp(-a h) exact for small steps). */
-void cc_drive_step(const double* d, double i, double x, double omega, double omega_set, double h, double* out)
+/* With the inputs lines in time (omega = omega0 + r t, omega_set = omega_set0 + r_set t; held
+ * where the rates are 0), the speed error is e0 + de t, x grows as x0 + e0 t + de t^2/2 and
+ * L di/dt = L (p + q t + c2 t^2) - R i: the current relaxes with the time constant L/R towards a
+ * polynomial of time, solved in closed form (expm1 keeps 1 - exp(-a h) exact for small steps). */
+void cc_drive_step_ramp(const double* d, double i, double x, double omega, double omega_set, double rate,
+                        double rate_set, double h, double* out)
 {
-    double e = omega_set - omega;
+    double e = omega_set - omega, de = rate_set - rate;
     double a = d[CC_R] / d[CC_L];
     double p = (d[CC_KP] * e + d[CC_KI] * x - d[CC_K_T] * d[CC_N_GEAR] * omega) / d[CC_L];   /* A/s */
-    double q = d[CC_KI] * e / d[CC_L];                                                       /* A/s2 */
+    double q = (d[CC_KI] * e + d[CC_KP] * de - d[CC_K_T] * d[CC_N_GEAR] * rate) / d[CC_L];   /* A/s2 */
+    double c2 = 0.5 * d[CC_KI] * de / d[CC_L];                                               /* A/s3 */
     double one_minus = -expm1(-a * h);
     out[0] = i * (1.0 - one_minus) + p * one_minus / a + q * (h / a - one_minus / (a * a));
-    out[1] = x + e * h;
+    if (c2 != 0.0) out[0] += c2 * (h * h / a - 2.0 * h / (a * a) + 2.0 * one_minus / (a * a * a));
+    out[1] = x + e * h + 0.5 * de * h * h;
 }
 
-static void matmul4(const double* A, const double* B, double* C)
+void cc_drive_step(const double* d, double i, double x, double omega, double omega_set, double h, double* out)
 {
-    double t[16];
-    for (int r = 0; r < 4; r++)
-        for (int c = 0; c < 4; c++) {
+    cc_drive_step_ramp(d, i, x, omega, omega_set, 0.0, 0.0, h, out);
+}
+
+void cc_drive_rates(const double* d, double i, double x, double omega, double omega_set, double tau_load,
+                    double J_drive, int rotor, double* out)
+{
+    double nk = d[CC_N_GEAR] * d[CC_K_T];
+    out[0] = (cc_drive_voltage(d, x, omega, omega_set) - d[CC_R] * i - nk * omega) / d[CC_L];
+    out[1] = omega_set - omega;
+    if (rotor) out[2] = (nk * i - tau_load) / J_drive;
+}
+
+static void matmul(int n, const double* A, const double* B, double* C)
+{
+    double t[CC_EXPM_MAX * CC_EXPM_MAX];
+    for (int r = 0; r < n; r++)
+        for (int c = 0; c < n; c++) {
             double s = 0.0;
-            for (int k = 0; k < 4; k++) s += A[r * 4 + k] * B[k * 4 + c];
-            t[r * 4 + c] = s;
+            for (int k = 0; k < n; k++) s += A[r * n + k] * B[k * n + c];
+            t[r * n + c] = s;
         }
-    memcpy(C, t, sizeof t);
+    memcpy(C, t, sizeof(double) * (size_t)(n * n));
 }
 
 /* M / 2^s has a norm of at most 1/2, where 20 terms of the series reach rounding; then s squarings
  * (numerics.expm states the same method, its reference) */
-void cc_expm4(const double* M, double* out)
+void cc_expm(int n, const double* M, double* out)
 {
     double norm = 0.0;
-    for (int r = 0; r < 4; r++) {
+    for (int r = 0; r < n; r++) {
         double row = 0.0;
-        for (int c = 0; c < 4; c++) row += fabs(M[r * 4 + c]);
+        for (int c = 0; c < n; c++) row += fabs(M[r * n + c]);
         if (row > norm) norm = row;
     }
     int s = 0;
@@ -58,36 +76,62 @@ void cc_expm4(const double* M, double* out)
         if (s < 0) s = 0;
         if (s > 1000) s = 1000;
     }
-    double X[16], term[16], sum[16];
+    double X[CC_EXPM_MAX * CC_EXPM_MAX], term[CC_EXPM_MAX * CC_EXPM_MAX], sum[CC_EXPM_MAX * CC_EXPM_MAX];
     double scale = ldexp(1.0, -s);
-    for (int k = 0; k < 16; k++) {
+    for (int k = 0; k < n * n; k++) {
         X[k] = M[k] * scale;
-        term[k] = (k % 5 == 0) ? 1.0 : 0.0;
+        term[k] = (k % (n + 1) == 0) ? 1.0 : 0.0;
         sum[k] = term[k];
     }
-    for (int n = 1; n <= 20; n++) {
-        matmul4(term, X, term);
-        for (int k = 0; k < 16; k++) {
-            term[k] /= n;
+    for (int j = 1; j <= 20; j++) {
+        matmul(n, term, X, term);
+        for (int k = 0; k < n * n; k++) {
+            term[k] /= j;
             sum[k] += term[k];
         }
     }
-    for (int n = 0; n < s; n++) matmul4(sum, sum, sum);
-    memcpy(out, sum, sizeof sum);
+    for (int j = 0; j < s; j++) matmul(n, sum, sum, sum);
+    memcpy(out, sum, sizeof(double) * (size_t)(n * n));
 }
+
+void cc_expm4(const double* M, double* out) { cc_expm(4, M, out); }
 
 void cc_drive_step_with_rotor(const double* d, double i, double x, double omega, double omega_set, double tau_load,
                               double J_drive, double h, double* out)
 {
+    cc_drive_step_with_rotor_ramp(d, i, x, omega, omega_set, tau_load, 0.0, 0.0, J_drive, h, out);
+}
+
+/* the augmented linear system (i, x, omega, 1) and, where an input is a line, its time t: the
+ * inputs' constant parts in the column of 1, their rates in the column of t */
+void cc_drive_step_with_rotor_ramp(const double* d, double i, double x, double omega, double omega_set,
+                                   double tau_load, double rate_set, double rate_load, double J_drive, double h,
+                                   double* out)
+{
     double nk = d[CC_N_GEAR] * d[CC_K_T], L = d[CC_L];
-    double A[16] = {-d[CC_R] / L * h, d[CC_KI] / L * h, -(d[CC_KP] + nk) / L * h, d[CC_KP] * omega_set / L * h,
-                    0.0, 0.0, -h, omega_set * h,
-                    nk / J_drive * h, 0.0, 0.0, -tau_load / J_drive * h,
-                    0.0, 0.0, 0.0, 0.0};
-    double E[16];
-    cc_expm4(A, E);
-    double z[4] = {i, x, omega, 1.0};
-    for (int r = 0; r < 3; r++) out[r] = E[r * 4] * z[0] + E[r * 4 + 1] * z[1] + E[r * 4 + 2] * z[2] + E[r * 4 + 3];
+    double z[5] = {i, x, omega, 1.0, 0.0};
+    if (rate_set == 0.0 && rate_load == 0.0) {
+        double A[16] = {-d[CC_R] / L * h, d[CC_KI] / L * h, -(d[CC_KP] + nk) / L * h, d[CC_KP] * omega_set / L * h,
+                        0.0, 0.0, -h, omega_set * h,
+                        nk / J_drive * h, 0.0, 0.0, -tau_load / J_drive * h,
+                        0.0, 0.0, 0.0, 0.0};
+        double E[16];
+        cc_expm(4, A, E);
+        for (int r = 0; r < 3; r++) out[r] = E[r * 4] * z[0] + E[r * 4 + 1] * z[1] + E[r * 4 + 2] * z[2] + E[r * 4 + 3];
+        return;
+    }
+    double A[25] = {-d[CC_R] / L * h, d[CC_KI] / L * h, -(d[CC_KP] + nk) / L * h, d[CC_KP] * omega_set / L * h,
+                    d[CC_KP] * rate_set / L * h,
+                    0.0, 0.0, -h, omega_set * h, rate_set * h,
+                    nk / J_drive * h, 0.0, 0.0, -tau_load / J_drive * h, -rate_load / J_drive * h,
+                    0.0, 0.0, 0.0, 0.0, 0.0,
+                    0.0, 0.0, 0.0, h, 0.0};
+    double E[25];
+    cc_expm(5, A, E);
+    for (int r = 0; r < 3; r++) {
+        out[r] = 0.0;
+        for (int k = 0; k < 5; k++) out[r] += E[r * 5 + k] * z[k];
+    }
 }
 
 double cc_cushion_force(double k, double c, double L_free, double s_seat, double s, double v)

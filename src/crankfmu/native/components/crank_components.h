@@ -20,11 +20,24 @@ CK_API double cc_drive_torque(const double* drive, double i);
 /* (i, x) after h s with omega and omega_set held: the exact solution (out[0:2]) */
 CK_API void cc_drive_step(const double* drive, double i, double x, double omega, double omega_set, double h,
                           double* out);
+/* the same with omega and omega_set lines in time from the step's start (rates 1/s2; 0: held) */
+CK_API void cc_drive_step_ramp(const double* drive, double i, double x, double omega, double omega_set, double rate,
+                               double rate_set, double h, double* out);
+/* (di/dt, dx/dt) and with the rotor domega/dt at the state and inputs (out[0:2], or [0:3]) */
+CK_API void cc_drive_rates(const double* drive, double i, double x, double omega, double omega_set, double tau_load,
+                           double J_drive, int rotor, double* out);
 /* (i, x, omega) after h s of the speed-causal drive (it carries J_drive) with omega_set and
  * tau_load held: the matrix exponential of the linear system's augmented matrix (out[0:3]) */
 CK_API void cc_drive_step_with_rotor(const double* drive, double i, double x, double omega, double omega_set,
                                      double tau_load, double J_drive, double h, double* out);
-/* exp(M) of a 4 x 4 matrix (row-major) into out: scaling and squaring of its Taylor series */
+/* the same with omega_set and tau_load lines in time from the step's start (rates; 0: held) */
+CK_API void cc_drive_step_with_rotor_ramp(const double* drive, double i, double x, double omega, double omega_set,
+                                          double tau_load, double rate_set, double rate_load, double J_drive,
+                                          double h, double* out);
+/* exp(M) of an n x n matrix (row-major, n <= CC_EXPM_MAX) into out: scaling and squaring of its
+ * Taylor series; cc_expm4 the 4 x 4 one */
+enum { CC_EXPM_MAX = 6 };
+CK_API void cc_expm(int n, const double* M, double* out);
 CK_API void cc_expm4(const double* M, double* out);
 
 /* the force on a press ram along its axis from a linear cushion (N): -(k (d - L_free) + c v),

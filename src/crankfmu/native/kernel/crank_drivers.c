@@ -18,6 +18,17 @@ static void checked_output_row(const double* S, double t, const CkTables* T, con
     kernel_output_row(S, t, T, P, w.work, w.f, row);
 }
 
+void ck_point(const double* S, double t, double* out)
+{
+    memcpy(out, S, CK_STATE_SIZE * sizeof(double));
+    if (t == S[CK_T]) return;
+    ck_dense(S, t, out + CK_Y);
+    out[CK_MOTOR] = S[CK_STEP_MOTOR];
+    out[CK_DIRECTION] = S[CK_STEP_DIRECTION];
+    out[CK_INTERVAL] = S[CK_STEP_INTERVAL];
+    out[CK_T] = t;
+}
+
 void ck_begin(double* S, double t, const double* y, const CkTables* T, const double* P, double* row)
 {
     Scratch w;

@@ -138,6 +138,10 @@ CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables
 CK_API int ck_advance_to_switch(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,
                                 double* row, double* t_switch);
 CK_API void ck_dense(const double* S, double t, double* out);
+/* S positioned at t within its last step (or at its end) into out: y there by the dense output, the
+ * mode of that step, out[CK_T] = t (what the output row at t is evaluated on: the native FMU's
+ * outputs and derivatives at a communication point the kernel stepped past) */
+CK_API void ck_point(const double* S, double t, double* out);
 CK_API int ck_run_chunk(double* S, double t_end, const double* times, int n_times, int* i_out, double* rows,
                         double* step_store, int store_capacity, int* n_store, double* events, int event_capacity,
                         int* n_events, double* modes, int mode_capacity, int* n_modes, const CkTables* tables,
@@ -158,6 +162,13 @@ CK_API void ck_steady_batch(const double* params, int n_designs, double phi_star
 /* the start at (t, phi1, omega1), at rest in acceleration */
 CK_API void ck_speed_begin(double* S, double t, double phi, double omega, const CkTables* tables, const double* P,
                            double* row);
+/* the output row at S's time, phi1 S[CK_Y], omega1 S[CK_Y + 1] and epsilon1 S[CK_F + 1] (the works
+ * S[CK_Y + 2..]), S's mode set there: what a step ending there gives (the native FMU reads its
+ * outputs at an input just set, and its derivatives, through it) */
+CK_API void ck_speed_row(double* S, const CkTables* tables, const double* P, double* row);
+/* omega1's slope over the step from S's time with the input omega1 there: the host's derivative
+ * (rate) where rate_given, else the input's change since the last step's start over that step */
+CK_API double ck_speed_slope(const double* S, double omega, double rate, int rate_given);
 /* one communication step to t_target with the input omega1 at its start; rate_given: the input's
  * derivative is rate (1/s2), else omega1's slope is the input's change over the last step. 0, or
  * CK_BAD_STATE (a step not forward, non-finite values, or more than 1e9 degrees in one step) */

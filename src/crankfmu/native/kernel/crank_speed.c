@@ -60,6 +60,18 @@ static void speed_row(double* S, const CkTables* T, const double* P, double* wor
     row[9] = tau;
 }
 
+void ck_speed_row(double* S, const CkTables* T, const double* P, double* row)
+{
+    Scratch w;
+    speed_row(S, T, P, w.work, row);
+}
+
+double ck_speed_slope(const double* S, double omega, double rate, int rate_given)
+{
+    double last = S[CK_T] - S[CK_T_PREV];
+    return rate_given ? rate : (last > 0.0 ? (omega - S[CK_Y_PREV + 1]) / last : 0.0);
+}
+
 void ck_speed_begin(double* S, double t, double phi, double omega, const CkTables* T, const double* P, double* row)
 {
     Scratch w;
@@ -120,9 +132,9 @@ int ck_speed_advance(double* S, double t_target, double omega, double rate, int 
                      const double* P, double* row)
 {
     Scratch w;
-    double t = S[CK_T], h = t_target - t, last = t - S[CK_T_PREV];
+    double t = S[CK_T], h = t_target - t;
     if (!(h > 0.0) || !isfinite(t_target) || !isfinite(omega) || !isfinite(rate)) return CK_BAD_STATE;
-    double slope = rate_given ? rate : (last > 0.0 ? (omega - S[CK_Y_PREV + 1]) / last : 0.0);
+    double slope = ck_speed_slope(S, omega, rate, rate_given);
     double phi0 = S[CK_Y], J, half_dJ, Q, tau;
     double W[3] = {S[CK_Y + 2], S[CK_Y + 3], S[CK_Y + 4]};
     /* the step's segments where phi1 is monotone: split where omega1 changes sign */

@@ -102,6 +102,17 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
 int cm_set_input_derivatives(Model* m, const char* call, const unsigned* vr, size_t n, const int* order,
                              const double* value);
 
+/* For masters (crank_model_derivatives.c), after the end of initialisation: the Jacobian of the
+ * unknowns (outputs, the states' derivatives) with respect to the knowns (the continuous states:
+ * the outputs that are states; the inputs), jacobian[i * n_knowns + k]; the outputs' first and
+ * second time derivatives along the next step's trajectory (Co-Simulation; either array may be
+ * NULL); and the output row at the inputs just set (Co-Simulation: the outputs a host reads before
+ * the next step reflect them) */
+int cm_jacobian(Model* m, const char* call, const unsigned* unknowns, size_t n_unknowns, const unsigned* knowns,
+                size_t n_knowns, double* jacobian);
+int cm_output_derivatives(Model* m, const char* call, const unsigned* vr, size_t n, double* first, double* second);
+int cm_refresh(Model* m, const char* call);
+
 /* Model Exchange (each refuses a Co-Simulation model, and one outside the phases it allows) */
 int cm_me_ready(Model* m, const char* call, int initialization_too);
 int cm_me_update(Model* m, const char* call, int* states_changed);

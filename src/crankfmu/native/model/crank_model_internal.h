@@ -22,4 +22,8 @@ int cm_me_evaluate(Model* m);
 /* Co-Simulation: the kernel's state and the output row at the start */
 void cm_cs_start(Model* m);
 
+/* the variables vr (computed ones from the model's output row, tables and state, the others its
+ * values) into out */
+void cm_read_values(const Model* m, const unsigned* vr, size_t n, double* out);
+
 #endif

@@ -75,6 +75,13 @@ static int is_computed(int kind)
     return kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_DERIVATIVE || kind == KIND_REACTION;
 }
 
+void cm_read_values(const Model* m, const unsigned* vr, size_t n, double* out)
+{
+    Reads reads = reads_of(m);
+    for (size_t i = 0; i < n; i++)
+        out[i] = is_computed(m->d->variables[vr[i]].kind) ? output_value(m, (int)vr[i], &reads) : m->now.values[vr[i]];
+}
+
 /* an input's place among the inputs: the crank's 0, port i 1 + i */
 static int input_index(const Model* m, int vr) { return vr == m->d->vr_crank_input ? 0 : 1 + (vr - m->d->vr_first_port); }
 
@@ -121,7 +128,7 @@ int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* val
 int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const double* value)
 {
     if (n > 0 && (!vr || !value)) return cm_fail(m, "%s: null arrays", call);
-    int changed = 0;
+    int changed = 0, input_changed = 0;
     for (size_t i = 0; i < n; i++) {
         if (vr[i] >= (unsigned)m->d->n_variables) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
         const Variable* v = &m->d->variables[vr[i]];
@@ -145,6 +152,7 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
         if (v->kind == KIND_INPUT) m->now.input_rate[input_index(m, (int)vr[i])] = 0.0;   /* held, unless a derivative follows */
         if (m->now.phase < CM_STEPPING) continue;
         changed = 1;
+        input_changed |= v->kind == KIND_INPUT && m->now.phase == CM_STEPPING;
         /* Co-Simulation: takes effect from the next step. Model Exchange: a tunable also
          * re-derives the mode at the next event update, as a Co-Simulation restart does */
         if (!m->model_exchange || v->kind == KIND_TUNABLE) m->now.pending = 1;
@@ -152,6 +160,12 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
     if (changed && m->model_exchange) {           /* Model Exchange: the values hold from now on */
         cm_load_parameters(m);
         cm_me_evaluate(m);
+    } else if (input_changed) {
+        /* Co-Simulation: the outputs that depend on an input at once (epsilon1, the accelerations,
+         * the reactions; tau_drive in speed causality) are read at the inputs just set, as a master
+         * solving a loop by setting and reading expects; the step that follows restarts from them */
+        cm_load_parameters(m);
+        return cm_refresh(m, call);
     }
     return CM_OK;
 }
@@ -179,6 +193,8 @@ int cm_set_input_derivatives(Model* m, const char* call, const unsigned* vr, siz
         *rate = value[i];
         m->now.rate_given[input_index(m, (int)vr[i])] = 1;
     }
+    /* speed causality: omega1's derivative is epsilon1 at once (tau_drive with it) */
+    if (n > 0 && m->d->causality_speed && m->now.phase == CM_STEPPING) return cm_refresh(m, call);
     return CM_OK;
 }
 

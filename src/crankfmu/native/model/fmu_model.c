@@ -129,7 +129,55 @@ int fm_set_input_derivatives(FmuModel* f, const char* call, const unsigned* vr, 
                              const double* value)
 {
     if (MECHANISM(f)) return cm_set_input_derivatives(&f->mechanism, call, vr, n, order, value);
-    return fm_fail(f, "%s: not provided (canInterpolateInputs is false: the inputs are held over a step)", call);
+    return co_set_input_derivatives(&f->component, call, vr, n, order, value);
+}
+
+/* ------------------------------------------------------------------------------ for masters */
+
+int fm_directional(FmuModel* f, const char* call, const unsigned* unknowns, size_t n_unknowns, const unsigned* knowns,
+                   size_t n_knowns, const double* seed, double* sensitivity, int adjoint)
+{
+    if ((n_unknowns > 0 && (!unknowns || (adjoint ? !seed : !sensitivity))) ||
+        (n_knowns > 0 && (!knowns || (adjoint ? !sensitivity : !seed))))
+        return fm_fail(f, "%s: null arrays", call);
+    if (n_unknowns == 0 || n_knowns == 0) {
+        size_t n_out = adjoint ? n_knowns : n_unknowns;
+        for (size_t i = 0; i < n_out; i++) sensitivity[i] = 0.0;
+        return CM_OK;
+    }
+    double* jacobian = (double*)malloc(sizeof(double) * n_unknowns * n_knowns);
+    if (!jacobian) return fm_fail(f, "%s: out of memory", call);
+    int status = MECHANISM(f) ? cm_jacobian(&f->mechanism, call, unknowns, n_unknowns, knowns, n_knowns, jacobian)
+                              : co_jacobian(&f->component, call, unknowns, n_unknowns, knowns, n_knowns, jacobian);
+    if (status == CM_OK && !adjoint)          /* the Jacobian times the seed */
+        for (size_t i = 0; i < n_unknowns; i++) {
+            sensitivity[i] = 0.0;
+            for (size_t k = 0; k < n_knowns; k++) sensitivity[i] += jacobian[i * n_knowns + k] * seed[k];
+        }
+    if (status == CM_OK && adjoint)           /* its transpose times the seed */
+        for (size_t k = 0; k < n_knowns; k++) {
+            sensitivity[k] = 0.0;
+            for (size_t i = 0; i < n_unknowns; i++) sensitivity[k] += jacobian[i * n_knowns + k] * seed[i];
+        }
+    free(jacobian);
+    return status;
+}
+
+int fm_output_derivatives(FmuModel* f, const char* call, const unsigned* vr, size_t n, const int* order, double* value)
+{
+    if (n > 0 && (!vr || !order || !value)) return fm_fail(f, "%s: null arrays", call);
+    for (size_t i = 0; i < n; i++)
+        if (order[i] < 1 || order[i] > FM_MAX_OUTPUT_DERIVATIVE_ORDER)
+            return fm_fail(f, "%s: order %d: this FMU gives the first and second derivatives (maxOutputDerivativeOrder "
+                           "= %d)", call, order[i], FM_MAX_OUTPUT_DERIVATIVE_ORDER);
+    if (n == 0) return CM_OK;
+    double* both = (double*)malloc(sizeof(double) * 2 * n);
+    if (!both) return fm_fail(f, "%s: out of memory", call);
+    int status = MECHANISM(f) ? cm_output_derivatives(&f->mechanism, call, vr, n, both, both + n)
+                              : co_output_derivatives(&f->component, call, vr, n, both, both + n);
+    for (size_t i = 0; i < n && status == CM_OK; i++) value[i] = both[(order[i] - 1) * n + i];
+    free(both);
+    return status;
 }
 
 /* ------------------------------------------------------------------------------ Model Exchange */

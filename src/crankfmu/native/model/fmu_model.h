@@ -57,6 +57,16 @@ int fm_set(FmuModel* f, const char* call, const unsigned* vr, size_t n, const do
 int fm_set_input_derivatives(FmuModel* f, const char* call, const unsigned* vr, size_t n, const int* order,
                              const double* value);
 
+/* For masters, after the end of initialisation: the directional derivative (the Jacobian of the
+ * unknowns, outputs or the states' derivatives, with respect to the knowns, continuous states or
+ * inputs, times the seed) or with adjoint its transpose's product; the outputs' time derivatives
+ * of order 1 to FM_MAX_OUTPUT_DERIVATIVE_ORDER along the next step (Co-Simulation; a rod string
+ * refuses both: fmu_derivatives.h says how they are taken) */
+enum { FM_MAX_OUTPUT_DERIVATIVE_ORDER = 2 };
+int fm_directional(FmuModel* f, const char* call, const unsigned* unknowns, size_t n_unknowns, const unsigned* knowns,
+                   size_t n_knowns, const double* seed, double* sensitivity, int adjoint);
+int fm_output_derivatives(FmuModel* f, const char* call, const unsigned* vr, size_t n, const int* order, double* value);
+
 /* Model Exchange (a Co-Simulation instance refuses each): one entry for the calls on the state
  * vector and the time, the operation named (x: n values, the time for FM_ME_SET_TIME), and the
  * event update */

@@ -153,16 +153,17 @@ NO_SUCH(fmi2String, String)
 FMU_STATE_CALLS(fmi2Status, fmi2Component, fmi2FMUstate, fmi2Byte, fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate,
                 fmi2SerializedFMUstateSize, fmi2SerializeFMUstate, fmi2DeSerializeFMUstate)
 
-/* ------------------------------------------------------------------------------ not provided */
+/* ------------------------------------------------------------------------------ for masters */
 
+/* ME and CS: the unknowns (outputs, the states' derivatives) with respect to the knowns (the
+ * continuous states, the inputs) */
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
                                         const fmi2ValueReference vKnown_ref[], size_t nKnown,
                                         const fmi2Real dvKnown[], fmi2Real dvUnknown[])
 {
-    (void)vUnknown_ref, (void)nUnknown, (void)vKnown_ref, (void)nKnown, (void)dvKnown, (void)dvUnknown;
     if (!c) return fmi2Error;
-    return status_of(fm_fail(MODEL(c), "%s",
-                             "fmi2GetDirectionalDerivative: not provided (providesDirectionalDerivative is false)"));
+    return status_of(fm_directional(MODEL(c), "fmi2GetDirectionalDerivative", vUnknown_ref, nUnknown, vKnown_ref, nKnown,
+                                    dvKnown, dvUnknown, 0));
 }
 
 /* Co-Simulation (canInterpolateInputs): an input's first derivative at the current communication
@@ -174,12 +175,15 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
     return status_of(fm_set_input_derivatives(MODEL(c), "fmi2SetRealInputDerivatives", vr, nvr, order, value));
 }
 
+/* Co-Simulation (maxOutputDerivativeOrder 2): the outputs' derivatives along the next step */
 fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                         const fmi2Integer order[], fmi2Real value[])
 {
-    (void)vr, (void)nvr, (void)order, (void)value;
-    return c ? status_of(fm_fail(MODEL(c), "%s", "fmi2GetRealOutputDerivatives: not provided")) : fmi2Error;
+    if (!c) return fmi2Error;
+    return status_of(fm_output_derivatives(MODEL(c), "fmi2GetRealOutputDerivatives", vr, nvr, order, value));
 }
+
+/* ------------------------------------------------------------------------------ not provided */
 
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status* value)
 {

@@ -1,7 +1,7 @@
 /* What an FMI 3.0 shell of crankfmu's native FMUs (fmi3_shell.c) refuses, written
  * once: the variable types other than Float64, binaries and clocks (the FMUs have none), and the
- * calls they do not provide (dependencies, directional and adjoint derivatives, configuration
- * mode, clocks' intervals and shifts, scheduled execution, output derivatives). Each refusal is
+ * calls they do not provide (dependencies at run time, configuration mode, clocks' intervals and
+ * shifts, scheduled execution). Each refusal is
  * the shell's own (fmi3_refuse: logged whatever loggingOn says, fmi3Error). */
 #include <stdio.h>
 
@@ -112,24 +112,6 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference
     return not_provided(instance, "fmi3GetVariableDependencies");
 }
 
-fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
-                                        const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
-                                        size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity)
-{
-    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed, (void)sensitivity;
-    (void)nSensitivity;
-    return not_provided(instance, "fmi3GetDirectionalDerivative");
-}
-
-fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
-                                    const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
-                                    size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity)
-{
-    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed, (void)sensitivity;
-    (void)nSensitivity;
-    return not_provided(instance, "fmi3GetAdjointDerivative");
-}
-
 fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) { return not_provided(instance, "fmi3EnterConfigurationMode"); }
 fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) { return not_provided(instance, "fmi3ExitConfigurationMode"); }
 
@@ -198,13 +180,5 @@ fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference 
 {
     (void)clockReference, (void)activationTime;
     return not_provided(instance, "fmi3ActivateModelPartition");
-}
-
-fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                                    size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[],
-                                    size_t nValues)
-{
-    (void)valueReferences, (void)nValueReferences, (void)orders, (void)values, (void)nValues;
-    return not_provided(instance, "fmi3GetOutputDerivatives");
 }
 

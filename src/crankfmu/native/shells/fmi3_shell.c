@@ -218,6 +218,58 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
     return status_of(fm_set(m, "fmi3SetFloat64", valueReferences, nValueReferences, values));
 }
 
+/* ------------------------------------------------------------------------------ for masters */
+
+/* the sizes FMI 3.0 passes agree with the counts: every variable is a scalar */
+static fmi3Status derivative_call(fmi3Instance instance, const char* call, const fmi3ValueReference unknowns[],
+                                  size_t nUnknowns, const fmi3ValueReference knowns[], size_t nKnowns,
+                                  const fmi3Float64 seed[], size_t nSeed, fmi3Float64 sensitivity[],
+                                  size_t nSensitivity, int adjoint)
+{
+    if (!instance) return fmi3Error;
+    size_t n_seed = adjoint ? nUnknowns : nKnowns, n_out = adjoint ? nKnowns : nUnknowns;
+    if (nSeed != n_seed || nSensitivity != n_out)
+        return status_of(fm_fail(MODEL(instance), "%s: %u seeds and %u sensitivities for %u unknowns and %u knowns "
+                                 "(every variable is a scalar)", call, (unsigned)nSeed, (unsigned)nSensitivity,
+                                 (unsigned)nUnknowns, (unsigned)nKnowns));
+    return status_of(fm_directional(MODEL(instance), call, unknowns, nUnknowns, knowns, nKnowns, seed, sensitivity,
+                                    adjoint));
+}
+
+fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                        const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                        size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity)
+{
+    return derivative_call(instance, "fmi3GetDirectionalDerivative", unknowns, nUnknowns, knowns, nKnowns, seed, nSeed,
+                           sensitivity, nSensitivity, 0);
+}
+
+fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                    const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                    size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity)
+{
+    return derivative_call(instance, "fmi3GetAdjointDerivative", unknowns, nUnknowns, knowns, nKnowns, seed, nSeed,
+                           sensitivity, nSensitivity, 1);
+}
+
+/* Co-Simulation (maxOutputDerivativeOrder 2): the outputs' derivatives along the next step */
+fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                    size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[],
+                                    size_t nValues)
+{
+    if (!instance) return fmi3Error;
+    FmuModel* m = MODEL(instance);
+    if (nValues != nValueReferences)
+        return status_of(fm_fail(m, "fmi3GetOutputDerivatives: %u values for %u value references (every variable is a "
+                                 "scalar)", (unsigned)nValues, (unsigned)nValueReferences));
+    for (size_t i = 0; i < nValueReferences; i++)
+        if (valueReferences && valueReferences[i] >= N_VARIABLES(m))
+            return status_of(fm_fail(m, "fmi3GetOutputDerivatives: value reference %u is no output's",
+                                     (unsigned)valueReferences[i]));
+    return status_of(fm_output_derivatives(m, "fmi3GetOutputDerivatives", valueReferences, nValueReferences,
+                                           (const int*)orders, values));
+}
+
 /* the other types, clocks and the calls this FMU does not provide: fmi3_refusals.c */
 fmi3Status fmi3_refuse(fmi3Instance instance, const char* message)
 {
