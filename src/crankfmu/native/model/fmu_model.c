@@ -140,6 +140,9 @@ int fm_directional(FmuModel* f, const char* call, const unsigned* unknowns, size
     if ((n_unknowns > 0 && (!unknowns || (adjoint ? !seed : !sensitivity))) ||
         (n_knowns > 0 && (!knowns || (adjoint ? !sensitivity : !seed))))
         return fm_fail(f, "%s: null arrays", call);
+    if (n_unknowns > CM_MAX_VARIABLES || n_knowns > CM_MAX_VARIABLES)
+        return fm_fail(f, "%s: %lu unknowns and %lu knowns: this FMU has at most %d variables", call,
+                       (unsigned long)n_unknowns, (unsigned long)n_knowns, CM_MAX_VARIABLES);
     if (n_unknowns == 0 || n_knowns == 0) {
         size_t n_out = adjoint ? n_knowns : n_unknowns;
         for (size_t i = 0; i < n_out; i++) sensitivity[i] = 0.0;
@@ -166,6 +169,8 @@ int fm_directional(FmuModel* f, const char* call, const unsigned* unknowns, size
 int fm_output_derivatives(FmuModel* f, const char* call, const unsigned* vr, size_t n, const int* order, double* value)
 {
     if (n > 0 && (!vr || !order || !value)) return fm_fail(f, "%s: null arrays", call);
+    if (n > CM_MAX_VARIABLES)
+        return fm_fail(f, "%s: %lu outputs: this FMU has at most %d variables", call, (unsigned long)n, CM_MAX_VARIABLES);
     for (size_t i = 0; i < n; i++)
         if (order[i] < 1 || order[i] > FM_MAX_OUTPUT_DERIVATIVE_ORDER)
             return fm_fail(f, "%s: order %d: this FMU gives the first and second derivatives (maxOutputDerivativeOrder "
