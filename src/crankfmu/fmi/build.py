@@ -137,9 +137,11 @@ def packaged_sources() -> list[tuple[str, str]]:
             + [("well", n) for n in available_wells() if load_well(n).fmu])
 
 
-def complete_model_description(xml_bytes: bytes, units: dict[str, str], parameters: dict, source: Source) -> bytes:
+def complete_model_description(xml_bytes: bytes, declared, source: Source) -> bytes:
     """pythonfmu's modelDescription with units, parameter ranges (min/max where a bound exists),
-    UnitDefinitions, DefaultExperiment, the data file's name and InitialUnknowns."""
+    UnitDefinitions, DefaultExperiment, the data file's name, the outputs' dependencies and
+    InitialUnknowns, from what the core declares (``declared``: fmi.core.Declared)."""
+    units, parameters = declared.units, {p.name: p for p in declared.parameters}
     root = ET.fromstring(xml_bytes)
     variables = root.find("ModelVariables")
     index = {}
@@ -188,7 +190,6 @@ def complete_model_description(xml_bytes: bytes, units: dict[str, str], paramete
     structure = root.find("ModelStructure")
     # each output's direct dependencies on the inputs (contract.Variable.depends): a Python FMU
     # declares no states, so an output that depends on none lists none (no algebraic loop through it)
-    declared = source.variables()
     by_name = {v.name: v for v in declared.outputs}
     input_names = [p.name for p in declared.inputs]
     name_at = {i: name for name, i in index.items()}
@@ -309,7 +310,7 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
             sys.modules.pop(name, None)
         with stage(name, "declaring the variables"):
             declared = source.variables()
-            slave_units, slave_parameters = declared.units, {p.name: p for p in declared.parameters}
+            slave_parameters = {p.name: p for p in declared.parameters}
         with stage(name, "compiling the linux64 shim"):
             shim = compile_shim(name, Path(tmp) / f"{name}.so")
 
@@ -327,7 +328,7 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
                     with stage(name, "completing the modelDescription"):
-                        data = complete_model_description(data, slave_units, slave_parameters, source)
+                        data = complete_model_description(data, declared, source)
                     with stage(name, "the documentation"):
                         docs = source.documentation(name, data, slave_parameters, reference_run, build="python",
                                                     platforms=sorted(platform_binaries))

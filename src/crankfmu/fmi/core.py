@@ -98,6 +98,7 @@ class SlaveCore:
         self.units: dict[str, str] = {}
         self.outputs: set[int] = set()
         self._initialised_for = None                  # the values initialise() last succeeded for
+        self._outputs_stale = False                   # an input was set since the outputs were computed
 
     # ------------------------------------------------------------------ declaring variables
     def declare(self, declared: "Declared", getters: dict):
@@ -224,6 +225,9 @@ class SlaveCore:
     def get_real(self, vrs):
         if self.phase == INITIALIZATION:
             self._initial_outputs()
+        if self._outputs_stale:             # an input set since the last step: read at its value
+            self._outputs_stale = False
+            self.inputs_set()
         if self.phase != REFUSED:           # the hot path: hosts read outputs after every step
             # a host that reads the same variables twice between two other calls (ecos: every
             # variable, twice a step) gets the values kept from the first read
@@ -315,8 +319,7 @@ class SlaveCore:
         if v != self.values[name]:
             self.values[name] = v
             self.pending.add(name)
-            if self.phase == STEPPING and not self.errors:
-                self.inputs_set()
+            self._outputs_stale |= self.phase == STEPPING and not self.errors
         self.errors.pop(name, None)
 
     # ------------------------------------------------------------------ life cycle
@@ -410,6 +413,7 @@ class SlaveCore:
         # one test on the hot path: NaN or inf in either argument makes the target non-finite
         if not (step_size > 0.0 and math.isfinite(target) and time_matches(current_time, self.time, step_size)):
             return self._bad_step_arguments(current_time, step_size)
+        self._outputs_stale = False         # the step computes them
         try:
             self.advance(target)
         except CrankfmuError as exc:
@@ -438,8 +442,9 @@ class SlaveCore:
 
     def inputs_set(self):
         """An input changed between two steps: the outputs that depend on it at once are computed
-        again (a master that solves a loop by setting inputs and reading outputs reads them at the
-        values it set); the state moves at the next step."""
+        again, at the first read (a master that solves a loop by setting inputs and reading outputs
+        reads them at the values it set; one that sets and steps pays nothing); the state moves at
+        the next step."""
 
     def outputs_text(self) -> str:
         return ", ".join(f"{v:g}" for v in self.outputs_now())
@@ -475,6 +480,8 @@ class SlaveCore:
         self.phase = state["phase"]
         if state["model"] is not None:
             self.restore_model_state(state["model"])
+        # the outputs kept are the last step's: an input set since is read at its value
+        self._outputs_stale = self.phase == STEPPING and any(n in self.inputs for n in self.pending)
 
     def model_state(self):
         raise NotImplementedError

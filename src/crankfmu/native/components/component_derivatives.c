@@ -1,5 +1,4 @@
-/* A native component FMU's derivatives for masters (component_model.h's co_jacobian and
- * co_output_derivatives), on its equations at the current point (fmu_derivatives.h): z = (the
+/* A native component FMU's equations for masters (component_model.h's co_point), on its equations at the current point (fmu_derivatives.h): z = (the
  * model's continuous states, then its inputs in value-reference order). The drives' states are
  * the armature current i, the speed error's integral x and, carrying the rotor, omega (i and omega
  * are outputs, so a master can name them); their rates are the circuit's and the rotor's equations
@@ -61,27 +60,11 @@ static int point_of(Component* c, const char* call, Point* p)
     return CM_OK;
 }
 
-static FdModel fd_model(Point* p, const unsigned* unknowns, size_t n)
-{
-    p->unknowns = unknowns;
-    p->n_unknowns = n;
-    FdModel f = {p, p->n_states, p->n_states + p->n_inputs, p->z, p->scale, n, evaluate};
-    return f;
-}
-
-static int check_outputs(Component* c, const char* call, const unsigned* vr, size_t n)
-{
-    for (size_t i = 0; i < n; i++) {
-        if (vr[i] >= (unsigned)c->d->n_variables) return co_fail(c, "%s: no variable has value reference %u", call, vr[i]);
-        if (c->d->variables[vr[i]].kind != KIND_OUTPUT)
-            return co_fail(c, "%s: %s is not an output", call, c->d->variables[vr[i]].name);
-    }
-    return CM_OK;
-}
-
 /* z's index of a known: an input, or an output that is one of the states; -1 otherwise */
-static int known_index(const Component* c, const Point* p, unsigned vr)
+static int known_index(void* point, unsigned vr)
 {
+    const Point* p = (const Point*)point;
+    const Component* c = p->c;
     for (int k = 0; k < p->n_inputs; k++)
         if ((int)vr == p->input_vr[k]) return p->n_states + k;
     for (int j = 0; j < p->n_states; j++) {
@@ -91,46 +74,32 @@ static int known_index(const Component* c, const Point* p, unsigned vr)
     return -1;
 }
 
-int co_jacobian(Component* c, const char* call, const unsigned* unknowns, size_t n_unknowns, const unsigned* knowns,
-                size_t n_knowns, double* jacobian)
+void* co_point(Component* c, const char* call, const unsigned* unknowns, size_t n_unknowns, FdModel* f)
 {
+    for (size_t i = 0; i < n_unknowns; i++) {
+        if (unknowns[i] >= (unsigned)c->d->n_variables) {
+            co_fail(c, "%s: no variable has value reference %u", call, unknowns[i]);
+            return NULL;
+        }
+        if (c->d->variables[unknowns[i]].kind != KIND_OUTPUT) {
+            co_fail(c, "%s: %s is not an output", call, c->d->variables[unknowns[i]].name);
+            return NULL;
+        }
+    }
     Point* p = (Point*)malloc(sizeof(Point));
-    if (!p) return co_fail(c, "%s: out of memory", call);
-    int status = point_of(c, call, p);
-    if (status == CM_OK) status = check_outputs(c, call, unknowns, n_unknowns);
-    int* columns = (int*)malloc(sizeof(int) * (n_knowns + 1));
-    if (!columns && status == CM_OK) status = co_fail(c, "%s: out of memory", call);
-    for (size_t k = 0; k < n_knowns && status == CM_OK; k++) {
-        columns[k] = known_index(c, p, knowns[k]);
-        if (columns[k] < 0)
-            status = co_fail(c, "%s: value reference %u (%s) is neither an input nor an output that is a state: the "
-                             "derivatives are with respect to those", call, knowns[k],
-                             knowns[k] < (unsigned)c->d->n_variables ? c->d->variables[knowns[k]].name : "no variable");
+    if (!p) {
+        co_fail(c, "%s: out of memory", call);
+        return NULL;
     }
-    if (status == CM_OK) {
-        FdModel f = fd_model(p, unknowns, n_unknowns);
-        if (fd_jacobian(&f, columns, (int)n_knowns, jacobian) != 0)
-            status = co_fail(c, "%s: the model gives non-finite values near the current point", call);
+    if (point_of(c, call, p) != CM_OK) {
+        free(p);
+        return NULL;
     }
-    free(columns);
-    free(p);
-    return status;
-}
-
-int co_output_derivatives(Component* c, const char* call, const unsigned* vr, size_t n, double* first,
-                          double* second)
-{
-    Point* p = (Point*)malloc(sizeof(Point));
-    if (!p) return co_fail(c, "%s: out of memory", call);
-    int status = point_of(c, call, p);
-    if (status == CM_OK) status = check_outputs(c, call, vr, n);
-    if (status == CM_OK) {
-        double rates[MAX_Z];
-        for (int k = 0; k < p->n_inputs; k++) rates[k] = c->now.rate[p->input_vr[k]];
-        FdModel f = fd_model(p, vr, n);
-        if (fd_time_derivatives(&f, rates, first, second) != 0)
-            status = co_fail(c, "%s: the model gives non-finite values near the current point", call);
-    }
-    free(p);
-    return status;
+    p->unknowns = unknowns;
+    p->n_unknowns = n_unknowns;
+    for (int k = 0; k < p->n_inputs; k++) p->rates[k] = c->now.rate[p->input_vr[k]];
+    FdModel model = {p, p->n_states, p->n_states + p->n_inputs, p->z, p->scale, p->rates, n_unknowns, evaluate,
+                     known_index};
+    *f = model;
+    return p;
 }

@@ -14,6 +14,7 @@
 #include <stddef.h>
 
 #include "crank_variables.h"
+#include "fmu_derivatives.h"
 #include "fmu_states.h"
 #include "model_status.h"
 
@@ -57,14 +58,11 @@ int co_set(Component* c, const char* call, const unsigned* vr, size_t n, const d
  * next step) */
 int co_set_input_derivatives(Component* c, const char* call, const unsigned* vr, size_t n, const int* order,
                              const double* value);
-/* for masters, after the end of initialisation (component_derivatives.c): the Jacobian of the
- * outputs with respect to the inputs and the outputs that are states, jacobian[i * n_knowns + k];
- * the outputs' first and second time derivatives along the next step (either may be NULL). A rod
- * string refuses both (its grid's explicit steps are not smooth equations) */
-int co_jacobian(Component* c, const char* call, const unsigned* unknowns, size_t n_unknowns, const unsigned* knowns,
-                size_t n_knowns, double* jacobian);
-int co_output_derivatives(Component* c, const char* call, const unsigned* vr, size_t n, double* first,
-                          double* second);
+/* for masters, after the end of initialisation (component_derivatives.c): the model's equations at
+ * the current point for fmu_derivatives.h, evaluating the outputs unknowns; its knowns are the
+ * inputs and the outputs that are states. Returns the point to free once done, or NULL, refused
+ * with the reason (a rod string always: its grid's explicit steps are not smooth equations) */
+void* co_point(Component* c, const char* call, const unsigned* unknowns, size_t n_unknowns, FdModel* f);
 /* a refusal, logged; CM_ERROR */
 int co_fail(const Component* c, const char* format, ...);
 

@@ -23,9 +23,7 @@ void ck_point(const double* S, double t, double* out)
     memcpy(out, S, CK_STATE_SIZE * sizeof(double));
     if (t == S[CK_T]) return;
     ck_dense(S, t, out + CK_Y);
-    out[CK_MOTOR] = S[CK_STEP_MOTOR];
-    out[CK_DIRECTION] = S[CK_STEP_DIRECTION];
-    out[CK_INTERVAL] = S[CK_STEP_INTERVAL];
+    memcpy(out + CK_MOTOR, kernel_mode_at(S, t), 3 * sizeof(double));
     out[CK_T] = t;
 }
 

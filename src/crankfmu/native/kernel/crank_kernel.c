@@ -447,15 +447,6 @@ void kernel_output_row(const double* S, double t, const CkTables* T, const doubl
                        double* row)
 {
     ck_dense(S, t, row);
-    double motor, direction, interval;
-    if (t == S[CK_T]) {
-        motor = S[CK_MOTOR];
-        direction = S[CK_DIRECTION];
-        interval = S[CK_INTERVAL];
-    } else {
-        motor = S[CK_STEP_MOTOR];
-        direction = S[CK_STEP_DIRECTION];
-        interval = S[CK_STEP_INTERVAL];
-    }
-    kernel_complete_row(t, motor, direction, interval, T, P, work, f, row);
+    const double* mode = kernel_mode_at(S, t);
+    kernel_complete_row(t, mode[0], mode[1], mode[2], T, P, work, f, row);
 }

@@ -47,6 +47,13 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
 /* the rest of an output row whose state row[0:5] at time t is set, in the given mode */
 void kernel_complete_row(double t, double motor, double direction, double interval, const CkTables* T,
                          const double* P, double* work, double* f, double* row);
+/* the mode (motor, direction, interval) at t in the last step: S's own at its end, the step's
+ * inside it (a switch located at the end changed S's); each triple is contiguous in S, in that
+ * order (crank_kernel.h) */
+static inline const double* kernel_mode_at(const double* S, double t)
+{
+    return S + (t == S[CK_T] ? CK_MOTOR : CK_STEP_MOTOR);
+}
 /* the output row at t in the last step */
 void kernel_output_row(const double* S, double t, const CkTables* T, const double* P, double* work, double* f,
                        double* row);

@@ -406,6 +406,7 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
                                                  : "non-finite outputs");
     }
     m->now.time = target;
+    m->now.row_stale = 0;                /* the step wrote the row */
     *t_end = target;
     return CM_OK;
 }

@@ -15,6 +15,7 @@
 #include "crank_kernel.h"
 #include "crank_mechanism.h"
 #include "crank_variables.h"
+#include "fmu_derivatives.h"
 #include "fmu_states.h"
 #include "model_status.h"
 
@@ -35,6 +36,8 @@ typedef struct {
     int phase;
     int pending;                   /* a tunable or the input changed: restart at the next step
                                       (Model Exchange: at the next event update) */
+    int row_stale;                 /* Co-Simulation: an input was set since the row was computed:
+                                      the next read computes it at the inputs set (cm_get) */
     double dydt[N_STATES];         /* Model Exchange: the derivatives at the current state */
     double input_rate[CM_MAX_INPUTS];   /* Co-Simulation: each input's first derivative (1/s), from
                                       fmi2SetRealInputDerivatives; 0 (held) once the input is set */
@@ -102,16 +105,12 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
 int cm_set_input_derivatives(Model* m, const char* call, const unsigned* vr, size_t n, const int* order,
                              const double* value);
 
-/* For masters (crank_model_derivatives.c), after the end of initialisation: the Jacobian of the
- * unknowns (outputs, the states' derivatives) with respect to the knowns (the continuous states:
- * the outputs that are states; the inputs), jacobian[i * n_knowns + k]; the outputs' first and
- * second time derivatives along the next step's trajectory (Co-Simulation; either array may be
- * NULL); and the output row at the inputs just set (Co-Simulation: the outputs a host reads before
- * the next step reflect them) */
-int cm_jacobian(Model* m, const char* call, const unsigned* unknowns, size_t n_unknowns, const unsigned* knowns,
-                size_t n_knowns, double* jacobian);
-int cm_output_derivatives(Model* m, const char* call, const unsigned* vr, size_t n, double* first, double* second);
-int cm_refresh(Model* m, const char* call);
+/* For masters (crank_model_derivatives.c), after the end of initialisation: the model's equations
+ * at the current point for fmu_derivatives.h, evaluating the unknowns (outputs and, unless for
+ * the outputs' time derivatives along the next step (trajectory: Co-Simulation), the states'
+ * derivatives); its knowns are the continuous states (the outputs that are states) and the
+ * inputs. Returns the point to free once done, or NULL, refused with the reason */
+void* cm_point(Model* m, const char* call, const unsigned* unknowns, size_t n_unknowns, int trajectory, FdModel* f);
 
 /* Model Exchange (each refuses a Co-Simulation model, and one outside the phases it allows) */
 int cm_me_ready(Model* m, const char* call, int initialization_too);

@@ -1,6 +1,6 @@
 /* The native mechanism FMU's derivatives for masters (crank_model.h's cm_jacobian and
- * cm_output_derivatives) and its outputs at inputs just set (cm_refresh), on one view of its
- * equations at the current point: z = (the continuous states, then the inputs), the mode held.
+ * cm_output_derivatives), on one view of its equations at the current point: z = (the continuous
+ * states, then the inputs), the mode held.
  *
  * Torque causality: z = (phi1, omega1, W_motor, W_load, W_ext, tau_ext, the ports' inputs); the
  * equations are the kernel's right-hand side and output row (ck_me_derivatives) with the
@@ -28,7 +28,7 @@ typedef struct {
     int n_states, n_inputs;
     int slope_held;             /* speed causality: epsilon1 the current slope, whatever omega1 is */
     double slope;
-    double z[MAX_Z], scale[MAX_Z];
+    double z[MAX_Z], scale[MAX_Z], rates[CM_MAX_INPUTS];
 } Point;
 
 static int input_vr(const Model* m, int k) { return k == 0 ? m->d->vr_crank_input : m->d->vr_first_port + k - 1; }
@@ -107,18 +107,12 @@ static int point_of(Model* m, const char* call, Point* p)
     return CM_OK;
 }
 
-static FdModel fd_model(Point* p, const unsigned* unknowns, size_t n_unknowns)
-{
-    p->unknowns = unknowns;
-    p->n_unknowns = n_unknowns;
-    FdModel f = {p, p->n_states, p->n_states + p->n_inputs, p->z, p->scale, n_unknowns, evaluate};
-    return f;
-}
-
 /* z's index of a known's value reference: a continuous state (the output that is one) or an
  * input; -1 otherwise */
-static int known_index(const Model* m, const Point* p, unsigned vr)
+static int known_index(void* point, unsigned vr)
 {
+    const Point* p = (const Point*)point;
+    const Model* m = &p->base;
     const ModelData* d = m->d;
     if (vr >= (unsigned)d->n_variables) return -1;
     for (int k = 0; k < p->n_inputs; k++)
@@ -129,84 +123,43 @@ static int known_index(const Model* m, const Point* p, unsigned vr)
     return row >= 0 && row < CK_N_Y ? row : -1;
 }
 
-static int check_unknowns(Model* m, const char* call, const unsigned* vr, size_t n, int outputs_only)
+void* cm_point(Model* m, const char* call, const unsigned* unknowns, size_t n_unknowns, int trajectory, FdModel* f)
 {
-    for (size_t i = 0; i < n; i++) {
-        if (vr[i] >= (unsigned)m->d->n_variables) return cm_fail(m, "%s: no variable has value reference %u", call, vr[i]);
-        int kind = m->d->variables[vr[i]].kind;
-        int ok = kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_REACTION ||
-                 (!outputs_only && kind == KIND_DERIVATIVE);
-        if (!ok)
-            return cm_fail(m, "%s: %s is not %s", call, m->d->variables[vr[i]].name,
-                           outputs_only ? "an output" : "an output or a state's derivative");
+    if (trajectory && m->model_exchange) {
+        cm_fail(m, "%s: Co-Simulation only (a Model Exchange host has the states' derivatives)", call);
+        return NULL;
     }
-    return CM_OK;
-}
-
-int cm_jacobian(Model* m, const char* call, const unsigned* unknowns, size_t n_unknowns, const unsigned* knowns,
-                size_t n_knowns, double* jacobian)
-{
-    Point* p = (Point*)malloc(sizeof(Point));
-    if (!p) return cm_fail(m, "%s: out of memory", call);
-    int status = point_of(m, call, p);
-    if (status == CM_OK) status = check_unknowns(m, call, unknowns, n_unknowns, 0);
-    int columns[MAX_Z * 4];
-    if (status == CM_OK && n_knowns > sizeof columns / sizeof columns[0])
-        status = cm_fail(m, "%s: %u knowns; this FMU has %d states and inputs", call, (unsigned)n_knowns,
-                         p->n_states + p->n_inputs);
-    for (size_t k = 0; k < n_knowns && status == CM_OK; k++) {
-        columns[k] = known_index(m, p, knowns[k]);
-        if (columns[k] < 0)
-            status = cm_fail(m, "%s: value reference %u (%s) is neither a continuous state nor an input: the "
-                             "derivatives are with respect to those", call, knowns[k],
-                             knowns[k] < (unsigned)m->d->n_variables ? m->d->variables[knowns[k]].name : "no variable");
-    }
-    if (status == CM_OK) {
-        FdModel f = fd_model(p, unknowns, n_unknowns);
-        if (fd_jacobian(&f, columns, (int)n_knowns, jacobian) != 0)
-            status = cm_fail(m, "%s: the model gives non-finite values near the current point (t = %.9g s)", call,
-                             m->now.time);
-    }
-    free(p);
-    return status;
-}
-
-int cm_output_derivatives(Model* m, const char* call, const unsigned* vr, size_t n, double* first, double* second)
-{
-    if (m->model_exchange)
-        return cm_fail(m, "%s: Co-Simulation only (a Model Exchange host has the states' derivatives)", call);
-    Point* p = (Point*)malloc(sizeof(Point));
-    if (!p) return cm_fail(m, "%s: out of memory", call);
-    int status = point_of(m, call, p);
-    if (status == CM_OK) status = check_unknowns(m, call, vr, n, 1);
-    if (status == CM_OK) {
-        double rates[CM_MAX_INPUTS];
-        for (int k = 0; k < p->n_inputs; k++) rates[k] = m->now.input_rate[k];
-        if (m->d->causality_speed) {       /* omega1 follows the step's line */
-            p->slope_held = 1;
-            rates[0] = p->slope;
+    for (size_t i = 0; i < n_unknowns; i++) {
+        if (unknowns[i] >= (unsigned)m->d->n_variables) {
+            cm_fail(m, "%s: no variable has value reference %u", call, unknowns[i]);
+            return NULL;
         }
-        FdModel f = fd_model(p, vr, n);
-        if (fd_time_derivatives(&f, rates, first, second) != 0)
-            status = cm_fail(m, "%s: the model gives non-finite values near the current point (t = %.9g s)", call,
-                             m->now.time);
+        int kind = m->d->variables[unknowns[i]].kind;
+        if (!(kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_REACTION ||
+              (!trajectory && kind == KIND_DERIVATIVE))) {
+            cm_fail(m, "%s: %s is not %s", call, m->d->variables[unknowns[i]].name,
+                    trajectory ? "an output" : "an output or a state's derivative");
+            return NULL;
+        }
     }
-    free(p);
-    return status;
-}
-
-int cm_refresh(Model* m, const char* call)
-{
     Point* p = (Point*)malloc(sizeof(Point));
-    if (!p) return cm_fail(m, "%s: out of memory", call);
-    int status = point_of(m, call, p);
-    if (status == CM_OK) {
-        FdModel f = fd_model(p, NULL, 0);
-        if (f.evaluate(p, p->z, NULL, NULL) != 0)
-            status = cm_fail(m, "%s: the inputs set give non-finite outputs at t = %.9g s", call, m->now.time);
-        else
-            memcpy(m->now.row, p->trial.now.row, sizeof m->now.row);
+    if (!p) {
+        cm_fail(m, "%s: out of memory", call);
+        return NULL;
     }
-    free(p);
-    return status;
+    if (point_of(m, call, p) != CM_OK) {
+        free(p);
+        return NULL;
+    }
+    p->unknowns = unknowns;
+    p->n_unknowns = n_unknowns;
+    for (int k = 0; k < p->n_inputs; k++) p->rates[k] = m->now.input_rate[k];
+    if (trajectory && m->d->causality_speed) {     /* omega1 follows the next step's line */
+        p->slope_held = 1;
+        p->rates[0] = p->slope;
+    }
+    FdModel model = {p, p->n_states, p->n_states + p->n_inputs, p->z, p->scale, p->rates, n_unknowns, evaluate,
+                     known_index};
+    *f = model;
+    return p;
 }

@@ -85,9 +85,34 @@ void cm_read_values(const Model* m, const unsigned* vr, size_t n, double* out)
 /* an input's place among the inputs: the crank's 0, port i 1 + i */
 static int input_index(const Model* m, int vr) { return vr == m->d->vr_crank_input ? 0 : 1 + (vr - m->d->vr_first_port); }
 
+/* Co-Simulation between steps: the output row at the inputs as set now, at the communication point
+ * (the kernel's rules: ck_point's state and mode there, or in speed causality the row the next step
+ * starts from, its slope by ck_speed_slope). Computed at the first read after a set, so a master
+ * that sets its inputs and steps pays nothing for it */
+static int refresh_row(Model* m, const char* call)
+{
+    if (cm_ensure_tables(m, call) != CM_OK) return CM_ERROR;
+    cm_load_parameters(m);
+    double S[CK_STATE_SIZE];
+    int status = 0;
+    if (m->d->causality_speed) {
+        double omega = m->now.values[m->d->vr_crank_input];
+        memcpy(S, m->now.S, sizeof S);
+        S[CK_Y + 1] = omega;
+        S[CK_F + 1] = ck_speed_slope(m->now.S, omega, m->now.input_rate[0], m->now.rate_given[0]);
+        ck_speed_row(S, &m->tables, m->now.P, m->now.row);
+    } else {
+        ck_point(m->now.S, m->now.time, S);
+        status = ck_me_derivatives(S, S + CK_Y, &m->tables, m->now.P, NULL, m->now.row);
+    }
+    m->now.row_stale = 0;
+    return status == 0 ? CM_OK : cm_fail(m, "%s: a corrupted state", call);
+}
+
 int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* value)
 {
     if (n > 0 && (!vr || !value)) return cm_fail(m, "%s: null arrays", call);
+    if (m->now.row_stale && m->now.phase == CM_STEPPING && refresh_row(m, call) != CM_OK) return CM_ERROR;
     Reads reads = reads_of(m);
     const Model* source = m;
     Model preview;
@@ -164,8 +189,7 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
         /* Co-Simulation: the outputs that depend on an input at once (epsilon1, the accelerations,
          * the reactions; tau_drive in speed causality) are read at the inputs just set, as a master
          * solving a loop by setting and reading expects; the step that follows restarts from them */
-        cm_load_parameters(m);
-        return cm_refresh(m, call);
+        m->now.row_stale = 1;
     }
     return CM_OK;
 }
@@ -194,7 +218,7 @@ int cm_set_input_derivatives(Model* m, const char* call, const unsigned* vr, siz
         m->now.rate_given[input_index(m, (int)vr[i])] = 1;
     }
     /* speed causality: omega1's derivative is epsilon1 at once (tau_drive with it) */
-    if (n > 0 && m->d->causality_speed && m->now.phase == CM_STEPPING) return cm_refresh(m, call);
+    if (n > 0 && m->d->causality_speed && m->now.phase == CM_STEPPING) m->now.row_stale = 1;
     return CM_OK;
 }
 

@@ -49,26 +49,33 @@ static double* scratch(const FdModel* p, size_t extra)
     return (double*)malloc(sizeof(double) * (6 * n + extra + 1));
 }
 
-int fd_jacobian(const FdModel* p, const int* columns, int n_columns, double* jacobian)
+int fd_jacobian(const FdModel* p, const unsigned* knowns, size_t n_knowns, double* jacobian, size_t* refused)
 {
-    if (p->n_z > FD_MAX_Z) return -1;
+    for (size_t k = 0; k < n_knowns; k++)
+        if (p->known(p->model, knowns[k]) < 0) {
+            *refused = k;
+            return FD_NOT_A_KNOWN;
+        }
+    if (p->n_z > FD_MAX_Z) return FD_NOT_FINITE;
     double* work = scratch(p, p->n_values);
-    if (!work) return -1;
+    if (!work) return FD_NOT_FINITE;
     double* column = work + 6 * (p->n_values > (size_t)p->n_states ? p->n_values : (size_t)p->n_states);
     double dz[FD_MAX_Z];
-    int status = 0;
-    for (int k = 0; k < n_columns && status == 0; k++) {
+    int status = FD_OK;
+    for (size_t k = 0; k < n_knowns && status == FD_OK; k++) {
+        int j = p->known(p->model, knowns[k]);
         memset(dz, 0, sizeof dz);
-        dz[columns[k]] = 1.0;
-        status = richardson(p, dz, 1e-5 * p->scale[columns[k]], 0, column, work);
-        for (size_t i = 0; i < p->n_values && status == 0; i++) jacobian[i * (size_t)n_columns + (size_t)k] = column[i];
+        dz[j] = 1.0;
+        status = richardson(p, dz, 1e-5 * p->scale[j], 0, column, work);
+        for (size_t i = 0; i < p->n_values && status == FD_OK; i++) jacobian[i * n_knowns + k] = column[i];
     }
     free(work);
     return status;
 }
 
-int fd_time_derivatives(const FdModel* p, const double* input_rates, double* first, double* second)
+int fd_time_derivatives(const FdModel* p, double* first, double* second)
 {
+    const double* input_rates = p->input_rates;
     if (p->n_z > FD_MAX_Z) return -1;
     size_t n = p->n_values > (size_t)p->n_states ? p->n_values : (size_t)p->n_states;
     double* work = scratch(p, 4 * n);

@@ -24,17 +24,23 @@ typedef struct {
     int n_z;
     const double* z;   /* the current point */
     const double* scale;   /* each z's size: the differences step 1e-5 of it */
+    const double* input_rates;   /* the inputs' rates over the next step (0: held) */
     size_t n_values;   /* how many unknowns evaluate writes */
     /* the unknowns (n_values) and the states' rates (n_states; either may be NULL) at z: 0, or -1
      * where the model cannot be evaluated there (non-finite values) */
     int (*evaluate)(void* model, const double* z, double* values, double* rates);
+    /* z's index of a known's value reference (a state, or an output that is one; an input), or -1 */
+    int (*known)(void* model, unsigned vr);
 } FdModel;
 
-/* jacobian[i * n_columns + k] = d value_i / d z[columns[k]] at p->z; 0 or -1 */
-int fd_jacobian(const FdModel* p, const int* columns, int n_columns, double* jacobian);
+enum { FD_OK = 0, FD_NOT_FINITE = -1, FD_NOT_A_KNOWN = -2 };
+
+/* jacobian[i * n_knowns + k] = d value_i / d (the known knowns[k]) at p->z: FD_OK, FD_NOT_FINITE, or
+ * FD_NOT_A_KNOWN with *refused the first known's place in knowns */
+int fd_jacobian(const FdModel* p, const unsigned* knowns, size_t n_knowns, double* jacobian, size_t* refused);
 
 /* the values' first and second time derivatives (either may be NULL) along the trajectory from p->z,
- * the inputs changing at input_rates (0: held): 0 or -1 */
-int fd_time_derivatives(const FdModel* p, const double* input_rates, double* first, double* second);
+ * the inputs changing at p->input_rates: FD_OK or FD_NOT_FINITE */
+int fd_time_derivatives(const FdModel* p, double* first, double* second);
 
 #endif

@@ -134,6 +134,18 @@ int fm_set_input_derivatives(FmuModel* f, const char* call, const unsigned* vr, 
 
 /* ------------------------------------------------------------------------------ for masters */
 
+/* the model's equations at the current point (its point, to free), or NULL refused */
+static void* point_of(FmuModel* f, const char* call, const unsigned* unknowns, size_t n, int trajectory, FdModel* fd)
+{
+    return MECHANISM(f) ? cm_point(&f->mechanism, call, unknowns, n, trajectory, fd)
+                        : co_point(&f->component, call, unknowns, n, fd);
+}
+
+static int not_finite(FmuModel* f, const char* call)
+{
+    return fm_fail(f, "%s: the model gives non-finite values near the current point (t = %.9g s)", call, fm_time(f));
+}
+
 int fm_directional(FmuModel* f, const char* call, const unsigned* unknowns, size_t n_unknowns, const unsigned* knowns,
                    size_t n_knowns, const double* seed, double* sensitivity, int adjoint)
 {
@@ -143,25 +155,32 @@ int fm_directional(FmuModel* f, const char* call, const unsigned* unknowns, size
     if (n_unknowns > CM_MAX_VARIABLES || n_knowns > CM_MAX_VARIABLES)
         return fm_fail(f, "%s: %lu unknowns and %lu knowns: this FMU has at most %d variables", call,
                        (unsigned long)n_unknowns, (unsigned long)n_knowns, CM_MAX_VARIABLES);
-    if (n_unknowns == 0 || n_knowns == 0) {
-        size_t n_out = adjoint ? n_knowns : n_unknowns;
-        for (size_t i = 0; i < n_out; i++) sensitivity[i] = 0.0;
-        return CM_OK;
+    FdModel fd;
+    void* point = point_of(f, call, unknowns, n_unknowns, 0, &fd);
+    if (!point) return CM_ERROR;
+    double* jacobian = (double*)malloc(sizeof(double) * (n_unknowns * n_knowns + 1));
+    size_t refused = 0;
+    int found = jacobian ? fd_jacobian(&fd, knowns, n_knowns, jacobian, &refused) : FD_NOT_FINITE;
+    free(point);
+    int status = CM_OK;
+    if (!jacobian)
+        status = fm_fail(f, "%s: out of memory", call);
+    else if (found == FD_NOT_A_KNOWN)
+        status = fm_fail(f, "%s: value reference %u (%s) is neither a continuous state nor an input of this FMU "
+                         "(an output that is a state counts as one): the derivatives are with respect to those",
+                         call, knowns[refused],
+                         knowns[refused] < (unsigned)f->d->n_variables ? f->d->variables[knowns[refused]].name
+                                                                        : "no variable");
+    else if (found != FD_OK)
+        status = not_finite(f, call);
+    size_t n_out = adjoint ? n_knowns : n_unknowns;
+    for (size_t r = 0; r < n_out && status == CM_OK; r++) {
+        /* the Jacobian times the seed, or its transpose times the seed */
+        double sum = 0.0;
+        for (size_t q = 0; q < (adjoint ? n_unknowns : n_knowns); q++)
+            sum += (adjoint ? jacobian[q * n_knowns + r] : jacobian[r * n_knowns + q]) * seed[q];
+        sensitivity[r] = sum;
     }
-    double* jacobian = (double*)malloc(sizeof(double) * n_unknowns * n_knowns);
-    if (!jacobian) return fm_fail(f, "%s: out of memory", call);
-    int status = MECHANISM(f) ? cm_jacobian(&f->mechanism, call, unknowns, n_unknowns, knowns, n_knowns, jacobian)
-                              : co_jacobian(&f->component, call, unknowns, n_unknowns, knowns, n_knowns, jacobian);
-    if (status == CM_OK && !adjoint)          /* the Jacobian times the seed */
-        for (size_t i = 0; i < n_unknowns; i++) {
-            sensitivity[i] = 0.0;
-            for (size_t k = 0; k < n_knowns; k++) sensitivity[i] += jacobian[i * n_knowns + k] * seed[k];
-        }
-    if (status == CM_OK && adjoint)           /* its transpose times the seed */
-        for (size_t k = 0; k < n_knowns; k++) {
-            sensitivity[k] = 0.0;
-            for (size_t i = 0; i < n_unknowns; i++) sensitivity[k] += jacobian[i * n_knowns + k] * seed[i];
-        }
     free(jacobian);
     return status;
 }
@@ -175,11 +194,13 @@ int fm_output_derivatives(FmuModel* f, const char* call, const unsigned* vr, siz
         if (order[i] < 1 || order[i] > FM_MAX_OUTPUT_DERIVATIVE_ORDER)
             return fm_fail(f, "%s: order %d: this FMU gives the first and second derivatives (maxOutputDerivativeOrder "
                            "= %d)", call, order[i], FM_MAX_OUTPUT_DERIVATIVE_ORDER);
-    if (n == 0) return CM_OK;
-    double* both = (double*)malloc(sizeof(double) * 2 * n);
-    if (!both) return fm_fail(f, "%s: out of memory", call);
-    int status = MECHANISM(f) ? cm_output_derivatives(&f->mechanism, call, vr, n, both, both + n)
-                              : co_output_derivatives(&f->component, call, vr, n, both, both + n);
+    FdModel fd;
+    void* point = point_of(f, call, vr, n, 1, &fd);
+    if (!point) return CM_ERROR;
+    double* both = (double*)malloc(sizeof(double) * (2 * n + 1));
+    int found = both ? fd_time_derivatives(&fd, both, both + n) : FD_NOT_FINITE;
+    free(point);
+    int status = !both ? fm_fail(f, "%s: out of memory", call) : found != FD_OK ? not_finite(f, call) : CM_OK;
     for (size_t i = 0; i < n && status == CM_OK; i++) value[i] = both[(order[i] - 1) * n + i];
     free(both);
     return status;
