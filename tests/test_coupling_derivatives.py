@@ -49,6 +49,11 @@ def built(tmp_path_factory):
 
 def slave(path: Path, folder: Path):
     """(instance, model description, value references by name) of a Co-Simulation FMU, initialised."""
+    return slave_with(path, folder, {})
+
+
+def slave_with(path: Path, folder: Path, values: dict):
+    """slave(), with ``values`` set before initialisation."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
     from fmpy.fmi3 import FMU3Slave
@@ -58,13 +63,17 @@ def slave(path: Path, folder: Path):
     fmu = kind(guid=md.guid, unzipDirectory=extract(str(path), str(folder)),
                modelIdentifier=md.coSimulation.modelIdentifier)
     fmu.instantiate()
+    references = {v.name: v.valueReference for v in md.modelVariables}
+    if kind is not FMU3Slave:
+        fmu.setupExperiment(startTime=0.0)
+    if values:
+        put(fmu, [references[n] for n in values], list(values.values()))
     if kind is FMU3Slave:
         fmu.enterInitializationMode(startTime=0.0)
     else:
-        fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
     fmu.exitInitializationMode()
-    return fmu, md, {v.name: v.valueReference for v in md.modelVariables}
+    return fmu, md, references
 
 
 def get(fmu, vrs):
@@ -103,7 +112,8 @@ def test_an_input_set_moves_exactly_its_declared_dependents(built, name, variant
     change, and no other output does. A stale output (the last step's) or an undeclared feedthrough
     fails here. A joint reaction is declared to depend on every input (Newton-Euler with the
     acceleration and the ports' forces), a structural bound: a component the geometry makes
-    independent of them (a slide's couple with its force through the block's centre) may stay."""
+    independent of them (a slide's couple with its force through the block's centre) may stay; so
+    may M_motor off its sliding mode (the next test)."""
     if (name, variant) not in built:
         pytest.skip("no Python FMU of this kind in the check")
     fmu, md, vr = slave(built[name, variant], tmp_path)
@@ -118,11 +128,34 @@ def test_an_input_set_moves_exactly_its_declared_dependents(built, name, variant
             after = get(fmu, [vr[n] for n in outputs])
             moved = {n for n, a, b in zip(outputs, after, before) if a != b}
             expected = {n for n in outputs if name_in in depends[n]}
-            reactions = {n for n in outputs if n.endswith(("_Fx", "_Fy", "_N", "_M"))}
+            # a reaction's structural bound, and M_motor, which reads the inputs only while the motor
+            # holds omega1 at a jump of its line (test_the_motor_holding_the_speed_reads_the_inputs)
+            bounds = {n for n in outputs if n.endswith(("_Fx", "_Fy", "_N", "_M"))} | {"M_motor"}
             assert moved <= expected, f"{name} ({variant}), {name_in} set: {sorted(moved - expected)} undeclared"
-            assert expected - moved <= reactions, f"{name} ({variant}), {name_in} set: {sorted(expected - moved)} stale"
+            assert expected - moved <= bounds, f"{name} ({variant}), {name_in} set: {sorted(expected - moved)} stale"
             put(fmu, [vr[name_in]], [old])
             assert np.array_equal(get(fmu, [vr[n] for n in outputs]), before), "setting the input back restores them"
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+
+
+@pytest.mark.parametrize("variant", ["python", "native", "native3"])
+def test_the_motor_holding_the_speed_reads_the_inputs(built, variant, tmp_path):
+    """M_motor declares tau_ext: where the motor line jumps down at omega_switch (1000 N.m below
+    15 rad/s, none above) the motor holds omega1 at 15 rad/s with the torque the loads and inputs
+    leave, so a torque set on the crank moves M_motor by as much, opposite, at once."""
+    fmu, md, vr = slave_with(built["FourBar", variant], tmp_path,
+                             {"A": 0.0, "B": 0.0, "A_low": 1000.0, "B_low": 0.0, "omega_switch": 15.0})
+    try:
+        assert "tau_ext" in declared_dependencies(md)["M_motor"]
+        for k in range(100):
+            fmu.doStep(currentCommunicationPoint=k * 5e-3, communicationStepSize=5e-3)
+        omega1, epsilon1, before = get(fmu, [vr["omega1"], vr["epsilon1"], vr["M_motor"]])
+        assert abs(omega1 - 15.0) < 1e-9 and epsilon1 == 0.0, "the motor holds the speed"
+        put(fmu, [vr["tau_ext"]], [7.0])
+        after = get(fmu, [vr["M_motor"]])[0]
+        assert after == pytest.approx(before - 7.0, abs=1e-9)
     finally:
         fmu.terminate()
         fmu.freeInstance()

@@ -42,8 +42,11 @@ OUTPUTS = (
     Variable("omega1", "rad/s", "crank angular speed", initial=("omega1_start",), depends=("omega1",)),
     # the movement equation: J epsilon1 = M_motor + Q + tau_ext + the ports' torques - 0.5 J' omega1^2
     Variable("epsilon1", "rad/s2", "crank angular acceleration", depends=("phi1", "omega1", "*inputs")),
+    # the motor line at omega1; where the line jumps down at omega_switch the motor holds omega1 there
+    # (the kernel's sliding mode) with the torque the loads and inputs leave: then phi1 and the inputs
     Variable("M_motor", "N.m", "motor torque on the crank",
-             initial=("omega1_start", "A", "B", "A_low", "B_low", "omega_switch"), depends=("omega1",)),
+             initial=("omega1_start", "A", "B", "A_low", "B_low", "omega_switch"),
+             depends=("phi1", "omega1", "*inputs")),
     Variable("M_load", "N.m", "all external loads (weights, technological loads) reduced to the crank",
              initial=("phi1_start", "omega1_start", "*geometry", "*loads"), depends=("phi1", "omega1")),
     Variable("J_red", "kg.m2", "reduced moment of inertia at the crank, flywheel included",
@@ -60,7 +63,7 @@ OUTPUTS = (
 
 #: what the states' derivatives depend on at once (Model Exchange's y: phi1, omega1 and the works,
 #: whose rates are M_motor omega1, Q omega1 and the external torque times omega1)
-STATE_DERIVATIVE_DEPENDS = {"phi1": ("omega1",), "omega1": ("*acceleration",), "W_motor": ("omega1",),
+STATE_DERIVATIVE_DEPENDS = {"phi1": ("omega1",), "omega1": ("*acceleration",), "W_motor": ("phi1", "omega1", "*inputs"),
                             "W_load": ("phi1", "omega1"), "W_ext": ("phi1", "omega1", "*inputs")}
 
 #: an [[outputs]] quantity or a port's s, v, a by its order (position, velocity, acceleration), and a
