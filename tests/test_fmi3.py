@@ -197,8 +197,9 @@ def test_terminals_and_icon(tmp_path):
     assert set(members) <= names
 
 
-def _rows(text: str) -> np.ndarray:
-    return np.array([[float(x) for x in line[4:].split(",")] for line in text.splitlines() if line.startswith("row ")])
+def _rows(text: str, mark: str = "row ") -> np.ndarray:
+    return np.array([[float(x) for x in line[len(mark):].split(",")] for line in text.splitlines()
+                     if line.startswith(mark)])
 
 
 def test_the_three_binaries_run_in_the_c_host_and_agree(fmus, reference, tmp_path):
@@ -220,6 +221,7 @@ def test_the_three_binaries_run_in_the_c_host_and_agree(fmus, reference, tmp_pat
     done = subprocess.run(["env", "-i", str(tmp_path / "linux"), *args(str(unzipped))], capture_output=True, text=True)
     assert done.returncode == 0, done.stdout[-2000:]
     runs["x86_64-linux"] = _rows(done.stdout)
+    derivatives = {"x86_64-linux": _rows(done.stdout, "derivatives ")}
     on_ci = bool(os.environ.get("CI"))
     if shutil.which("aarch64-linux-gnu-gcc") and shutil.which("qemu-aarch64"):
         assert (unzipped / "binaries" / "aarch64-linux" / f"{FMU}.so").is_file()
@@ -229,6 +231,7 @@ def test_the_three_binaries_run_in_the_c_host_and_agree(fmus, reference, tmp_pat
                                *args(str(unzipped))], capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stdout[-2000:]
         runs["aarch64-linux"] = _rows(done.stdout)
+        derivatives["aarch64-linux"] = _rows(done.stdout, "derivatives ")
     elif on_ci:
         pytest.fail("aarch64-linux-gnu-gcc or qemu-aarch64 is missing: `make` installs them")
     if shutil.which("x86_64-w64-mingw32-gcc"):
@@ -240,6 +243,7 @@ def test_the_three_binaries_run_in_the_c_host_and_agree(fmus, reference, tmp_pat
         output = (tmp_path / "wine.log").read_text(errors="replace")
         assert code == 0, output[-2000:]
         runs["x86_64-windows"] = _rows(output)
+        derivatives["x86_64-windows"] = _rows(output, "derivatives ")
     elif on_ci:
         pytest.fail("x86_64-w64-mingw32-gcc is missing: `make` installs it")
     linux = runs["x86_64-linux"]
@@ -248,6 +252,16 @@ def test_the_three_binaries_run_in_the_c_host_and_agree(fmus, reference, tmp_pat
     for platform, rows in runs.items():
         assert rows.shape == linux.shape, platform
         assert np.max(np.abs(rows[:, 1] - linux[:, 1])) <= 1e-12 * scale, platform
+    # the derivatives a master reads (fmi3GetOutputDerivatives, fmi3GetDirectionalDerivative,
+    # fmi3GetAdjointDerivative): omega1's rate is epsilon1 (the reference's, to its differences'
+    # tolerance of 1e-6), d omega1/d omega1 is 1, and every platform gives the same
+    print(f"derivatives on {sorted(derivatives)}: {derivatives}")
+    assert all(values.shape == (1, 4) for values in derivatives.values()), derivatives
+    rate, _, directional, adjoint = derivatives["x86_64-linux"][0]
+    assert rate == pytest.approx(reference.epsilon1[-1], rel=1e-6, abs=1e-6 * np.max(np.abs(reference.epsilon1)))
+    assert directional == pytest.approx(1.0, abs=1e-9) and adjoint == directional
+    for platform, values in derivatives.items():
+        assert np.allclose(values, derivatives["x86_64-linux"], rtol=1e-9, atol=0.0), platform
 
 
 def test_the_sources_alone_build_the_binary_with_cmake(fmus, tmp_path):
