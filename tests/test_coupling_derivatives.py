@@ -225,6 +225,47 @@ def test_directional_derivatives_match_central_differences_in_co_simulation(buil
         fmu.freeInstance()
 
 
+@pytest.mark.parametrize("name,variant", [(n, v) for n in ("Drive", "DriveSpeed") for v in ("native", "native3")])
+def test_the_drives_linear_system_is_read_from_directional_derivatives(built, name, variant, tmp_path):
+    """The drives declare their states (i, x, and omega where they carry the rotor) with their
+    derivatives, in Co-Simulation too, so a master reads their linear system from directional
+    derivatives (validation/cosim.py's implicit step does). It is the circuit's and the rotor's
+    closed form, L di/dt = Kp (omega_set - omega) + Ki x - R i - n k_t omega, dx/dt = omega_set -
+    omega, J_drive domega/dt = n k_t i - tau_load, to 1e-9 (the equations are linear: the central
+    differences are exact but for rounding); the rates read are those equations at the point."""
+    fmu, md, vr = slave(built[name, variant], tmp_path)
+    try:
+        drive_inputs(md, fmu, vr, steps=5)
+        p = {v.name: float(v.start) for v in md.modelVariables if v.causality == "parameter"}
+        R, L, Kp, Ki, nk = p["R"], p["L"], p["Kp"], p["Ki"], p["n_gear"] * p["k_t"]
+        speed = name == "DriveSpeed"
+        states = ["i", "x", "omega"] if speed else ["i", "x"]
+        inputs = ["omega_set", "tau_load"] if speed else ["omega", "omega_set"]
+        declared = {u.variable.name for u in md.derivatives}
+        assert declared == {f"der({s})" for s in states}
+        unknowns = [vr[f"der({s})"] for s in states]
+        knowns = states + inputs
+        jacobian = np.column_stack([fmu.getDirectionalDerivative(unknowns, [vr[k]], [1.0]) for k in knowns])
+        # d/d(i, x, omega | omega, omega_set, tau_load) of der(i), der(x), der(omega)
+        closed = {("der(i)", "i"): -R / L, ("der(i)", "x"): Ki / L, ("der(i)", "omega"): -(Kp + nk) / L,
+                  ("der(i)", "omega_set"): Kp / L, ("der(x)", "omega"): -1.0, ("der(x)", "omega_set"): 1.0}
+        if speed:
+            closed.update({("der(omega)", "i"): nk / p["J_drive"], ("der(omega)", "tau_load"): -1.0 / p["J_drive"]})
+        expected = np.array([[closed.get((f"der({s})", k), 0.0) for k in knowns] for s in states])
+        assert np.allclose(jacobian, expected, rtol=1e-9, atol=1e-9 * np.max(np.abs(expected))), jacobian
+        i, x, omega_set = get(fmu, [vr["i"], vr["x"], vr["omega_set"]])
+        omega = get(fmu, [vr["omega"]])[0]
+        rates = get(fmu, unknowns)
+        u = Kp * (omega_set - omega) + Ki * x
+        assert rates[0] == pytest.approx((u - R * i - nk * omega) / L, rel=1e-12)
+        assert rates[1] == pytest.approx(omega_set - omega, rel=1e-12)
+        if speed:
+            assert rates[2] == pytest.approx((nk * i - get(fmu, [vr["tau_load"]])[0]) / p["J_drive"], rel=1e-12)
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+
+
 def test_directional_derivatives_match_central_differences_in_model_exchange(built, tmp_path):
     """FourBar in Model Exchange: d(der(phi1), der(omega1), der(W_...), epsilon1, M_motor, M_load,
     J_red, E_kin)/d(each state and tau_ext) from the FMU against central differences of the same

@@ -107,7 +107,7 @@ def check_drive(fmu, checks, out, quick: bool) -> dict:
         i, x = sol.y[0], sol.y[1]
         omega = sol.y[2] if speed else np.full_like(i, v["omega"])
         u = drive.voltage(x, omega, v["omega_set"])
-        ref = {"tau": drive.torque(i), "i": i, "u": u, "P_el": u * i}
+        ref = {"tau": drive.torque(i), "i": i, "u": u, "P_el": u * i, "x": x}
         if speed:
             ref["omega"] = omega
         rows = _compare(prefix, fmu, run, ref, checks, DRIVE_TOLERANCE)

@@ -131,6 +131,10 @@ DRIVE_OUTPUTS = (
     # u = Kp (omega_set - omega) + Ki x: omega is the drive's input, or in speed causality its state
     Variable("u", "V", "armature voltage from the PI controller", depends=("omega", "omega_set")),
     Variable("P_el", "W", "electrical power into the armature (u i)", depends=("i", "omega", "omega_set")),
+    # a state beside i (and omega in speed causality): a master that builds the drive's linear system
+    # from directional derivatives names it as a known
+    Variable("x", "rad", "integral of the speed error, omega_set - omega (the PI controller's state)",
+             depends=("x",)),
 )
 #: DieCushion.fmu's output (its inputs and parameters are its file's): a law of the ram's motion
 CUSHION_OUTPUTS = (
@@ -148,6 +152,14 @@ ROD_STRING_OUTPUTS = (
     Variable("W_polished", "J", "work done by the polished rod on the string since the start", depends=()),
     Variable("W_hydraulic", "J", "work done by the plunger on the fluid since the start", depends=()),
 )
+
+#: the drives' continuous states (outputs all), in the native runtime's order, and what each one's
+#: rate depends on at once: L di/dt = u - R i - n_gear k_t omega with u = Kp (omega_set - omega) + Ki x;
+#: dx/dt = omega_set - omega; J_drive domega/dt = n_gear k_t i - tau_load (speed causality). The native
+#: FMUs declare them with their derivatives, so a master reads the drive's linear system from
+#: directional derivatives (docs/coupling.md)
+DRIVE_STATE_DEPENDS = {"i": ("i", "x", "omega", "omega_set"), "x": ("omega", "omega_set")}
+DRIVE_SPEED_STATE_DEPENDS = {**DRIVE_STATE_DEPENDS, "omega": ("i", "tau_load")}
 
 #: DriveSpeed.fmu's outputs: the crank speed it imposes, then Drive.fmu's
 DRIVE_SPEED_OUTPUTS = (

@@ -2,8 +2,8 @@
 speed-causal variant DriveSpeed.fmu (``DriveSpeedCore``).
 
 Inputs: the crank speed ``omega`` and the set-point ``omega_set``; outputs: the torque on the crank
-``tau``, the armature current ``i``, the armature voltage ``u`` and the motor's electrical power
-``P_el`` = u i. Each fmi2DoStep advances the drive's state by the exact solution with the inputs
+``tau``, the armature current ``i``, the armature voltage ``u``, the motor's electrical power
+``P_el`` = u i and the PI controller's state ``x``. Each fmi2DoStep advances the drive's state by the exact solution with the inputs
 held at their values (the co-simulation's zero-order hold), so the drive adds no error of its own:
 a coupled run's error is the coupling's alone. The step is the components' C
 (crank_components.c, through native.DriveSteps), the one the native Drive.fmu compiles in;
@@ -54,15 +54,15 @@ class DriveCore(SlaveCore):
     def step(self, h: float):
         return self.drive.step(*self.state, self.values["omega"], self.values["omega_set"], h)
 
-    def output_row(self, omega, tau, i, u):
+    def output_row(self, omega, tau, i, u, x):
         """The outputs in the declared outputs' order."""
-        return tau, i, u, u * i
+        return tau, i, u, u * i, x
 
     def _update_outputs(self):
         i, x = self.state[:2]
         omega = self.speed()
         u = self.drive.voltage(x, omega, self.values["omega_set"])
-        self.out[:] = self.output_row(omega, self.drive.torque(i), i, u)
+        self.out[:] = self.output_row(omega, self.drive.torque(i), i, u, x)
 
     def _drive(self) -> DriveSteps:
         return DriveSteps([self.values[k] for k in DRIVE_CONSTANTS])
@@ -119,8 +119,8 @@ class DriveSpeedCore(DriveCore):
     def speed(self) -> float:
         return float(self.state[2])
 
-    def output_row(self, omega, tau, i, u):
-        return (omega, *super().output_row(omega, tau, i, u))
+    def output_row(self, omega, tau, i, u, x):
+        return (omega, *super().output_row(omega, tau, i, u, x))
 
     def step(self, h: float):
         return self.drive.step_with_rotor(*self.state, self.values["omega_set"], self.values["tau_load"],

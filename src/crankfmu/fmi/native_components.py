@@ -22,11 +22,12 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from .. import units as si
-from ..contract import direct_dependencies
+from ..contract import DRIVE_SPEED_STATE_DEPENDS, DRIVE_STATE_DEPENDS, direct_dependencies
 from ..errors import CrankfmuError
 from . import model_file
 from .native_build import native_runtimes, package_native
-from .native_model import MAX_OUTPUT_DERIVATIVE_ORDER, default_experiment, dependency_attributes, unit_definitions
+from .native_model import (MAX_OUTPUT_DERIVATIVE_ORDER, PER_SECOND, default_experiment, unit_definitions,
+                           variables_and_structure)
 from .source import preflight, vendor_annotations
 
 
@@ -36,6 +37,12 @@ class ComponentModel:
     def __init__(self, source):
         self.source = source
         self.declared = source.variables()
+        #: the continuous states the FMU declares with their derivatives: a drive's (i, x, and omega
+        #: carrying the rotor), what each one's rate depends on; none for the cushion (a law of its
+        #: inputs) and the rod string (its grid's explicit steps are no smooth equations)
+        self.state_depends = (DRIVE_SPEED_STATE_DEPENDS if source.causality == "speed" else DRIVE_STATE_DEPENDS) \
+            if source.kind == "drive" else {}
+        self.states = list(self.state_depends)
         key = (source.kind, source.causality)
         if key not in model_file.COMPONENTS:
             raise CrankfmuError(f"a {source.kind} file has no native build in {source.causality} causality")
@@ -51,6 +58,11 @@ class ComponentModel:
             rows.append((p.name, "TUNABLE" if p.tunable else "FIXED", p.value, -math.inf if p.min is None else p.min,
                          math.inf if p.max is None else p.max, p.min_inclusive, p.max_inclusive, p.unit,
                          p.range_text(), p.description))
+        # the states' derivatives, after every declared variable so that the variables the Python
+        # FMU declares keep their value references
+        units = {v.name: v.unit for v in self.declared.outputs}
+        rows += [(f"der({name})", "DERIVATIVE", 0.0, -math.inf, math.inf, True, True, PER_SECOND[units[name]], "",
+                  f"time derivative of {name}") for name in self.states]
         self.rows = rows
         digest = hashlib.sha256(repr((source.fmu, self.kind, rows)).encode()).hexdigest()
         self.guid = "{" + f"{digest[:8]}-{digest[8:12]}-{digest[12:16]}-{digest[16:20]}-{digest[20:32]}" + "}"
@@ -65,11 +77,13 @@ class ComponentModel:
         return self.source.kind != "well"
 
     def dependencies(self) -> dict[str, list[str]]:
-        """Each output's direct dependencies: the inputs it feeds through from (a component
-        declares no continuous states)."""
+        """Each output's and state derivative's direct dependencies: the states and inputs it reads."""
         inputs = [p.name for p in self.declared.inputs]
-        return {v.name: direct_dependencies(v.depends, self.declared.outputs, inputs)
-                for v in self.declared.outputs}
+        found = {v.name: direct_dependencies(v.depends, self.declared.outputs, inputs, self.states)
+                 for v in self.declared.outputs}
+        for name, depends in self.state_depends.items():
+            found[f"der({name})"] = direct_dependencies(depends, self.declared.outputs, inputs, self.states)
+        return found
 
     def variables(self) -> list:
         """The variables in value-reference order, as FMI 3.0's description takes them (NativeVariable)."""
@@ -86,6 +100,9 @@ class ComponentModel:
             elif kind == "INPUT":
                 table.append(NativeVariable(name, unit, description, "input", "continuous", start=repr(float(start)),
                                             **bounds))
+            elif kind == "DERIVATIVE":
+                table.append(NativeVariable(name, unit, description, "local", "continuous", initial="calculated",
+                                            derivative_of=name[4:-1], depends=depends[name]))
             else:
                 table.append(NativeVariable(name, unit, f"{description} (valid range {text})".strip(), "parameter",
                                             "tunable" if kind == "TUNABLE" else "fixed", start=repr(float(start)),
@@ -119,40 +136,7 @@ class ComponentModel:
         unit_definitions(root, [row[7] for row in self.rows])
         default_experiment(root, exp)
         root.append(vendor_annotations(self.source, "native"))
-        variables = ET.SubElement(root, "ModelVariables")
-        outputs, knowns = [], []
-        for vr, (name, kind, start, lo, hi, _, _, unit, text, description) in enumerate(self.rows):
-            attributes = {"name": name, "valueReference": str(vr)}
-            real = {}
-            if kind == "OUTPUT":
-                attributes.update(description=description, causality="output", variability="continuous",
-                                  initial="calculated")
-                outputs.append(vr + 1)
-            elif kind == "INPUT":
-                attributes.update(description=description, causality="input", variability="continuous")
-                real["start"] = repr(float(start))
-                knowns.append(vr + 1)
-            else:
-                attributes.update(description=f"{description} (valid range {text})".strip(), causality="parameter",
-                                  variability="tunable" if kind == "TUNABLE" else "fixed")
-                real["start"] = repr(float(start))
-                knowns.append(vr + 1)
-            if math.isfinite(lo):
-                real["min"] = repr(float(lo))
-            if math.isfinite(hi):
-                real["max"] = repr(float(hi))
-            element = ET.SubElement(ET.SubElement(variables, "ScalarVariable", **attributes), "Real", **real)
-            if unit != "1":
-                element.set("unit", si.fmi_name(unit))
-        structure = ET.SubElement(root, "ModelStructure")
-        listed = ET.SubElement(structure, "Outputs")
-        table = self.variables()
-        index_of = {v.name: i + 1 for i, v in enumerate(table)}
-        for i in outputs:
-            ET.SubElement(listed, "Unknown", index=str(i), **dependency_attributes(table[i - 1], index_of))
-        initial = ET.SubElement(structure, "InitialUnknowns")
-        for i in outputs:
-            ET.SubElement(initial, "Unknown", index=str(i), dependencies=" ".join(str(k) for k in knowns))
+        variables_and_structure(root, self.variables())
         return parseString(ET.tostring(root, encoding="UTF-8")).toprettyxml(encoding="UTF-8", indent="  ")
 
 

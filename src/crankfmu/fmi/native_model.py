@@ -97,6 +97,9 @@ class NativeVariable:
 #: too); a rod string's grid has no smooth equations, so it offers none
 MAX_OUTPUT_DERIVATIVE_ORDER = 2
 
+#: a state's unit -> its derivative's
+PER_SECOND = {"rad": "rad/s", "rad/s": "rad/s2", "J": "W", "A": "A/s"}
+
 
 def dependency_attributes(v: NativeVariable, reference: dict) -> dict:
     """ModelStructure's dependencies and dependenciesKind of ``v``, its knowns referred to by
@@ -199,9 +202,8 @@ class NativeModel:
         speed causality: Co-Simulation only)."""
         if self.speed:
             return []
-        per_second = {"rad": "rad/s", "rad/s": "rad/s2", "J": "W"}
         units = {v.name: v.unit for v in self.outputs}
-        return [(name, per_second[units[name]]) for name in ROW_FIELDS[:N_STATES]]
+        return [(name, PER_SECOND[units[name]]) for name in ROW_FIELDS[:N_STATES]]
 
     def dependencies(self) -> dict[str, list[str]]:
         """Each output's and state derivative's direct dependencies: names of the continuous states
@@ -273,38 +275,44 @@ class NativeModel:
         unit_definitions(root, self.units_used())
         default_experiment(root, exp)
         root.append(vendor_annotations(self.source, "native"))
-        variables = ET.SubElement(root, "ModelVariables")
-        table = self.variables()
-        index_of = {v.name: i + 1 for i, v in enumerate(table)}          # FMI 2.0 indices count from 1
-        for vr, v in enumerate(table):
-            attributes = {k: getattr(v, k) for k in ("initial",) if getattr(v, k) is not None}
-            sv = ET.SubElement(variables, "ScalarVariable", name=v.name, valueReference=str(vr),
-                               description=v.description, causality=v.causality, variability=v.variability,
-                               **attributes)
-            real = {k: getattr(v, k) for k in ("start", "min", "max") if getattr(v, k) is not None}
-            if v.derivative_of:
-                real["derivative"] = str(index_of[v.derivative_of])
-            r = ET.SubElement(sv, "Real", **real)
-            if v.unit != "1":
-                r.set("unit", si.fmi_name(v.unit))
-        outputs = [i + 1 for i, v in enumerate(table) if v.causality == "output"]
-        derivative_indices = [i + 1 for i, v in enumerate(table) if v.derivative_of]
-        inputs = [i + 1 for i, v in enumerate(table) if v.causality in ("input", "parameter")]
-        structure = ET.SubElement(root, "ModelStructure")
-        for tag, indices in (("Outputs", outputs), ("Derivatives", derivative_indices)):
-            if not indices:
-                continue           # (speed causality: no states; an empty element is not allowed)
-            element = ET.SubElement(structure, tag)
-            for i in indices:
-                ET.SubElement(element, "Unknown", index=str(i), **dependency_attributes(table[i - 1], index_of))
-        initial = ET.SubElement(structure, "InitialUnknowns")
-        everything = " ".join(str(i) for i in inputs)
-        for i in sorted(outputs + derivative_indices):
-            ET.SubElement(initial, "Unknown", index=str(i), dependencies=everything)
+        variables_and_structure(root, self.variables())
         return parseString(ET.tostring(root, encoding="UTF-8")).toprettyxml(encoding="UTF-8", indent="  ")
 
     def parameters(self) -> dict:
         return {p.name: p for p in (*self.tunable, *self.fixed)}
+
+
+def variables_and_structure(root: ET.Element, table: list) -> None:
+    """FMI 2.0's ModelVariables and ModelStructure of a native FMU (a mechanism or a component) from
+    its variables in value-reference order: the outputs' and the states' derivatives' dependencies,
+    and the initial unknowns (on every input and parameter)."""
+    variables = ET.SubElement(root, "ModelVariables")
+    index_of = {v.name: i + 1 for i, v in enumerate(table)}          # FMI 2.0 indices count from 1
+    for vr, v in enumerate(table):
+        attributes = {k: getattr(v, k) for k in ("initial",) if getattr(v, k) is not None}
+        sv = ET.SubElement(variables, "ScalarVariable", name=v.name, valueReference=str(vr),
+                           description=v.description, causality=v.causality, variability=v.variability,
+                           **attributes)
+        real = {k: getattr(v, k) for k in ("start", "min", "max") if getattr(v, k) is not None}
+        if v.derivative_of:
+            real["derivative"] = str(index_of[v.derivative_of])
+        r = ET.SubElement(sv, "Real", **real)
+        if v.unit != "1":
+            r.set("unit", si.fmi_name(v.unit))
+    outputs = [i + 1 for i, v in enumerate(table) if v.causality == "output"]
+    derivative_indices = [i + 1 for i, v in enumerate(table) if v.derivative_of]
+    inputs = [i + 1 for i, v in enumerate(table) if v.causality in ("input", "parameter")]
+    structure = ET.SubElement(root, "ModelStructure")
+    for tag, indices in (("Outputs", outputs), ("Derivatives", derivative_indices)):
+        if not indices:
+            continue           # (speed causality: no states; an empty element is not allowed)
+        element = ET.SubElement(structure, tag)
+        for i in indices:
+            ET.SubElement(element, "Unknown", index=str(i), **dependency_attributes(table[i - 1], index_of))
+    initial = ET.SubElement(structure, "InitialUnknowns")
+    everything = " ".join(str(i) for i in inputs)
+    for i in sorted(outputs + derivative_indices):
+        ET.SubElement(initial, "Unknown", index=str(i), dependencies=everything)
 
 
 def unit_definitions(root: ET.Element, units) -> None:

@@ -1,8 +1,8 @@
 /* A native component FMU's equations for masters (component_model.h's co_point), on its equations at the current point (fmu_derivatives.h): z = (the
  * model's continuous states, then its inputs in value-reference order). The drives' states are
- * the armature current i, the speed error's integral x and, carrying the rotor, omega (i and omega
- * are outputs, so a master can name them); their rates are the circuit's and the rotor's equations
- * (cc_drive_rates), the outputs model_outputs. The cushion has no state: its force is a law of its
+ * the armature current i, the speed error's integral x and, carrying the rotor, omega (outputs all,
+ * so a master can name them as knowns); their rates der(i), der(x), der(omega) are the circuit's
+ * and the rotor's equations (cc_drive_rates), written with the outputs by model_outputs. The cushion has no state: its force is a law of its
  * inputs. The rod string refuses: its grid's explicit steps are no smooth equations. */
 #include <math.h>
 #include <stdlib.h>
@@ -81,8 +81,9 @@ void* co_point(Component* c, const char* call, const unsigned* unknowns, size_t 
             co_fail(c, "%s: no variable has value reference %u", call, unknowns[i]);
             return NULL;
         }
-        if (c->d->variables[unknowns[i]].kind != KIND_OUTPUT) {
-            co_fail(c, "%s: %s is not an output", call, c->d->variables[unknowns[i]].name);
+        int kind = c->d->variables[unknowns[i]].kind;
+        if (kind != KIND_OUTPUT && kind != KIND_DERIVATIVE) {
+            co_fail(c, "%s: %s is neither an output nor a state's derivative", call, c->d->variables[unknowns[i]].name);
             return NULL;
         }
     }

@@ -237,8 +237,9 @@ int co_set(Component* c, const char* call, const unsigned* vr, size_t n, const d
         }
         const Variable* v = &c->d->variables[vr[k]];
         double x = value[k];
-        if (v->kind == KIND_OUTPUT) {
-            status = co_fail(c, "%s is an output of this FMU: it cannot be set", v->name);
+        if (v->kind == KIND_OUTPUT || v->kind == KIND_DERIVATIVE) {
+            status = co_fail(c, "%s is %s of this FMU: it cannot be set", v->name,
+                             v->kind == KIND_OUTPUT ? "an output" : "a state's derivative");
             continue;
         }
         if (v->kind == KIND_FIXED && (c->now.phase == CM_STEPPING || c->now.phase == CM_TERMINATED)) {

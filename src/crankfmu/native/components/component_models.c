@@ -12,9 +12,13 @@
 
 /* the names each kind uses, in its slots' order (c->slot[k] is the value reference of name k) */
 enum { DR_R, DR_L, DR_K_T, DR_N_GEAR, DR_KP, DR_KI, DR_OMEGA, DR_OMEGA_SET, DR_I_START, DR_X_START, DR_TAU, DR_I, DR_U,
-       DR_P_EL, DR_OMEGA_START, DR_TAU_LOAD, DR_J_DRIVE };
+       DR_P_EL, DR_X, DR_OMEGA_START, DR_TAU_LOAD, DR_J_DRIVE, DR_DER_I, DR_DER_X, DR_DER_OMEGA };
 static const char* const DRIVE[] = {"R", "L", "k_t", "n_gear", "Kp", "Ki", "omega", "omega_set", "i_start", "x_start",
-                                    "tau", "i", "u", "P_el", "omega_start", "tau_load", "J_drive"};
+                                    "tau", "i", "u", "P_el", "x", "omega_start", "tau_load", "J_drive",
+                                    "der(i)", "der(x)", "der(omega)"};
+/* the drive's states, in its state array's order (each is an output), and their rates' variables */
+static const int DRIVE_STATE[] = {DR_I, DR_X, DR_OMEGA};
+static const int DRIVE_RATE[] = {DR_DER_I, DR_DER_X, DR_DER_OMEGA};
 enum { CU_K, CU_C, CU_L_FREE, CU_S_SEAT, CU_S, CU_V, CU_F };
 static const char* const CUSHION[] = {"k", "c", "L_free", "s_seat", "s", "v", "F"};
 /* the rod string's: its ports, then its design in crank_components.h's CD_ order (dynamics/well.py's
@@ -46,8 +50,15 @@ static int bind_names(Component* c, const char* const* names, int n, int first, 
 int model_bind(Component* c, char* why, size_t why_size)
 {
     switch (c->d->kind) {
-    case CM_MODEL_DRIVE: return bind_names(c, DRIVE, DR_OMEGA_START, 0, why, why_size);
-    case CM_MODEL_DRIVE_SPEED: return bind_names(c, DRIVE, DR_J_DRIVE + 1, 0, why, why_size);
+    case CM_MODEL_DRIVE:
+    case CM_MODEL_DRIVE_SPEED: {
+        int speed = c->d->kind == CM_MODEL_DRIVE_SPEED;
+        if (bind_names(c, DRIVE, speed ? DR_J_DRIVE + 1 : DR_OMEGA_START, 0, why, why_size) != 0) return -1;
+        /* the states' rates: variables a master reads for the drive's linear system (an FMU built
+         * before they were declared has none, and the drive runs the same) */
+        for (int j = 0; j < 2 + speed; j++) c->slot[DRIVE_RATE[j]] = find(c->d, DRIVE[DRIVE_RATE[j]]);
+        return 0;
+    }
     case CM_MODEL_CUSHION: return bind_names(c, CUSHION, CU_F + 1, 0, why, why_size);
     case CM_MODEL_ROD_STRING: {
         if (bind_names(c, ROD_STRING, RS_TAPERS, 0, why, why_size) != 0) return -1;
@@ -99,6 +110,12 @@ static void drive_outputs(const Component* c, double* v, const double* s, int sp
     V(DR_I) = s[0];
     V(DR_U) = u;
     V(DR_P_EL) = u * s[0];
+    V(DR_X) = s[1];
+    double rates[3];
+    cc_drive_rates(d, s[0], s[1], V(DR_OMEGA), V(DR_OMEGA_SET), speed ? V(DR_TAU_LOAD) : 0.0, speed ? V(DR_J_DRIVE) : 1.0,
+                   speed, rates);
+    for (int j = 0; j < 2 + speed; j++)
+        if (c->slot[DRIVE_RATE[j]] >= 0) v[c->slot[DRIVE_RATE[j]]] = rates[j];
 }
 
 /* the inputs lines in time over the step where the host gave their derivatives (rates) */
@@ -250,9 +267,7 @@ int model_smooth_states(const Component* c)
 
 const char* model_state_output(const Component* c, int j)
 {
-    if (j == 0) return DRIVE[DR_I];
-    if (j == 2 && c->d->kind == CM_MODEL_DRIVE_SPEED) return DRIVE[DR_OMEGA];
-    return NULL;
+    return j >= 0 && j < model_smooth_states(c) ? DRIVE[DRIVE_STATE[j]] : NULL;
 }
 
 void model_rates(const Component* c, const double* v, const double* s, double* rates)

@@ -372,14 +372,14 @@ static void read_mechanism(Reader* r)
     expect_count(r, "coordinates of the program", p->n_coordinates, d->n_quantity_coordinates);
 }
 
-/* a component's payload is its variables: each an output, an input or a parameter (the model finds
- * the ones it needs by name when an instance is made) */
+/* a component's payload is its variables: each an output, an input, a parameter or a state's
+ * derivative (the model finds the ones it needs by name when an instance is made) */
 static void read_component(Reader* r)
 {
     ModelData* d = r->d;
     if (!r->failed && r->left) refuse(r, "is damaged: %lu bytes follow its model", (unsigned long)r->left);
     for (int vr = 0; vr < d->n_variables && !r->failed; vr++)
-        if (d->variables[vr].kind > KIND_FIXED)
+        if (d->variables[vr].kind > KIND_FIXED && d->variables[vr].kind != KIND_DERIVATIVE)
             refuse(r, "is damaged: variable %d (%s) is of kind %d, which no component has", vr, d->variables[vr].name,
                    d->variables[vr].kind);
 }
