@@ -25,17 +25,25 @@ from crankfmu.atomic import save_figure
 STEPS = (1e-2, 1e-3, 1e-4)
 
 
-def coupled_reference(times, scenario: str = "seed000", drive: str = "dc_pi", rtol: float = 1e-12) -> dict:
-    """omega1, phi1, tau, i at ``times`` (s) from the start values of both data files."""
-    from scipy.integrate import solve_ivp
-
-    model = load_scenario(scenario).with_params(**MOTOR_OFF).build()
-    equation = model.equation
+def _parts(scenario: str, drive: str, J_flywheel: float | None):
+    """The four-bar (its motor line off; its flywheel J_flywheel where given) built, its movement
+    equation and start mode, and the drive of the drive file with the file's values."""
+    flywheel = {} if J_flywheel is None else {"J_flywheel": J_flywheel}
+    model = load_scenario(scenario).with_params(**MOTOR_OFF, **flywheel).build()
     drive_file = load_drive(drive)
     values = {n: p.value for n, p in {**drive_file.parameters, **drive_file.inputs}.items()}
-    dc = drive_file.drive(values)
+    return model, model.equation, model.equation.initial_mode(0.0, model.y0), drive_file.drive(values), values
+
+
+def coupled_reference(times, scenario: str = "seed000", drive: str = "dc_pi", rtol: float = 1e-12,
+                      J_flywheel: float | None = None) -> dict:
+    """omega1, phi1, tau, i at ``times`` (s) from the start values of both data files (the four-bar's
+    flywheel ``J_flywheel`` kg.m2 where given: the whole inertia on the crank, the drive's and the
+    flywheel's, when the drive carries part of it in speed causality)."""
+    from scipy.integrate import solve_ivp
+
+    model, equation, mode, dc, values = _parts(scenario, drive, J_flywheel)
     omega_set = values["omega_set"]
-    mode = equation.initial_mode(0.0, model.y0)
 
     def rhs(t, y):
         phi1, omega1, i, x = y
@@ -53,6 +61,47 @@ def coupled_reference(times, scenario: str = "seed000", drive: str = "dc_pi", rt
     phi1, omega1, i, _ = sol.y
     return {"time": sol.t, "phi1": phi1, "omega1": omega1, "i": i, "tau": dc.torque(i),
             "wall": time.perf_counter() - started}
+
+
+def shaft_damping(k: float, zeta: float, J_drive: float, J_machine: float) -> float:
+    """The damping (N.m.s/rad) of a shaft of stiffness ``k`` (N.m/rad) between two inertias (kg.m2)
+    for the damping ratio ``zeta`` of its torsional mode: 2 zeta sqrt(k J_eff), J_eff their series
+    inertia."""
+    return 2.0 * zeta * float(np.sqrt(k * J_drive * J_machine / (J_drive + J_machine)))
+
+
+def machine_inertia(scenario: str = "seed000", J_flywheel: float = 0.0) -> float:
+    """The four-bar's reduced inertia (kg.m2) at its start angle, its motor line off."""
+    model, equation, mode, _, _ = _parts(scenario, "dc_pi", J_flywheel)
+    return float(equation.coefficients(model.y0[0], model.y0[1], mode, 0.0)[0])
+
+
+def shaft_reference(times, k: float, c: float, J_drive: float, J_flywheel: float = 0.0, scenario: str = "seed000",
+                    drive: str = "dc_pi", rtol: float = 1e-10) -> dict:
+    """The four-bar (its flywheel ``J_flywheel``) on an elastic shaft (``k`` N.m/rad, ``c`` N.m.s/rad)
+    from the drive carrying ``J_drive`` kg.m2, as one model: state (phi1, omega1, i, x, omega, twist),
+    both sides starting at the four-bar's omega1_start, the shaft untwisted; the shaft's torque
+    k twist + c (omega - omega1) drives the crank and loads the drive. DOP853: its steps follow the
+    shaft's torsional mode."""
+    from scipy.integrate import solve_ivp
+
+    model, equation, mode, dc, values = _parts(scenario, drive, J_flywheel)
+    omega_set = values["omega_set"]
+
+    def rhs(t, y):
+        phi1, omega1, i, x, omega, twist = y
+        tau = k * twist + c * (omega - omega1)
+        J, half_dJ, Q, _ = equation.coefficients(phi1, omega1, mode, t)
+        di, dx = dc.rhs(i, x, omega, omega_set)
+        return [omega1, (Q + tau - half_dJ * omega1 * omega1) / J, di, dx, (dc.torque(i) - tau) / J_drive,
+                omega - omega1]
+
+    y0 = [model.y0[0], model.y0[1], values["i_start"], values["x_start"], model.y0[1], 0.0]
+    times = np.asarray(times, dtype=float)
+    sol = solve_ivp(rhs, (times[0], times[-1]), y0, method="DOP853", rtol=rtol, atol=rtol, t_eval=times)
+    if not sol.success:
+        raise RuntimeError(f"shaft reference: {sol.message}")
+    return {"time": sol.t, "phi1": sol.y[0], "omega1": sol.y[1], "omega": sol.y[4], "twist": sol.y[5]}
 
 
 def cosim_errors(runs: dict, reference: dict, column: str = "FourBar.omega1") -> list[dict]:
