@@ -74,3 +74,79 @@ def test_the_flywheel_on_the_crank_is_stable_at_10_ms_with_rollback(built, tmp_p
     assert results["rollback", 1e-2].error <= 2e-2
     assert observed_order((1e-2, 5e-3), [results["rollback", h].error for h in (1e-2, 5e-3)]) >= 1.8
 
+
+def test_the_c_master_extrapolates_with_the_fmi2_dlls_under_wine_as_on_linux(built, tmp_path):
+    """FourBarDrive with the inputs extrapolated in the project's C master (tests/c_host/
+    system_driver.c: fmi2GetRealOutputDerivatives -> fmi2SetRealInputDerivatives) on the FMI 2.0
+    FMUs' linux64 binaries and, compiled with MinGW, their win64 DLLs under wine: the same rows to
+    1e-12 of the scale (the binaries are compiled from the same C, FMA contraction off), within 2e-4
+    of the one-model reference at 1 ms as validation/cosim.py's master; and the directional
+    derivatives the DLLs give: d der(omega1)/d tau_ext = 1/J_red, d der(i)/d i = -R/L."""
+    import shutil
+    import subprocess
+
+    from fmpy import extract, read_model_description
+
+    from crankfmu.validation.coupling import coupled_reference
+    from wine import run_in_session, windows_path, wine_prefix
+
+    scene = scenes.scene("FourBarDrive")
+    parts = {}
+    for component, fmu in scene.fmus.items():
+        md = read_model_description(str(built[fmu]))
+        parts[component] = (Path(extract(str(built[fmu]), str(tmp_path / component))), md.coSimulation.modelIdentifier,
+                            md.guid, {v.name: v.valueReference for v in md.modelVariables},
+                            {v.name: v.start for v in md.modelVariables})
+    vr = {component: part[3] for component, part in parts.items()}
+    step, stop = 1e-3, 2.0
+
+    def plan(path_of) -> str:
+        lines = [f"fmu {c} {path_of(folder)} {model} {guid}" for c, (folder, model, guid, _, _) in parts.items()]
+        lines += [f"set {c} {vr[c][n]} {value!r}" for c, values in scene.parameters.items() for n, value in values.items()]
+        lines += [f"connect {a} {vr[a][o]} {b} {vr[b][i]}" for a, o, b, i in scene.coupling.links()]
+        lines += [f"record FourBar {vr['FourBar']['omega1']}", f"record FourBar {vr['FourBar']['J_red']}",
+                  f"directional FourBar {vr['FourBar']['der(omega1)']} {vr['FourBar']['tau_ext']}",
+                  f"directional Drive {vr['Drive']['der(i)']} {vr['Drive']['i']}",
+                  "extrapolate", f"step {step!r}", f"stop {stop!r}"]
+        return "\n".join(lines) + "\n"
+
+    def parse(output):
+        rows = np.array([[float(x) for x in line[4:].split(",")] for line in output.splitlines()
+                         if line.startswith("row ")])
+        directional = [float(line.split()[-1]) for line in output.splitlines() if line.startswith("directional ")]
+        return rows, directional
+
+    headers = Path(__import__("fmpy").__file__).parent / "c-code"
+    source = Path(__file__).parent / "c_host" / "system_driver.c"
+    linux_driver = tmp_path / "system_driver"
+    subprocess.run(["gcc", "-std=c99", "-O2", f"-I{headers}", "-o", str(linux_driver), str(source), "-ldl"], check=True)
+    (tmp_path / "plan_linux.txt").write_text(plan(str), encoding="utf-8")
+    done = subprocess.run([str(linux_driver), str(tmp_path / "plan_linux.txt")], capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stdout[-3000:]
+    linux, linux_directional = parse(done.stdout)
+    reference = coupled_reference(linux[:, 0])
+    error = np.max(np.abs(linux[:, 1] - reference["omega1"])) / np.max(np.abs(reference["omega1"]))
+    p = parts["Drive"][4]
+    expected = [1.0 / linux[-1, 2], -float(p["R"]) / float(p["L"])]
+    print(f"C master, inputs extrapolated, 1 ms: error {error:.3e}; directional {linux_directional} "
+          f"against {expected}")
+    assert error <= 2e-4
+    assert np.allclose(linux_directional, expected, rtol=1e-9)
+
+    compiler = shutil.which("x86_64-w64-mingw32-gcc")
+    if compiler is None:
+        pytest.skip("MinGW-w64 is not installed (make installs it)")
+    wine, env = wine_prefix(tmp_path / "wine")
+    windows_driver = tmp_path / "system_driver.exe"
+    subprocess.run([compiler, "-O2", f"-I{headers}", "-o", str(windows_driver), str(source), "-static"], check=True)
+    (tmp_path / "plan_windows.txt").write_text(plan(windows_path), encoding="utf-8")
+    returncode = run_in_session([wine, str(windows_driver), windows_path(tmp_path / "plan_windows.txt")], env,
+                                tmp_path / "windows.log")
+    output = (tmp_path / "windows.log").read_text(errors="replace")
+    assert returncode == 0, output[-3000:]
+    windows, windows_directional = parse(output)
+    assert windows.shape == linux.shape
+    for k in (1, 2):
+        assert np.max(np.abs(windows[:, k] - linux[:, k])) <= 1e-12 * np.max(np.abs(linux[:, k]))
+    assert np.allclose(windows_directional, linux_directional, rtol=1e-12)

@@ -15,6 +15,11 @@
  *   record NAME VR                  a column of the output
  *   step H                          the communication step (s)
  *   stop T                          the end time (s)
+ *   extrapolate                     each connected input also gets its output's first derivative
+ *                                   (fmi2GetRealOutputDerivatives -> fmi2SetRealInputDerivatives):
+ *                                   a line over the step, as PyFMI's and OMSimulator's extrapolation
+ *   directional NAME VR VR          at the end, d(first VR)/d(second VR) by fmi2GetDirectionalDerivative,
+ *                                   printed as "directional NAME VR VR VALUE"
  *
  * Prints "columns t,NAME.VR,..." then one line "row t,v,..." per communication point (%.17g),
  * every FMU's log line as "log ...", a failed call as "status CALL NAME STATUS", and exits with 0
@@ -50,6 +55,10 @@ typedef struct {
     fmi2DoStepTYPE* step;
     fmi2TerminateTYPE* terminate;
     fmi2FreeInstanceTYPE* free_;
+    /* what a master couples with; NULL where the FMU does not export them (then unused) */
+    fmi2GetRealOutputDerivativesTYPE* output_derivatives;
+    fmi2SetRealInputDerivativesTYPE* input_derivatives;
+    fmi2GetDirectionalDerivativeTYPE* directional;
 } Fmu;
 
 typedef struct {
@@ -69,6 +78,9 @@ static Link links[MAX_ITEMS];
 static int n_links;
 static Item sets[MAX_ITEMS], records[MAX_ITEMS];
 static int n_sets, n_records;
+static Link directionals[MAX_ITEMS];     /* fmu (from = to), unknown (from_vr), known (to_vr) */
+static int n_directionals;
+static int extrapolate;
 static int bad;
 
 
@@ -113,6 +125,9 @@ static void load(Fmu* f, const char* dir, const char* model, const char* guid, f
     LOAD(step, fmi2DoStepTYPE, "fmi2DoStep")
     LOAD(terminate, fmi2TerminateTYPE, "fmi2Terminate")
     LOAD(free_, fmi2FreeInstanceTYPE, "fmi2FreeInstance")
+    f->output_derivatives = (fmi2GetRealOutputDerivativesTYPE*)symbol(f->lib, "fmi2GetRealOutputDerivatives");
+    f->input_derivatives = (fmi2SetRealInputDerivativesTYPE*)symbol(f->lib, "fmi2SetRealInputDerivatives");
+    f->directional = (fmi2GetDirectionalDerivativeTYPE*)symbol(f->lib, "fmi2GetDirectionalDerivative");
     /* a file URI of the resources folder: file:///C:/... on Windows, file:///... elsewhere */
     snprintf(uri, sizeof uri, "file://%s%s/resources", dir[0] == '/' ? "" : "/", dir);
     for (char* p = uri; *p; p++)
@@ -124,16 +139,36 @@ static void load(Fmu* f, const char* dir, const char* model, const char* guid, f
     }
 }
 
-/* every connection's output read, then every input set */
-static void propagate(void)
+/* every connection's output read, then every input set; with slopes, each input also gets its
+ * output's first derivative, read once every input is set (the derivative at the point the step
+ * starts from) */
+static void propagate(int slopes)
 {
-    double values[MAX_ITEMS];
+    double values[MAX_ITEMS], rates[MAX_ITEMS];
+    const fmi2Integer first = 1;
     for (int k = 0; k < n_links; k++)
         check(fmus[links[k].from].get(fmus[links[k].from].c, &links[k].from_vr, 1, &values[k]), "fmi2GetReal",
               &fmus[links[k].from]);
     for (int k = 0; k < n_links; k++)
         check(fmus[links[k].to].set(fmus[links[k].to].c, &links[k].to_vr, 1, &values[k]), "fmi2SetReal",
               &fmus[links[k].to]);
+    if (!slopes) return;
+    for (int k = 0; k < n_links; k++) {
+        const Fmu* f = &fmus[links[k].from];
+        if (!f->output_derivatives) {
+            printf("%s: no fmi2GetRealOutputDerivatives\n", f->name);
+            exit(2);
+        }
+        check(f->output_derivatives(f->c, &links[k].from_vr, 1, &first, &rates[k]), "fmi2GetRealOutputDerivatives", f);
+    }
+    for (int k = 0; k < n_links; k++) {
+        const Fmu* f = &fmus[links[k].to];
+        if (!f->input_derivatives) {
+            printf("%s: no fmi2SetRealInputDerivatives\n", f->name);
+            exit(2);
+        }
+        check(f->input_derivatives(f->c, &links[k].to_vr, 1, &first, &rates[k]), "fmi2SetRealInputDerivatives", f);
+    }
 }
 
 static void record(double t)
@@ -175,6 +210,12 @@ int main(int argc, char** argv)
                                       (fmi2ValueReference)strtoul(d, NULL, 10)};
         } else if (sscanf(line, "record %1023s %1023s", a, b) == 2 && n_records < MAX_ITEMS) {
             records[n_records++] = (Item){find(a), (fmi2ValueReference)strtoul(b, NULL, 10), 0.0};
+        } else if (sscanf(line, "directional %1023s %1023s %1023s", a, b, c) == 3 && n_directionals < MAX_ITEMS) {
+            int i = find(a);
+            directionals[n_directionals++] = (Link){i, i, (fmi2ValueReference)strtoul(b, NULL, 10),
+                                                    (fmi2ValueReference)strtoul(c, NULL, 10)};
+        } else if (strncmp(line, "extrapolate", 11) == 0) {
+            extrapolate = 1;
         } else if (sscanf(line, "step %1023s", a) == 1) {
             h = strtod(a, NULL);
         } else if (sscanf(line, "stop %1023s", a) == 1) {
@@ -199,16 +240,27 @@ int main(int argc, char** argv)
     for (int k = 0; k < n_sets; k++)
         check(fmus[sets[k].fmu].set(fmus[sets[k].fmu].c, &sets[k].vr, 1, &sets[k].value), "fmi2SetReal",
               &fmus[sets[k].fmu]);
-    propagate();
-    propagate();
+    propagate(0);
+    propagate(0);
     for (int i = 0; i < n_fmus; i++) check(fmus[i].exit_(fmus[i].c), "fmi2ExitInitializationMode", &fmus[i]);
     long steps = (long)(stop / h + 0.5);
     record(0.0);
     for (long k = 0; k < steps && !bad; k++) {
         double t = k * h;
-        propagate();
+        propagate(extrapolate);
         for (int i = 0; i < n_fmus; i++) check(fmus[i].step(fmus[i].c, t, h, fmi2True), "fmi2DoStep", &fmus[i]);
         record((k + 1) * h);
+    }
+    for (int k = 0; k < n_directionals && !bad; k++) {
+        const Link* d = &directionals[k];
+        const Fmu* f = &fmus[d->from];
+        double seed = 1.0, value = 0.0;
+        if (!f->directional) {
+            printf("%s: no fmi2GetDirectionalDerivative\n", f->name);
+            exit(2);
+        }
+        check(f->directional(f->c, &d->from_vr, 1, &d->to_vr, 1, &seed, &value), "fmi2GetDirectionalDerivative", f);
+        printf("directional %s %u %u %.17g\n", f->name, (unsigned)d->from_vr, (unsigned)d->to_vr, value);
     }
     for (int i = 0; i < n_fmus; i++) {
         fmus[i].terminate(fmus[i].c);
