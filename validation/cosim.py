@@ -46,6 +46,10 @@ TOLERANCE = 1e-10
 NEWTON_ITERATIONS = 6
 
 
+class Diverged(RuntimeError):
+    """A coupled run left the bounds it was given."""
+
+
 @dataclass
 class Coupled:
     """The variables recorded at each communication point (``record``: "FMU.variable" names), and
@@ -309,7 +313,9 @@ class Master:
                 unit.fmu.freeFMUstate(saved[n])
 
     # ------------------------------------------------------------------ the run
-    def run(self, stop_time: float, step: float, mode: str, record=()) -> Coupled:
+    def run(self, stop_time: float, step: float, mode: str, record=(), bound: float = np.inf) -> Coupled:
+        """The run; Diverged as soon as a recorded value is beyond ``bound`` in magnitude (a diverging
+        coupling spins the FMUs ever faster: they would take ever more integration steps to refuse)."""
         if mode not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
         n_steps = int(round(stop_time / step))
@@ -321,6 +327,8 @@ class Master:
             u, y = self.consistent(z)
             for name, value in zip(record, self.read(watched)):
                 recorded[name][n] = value
+                if not abs(value) <= bound:
+                    raise Diverged(f"{name} = {value:.6g} at t = {times[n]:.6g} s, beyond {bound:.6g}")
             if n == n_steps:
                 break
             t = times[n]
@@ -349,15 +357,15 @@ class Master:
 
 
 def cosimulate(fmus: dict, coupling: Coupling, parameters: dict, stop_time: float, step: float, mode: str = "hold",
-               record=(), folder: Path | None = None, theta: float = 0.5) -> Coupled:
+               record=(), folder: Path | None = None, theta: float = 0.5, bound: float = np.inf) -> Coupled:
     """Run ``fmus`` coupled by ``coupling`` from 0 to ``stop_time`` at the communication step ``step``
     (s) in ``mode`` (MODES), recording ``record`` ("FMU.variable" names) at each communication point;
-    ``theta``: the implicit mode's weight of the step's end (Master.implicit)."""
+    ``theta``: the implicit mode's weight of the step's end (Master.implicit); ``bound``: Master.run's."""
     if mode not in MODES:
         raise ValueError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
     master = Master(fmus, coupling, parameters, stop_time, folder, theta)
     try:
-        return master.run(stop_time, step, mode, record)
+        return master.run(stop_time, step, mode, record, bound)
     finally:
         master.close()
 

@@ -6,7 +6,10 @@ The masters, all installed from PyPI (with Debian's libtbb12 for ecos) by the Ma
 - ``ecos``: the ``ecos`` command of the ecospy wheel, a C++ process with no Python of its own
   (it loads our FMU's shim, which starts an interpreter itself);
 - ``ecospy``: ecospy's in-process API (the same C++ engine, loaded by Python);
-- ``libcosim``: libcosimpy, the Open Simulation Platform's libcosim (C++, FMI Library).
+- ``libcosim``: libcosimpy, the Open Simulation Platform's libcosim (C++, FMI Library);
+- ``ecco``: libcosim's ECCO algorithm (libcosimpy >= 0.0.6): variable communication steps chosen
+  from the energy the coupling's power bonds (a torque and a speed each) fail to conserve
+  (Sadjina and Pedersen 2020); ``ecco(...)`` runs FMUs coupled by connections and power bonds.
 
 ``run(master, path, ...)`` runs one master on an FMU or an SSP in a child process (a crash or a hang
 of the master is a failed case, not a crash of the caller) and returns a ``MasterRun``: the
@@ -101,6 +104,32 @@ def run(master: str, path, stop_time: float, step: float, variables: list[str],
                      done.returncode, out, data.get("error"))
 
 
+def ecco(fmus: dict, connections, bonds, parameters: dict, stop_time: float, record: list[str],
+         step: float = 1e-3, min_step: float = 1e-4, max_step: float = 1e-2, tolerance: float = 1e-4) -> MasterRun:
+    """libcosim's ECCO on the FMUs ``fmus`` ({instance: path}) coupled by ``connections`` ((from,
+    output, to, input), ...), with a power bond on each of ``bonds`` ((instance, output, input,
+    instance, output, input): the two sides' effort and flow), each instance's ``parameters`` set
+    first; from ``step``, between ``min_step`` and ``max_step`` (s), to the absolute and relative
+    ``tolerance`` of the bonds' energy residual. Records ``record`` ("instance.variable") at every
+    communication point it chose, in a child process."""
+    job = {"master": "ecco", "fmus": {k: str(Path(v).resolve()) for k, v in fmus.items()},
+           "connections": [list(c) for c in connections], "bonds": [list(b) for b in bonds],
+           "parameters": parameters, "stop_time": stop_time, "step": step, "min_step": min_step,
+           "max_step": max_step, "tolerance": tolerance, "variables": list(record)}
+    cmd = [sys.executable, "-m", "crankfmu.validation.masters", json.dumps(job)]
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT)
+    except subprocess.TimeoutExpired:
+        return MasterRun("ecco", "", error=f"no answer within {TIME_LIMIT} s", returncode=-1)
+    lines = [line for line in done.stdout.splitlines() if line.startswith("RESULT ")]
+    if done.returncode != 0 or not lines:
+        return MasterRun("ecco", "", returncode=done.returncode, output=done.stdout + done.stderr,
+                         error=f"exit status {done.returncode}" + ("" if lines else ", no result"))
+    data = json.loads(lines[-1][7:])
+    return MasterRun("ecco", "", np.asarray(data["time"]), {k: np.asarray(v) for k, v in data["values"].items()},
+                     done.returncode, done.stdout + done.stderr, data.get("error"))
+
+
 def _run_ecos_cli(path, stop_time, step, variables, parameter_set, env=None) -> MasterRun:
     with tempfile.TemporaryDirectory() as tmp:
         # ecos passes an FMU's messages on at its debug level only
@@ -143,6 +172,8 @@ def _child(job: dict) -> dict:
         return _child_ecospy(job, n)
     if master == "libcosim":
         return _child_libcosim(job, n)
+    if master == "ecco":
+        return _child_ecco(job)
     raise SystemExit(f"unknown master {master}")
 
 
@@ -230,6 +261,47 @@ def _child_libcosim(job, n):
                                                           f"failed (error code {execution.status().error_code})"}
         times.append(execution.status().current_time * 1e-9)
         rows.append([observer.last_real_values(i, [vr])[0] for i, vr in refs])
+    columns = np.array(rows).T
+    return {"time": times, "values": {v: c.tolist() for v, c in zip(job["variables"], columns)}}
+
+
+def _child_ecco(job):
+    from libcosimpy.CosimAlgorithm import CosimAlgorithm, EccoParams
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.WARNING)
+    algorithm = CosimAlgorithm.create_ecco_algorithm(EccoParams(
+        step_size=job["step"], min_step_size=job["min_step"], max_step_size=job["max_step"],
+        abs_tolerance=job["tolerance"], rel_tolerance=job["tolerance"]))
+    execution = CosimExecution.from_algorithm(algorithm)
+    index = {name: execution.add_local_slave(CosimLocalSlave(fmu_path=path, instance_name=name))
+             for name, path in job["fmus"].items()}
+
+    def ref(instance, variable):
+        return next(v.reference for v in execution.slave_variables(index[instance]) if v.name.decode() == variable)
+
+    for instance, values in job["parameters"].items():
+        for name, value in values.items():
+            execution.real_initial_value(index[instance], ref(instance, name), float(value))
+    for a, output, b, input_ in job["connections"]:
+        if execution.connect_real_variables(index[a], ref(a, output), index[b], ref(b, input_)) != 0:   # C status
+            return {"time": [], "values": {}, "error": f"ecco: cannot connect {a}.{output} to {b}.{input_}"}
+    for a, out_a, in_a, b, out_b, in_b in job["bonds"]:
+        if algorithm.add_power_bond(index[a], ref(a, out_a), ref(a, in_a), index[b], ref(b, out_b), ref(b, in_b)) != 0:
+            return {"time": [], "values": {}, "error": f"ecco: cannot bond {a} and {b}"}
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    watched = [(index[n.split(".", 1)[0]], ref(*n.split(".", 1))) for n in job["variables"]]
+    times, rows = [], []
+    while not times or times[-1] < job["stop_time"] - 1e-12:
+        if not execution.step():
+            return {"time": times, "values": {}, "error": f"ecco: the step after t = {times[-1] if times else 0:g} s "
+                                                          f"failed (error code {execution.status().error_code})"}
+        times.append(execution.status().current_time * 1e-9)
+        rows.append([observer.last_real_values(i, [vr])[0] for i, vr in watched])
     columns = np.array(rows).T
     return {"time": times, "values": {v: c.tolist() for v, c in zip(job["variables"], columns)}}
 

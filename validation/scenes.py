@@ -32,6 +32,8 @@ BUILDS = {
     "Drive": ["dc_pi", "--drive", "--native"],
     "DriveSpeed": ["dc_pi", "--drive", "--native", "--causality", "speed"],
 }
+#: a run whose crank speed passes this many times the reference's largest has diverged
+DIVERGED = 10.0
 #: the shaft's damping ratio, and the crank speed both sides start at (seed 000's omega1_start)
 SHAFT_DAMPING_RATIO = 0.05
 OMEGA_START = 0.1
@@ -46,6 +48,9 @@ class Scene:
     reference: Callable        # times -> {"omega1": ...}
     stop_time: float = 2.0
     omega: str = "FourBar.omega1"
+    #: the power bonds, for libcosim's ECCO: (instance, output, input, instance, output, input), a
+    #: torque and a speed on each side; none where the master's own equations couple (the shaft)
+    bonds: tuple = ()
 
 
 def scene(name: str, k: float = 1e5) -> Scene:
@@ -56,7 +61,8 @@ def scene(name: str, k: float = 1e5) -> Scene:
         return Scene(name, {"FourBar": "FourBar", "Drive": "Drive"},
                      Coupling.connections((("Drive", "tau", "FourBar", "tau_ext"),
                                            ("FourBar", "omega1", "Drive", "omega"))),
-                     {"FourBar": MOTOR_OFF, "Drive": torque_drive}, coupled_reference)
+                     {"FourBar": MOTOR_OFF, "Drive": torque_drive}, coupled_reference,
+                     bonds=(("FourBar", "omega1", "tau_ext", "Drive", "tau", "omega"),))
     if name == "ShaftDrive":
         J_drive = 1.0
         c = shaft_damping(k, SHAFT_DAMPING_RATIO, J_drive, machine_inertia(J_flywheel=0.0))
@@ -68,8 +74,10 @@ def scene(name: str, k: float = 1e5) -> Scene:
         return Scene(name, {"Drive": "DriveSpeed", "FourBar": "FourBarSpeed"},
                      Coupling.connections((("Drive", "omega", "FourBar", "omega1"),
                                            ("FourBar", "tau_drive", "Drive", "tau_load"))),
-                     {"FourBar": {"J_flywheel": 0.9}, "Drive": {**speed_drive, "J_drive": 0.1, "omega_start": OMEGA_START}},
-                     lambda times: coupled_reference(times, J_flywheel=1.0))
+                     {"FourBar": {"J_flywheel": 0.9},
+                      "Drive": {**speed_drive, "J_drive": 0.1, "omega_start": OMEGA_START}},
+                     lambda times: coupled_reference(times, J_flywheel=1.0),
+                     bonds=(("Drive", "omega", "tau_load", "FourBar", "tau_drive", "omega1"),))
     raise ValueError(f"no coupled scene {name!r}: FourBarDrive, ShaftDrive or FlywheelOnCrank")
 
 
@@ -97,16 +105,32 @@ def measure(s: Scene, built: dict, mode: str, step: float, theta: float = 0.5, f
     """One run of scene ``s`` on the FMUs ``built`` (build()) in ``mode`` at ``step``, against its
     reference (kept in ``references`` by the number of points, where given)."""
     fmus = {component: built[fmu] for component, fmu in s.fmus.items()}
+    cache = references if references is not None else {}
+    n = int(round(s.stop_time / step)) + 1
+    if n not in cache:
+        cache[n] = s.reference(np.arange(n) * step)
+    reference = cache[n]["omega1"]
     try:
         run = cosimulate(fmus, s.coupling, s.parameters, s.stop_time, step, mode, record=(s.omega,), folder=folder,
-                         theta=theta)
-    except Exception as exc:                  # the FMU refused a diverging state: a master sees fmi2Error
+                         theta=theta, bound=DIVERGED * np.max(np.abs(reference)))
+    except Exception as exc:     # diverged: beyond the bound, or an FMU refused the state (fmi2Error)
         return Measured(np.inf, 0, str(exc))
     omega = run[s.omega]
-    if not np.all(np.isfinite(omega)):
-        return Measured(np.inf, run.steps, "non-finite omega1")
-    cache = references if references is not None else {}
-    if omega.size not in cache:
-        cache[omega.size] = s.reference(run.time)
-    reference = cache[omega.size]["omega1"]
     return Measured(float(np.max(np.abs(omega - reference)) / np.max(np.abs(reference))), run.steps)
+
+
+def measure_ecco(s: Scene, built: dict, tolerance: float = 1e-4, min_step: float = 1e-4,
+                 max_step: float = 1e-2) -> Measured:
+    """Scene ``s`` run by libcosim's ECCO (validation/masters.py) on its power bonds, against its
+    reference at the communication points ECCO chose."""
+    from crankfmu.validation import masters
+
+    fmus = {component: built[fmu] for component, fmu in s.fmus.items()}
+    run = masters.ecco(fmus, s.coupling.links(), s.bonds, s.parameters, s.stop_time, [s.omega],
+                       min_step=min_step, max_step=max_step, tolerance=tolerance)
+    if run.error:
+        return Measured(np.inf, 0, run.error)
+    times = np.concatenate([[0.0], run.time])
+    reference = s.reference(times)["omega1"]
+    error = np.max(np.abs(run[s.omega] - reference[1:])) / np.max(np.abs(reference))
+    return Measured(float(error), int(run.time.size))
