@@ -171,3 +171,28 @@ def test_libcosims_ecco_runs_fourbardrive_on_its_power_bond(built, tmp_path):
           f"(H = {same * 1e3:.3f} ms): held {fixed['hold'].error:.3e}, extrapolated {fixed['extrapolate'].error:.3e}")
     assert ecco.error < 1e-2
     assert fixed["extrapolate"].error < fixed["hold"].error
+
+
+def test_the_harness_reports_the_coupled_scenes_and_fails_a_missed_bar(built, tmp_path, monkeypatch):
+    """crankfmu validate finds the scenes' FMUs among those it validates and reports each scene (its
+    table and figure); a bar the run misses fails its check: FourBarDrive's implicit step at 10 ms
+    (8.3e-3) against a bar of 1e-3 set for this test, beside its real bar at 1 ms, which passes."""
+    from crankfmu.validation import coupled, report
+    from crankfmu.validation.checks import CheckList
+    from crankfmu.validation.fmu_runner import kind_of
+
+    assert coupled.coupled_fmus({str(p): kind_of(p) for p in built.values()}) == built
+    monkeypatch.setattr(coupled, "SCENES", (("FourBarDrive", {}),))
+    monkeypatch.setattr(coupled, "BARS", {("FourBarDrive", "implicit", 1e-3): 1e-4,
+                                          ("FourBarDrive", "implicit", 1e-2): 1e-3})
+    checks = CheckList(echo=None)
+    section = coupled.run(built, tmp_path, True, checks)
+    status = {c.name: c.status for c in checks.items}
+    assert status == {"coupled.FourBarDrive.implicit_1ms_error": "passed",
+                      "coupled.FourBarDrive.implicit_10ms_error": "failed"}
+    (scene,) = section["scenes"]
+    assert {r["master"] for r in scene["rows"]} == {"hold", "implicit"}
+    assert (tmp_path / scene["plot"]).is_file()
+    text = "\n".join(report._coupled(section))
+    held = [report._g(r["error"]) for r in sorted(scene["rows"], key=lambda r: r["step"]) if r["master"] == "hold"]
+    assert f"| hold | {held[0]} | {held[1]} |" in text and "### FourBarDrive" in text

@@ -121,3 +121,38 @@ def plot_work_precision(points, path: Path, title: str) -> Path:
     save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
+
+
+def plot_coupled(scene: str, rows: list[dict], path: Path) -> Path:
+    """A coupled scene's error against the communication step, one line per master labelled at its
+    end (no legend box); above it, a strip with a row per master and an x at each step where its run
+    diverged."""
+    plt = pyplot()
+    masters = list(dict.fromkeys(r["master"] for r in rows))
+    fig, (strip, ax) = plt.subplots(2, 1, figsize=(7.6, 5.2), sharex=True,
+                                    gridspec_kw={"height_ratios": [0.9, 4.0], "hspace": 0.08})
+    for k, master in enumerate(masters):
+        mine = sorted((r["step"], r["error"]) for r in rows if r["master"] == master)
+        color = f"C{k}"
+        finite = [(h, e) for h, e in mine if math.isfinite(e) and e > 0]
+        if finite:
+            ax.loglog(*zip(*finite), marker="o", ms=4, lw=1.2, color=color)
+            h, e = finite[-1]
+            ax.annotate(master, (h, e), xytext=(6, 0), textcoords="offset points", fontsize=8, color=color,
+                        va="center")
+        diverged = [h for h, e in mine if not math.isfinite(e)]
+        strip.plot(diverged, [k] * len(diverged), "x", ms=7, color=color)
+    strip.set_yticks(range(len(masters)), masters, fontsize=7)
+    strip.set_ylim(len(masters) - 0.5, -0.5)
+    strip.set_title(f"{scene}: coupled error against the step (top: the runs that diverged)", fontsize=10)
+    strip.grid(True, axis="x", which="both", lw=0.3, color="0.85")
+    ax.set_xscale("log")
+    ax.set_xlabel("communication step H (s)")
+    ax.set_ylabel("max |omega1 - reference| / max omega1 (1)")
+    ax.grid(True, which="both", lw=0.3, color="0.85")
+    steps = sorted({r["step"] for r in rows})
+    ax.set_xlim(steps[0] / 1.5, steps[-1] * 4)
+    fig.subplots_adjust(left=0.2, right=0.97, top=0.93, bottom=0.11)
+    save_figure(fig, path, dpi=110)
+    plt.close(fig)
+    return path

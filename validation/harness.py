@@ -212,6 +212,44 @@ def _work_precision_section(points, meta, scenario, checks, out) -> dict:
             "targets": work_precision.TARGETS, "verdict": verdict, "plot": plot.name}
 
 
+def run_coupled_group(built: dict, out: str, quick: bool) -> dict:
+    """The coupled scenes (validation/coupled.py) on the scenes' native FMUs ``built``, as a group of
+    its own (in a worker process)."""
+    from . import coupled
+    from .fmu_runner import report_progress
+
+    checks = CheckList(echo=None)
+    started = time.perf_counter()
+    section = {"name": "coupled scenes", "build": "native", "kind": "coupled FMUs", "data": "coupled scenes",
+               "interfaces": ["CoSimulation"], "path": ""}
+    try:
+        section["coupled"] = coupled.run({k: Path(v) for k, v in built.items()}, Path(out), quick, checks,
+                                         progress=report_progress)
+    except Exception as exc:      # a bug in the masters or a crash of an FMU: a failed check, go on
+        checks.holds("coupled.harness_ran", False,
+                     note=f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3)[-400:]}")
+    section["wall"] = time.perf_counter() - started
+    section["checks"] = list(checks.items)
+    return {"sections": [section], "not_validated": [], "checks": checks.items}
+
+
+def coupled_group(fmu_paths) -> dict | None:
+    """{scenes.BUILDS name: path} of the coupled scenes' FMUs among ``fmu_paths``, or None."""
+    from . import coupled
+    from .fmu_runner import kind_of
+
+    kinds = {}
+    for path in map(Path, fmu_paths):
+        try:
+            kind = kind_of(path) if path.is_file() else None
+        except Exception:                 # plan() says why it is not validated
+            kind = None
+        if kind is not None:
+            kinds[str(path)] = kind
+    found = coupled.coupled_fmus(kinds)
+    return None if found is None else {k: str(v) for k, v in found.items()}
+
+
 # ------------------------------------------------------------------------------------ all groups
 def _worker_init(queue):
     """In each worker: runs report how far they are to the parent (through ``queue``, at most twice a
@@ -279,18 +317,21 @@ def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None =
     checks = CheckList(echo)
     started = time.perf_counter()
     groups, not_validated = plan(fmu_paths)
+    # the coupled scenes first: the longest group where their FMUs are validated
+    tasks = [(run_coupled_group, built) for built in [coupled_group(fmu_paths)] if built] \
+        + [(run_group, group) for group in groups]
     results = []
-    jobs = max(1, min(jobs or os.cpu_count() or 1, len(groups) or 1))
+    jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks) or 1))
     if jobs == 1:
-        for group in groups:
-            results.append(run_group(group, str(out), quick))
+        for task, arg in tasks:
+            results.append(task(arg, str(out), quick))
             checks.extend(results[-1]["checks"])
     else:
         context = multiprocessing.get_context("spawn")      # fmpy's and matplotlib's state stay per worker
         queue, status = context.Queue(), {}
-        line = StatusLine(len(groups))
+        line = StatusLine(len(tasks))
         with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_init, initargs=(queue,)) as pool:
-            pending = {pool.submit(run_group, group, str(out), quick) for group in groups}
+            pending = {pool.submit(task, arg, str(out), quick) for task, arg in tasks}
             done = 0
             while pending:
                 finished = {f for f in pending if f.done()}

@@ -93,7 +93,8 @@ def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str,
         c = count(sec["checks"])
         ratio, at = worst_ratio(sec["checks"])
         worst = f"{ratio:.2g} of the bar ({at.name.split('.', 2)[-1]})" if at is not None else "-"
-        lines.append(f"| [{sec['name']}.fmu](#{_group_anchor(sec['data'])}) | {sec['build']} | {sec['kind']} | "
+        shown_name = sec["name"] if "coupled" in sec else f"{sec['name']}.fmu"
+        lines.append(f"| [{shown_name}](#{_group_anchor(sec['data'])}) | {sec['build']} | {sec['kind']} | "
                      f"{', '.join(SHORT.get(i, i) for i in sec['interfaces'])} | "
                      + " | ".join(str(c[st]) for st in shown) + f" | {worst} | {sec['wall']:.1f} |")
     lines.append("")
@@ -139,7 +140,9 @@ def _label(sec) -> str:
 
 
 def _group(data: str, secs: list[dict]) -> list[str]:
-    """One data file's section: its builds side by side."""
+    """One data file's section: its builds side by side (the coupled scenes: their own section)."""
+    if all("coupled" in s for s in secs):
+        return _coupled(secs[0]["coupled"])
     lines = [f"## {Path(data).stem}", "",
              "Builds: " + "; ".join(f"`{s['name']}.fmu` {s['build']} ({s['kind']}, "
                                     f"{', '.join(SHORT.get(i, i) for i in s['interfaces'])}: "
@@ -290,6 +293,33 @@ def _json_number(obj):
     if isinstance(obj, np.generic):
         return obj.item()
     raise TypeError(f"not JSON serialisable: {obj!r}")
+
+
+def _coupled(section) -> list[str]:
+    """The coupled scenes: per scene its figure, the error of each master at each step, the observed
+    order and the largest stable step."""
+    steps = section["steps"]
+    lines = ["## coupled scenes", "",
+             "The scenes of `validation/scenes.py` coupled by the masters of `validation/cosim.py` on the native FMI "
+             "2.0 FMUs, against each scene's one-model reference (DOP853): max |omega1 - reference| / max omega1 at "
+             "the communication points; a run that passes ten times the reference's largest crank speed, or that an "
+             "FMU refuses, has diverged. docs/coupling.md says which master to pick for which scene.", ""]
+    for scene in section["scenes"]:
+        lines += [f"### {scene['scene']}", "", f"![{scene['scene']}: error against step]({scene['plot']})", "",
+                  "| master | " + " | ".join(f"H = {h * 1e3:g} ms" for h in steps)
+                  + " | observed order | largest stable step |", "|---|" + "---|" * (len(steps) + 2)]
+        for summary in scene["summary"]:
+            master = summary["master"]
+            cells = []
+            for h in steps:
+                row = next(r for r in scene["rows"] if r["master"] == master and r["step"] == h)
+                cells.append(_g(row["error"]) if math.isfinite(row["error"]) else "diverged")
+            order = "-" if not math.isfinite(summary["order"]) else f"{summary['order']:.2f}"
+            stable = "none" if not math.isfinite(summary["largest_stable"]) else \
+                f"{summary['largest_stable'] * 1e3:g} ms"
+            lines.append(f"| {master} | " + " | ".join(cells) + f" | {order} | {stable} |")
+        lines.append("")
+    return lines
 
 
 def _work_precision(wp) -> list[str]:
