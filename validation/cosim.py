@@ -12,7 +12,8 @@ read again while an output feeds through from an input). Over the step each inpu
 from u_n, given to the FMU as its value and first derivative (fmi2SetRealInputDerivatives). The
 modes differ in the line's slope:
 
-- ``hold``: none, a zero-order hold (what ecos and libcosim do): an O(H) coupling error;
+- ``hold``: the values only, held (a zero-order hold: what ecos and libcosim do): an O(H)
+  coupling error;
 - ``extrapolate``: the coupling's own rate at t_n from the source FMUs' first output derivatives
   (fmi2GetRealOutputDerivatives): O(H^2). PyFMI's Master with extrapolation_order = 1, OMSimulator
   with --inputExtrapolation;
@@ -174,16 +175,16 @@ class _Unit:
         ys = [self.ref[o] for o in outputs]
         us = [self.ref[i] for i in inputs]
         zero = np.zeros((len(ys), len(us)))
+        rate = np.array(fmu.getRealOutputDerivatives(ys, [1] * len(ys))) if self.derivatives else np.zeros(len(ys))
         if not self.directional:
-            rate = np.array(fmu.getRealOutputDerivatives(ys, [1] * len(ys))) if self.derivatives else 0.0
-            return h * rate * np.ones(len(ys)), zero, zero, zero
+            return h * rate, zero, zero, zero
         nx = len(self.states)
         unknowns = self.rates + ys
         J = np.column_stack([fmu.getDirectionalDerivative(unknowns, [k], [1.0]) for k in self.states + us]) \
             if unknowns and self.states + us else np.zeros((len(unknowns), nx + len(us)))
         A, B, C, D = J[:nx, :nx], J[:nx, nx:], J[nx:, :nx], J[nx:, nx:]
-        if nx == 0:
-            return np.zeros(len(ys)), zero, zero, D
+        if nx == 0:          # no declared state: the outputs move along the step as their derivatives say
+            return h * rate, zero, zero, D
         xdot = np.array(fmu.getReal(self.rates))
         phi1, phi2 = _phi(A, h)
         return h * C @ phi1 @ xdot, h * C @ phi1 @ B, h * C @ phi2 @ B, D
@@ -225,10 +226,11 @@ class Master:
             if slopes is not None:
                 fmu.setRealInputDerivatives([ref], [1], [float(slopes[j])])
 
-    def consistent(self, z, w=None, h=None):
+    def consistent(self, z, w=None, h=None, slopes=None):
         """The inputs at the current point made to hold u = M y + N z + c, set and read again while
         an output feeds through from an input; with end values ``w``, each input the line from
-        there to w over h (the outputs read with those slopes set). Returns (u, y)."""
+        there to w over h, or with ``slopes`` (the outputs read with those slopes set: a
+        speed-causal mechanism's tau_drive reads its input's slope). Returns (u, y)."""
         u = None
         for _ in range(5):
             y = self.read(self.out)
@@ -236,7 +238,7 @@ class Master:
             if u is not None and np.all(np.abs(new - u) <= TOLERANCE * (1.0 + np.abs(u))):
                 break
             u = new
-            self.set_inputs(u, None if w is None else (w - u) / h)
+            self.set_inputs(u, (w - u) / h if w is not None else slopes)
         return u, y
 
     def do_step(self, t, h):
@@ -335,13 +337,17 @@ class Master:
             if mode == "rollback":
                 z = self.rollback(t, step, u, z, self.extrapolated(y, z) if self._all_derivatives() else 0.0 * u)
                 continue
-            if mode == "hold":
-                slopes, dy = np.zeros(len(u)), np.zeros(len(y))
-            elif mode == "extrapolate":
-                slopes, dy = self.extrapolated(y, z), step * self.output_rates()
+            if mode == "hold":              # values only, as a zero-order-hold master sets them
+                dy = np.zeros(len(y))
             else:
-                u, slopes, dy = self.implicit(u, y, z, step)
-            self.set_inputs(u, slopes)
+                if mode == "extrapolate":
+                    start, slopes, dy = u, self.extrapolated(y, z), step * self.output_rates()
+                else:
+                    start, slopes, dy = self.implicit(u, y, z, step)
+                if np.array_equal(start, u):   # the lines start at the coupling's values, with their slopes set
+                    u, y = self.consistent(z, slopes=slopes)
+                else:
+                    self.set_inputs(start, slopes)
             self.do_step(t, step)
             z = self.coupling.advance(z, y, dy, step, self.theta if mode == "implicit" else 0.5)
         return Coupled(times, recorded, self.steps)
