@@ -29,6 +29,7 @@ BUILDS = {
     "Drive": ["dc_pi", "--drive"],
     "DriveSpeed": ["dc_pi", "--drive", "--causality", "speed"],
     "DieCushion": ["die_cushion", "--cushion"],
+    "ElasticShaft": ["elastic_shaft", "--shaft"],
     "RodString": ["rp11l_guo", "--well"],
 }
 
@@ -261,6 +262,42 @@ def test_the_drives_linear_system_is_read_from_directional_derivatives(built, na
         assert rates[1] == pytest.approx(omega_set - omega, rel=1e-12)
         if speed:
             assert rates[2] == pytest.approx((nk * i - get(fmu, [vr["tau_load"]])[0]) / p["J_drive"], rel=1e-12)
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+
+
+@pytest.mark.parametrize("variant", ["native", "native3"])
+def test_the_shafts_linear_system_and_its_step_on_input_lines(built, variant, tmp_path):
+    """ElasticShaft declares its twist with der(twist): its linear system from directional
+    derivatives is the closed form (d der(twist) = d omega_a - d omega_b; d tau = k d twist + c
+    (d omega_a - d omega_b)) to 1e-9; the output derivative of tau along input lines is
+    k (omega_a - omega_b) + c (rate_a - rate_b); and a step with the inputs' derivatives set ends at
+    the twist the two lines integrate to (a master's extrapolated inputs cost the shaft nothing)."""
+    fmu, md, vr = slave(built["ElasticShaft", variant], tmp_path)
+    p = {v.name: float(v.start) for v in md.modelVariables if v.causality == "parameter"}
+    k, c = p["k"], p["c"]
+    fmi3 = variant == "native3"
+    try:
+        put(fmu, [vr["omega_a"], vr["omega_b"]], [20.0, 18.5])
+        fmu.doStep(0.0, 1e-3) if fmi3 else fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+        twist = get(fmu, [vr["twist"]])[0]
+        assert twist == pytest.approx(1.5e-3, rel=1e-12)
+        knowns = ["twist", "omega_a", "omega_b"]
+        unknowns = [vr["der(twist)"], vr["tau"]]
+        jacobian = np.column_stack([fmu.getDirectionalDerivative(unknowns, [vr[n]], [1.0]) for n in knowns])
+        assert np.allclose(jacobian, [[0.0, 1.0, -1.0], [k, c, -c]], rtol=1e-9, atol=1e-9 * k), jacobian
+        # FMI 3.0 Co-Simulation has no input derivatives: its inputs are held (rates 0)
+        slope_a, slope_b, h = (0.0, 0.0, 2e-3) if fmi3 else (300.0, -200.0, 2e-3)
+        if fmi3:
+            d_tau = fmu.getOutputDerivatives([vr["tau"]], [1])[0]
+        else:
+            fmu.setRealInputDerivatives([vr["omega_a"], vr["omega_b"]], [1, 1], [slope_a, slope_b])
+            d_tau = fmu.getRealOutputDerivatives([vr["tau"]], [1])[0]
+        assert d_tau == pytest.approx(k * 1.5 + c * (slope_a - slope_b), rel=1e-9)
+        fmu.doStep(1e-3, h) if fmi3 else fmu.doStep(currentCommunicationPoint=1e-3, communicationStepSize=h)
+        expected = twist + 1.5 * h + 0.5 * (slope_a - slope_b) * h * h
+        assert get(fmu, [vr["twist"]])[0] == pytest.approx(expected, rel=1e-12)
     finally:
         fmu.terminate()
         fmu.freeInstance()

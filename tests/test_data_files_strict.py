@@ -29,6 +29,7 @@ FILES = {
     + [f for f in glob.glob(str(ROOT / "tests/data/user/*.toml")) if not f.endswith("_scenario.toml")],
     "drive": glob.glob(str(ROOT / "src/crankfmu/drives/*.toml")),
     "cushion": glob.glob(str(ROOT / "src/crankfmu/elements/*.toml")),
+    "shaft": glob.glob(str(ROOT / "src/crankfmu/shafts/*.toml")),
     "well": glob.glob(str(ROOT / "src/crankfmu/wells/*.toml")),
 }
 
@@ -68,9 +69,10 @@ def test_check_names_a_misspelt_key_with_its_table_and_line(tmp_path, old, new, 
     assert not (tmp_path / "run").exists()
 
 
-@pytest.mark.parametrize("kind", ["mechanism", "drive", "well"])
+@pytest.mark.parametrize("kind", ["mechanism", "drive", "well", "shaft"])
 def test_every_kind_of_file_refuses_an_unknown_key(tmp_path, kind):
     from crankfmu.dynamics.drive import load_drive
+    from crankfmu.dynamics.shaft import load_shaft
     from crankfmu.dynamics.well import load_well
     from crankfmu.mechanisms import load_mechanism
 
@@ -79,9 +81,21 @@ def test_every_kind_of_file_refuses_an_unknown_key(tmp_path, kind):
     text = source.read_text()
     first_header = text.index("\n[") + 1
     path.write_text(text[:first_header] + "titel = \"x\"\n" + text[first_header:])
-    load = {"mechanism": load_mechanism, "drive": load_drive, "well": load_well}[kind]
+    load = {"mechanism": load_mechanism, "drive": load_drive, "well": load_well, "shaft": load_shaft}[kind]
     with pytest.raises(DefinitionError, match=r"unknown key 'titel' in the top level \(did you mean title\?\)"):
         load(str(path))
+
+
+def test_a_shaft_file_without_what_its_model_reads_is_refused_in_one_line(tmp_path):
+    """A shaft file without its stiffness: `crankfmu fmu --shaft` says what is missing and what a
+    shaft file declares, in one line, and leaves no FMU behind."""
+    source = ROOT / "src/crankfmu/shafts/elastic_shaft.toml"
+    path = tmp_path / "soft_shaft.toml"
+    path.write_text("\n".join(line for line in source.read_text().splitlines() if not line.startswith("k =")))
+    run = crankfmu("fmu", str(path), "--shaft", "--out", str(tmp_path / "out"))
+    assert run.returncode == 1 and len(run.stderr.splitlines()) == 1, run.stderr
+    assert "missing k (parameters k, c, twist_start; inputs omega_a, omega_b)" in run.stderr
+    assert not list(tmp_path.rglob("*.fmu"))
 
 
 # ---------------------------------------------------------------- the JSON Schemas

@@ -33,10 +33,11 @@ def test_the_layout_is_stated_alike_on_both_sides():
     # what a file's model is: the mechanism first, then the components in the writer's codes
     models = [m.strip() for m in re.search(r"enum \{ (CM_MODEL_MECHANISM[^}]+)\}", HEADER).group(1).split(",")]
     assert models[0] == "CM_MODEL_MECHANISM = 1" and model_file.MECHANISM == 1
-    assert models[1:-1] == ["CM_MODEL_DRIVE", "CM_MODEL_DRIVE_SPEED", "CM_MODEL_CUSHION", "CM_MODEL_ROD_STRING"]
+    assert models[1:-1] == ["CM_MODEL_DRIVE", "CM_MODEL_DRIVE_SPEED", "CM_MODEL_CUSHION", "CM_MODEL_ROD_STRING",
+                            "CM_MODEL_SHAFT"]
     assert sorted(model_file.COMPONENTS.values()) == list(range(2, 2 + len(models) - 2))
     assert [model_file.COMPONENTS[k] for k in (("drive", "torque"), ("drive", "speed"), ("cushion", "torque"),
-                                               ("well", "torque"))] == [2, 3, 4, 5]
+                                               ("well", "torque"), ("shaft", "torque"))] == [2, 3, 4, 5, 6]
 
 
 @pytest.fixture(scope="module")

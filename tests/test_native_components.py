@@ -1,9 +1,10 @@
-"""The native component FMUs (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu, RodString.fmu built with
---native) and the components' physics in C (crank_components.c) that both builds step.
+"""The native component FMUs (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu, ElasticShaft.fmu,
+RodString.fmu built with --native) and the components' physics in C (crank_components.c) that both
+builds step.
 
-- the C physics against dynamics.drive.DcDrive and dynamics.cushion, the Python statements of the
-  same models (the independent reference): the drive's exact steps, the 4 x 4 matrix exponential
-  against numerics.expm, the cushion's law;
+- the C physics against dynamics.drive.DcDrive, dynamics.cushion and dynamics.shaft, the Python
+  statements of the same models (the independent reference): the drive's exact steps, the 4 x 4
+  matrix exponential against numerics.expm, the cushion's law, the shaft's law and step;
 - each native FMU against the Python FMU of the same file on the same inputs: they step the same C,
   so they agree to rounding (1e-12 of each output's scale);
 - what a host sees: the same variables as the Python FMU, fmpy's validation clean, refusals with
@@ -23,14 +24,18 @@ import pytest
 from crankfmu.cli import main
 from crankfmu.dynamics.cushion import cushion_force as python_cushion_force
 from crankfmu.dynamics.drive import DRIVE_CONSTANTS, load_drive
-from crankfmu.native import DriveSteps, cushion_force, expm4
+from crankfmu.dynamics.shaft import shaft_torque as python_shaft_torque, shaft_twist as python_shaft_twist
+from crankfmu.native import DriveSteps, cushion_force, expm4, shaft_torque, shaft_twist
 from crankfmu.numerics import expm
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILDS = {"Drive": ["dc_pi", "--drive"], "DriveSpeed": ["dc_pi", "--drive", "--causality", "speed"],
-          "DieCushion": ["die_cushion", "--cushion"], "RodString": ["rp11l_guo", "--well"]}
-#: a changing input on each (a crank speed, a load torque, a ram moving, a polished rod stroking)
-INPUTS = {"Drive": ("omega",), "DriveSpeed": ("tau_load",), "DieCushion": ("s", "v"), "RodString": ("s", "v")}
+          "DieCushion": ["die_cushion", "--cushion"], "ElasticShaft": ["elastic_shaft", "--shaft"],
+          "RodString": ["rp11l_guo", "--well"]}
+#: a changing input on each (a crank speed, a load torque, a ram moving, two sides turning, a
+#: polished rod stroking)
+INPUTS = {"Drive": ("omega",), "DriveSpeed": ("tau_load",), "DieCushion": ("s", "v"),
+          "ElasticShaft": ("omega_a", "omega_b"), "RodString": ("s", "v")}
 
 
 @pytest.fixture(scope="module")
@@ -99,6 +104,22 @@ def test_cushion_law_in_c_equals_the_data_files_law():
         assert cushion_force(*values.values(), s, v) == python_cushion_force(values, s, v)
 
 
+def test_shaft_law_and_step_in_c_equal_the_python_shaft():
+    """The torque and the twist's step by the components' C against dynamics.shaft; the step
+    against the integral of two speed lines (a quadrature exact for them: Simpson's rule)."""
+    rng = np.random.default_rng(3)
+    for _ in range(100):
+        k, c, twist, omega_a, omega_b, rate_a, rate_b = rng.normal(0, [1e4, 10, 0.1, 20, 20, 500, 500])
+        h = 10 ** rng.uniform(-5, -1)
+        values = {"k": k, "c": c}
+        assert shaft_torque(k, c, twist, omega_a, omega_b) == python_shaft_torque(values, twist, omega_a, omega_b)
+        after = shaft_twist(twist, omega_a, omega_b, h, rate_a, rate_b)
+        assert after == python_shaft_twist(twist, omega_a, omega_b, h, rate_a, rate_b)
+        difference = lambda t: (omega_a + rate_a * t) - (omega_b + rate_b * t)  # noqa: E731
+        simpson = h / 6 * (difference(0) + 4 * difference(h / 2) + difference(h))
+        assert after == pytest.approx(twist + simpson, rel=1e-13, abs=1e-15)
+
+
 # ------------------------------------------------------------------------------------------------
 # the native FMUs against the Python ones, and what a host sees
 
@@ -145,7 +166,7 @@ def test_native_declares_what_the_python_fmu_declares(fmus, name):
     assert declared(a) == declared(b)
     # the native drive adds its states' derivatives after every shared variable (a master's linear
     # system; the Python FMU gives no directional derivatives); the others have no smooth states
-    states = {"Drive": ["i", "x"], "DriveSpeed": ["i", "x", "omega"]}.get(name, [])
+    states = {"Drive": ["i", "x"], "DriveSpeed": ["i", "x", "omega"], "ElasticShaft": ["twist"]}.get(name, [])
     assert [v.name for v in a.modelVariables][len(b.modelVariables):] == [f"der({s})" for s in states]
     assert [(d.variable.name, d.variable.derivative.name) for d in a.derivatives] == [(f"der({s})", s) for s in states]
     assert not [v for v in b.modelVariables if v.causality == "local"]
@@ -215,7 +236,7 @@ def test_refusals_are_loud_with_logging_off_and_the_state_round_trips(fmus, tmp_
     fmu.freeInstance()
 
 
-@pytest.mark.parametrize("name", ["DriveSpeed", "DieCushion", "RodString"])
+@pytest.mark.parametrize("name", ["DriveSpeed", "DieCushion", "ElasticShaft", "RodString"])
 def test_the_win64_dll_runs_under_wine_through_fmpy_remoting(fmus, name, tmp_path):
     """The win64 DLL under wine matches the linux64 binary over the default experiment to 1e-12 of
     each output's scale (the two C libraries' exp may differ in the last bits)."""
@@ -306,7 +327,7 @@ def test_the_string_grid_in_c_equals_the_python_design():
 
 #: an input set in initialisation mode and the output that follows it there, with the value set
 INITIAL_READS = {"DriveSpeed": ("omega_start", 7.5, "omega"), "DieCushion": ("s", -0.11, "F"),
-                 "RodString": ("s", 0.4, "u_pump")}
+                 "ElasticShaft": ("twist_start", 0.02, "tau"), "RodString": ("s", 0.4, "u_pump")}
 
 
 @pytest.mark.parametrize("name", list(INITIAL_READS))

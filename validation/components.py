@@ -1,4 +1,5 @@
-"""The component FMUs (Drive, DriveSpeed, DieCushion, RodString) against their own closed forms.
+"""The component FMUs (Drive, DriveSpeed, DieCushion, ElasticShaft, RodString) against their own
+closed forms.
 
 * the drive (torque causality): its step response from rest with the crank held, and at a held
   crank speed, against scipy's DOP853 at rtol 1e-12 on the drive's differential equations (the
@@ -6,6 +7,8 @@
 * the drive in speed causality: the same with its rotor, a held load torque;
 * the die cushion: its force at every communication point against the data file's law
   k (s - s_seat - L_free) + c v at the inputs of the step;
+* the elastic shaft: two sides turning unevenly, its twist the sum of the held speed differences
+  times the step and its torque k twist + c (omega_a - omega_b) at every communication point;
 * the rod string: hanging at rest its load is the string's buoyant weight; a stroke of 600 s carries
   Wrf + Fo while the plunger rises and Wrf while it falls (the quasi-static closed form), and
   its every output equals the in-process string stepped with the same motion;
@@ -28,6 +31,8 @@ from .reference import ReferenceRun
 DRIVE_TOLERANCE = 1e-9
 #: the cushion is a law: the FMU evaluates it in double precision
 CUSHION_TOLERANCE = 1e-13
+#: the shaft's twist is a running sum of 1000 differences: rounding grows like its count
+SHAFT_TOLERANCE = 1e-12
 #: the quasi-static stroke (tests/test_rodstring.py): damping 3e-4, inertia 1e-6, the first mode's
 #: ringing after pick-up 7e-4 of Wrf + Fo
 QUASI_STATIC_TOLERANCE = 1e-3
@@ -138,6 +143,33 @@ def check_cushion(fmu, checks, out, quick: bool) -> dict:
     rows = _compare(prefix, fmu, run, ref, checks, CUSHION_TOLERANCE)
     return {"default": [_entry(fmu, run, ref, rows, "the ram pressed in and let out, F against the file's law",
                                out, "ram_motion")], "hard": []}
+
+
+def check_shaft(fmu, checks, out, quick: bool) -> dict:
+    from crankfmu.dynamics.shaft import shaft_torque
+
+    _validated(fmu, checks)
+    values = _values(fmu)
+    step, span = 1e-3, 1.0
+    times = np.arange(0.0, span + step / 2, step)
+    omega_a = 20.0 + 5.0 * np.sin(3.0 * times)                    # a drive with a torque ripple
+    omega_b = 20.0 + 5.0 * np.sin(3.0 * times - 0.02) - 0.05 * times  # the crank lagging and slowing
+    run = fmu.run(span, step, {"omega_a": float(omega_a[0]), "omega_b": float(omega_b[0])}, label="sides turning",
+                  inputs=input_signal(times, omega_a=omega_a, omega_b=omega_b))
+    prefix = f"{fmu.name}.{fmu.kind.build}.sides_turning"
+    if run.error:
+        checks.holds(f"{prefix}.ran", False, note=run.error)
+        return {"default": [], "hard": []}
+    # the host holds the speeds over each step: the twist at t_n sums the differences set before
+    # t_0 .. t_n-1; the torque at t_n reads the twist and the speeds set before the step to t_n
+    held = np.concatenate([[0.0], (omega_a - omega_b)[:-1]])
+    twist = values["twist_start"] + np.cumsum(held * step)
+    last_a, last_b = np.concatenate([omega_a[:1], omega_a[:-1]]), np.concatenate([omega_b[:1], omega_b[:-1]])
+    ref = {"twist": twist, "tau": shaft_torque(values, twist, last_a, last_b), "E_spring": 0.5 * values["k"] * twist ** 2}
+    rows = _compare(prefix, fmu, run, ref, checks, SHAFT_TOLERANCE)
+    return {"default": [_entry(fmu, run, ref, rows, "the drive's side turning with a ripple, the crank's lagging and "
+                               "slowing: the twist against the sum of the held differences, tau against the law",
+                               out, "sides_turning")], "hard": []}
 
 
 def check_rod_string(fmu, checks, out, quick: bool) -> dict:

@@ -47,7 +47,7 @@ class FmuRun:
 @dataclass(frozen=True)
 class FmuKind:
     """What a crankfmu FMU is, from its modelDescription: the data file it implements (``kind``:
-    scenario, drive, cushion or well; ``data``: its name), the causality at its shaft, its build
+    scenario, drive, cushion, shaft or well; ``data``: its name), the causality at its shaft, its build
     (python or native), its interfaces, and where it carries a user's file (``file``)."""
 
     kind: str
@@ -60,7 +60,8 @@ class FmuKind:
     @property
     def label(self) -> str:
         """The kind in a report's words: "mechanism", "mechanism, speed causality", "drive", ..."""
-        what = "mechanism" if self.kind == "scenario" else {"cushion": "die cushion", "well": "rod string"}.get(
+        what = "mechanism" if self.kind == "scenario" else {"cushion": "die cushion", "shaft": "elastic shaft",
+                                                              "well": "rod string"}.get(
             self.kind, self.kind)
         return what + (", speed causality" if self.causality == "speed" else "")
 

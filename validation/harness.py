@@ -134,7 +134,7 @@ def _validate_one(fmu, checks, out, quick) -> dict:
         from .mechanism import check_model
         return check_model(fmu, scenario, checks, out, quick)
     from . import components
-    check = {"drive": components.check_drive, "cushion": components.check_cushion,
+    check = {"drive": components.check_drive, "cushion": components.check_cushion, "shaft": components.check_shaft,
              "well": components.check_rod_string}.get(kind.kind)
     if check is None:
         checks.skip(f"{fmu.name}.{kind.build}", f"no checks for an FMU of kind {kind.kind!r}")

@@ -142,6 +142,18 @@ CUSHION_OUTPUTS = (
              depends=("s", "v")),
 )
 
+#: ElasticShaft.fmu's outputs (its inputs and parameters are its file's): the torque it passes from
+#: side a (a drive) to side b (a machine's crank), its state the twist phi_a - phi_b
+SHAFT_OUTPUTS = (
+    Variable("tau", "N.m", "torque the shaft passes from side a to side b, k twist + c (omega_a - omega_b): it "
+             "drives b (to a mechanism's tau_ext) and loads a (to DriveSpeed's tau_load)",
+             depends=("twist", "omega_a", "omega_b")),
+    Variable("twist", "rad", "twist of the shaft, phi_a - phi_b (its state)", depends=("twist",)),
+    Variable("E_spring", "J", "elastic energy stored in the shaft, k twist^2 / 2", depends=("twist",)),
+)
+#: the shaft's state and what its rate, omega_a - omega_b, depends on at once
+SHAFT_STATE_DEPENDS = {"twist": ("omega_a", "omega_b")}
+
 #: RodString.fmu's outputs (its inputs s, v and its parameters are its well file's)
 #: (the string's grid is its state: the polished rod's motion enters at the next step)
 ROD_STRING_OUTPUTS = (

@@ -117,3 +117,19 @@ class ComponentFile:
     experiment: Experiment
     where: str
     fmu: str = ""               # the model identifier of the FMU built from the file
+
+
+def load_component(name_or_path, folder, kind: str, parameters: tuple, inputs: tuple) -> ComponentFile:
+    """A component's data file (a cushion, a shaft): a packaged name in ``folder`` or a path to a
+    .toml file, which must declare the ``parameters`` and ``inputs`` its model reads by name."""
+    from .datafiles import read_toml
+
+    data, where, _ = read_toml(name_or_path, folder, kind)
+    params = parse_parameters(data.get("parameters", {}), where)
+    values = parse_parameters(data.get("inputs", {}), where)
+    missing = set(parameters) - params.keys() | set(inputs) - values.keys()
+    if missing:
+        raise DefinitionError(f"{where}: missing {', '.join(sorted(missing))} (parameters {', '.join(parameters)}; "
+                              f"inputs {', '.join(inputs)})")
+    return ComponentFile(data.get("name", str(name_or_path)), data.get("title", ""), params, values,
+                         Experiment.from_dict(data.get("experiment", {})), where, str(data.get("fmu", "")))

@@ -1,5 +1,5 @@
 """What each kind of data file may hold: one JSON Schema per kind (scenario, mechanism, drive,
-cushion, well), the one home of every key's name.
+cushion, shaft, well), the one home of every key's name.
 
 The loaders refuse a key the schema does not know (``check_keys``: the key, the table, the file's
 line, and the closest known key: "did you mean stop_time?"), so a misspelt key never leaves a
@@ -145,6 +145,10 @@ CUSHION = table({
     "name": STRING, "title": STRING, "source": STRING, "fmu": STRING,
     "parameters": mapping(PARAMETER), "inputs": mapping(_INPUT), "experiment": _COMPONENT_EXPERIMENT,
 }, "a crankfmu die cushion (DieCushion.fmu)")
+SHAFT = table({
+    "name": STRING, "title": STRING, "source": STRING, "fmu": STRING,
+    "parameters": mapping(PARAMETER), "inputs": mapping(_INPUT), "experiment": _COMPONENT_EXPERIMENT,
+}, "a crankfmu elastic shaft (ElasticShaft.fmu)")
 WELL = table({
     "name": STRING, "title": STRING, "source": STRING, "citation": STRING, "fmu": STRING,
     "parameters": mapping(PARAMETER), "experiment": _COMPONENT_EXPERIMENT,
@@ -159,7 +163,8 @@ WELL = table({
 }, "a crankfmu pumping well: its rod string and its unit (RodString.fmu, crankfmu well)")
 
 #: every kind of data file, by the name the loaders and `crankfmu schema` use
-SCHEMAS = {"scenario": SCENARIO, "mechanism": MECHANISM, "drive": DRIVE, "cushion": CUSHION, "well": WELL}
+SCHEMAS = {"scenario": SCENARIO, "mechanism": MECHANISM, "drive": DRIVE, "cushion": CUSHION, "shaft": SHAFT,
+           "well": WELL}
 
 
 def schema_json(kind: str) -> str:

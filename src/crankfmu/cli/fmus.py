@@ -26,9 +26,10 @@ def cmd_schema(args) -> int:
 
 
 def cmd_fmu(args) -> int:
-    if args.drive + args.cushion + args.well > 1:
-        raise CrankfmuError("--drive, --cushion and --well: give one (what kind of file SCENARIO is)")
-    kind = "drive" if args.drive else "cushion" if args.cushion else "well" if args.well else "scenario"
+    kinds = [kind for kind in ("drive", "cushion", "shaft", "well") if getattr(args, kind)]
+    if len(kinds) > 1:
+        raise CrankfmuError("--drive, --cushion, --shaft and --well: give one (what kind of file SCENARIO is)")
+    kind = kinds[0] if kinds else "scenario"
     values = parse_sets(args.set)
     if values and not (args.native and kind == "scenario"):
         raise CrankfmuError("--set: a native mechanism FMU's values only (--native with a scenario); every parameter "

@@ -169,6 +169,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="SCENARIO is a well file (RodString.fmu: wells/rp11l_guo.toml)")
     p.add_argument("--cushion", action="store_true",
                    help="SCENARIO is a cushion file (DieCushion.fmu: elements/die_cushion.toml)")
+    p.add_argument("--shaft", action="store_true",
+                   help="SCENARIO is a shaft file (ElasticShaft.fmu, a torsion spring-damper between a drive and a "
+                        "crank: shafts/elastic_shaft.toml)")
     p.add_argument("--native", action="store_true",
                    help="a native FMU (C, no Python needed on the host; Co-Simulation and Model Exchange): every "
                         "parameter, geometry, masses, loads and gravity included, is set by the host before "
@@ -198,8 +201,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--native", action="store_true",
                    help="native FMUs only (no Python on the host): each must be built for the values the SSP sets")
-    p.add_argument("--system", action="append", choices=("FourBarDrive", "FourBarDriveSpeed", "PressCushion", "PumpingWell", "well"),
-                   help="which SSP (default: FourBarDrive and FourBarDriveSpeed; PressCushion needs TogglePress.fmu, "
+    p.add_argument("--system", action="append", choices=("FourBarDrive", "FourBarDriveSpeed", "DriveShaftFourBar",
+                                                         "PressCushion", "PumpingWell", "well"),
+                   help="which SSP (default: FourBarDrive and FourBarDriveSpeed; DriveShaftFourBar needs DriveSpeed.fmu, "
+                        "ElasticShaft.fmu and FourBar.fmu; PressCushion needs TogglePress.fmu, "
                         "built from tests/data/user/togglepress_scenario.toml, and DieCushion.fmu; PumpingWell, or well: PumpJack.fmu "
                         "and RodString.fmu)")
     p.set_defaults(func=cmd_ssp)

@@ -14,9 +14,8 @@ from __future__ import annotations
 
 from importlib import resources
 
-from ..datafiles import packaged, read_toml
-from ..errors import DefinitionError
-from ..parameters import ComponentFile, Experiment, parse_parameters
+from ..datafiles import packaged
+from ..parameters import ComponentFile, load_component
 from .user_loads import spring_damper_tension
 
 _FILES = resources.files(__package__.rsplit(".", 1)[0]) / "elements"
@@ -33,12 +32,4 @@ def cushion_force(values: dict, s, v):
 
 def load_cushion(name_or_path) -> ComponentFile:
     """A cushion file: a packaged name (``"die_cushion"``) or a path to a .toml file."""
-    data, where, _ = read_toml(name_or_path, _FILES, "cushion")
-    params = parse_parameters(data.get("parameters", {}), where)
-    inputs = parse_parameters(data.get("inputs", {}), where)
-    missing = {"k", "c", "L_free", "s_seat"} - params.keys() | {"s", "v"} - inputs.keys()
-    if missing:
-        raise DefinitionError(f"{where}: missing {', '.join(sorted(missing))} (parameters k, c, L_free, s_seat; "
-                              "inputs s, v)")
-    return ComponentFile(data.get("name", str(name_or_path)), data.get("title", ""), params, inputs,
-                       Experiment.from_dict(data.get("experiment", {})), where, str(data.get("fmu", "")))
+    return load_component(name_or_path, _FILES, "cushion", ("k", "c", "L_free", "s_seat"), ("s", "v"))

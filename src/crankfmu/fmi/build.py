@@ -55,11 +55,12 @@ RUNTIME = ("__init__.py", "cache.py", "contract.py", "errors.py", "expressions.p
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "native",
            "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/speed.py", "fmi/drive.py", "fmi/cushion.py",
-           "fmi/rodstring.py", "parameters.py", "datafiles.py", "schema.py", "drives", "elements", "wells")
+           "fmi/shaft.py", "fmi/rodstring.py", "parameters.py", "datafiles.py", "schema.py", "drives", "elements",
+           "shafts", "wells")
 
 
 #: the package's folders of data files: an FMU carries only the files it reads (Source.data)
-DATA_FOLDERS = ("scenarios", "drives", "elements", "wells", "mechanisms/files")
+DATA_FOLDERS = ("scenarios", "drives", "elements", "shafts", "wells", "mechanisms/files")
 
 
 def copy_runtime(dest: Path, files: dict | None = None, data=()):
@@ -128,12 +129,14 @@ def packaged_sources() -> list[tuple[str, str]]:
     """(kind, name) of every packaged data file with an ``fmu`` key, in file order."""
     from ..dynamics.cushion import available_cushions, load_cushion
     from ..dynamics.drive import available_drives, load_drive
+    from ..dynamics.shaft import available_shafts, load_shaft
     from ..dynamics.well import available_wells, load_well
     from ..scenario import available_scenarios, load_scenario
 
     return ([("scenario", n) for n in available_scenarios() if load_scenario(n).data.get("fmu")]
             + [("drive", n) for n in available_drives() if load_drive(n).fmu]
             + [("cushion", n) for n in available_cushions() if load_cushion(n).fmu]
+            + [("shaft", n) for n in available_shafts() if load_shaft(n).fmu]
             + [("well", n) for n in available_wells() if load_well(n).fmu])
 
 

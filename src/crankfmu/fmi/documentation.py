@@ -63,6 +63,10 @@ DRIVE_SPEED_EQUATIONS = (
 CUSHION_EQUATIONS = (
     ("F == -(k*(d - L_free) + c*der(d))", "the force on the ram along the port's axis; d = s - s_seat"),
 )
+SHAFT_EQUATIONS = (
+    ("der(twist) == omega_a - omega_b", "the twist, phi_a - phi_b: side a is the drive's, side b the machine's crank"),
+    ("tau == k*twist + c*(omega_a - omega_b)", "the torque passed from side a to side b: it drives b and loads a"),
+)
 RODSTRING_EQUATIONS = (
     ("rho*A*u_tt == dx(E*A*u_x) - c*rho*A*u_t + w_b",
      "Gibbs' damped wave equation for the rods' displacement u(x, t), downward positive, x the depth"),
@@ -372,6 +376,18 @@ def cushion_documentation(name: str, cushion_file, model_description: bytes, par
     return component_documentation(name, cushion_file, CUSHION_EQUATIONS, "It acts on a mechanism FMU's force port "
                                    "(PressCushion.ssp: <code>crankfmu ssp</code>).", model_description, parameters,
                                    **about)
+
+
+def shaft_documentation(name: str, shaft_file, model_description: bytes, parameters: dict,
+                        **about) -> dict[str, bytes]:
+    """documentation/index.html of the elastic shaft FMU."""
+    return component_documentation(name, shaft_file, SHAFT_EQUATIONS, "It sits between a drive in speed causality "
+                                   "(side a: its <code>omega</code>, its <code>tau_load</code>) and a mechanism FMU in "
+                                   "torque causality (side b: its <code>omega1</code>, its <code>tau_ext</code>): "
+                                   "DriveShaftFourBar.ssp (<code>crankfmu ssp --system DriveShaftFourBar</code>). "
+                                   "Over a step the twist is the integral of the speed difference, exactly, with "
+                                   "the speeds held or, where the host gives their derivatives, lines in time.",
+                                   model_description, parameters, **about)
 
 
 def rodstring_documentation(name: str, well_file, model_description: bytes, parameters: dict,

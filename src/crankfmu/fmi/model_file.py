@@ -24,7 +24,8 @@ FORMAT = 2
 #: what the file's model is (crank_variables.h's CM_MODEL_...): a mechanism, or a component by its
 #: (data file kind, causality)
 MECHANISM = 1
-COMPONENTS = {("drive", "torque"): 2, ("drive", "speed"): 3, ("cushion", "torque"): 4, ("well", "torque"): 5}
+COMPONENTS = {("drive", "torque"): 2, ("drive", "speed"): 3, ("cushion", "torque"): 4, ("well", "torque"): 5,
+              ("shaft", "torque"): 6}
 #: the variables' kinds (crank_variables.h's KIND_...)
 KINDS = {"OUTPUT": 0, "INPUT": 1, "TUNABLE": 2, "FIXED": 3, "QUANTITY": 4, "DERIVATIVE": 5, "REACTION": 6}
 #: the program's int arrays and scalars, in the order md_parse reads them (mm_program's fields)

@@ -1,5 +1,6 @@
 """The native component FMUs: ``crankfmu fmu dc_pi --drive --native`` (Drive.fmu, and DriveSpeed.fmu
-with ``--causality speed``), ``crankfmu fmu die_cushion --cushion --native`` (DieCushion.fmu) and
+with ``--causality speed``), ``crankfmu fmu die_cushion --cushion --native`` (DieCushion.fmu), ``crankfmu fmu elastic_shaft --shaft
+--native`` (ElasticShaft.fmu) and
 ``crankfmu fmu rp11l_guo --well --native`` (RodString.fmu).
 
 The same data files, variables (names, order, units, ranges, starts, descriptions), DefaultExperiment
@@ -22,7 +23,7 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from .. import units as si
-from ..contract import DRIVE_SPEED_STATE_DEPENDS, DRIVE_STATE_DEPENDS, direct_dependencies
+from ..contract import DRIVE_SPEED_STATE_DEPENDS, DRIVE_STATE_DEPENDS, SHAFT_STATE_DEPENDS, direct_dependencies
 from ..errors import CrankfmuError
 from . import model_file
 from .native_build import native_runtimes, package_native
@@ -38,10 +39,10 @@ class ComponentModel:
         self.source = source
         self.declared = source.variables()
         #: the continuous states the FMU declares with their derivatives: a drive's (i, x, and omega
-        #: carrying the rotor), what each one's rate depends on; none for the cushion (a law of its
-        #: inputs) and the rod string (its grid's explicit steps are no smooth equations)
-        self.state_depends = (DRIVE_SPEED_STATE_DEPENDS if source.causality == "speed" else DRIVE_STATE_DEPENDS) \
-            if source.kind == "drive" else {}
+        #: carrying the rotor), a shaft's twist, what each one's rate depends on; none for the cushion
+        #: (a law of its inputs) and the rod string (its grid's explicit steps are no smooth equations)
+        self.state_depends = {"drive": DRIVE_SPEED_STATE_DEPENDS if source.causality == "speed" else DRIVE_STATE_DEPENDS,
+                              "shaft": SHAFT_STATE_DEPENDS}.get(source.kind, {})
         self.states = list(self.state_depends)
         key = (source.kind, source.causality)
         if key not in model_file.COMPONENTS:

@@ -16,6 +16,7 @@ from .. import units as si
 from ..contract import OUTPUTS, SPEED_OUTPUTS
 from ..errors import CrankfmuError
 from . import cushion as cushion_core
+from . import shaft as shaft_core
 from . import documentation
 from . import drive as drive_core
 from . import rodstring as rodstring_core
@@ -132,6 +133,13 @@ def _cushion():
             documentation.cushion_documentation, "a cushion takes the ram's motion")
 
 
+def _shaft():
+    from ..dynamics.shaft import load_shaft
+
+    return (load_shaft, "shafts", "fmi.shaft:ShaftCore", shaft_core.declared, documentation.shaft_documentation,
+            "a shaft takes both sides' speeds")
+
+
 def _well():
     from ..dynamics.well import load_well
 
@@ -142,7 +150,7 @@ def _well():
 #: the small models built from a data file that is not a mechanism's: kind -> () -> (loader, its
 #: data folder, the FMU's core, its declared variables, its documentation, what it takes instead
 #: of a causality at the crank)
-COMPONENTS = {"cushion": _cushion, "well": _well}
+COMPONENTS = {"cushion": _cushion, "shaft": _shaft, "well": _well}
 
 
 def _is_path(name) -> bool:

@@ -108,6 +108,8 @@ def _load() -> ctypes.CDLL:
                                             ctypes.c_double, ctypes.c_double, ctypes.c_double, D]),
         "cc_expm4": (None, [D, D]),
         "cc_cushion_force": (ctypes.c_double, [ctypes.c_double] * 6),
+        "cc_shaft_torque": (ctypes.c_double, [ctypes.c_double] * 5),
+        "cc_shaft_twist": (ctypes.c_double, [ctypes.c_double] * 6),
         "cc_string_step": (None, [ctypes.c_int, D, D, D, ctypes.c_double, D, D, D, D, D, ctypes.c_double,
                                   ctypes.c_double, D]),
         "cc_string_advance": (None, [ctypes.c_int, D, D, D, ctypes.c_double, D, D, D, D, D, ctypes.c_double,
@@ -404,6 +406,17 @@ def expm4(M) -> np.ndarray:
 def cushion_force(k: float, c: float, L_free: float, s_seat: float, s: float, v: float) -> float:
     """The die cushion's force on the ram along its axis (N), by the components' C."""
     return LIBRARY.cc_cushion_force(k, c, L_free, s_seat, s, v)
+
+
+def shaft_torque(k: float, c: float, twist: float, omega_a: float, omega_b: float) -> float:
+    """The elastic shaft's torque from side a to side b (N.m), by the components' C."""
+    return LIBRARY.cc_shaft_torque(k, c, twist, omega_a, omega_b)
+
+
+def shaft_twist(twist: float, omega_a: float, omega_b: float, h: float, rate_a: float = 0.0,
+                rate_b: float = 0.0) -> float:
+    """The shaft's twist (rad) after ``h`` s, each side's speed a line (rates rad/s2), by the components' C."""
+    return LIBRARY.cc_shaft_twist(twist, omega_a, omega_b, rate_a, rate_b, h)
 
 
 #: the rod string's scalars (crank_components.h's CS_*), in order

@@ -1,8 +1,10 @@
 /* The native component FMUs' models: the drive (torque out, speed in), the drive in speed causality
- * (it carries the rotor: speed out, the mechanism's torque in), the die cushion and the rod string,
+ * (it carries the rotor: speed out, the mechanism's torque in), the die cushion, the elastic shaft
+ * and the rod string,
  * each on the components' physics (crank_components.c). The model file says which one an FMU is
  * (its kind) and what its variables are; each model finds the variables it uses by their names,
- * which the data files require (dynamics/drive.py, dynamics/cushion.py, dynamics/well.py). */
+ * which the data files require (dynamics/drive.py, dynamics/cushion.py, dynamics/shaft.py,
+ * dynamics/well.py). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -21,6 +23,10 @@ static const int DRIVE_STATE[] = {DR_I, DR_X, DR_OMEGA};
 static const int DRIVE_RATE[] = {DR_DER_I, DR_DER_X, DR_DER_OMEGA};
 enum { CU_K, CU_C, CU_L_FREE, CU_S_SEAT, CU_S, CU_V, CU_F };
 static const char* const CUSHION[] = {"k", "c", "L_free", "s_seat", "s", "v", "F"};
+/* the elastic shaft's; its one state is the twist, an output, its rate der(twist) */
+enum { SH_K, SH_C, SH_TWIST_START, SH_OMEGA_A, SH_OMEGA_B, SH_TAU, SH_TWIST, SH_E_SPRING, SH_DER_TWIST };
+static const char* const SHAFT[] = {"k", "c", "twist_start", "omega_a", "omega_b", "tau", "twist", "E_spring",
+                                    "der(twist)"};
 /* the rod string's: its ports, then its design in crank_components.h's CD_ order (dynamics/well.py's
  * STRING_KEYS), then per taper (top first) TAPER_KEYS */
 enum { RS_S, RS_V, RS_F, RS_U_PUMP, RS_F_PUMP, RS_W_POLISHED, RS_W_HYDRAULIC, RS_DESIGN };
@@ -60,6 +66,7 @@ int model_bind(Component* c, char* why, size_t why_size)
         return 0;
     }
     case CM_MODEL_CUSHION: return bind_names(c, CUSHION, CU_F + 1, 0, why, why_size);
+    case CM_MODEL_SHAFT: return bind_names(c, SHAFT, SH_DER_TWIST + 1, 0, why, why_size);
     case CM_MODEL_ROD_STRING: {
         if (bind_names(c, ROD_STRING, RS_TAPERS, 0, why, why_size) != 0) return -1;
         char name[64];
@@ -111,11 +118,6 @@ static void drive_outputs(const Component* c, double* v, const double* s, int sp
     V(DR_U) = u;
     V(DR_P_EL) = u * s[0];
     V(DR_X) = s[1];
-    double rates[3];
-    cc_drive_rates(d, s[0], s[1], V(DR_OMEGA), V(DR_OMEGA_SET), speed ? V(DR_TAU_LOAD) : 0.0, speed ? V(DR_J_DRIVE) : 1.0,
-                   speed, rates);
-    for (int j = 0; j < 2 + speed; j++)
-        if (c->slot[DRIVE_RATE[j]] >= 0) v[c->slot[DRIVE_RATE[j]]] = rates[j];
 }
 
 /* the inputs lines in time over the step where the host gave their derivatives (rates) */
@@ -134,6 +136,21 @@ static void drive_step(const Component* c, const double* v, const double* rates,
     }
     s[0] = out[0];
     s[1] = out[1];
+}
+
+/* ------------------------------------------------------------------------------ the elastic shaft */
+
+/* the twist after the step, each side's speed a line where the host gave its derivative */
+static void shaft_step(const Component* c, const double* v, const double* rates, double* s, double h)
+{
+    s[0] = cc_shaft_twist(s[0], V(SH_OMEGA_A), V(SH_OMEGA_B), rates[c->slot[SH_OMEGA_A]], rates[c->slot[SH_OMEGA_B]], h);
+}
+
+static void shaft_outputs(const Component* c, double* v, const double* s)
+{
+    V(SH_TAU) = cc_shaft_torque(V(SH_K), V(SH_C), s[0], V(SH_OMEGA_A), V(SH_OMEGA_B));
+    V(SH_TWIST) = s[0];
+    V(SH_E_SPRING) = 0.5 * V(SH_K) * s[0] * s[0];
 }
 
 /* ------------------------------------------------------------------------------ the rod string */
@@ -228,6 +245,7 @@ int model_state_size(const Component* c, const double* v, char* why, int why_siz
     case CM_MODEL_DRIVE: return 2;
     case CM_MODEL_DRIVE_SPEED: return 3;
     case CM_MODEL_CUSHION: return 1;            /* no state: the force is the law at the inputs as set */
+    case CM_MODEL_SHAFT: return 1;
     default: return string_state_size(c, v, why, why_size);
     }
 }
@@ -241,6 +259,7 @@ void model_start(const Component* c, const double* v, double t, double* s)
         s[1] = V(DR_X_START);
         return;
     case CM_MODEL_CUSHION: return;
+    case CM_MODEL_SHAFT: s[0] = V(SH_TWIST_START); return;
     default: string_start(c, v, t, s);
     }
 }
@@ -251,6 +270,7 @@ void model_step(const Component* c, const double* v, const double* rates, double
     case CM_MODEL_DRIVE:
     case CM_MODEL_DRIVE_SPEED: drive_step(c, v, rates, s, h, c->d->kind == CM_MODEL_DRIVE_SPEED); return;
     case CM_MODEL_CUSHION: return;
+    case CM_MODEL_SHAFT: shaft_step(c, v, rates, s, h); return;
     default: string_step(c, v, rates, s, h);
     }
 }
@@ -261,19 +281,32 @@ int model_smooth_states(const Component* c)
     case CM_MODEL_DRIVE: return 2;             /* i, x */
     case CM_MODEL_DRIVE_SPEED: return 3;       /* i, x, omega */
     case CM_MODEL_CUSHION: return 0;
+    case CM_MODEL_SHAFT: return 1;             /* twist */
     default: return -1;
     }
 }
 
 const char* model_state_output(const Component* c, int j)
 {
-    return j >= 0 && j < model_smooth_states(c) ? DRIVE[DRIVE_STATE[j]] : NULL;
+    if (j < 0 || j >= model_smooth_states(c)) return NULL;
+    return c->d->kind == CM_MODEL_SHAFT ? SHAFT[SH_TWIST] : DRIVE[DRIVE_STATE[j]];
+}
+
+/* the value reference of state j's rate variable, or -1 where the FMU declares none (a drive built
+ * before the drives declared them) */
+static int rate_variable(const Component* c, int j)
+{
+    return c->d->kind == CM_MODEL_SHAFT ? c->slot[SH_DER_TWIST] : c->slot[DRIVE_RATE[j]];
 }
 
 void model_rates(const Component* c, const double* v, const double* s, double* rates)
 {
     double d[CC_DRIVE_SIZE];
     if (model_smooth_states(c) <= 0) return;
+    if (c->d->kind == CM_MODEL_SHAFT) {
+        rates[0] = V(SH_OMEGA_A) - V(SH_OMEGA_B);
+        return;
+    }
     drive_constants(c, v, d);
     int rotor = c->d->kind == CM_MODEL_DRIVE_SPEED;
     cc_drive_rates(d, s[0], s[1], rotor ? s[2] : V(DR_OMEGA), V(DR_OMEGA_SET), rotor ? V(DR_TAU_LOAD) : 0.0,
@@ -284,10 +317,17 @@ void model_outputs(const Component* c, double* v, const double* s)
 {
     switch (c->d->kind) {
     case CM_MODEL_DRIVE:
-    case CM_MODEL_DRIVE_SPEED: drive_outputs(c, v, s, c->d->kind == CM_MODEL_DRIVE_SPEED); return;
+    case CM_MODEL_DRIVE_SPEED: drive_outputs(c, v, s, c->d->kind == CM_MODEL_DRIVE_SPEED); break;
     case CM_MODEL_CUSHION:
         V(CU_F) = cc_cushion_force(V(CU_K), V(CU_C), V(CU_L_FREE), V(CU_S_SEAT), V(CU_S), V(CU_V));
         return;
-    default: string_outputs(c, v, s);
+    case CM_MODEL_SHAFT: shaft_outputs(c, v, s); break;
+    default: string_outputs(c, v, s); return;
     }
+    /* the states' rates, der(...) variables a master reads for the model's linear system */
+    double rates[3];
+    int n = model_smooth_states(c);
+    model_rates(c, v, s, rates);
+    for (int j = 0; j < n; j++)
+        if (rate_variable(c, j) >= 0) v[rate_variable(c, j)] = rates[j];
 }

@@ -139,6 +139,16 @@ double cc_cushion_force(double k, double c, double L_free, double s_seat, double
     return -(k * ((s - s_seat) - L_free) + c * v);
 }
 
+double cc_shaft_torque(double k, double c, double twist, double omega_a, double omega_b)
+{
+    return k * twist + c * (omega_a - omega_b);
+}
+
+double cc_shaft_twist(double twist, double omega_a, double omega_b, double rate_a, double rate_b, double h)
+{
+    return twist + (omega_a - omega_b) * h + 0.5 * (rate_a - rate_b) * h * h;
+}
+
 /* the pump's motion: up (the travelling valve closed, the plunger lifting the fluid), down, at rest */
 enum { PUMP_DOWN = -1, PUMP_REST = 0, PUMP_UP = 1 };
 

@@ -1,7 +1,8 @@
 /* The components' physics, written once: the DC drive's exact step (dynamics/drive.py states the
- * same model, the independent reference its tests compare with), the die cushion's law and the
- * rod string's steps with its valve pump (dynamics/rodstring.py: the reference). The Python FMUs
- * (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu, RodString.fmu) and the in-process well call these
+ * same model, the independent reference its tests compare with), the die cushion's law, the elastic
+ * shaft's law and step, and the rod string's steps with its valve pump (dynamics/rodstring.py: the
+ * reference). The Python FMUs (Drive.fmu, DriveSpeed.fmu, DieCushion.fmu, ElasticShaft.fmu,
+ * RodString.fmu) and the in-process well call these
  * through the kernel library; the native FMUs' runtime runs them (fmu/component_models.c). */
 #ifndef CRANK_COMPONENTS_H
 #define CRANK_COMPONENTS_H
@@ -43,6 +44,13 @@ CK_API void cc_expm4(const double* M, double* out);
 /* the force on a press ram along its axis from a linear cushion (N): -(k (d - L_free) + c v),
  * d = s - s_seat; the tension law of a data file's spring_damper */
 CK_API double cc_cushion_force(double k, double c, double L_free, double s_seat, double s, double v);
+
+/* An elastic shaft between side a (a drive) and side b (a machine's crank): the torque it passes
+ * from a to b, k twist + c (omega_a - omega_b) (N.m; it drives b and loads a), twist = phi_a - phi_b;
+ * and the twist after h s with each side's speed a line from the step's start (rates rad/s2; 0:
+ * held): exact, the twist is the integral of the speed difference */
+CK_API double cc_shaft_torque(double k, double c, double twist, double omega_a, double omega_b);
+CK_API double cc_shaft_twist(double twist, double omega_a, double omega_b, double rate_a, double rate_b, double h);
 
 /* The sucker-rod string (dynamics/rodstring.py states the same scheme: its reference): n nodes, 0
  * the polished rod, n - 1 the plunger; per node its mass (kg) and buoyant weight (N, downward), per

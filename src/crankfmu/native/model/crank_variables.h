@@ -23,9 +23,9 @@
 #define CM_MODEL_FORMAT 2
 /* what the file's model is: a mechanism (crank_model.c), or a component (component_model.c): the
  * drive (torque out, speed in), the drive in speed causality (it carries the rotor), the die
- * cushion, the rod string */
+ * cushion, the rod string, the elastic shaft */
 enum { CM_MODEL_MECHANISM = 1, CM_MODEL_DRIVE, CM_MODEL_DRIVE_SPEED, CM_MODEL_CUSHION, CM_MODEL_ROD_STRING,
-       CM_MODEL_KINDS };
+       CM_MODEL_SHAFT, CM_MODEL_KINDS };
 /* what an FMU state holds at most: a file with more variables or ports is refused (its build too) */
 #define CM_MAX_VARIABLES 1024
 #define CM_MAX_INPUTS (1 + CK_MAX_PORTS)
