@@ -175,19 +175,26 @@ class _Unit:
         ys = [self.ref[o] for o in outputs]
         us = [self.ref[i] for i in inputs]
         zero = np.zeros((len(ys), len(us)))
-        rate = np.array(fmu.getRealOutputDerivatives(ys, [1] * len(ys))) if self.derivatives else np.zeros(len(ys))
         if not self.directional:
-            return h * rate, zero, zero, zero
+            return h * self.output_rates(ys), zero, zero, zero
         nx = len(self.states)
         unknowns = self.rates + ys
         J = np.column_stack([fmu.getDirectionalDerivative(unknowns, [k], [1.0]) for k in self.states + us]) \
             if unknowns and self.states + us else np.zeros((len(unknowns), nx + len(us)))
         A, B, C, D = J[:nx, :nx], J[:nx, nx:], J[nx:, :nx], J[nx:, nx:]
         if nx == 0:          # no declared state: the outputs move along the step as their derivatives say
-            return h * rate, zero, zero, D
+            return h * self.output_rates(ys), zero, zero, D
         xdot = np.array(fmu.getReal(self.rates))
         phi1, phi2 = _phi(A, h)
         return h * C @ phi1 @ xdot, h * C @ phi1 @ B, h * C @ phi2 @ B, D
+
+
+    def output_rates(self, refs) -> np.ndarray:
+        """The outputs' first derivatives, or zeros where the FMU gives none (a rod string: its
+        outputs are held over the step)."""
+        if not self.derivatives:
+            return np.zeros(len(refs))
+        return np.array(self.fmu.getRealOutputDerivatives(list(refs), [1] * len(refs)))
 
 
 class Master:
@@ -248,7 +255,7 @@ class Master:
 
     # ------------------------------------------------------------------ the modes' slopes
     def output_rates(self) -> np.ndarray:
-        return np.array([self.units[n].fmu.getRealOutputDerivatives([r], [1])[0] for n, r in self.out])
+        return np.array([self.units[n].output_rates([r])[0] for n, r in self.out])
 
     def extrapolated(self, y, z) -> np.ndarray:
         cp = self.coupling

@@ -1,8 +1,10 @@
 """``crankfmu hosts``: the drop-in check. Every third-party master (validation/masters.py) runs
 FourBar.fmu's default experiment and a refused parameter, and the SSP masters run
 FourBarDrive.ssp and FourBarDriveSpeed.ssp (the crank in speed causality) against the coupled model
-simulated in process (validation/coupling.py), and, where TogglePress.fmu is in the folder (make
-hosts builds it), PressCushion.ssp against the press with its cushion as a data-file load. One line
+simulated in process (validation/coupling.py), DriveShaftFourBar.ssp (the drive on the four-bar
+through ElasticShaft.fmu) against the same with the shaft as an equation, and, where
+TogglePress.fmu is in the folder (make hosts builds it), PressCushion.ssp against the press with
+its cushion as a data-file load. One line
 per host and case: ``PASS|FAIL|XFAIL host.case measured expected``, then ``N passed, M failed``.
 
 XFAIL marks a fault of the master itself, measured and explained, which the FMU cannot change
@@ -81,8 +83,11 @@ def refused_parameter(report: Report, fmu: Path, ssp: Path, master: str):
 #: on its relative omega1 error per second of communication step (the inputs held over a step: an
 #: O(H) error; FourBarDrive: about H over the loop's time constant J_red / 25 N.m.s/rad = 0.045 s,
 #: measured 5.6 to 7.8 H/s; FourBarDriveSpeed 1.3 to 1.4 H/s; PressCushion 13.8 to 15.5 H/s)
+#: DriveShaftFourBar: its shaft (k = 1e4 N.m/rad) makes held inputs unstable above 2c/k = 0.63 ms;
+#: at its own step, 0.1 ms, measured 1.09e-2 (109 H/s) in both masters)
 SSP_VARIABLES = {"FourBarDrive": ("FourBar.omega1", "Drive.tau", 10.0),
                  "FourBarDriveSpeed": ("Drive.omega", "Drive.tau", 10.0),
+                 "DriveShaftFourBar": ("FourBar.omega1", "Shaft.tau", 150.0),
                  "PressCushion": ("Press.omega1", "Cushion.F", 20.0)}
 
 
@@ -120,7 +125,7 @@ def ssp_runs(report: Report, ssp: Path, steps, reference, out: Path | None, syst
             report.check(f"{master}.{system}.ssp.order_{h1:g}_{h2:g}", 0.8 <= slope <= 1.3, f"{slope:.2f}",
                          "about 1 (0.8 to 1.3)")
     if out is not None:
-        suffix = "" if system == "FourBarDrive" else "_speed"
+        suffix = {"FourBarDrive": "", "FourBarDriveSpeed": "_speed"}.get(system, f"_{system}")
         coupling.plot(rows, reference, runs, out / f"cosim_error{suffix}.png", speed, system)
     return rows
 
@@ -146,6 +151,17 @@ def run(fmus: Path, out: Path, quick: bool) -> int:
     rows = ssp_runs(report, ssp, steps, coupled, None if quick else out)
     # the same system with the crank in speed causality: the one reference serves both
     rows += ssp_runs(report, ssp_speed, steps, coupled, None if quick else out, "FourBarDriveSpeed")
+    if (fmus / "ElasticShaft.fmu").is_file():
+        # the drive on the four-bar through an elastic shaft FMU, at its own step (held inputs are
+        # stable only below 2c/k), against the same system with the shaft as an equation
+        from crankfmu.fmi.ssp import SYSTEMS, drive_values, shaft_values
+
+        system = SYSTEMS["DriveShaftFourBar"]
+        shaft = shaft_values()
+        shaft_times = np.round(np.arange(int(round(system.stop_time / system.step)) + 1) * system.step, 12)
+        rows += ssp_runs(report, write_ssp(fmus, out, system="DriveShaftFourBar"), (system.step,),
+                         coupling.shaft_reference(shaft_times, shaft["k"], shaft["c"], drive_values(True)["J_drive"]),
+                         None if quick else out, "DriveShaftFourBar")
     if (fmus / "TogglePress.fmu").is_file() and (fmus / "DieCushion.fmu").is_file():
         # the knuckle-joint press with a die cushion FMU on its ram port, against the same press
         # with the cushion as a data-file load (make hosts builds TogglePress.fmu)

@@ -248,21 +248,32 @@ def _child_libcosim(job, n):
     for name in names:
         instance, variable = name.split(".", 1)
         index = execution.slave_index_from_instance_name(instance)
-        vr = next(v.reference for v in execution.slave_variables(index) if v.name.decode() == variable)
-        refs.append((index, vr))
+        refs.append((index, _libcosim_reference(execution, index, variable)))
     for k, value in job["start_values"].items():
         index = execution.slave_index_from_instance_name(job["instance"])
-        vr = next(v.reference for v in execution.slave_variables(index) if v.name.decode() == k)
-        execution.real_initial_value(index, vr, float(value))
+        execution.real_initial_value(index, _libcosim_reference(execution, index, k), float(value))
+    # libcosim initialises on the first step
+    return _libcosim_record(execution, observer, refs, job["variables"], lambda times: len(times) < n, "libcosim")
+
+
+def _libcosim_reference(execution, index: int, variable: str) -> int:
+    """The value reference of ``variable`` in libcosim's slave ``index``."""
+    return next(v.reference for v in execution.slave_variables(index) if v.name.decode() == variable)
+
+
+def _libcosim_record(execution, observer, watched, names, more, master: str) -> dict:
+    """Step libcosim's ``execution`` while ``more(times so far)``, recording the ``watched`` (slave
+    index, value reference) as ``names`` at every communication point; a failed step ends the run
+    with its error code."""
     times, rows = [], []
-    for k in range(n):              # libcosim initialises on the first step
+    while more(times):
         if not execution.step():
-            return {"time": times, "values": {}, "error": f"libcosim: the step to t = {(k + 1) * job['step']:g} s "
-                                                          f"failed (error code {execution.status().error_code})"}
+            return {"time": times, "values": {}, "error": f"{master}: the step after t = {times[-1] if times else 0:g} "
+                                                          f"s failed (error code {execution.status().error_code})"}
         times.append(execution.status().current_time * 1e-9)
-        rows.append([observer.last_real_values(i, [vr])[0] for i, vr in refs])
+        rows.append([observer.last_real_values(i, [vr])[0] for i, vr in watched])
     columns = np.array(rows).T
-    return {"time": times, "values": {v: c.tolist() for v, c in zip(job["variables"], columns)}}
+    return {"time": times, "values": {v: c.tolist() for v, c in zip(names, columns)}}
 
 
 def _child_ecco(job):
@@ -281,7 +292,7 @@ def _child_ecco(job):
              for name, path in job["fmus"].items()}
 
     def ref(instance, variable):
-        return next(v.reference for v in execution.slave_variables(index[instance]) if v.name.decode() == variable)
+        return _libcosim_reference(execution, index[instance], variable)
 
     for instance, values in job["parameters"].items():
         for name, value in values.items():
@@ -295,15 +306,8 @@ def _child_ecco(job):
     observer = CosimObserver.create_last_value()
     execution.add_observer(observer)
     watched = [(index[n.split(".", 1)[0]], ref(*n.split(".", 1))) for n in job["variables"]]
-    times, rows = [], []
-    while not times or times[-1] < job["stop_time"] - 1e-12:
-        if not execution.step():
-            return {"time": times, "values": {}, "error": f"ecco: the step after t = {times[-1] if times else 0:g} s "
-                                                          f"failed (error code {execution.status().error_code})"}
-        times.append(execution.status().current_time * 1e-9)
-        rows.append([observer.last_real_values(i, [vr])[0] for i, vr in watched])
-    columns = np.array(rows).T
-    return {"time": times, "values": {v: c.tolist() for v, c in zip(job["variables"], columns)}}
+    return _libcosim_record(execution, observer, watched, job["variables"],
+                            lambda times: not times or times[-1] < job["stop_time"] - 1e-12, "ecco")
 
 
 if __name__ == "__main__":

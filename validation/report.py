@@ -305,6 +305,7 @@ def _coupled(section) -> list[str]:
              "the communication points; a run that passes ten times the reference's largest crank speed, or that an "
              "FMU refuses, has diverged. docs/coupling.md says which master to pick for which scene.", ""]
     for scene in section["scenes"]:
+        steps = scene.get("steps", section["steps"])
         lines += [f"### {scene['scene']}", "", f"![{scene['scene']}: error against step]({scene['plot']})", "",
                   "| master | " + " | ".join(f"H = {h * 1e3:g} ms" for h in steps)
                   + " | observed order | largest stable step |", "|---|" + "---|" * (len(steps) + 2)]
@@ -319,6 +320,14 @@ def _coupled(section) -> list[str]:
                 f"{summary['largest_stable'] * 1e3:g} ms"
             lines.append(f"| {master} | " + " | ".join(cells) + f" | {order} | {stable} |")
         lines.append("")
+        ecco = scene.get("ecco")
+        if ecco and math.isfinite(ecco["error"]):
+            lines += [f"libcosim's ECCO on the scene's power bonds (energy-based step control, 0.1 to 10 ms, "
+                      f"tolerance 1e-4): error {_g(ecco['error'])} in {ecco['steps']} steps; the fixed-step master "
+                      f"at as many steps ({ecco['step'] * 1e3:.3g} ms): inputs held {_g(ecco['hold'])}, extrapolated "
+                      f"{_g(ecco['extrapolate'])}.", ""]
+        elif ecco:
+            lines += [f"libcosim's ECCO did not run the scene: {ecco['failure'][:300]}", ""]
     return lines
 
 

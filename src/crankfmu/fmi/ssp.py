@@ -15,6 +15,14 @@ The components are named FourBar and Drive in both.
   RodString.fmu on its rope port: PumpJack.rod_s -> RodString.s, PumpJack.rod_v -> RodString.v,
   RodString.F -> PumpJack.rod_F. The well as one model (crankfmu.well.CoupledWell) is the reference.
 
+- ``DriveShaftFourBar.ssp``: DriveSpeed.fmu (it carries the rotor and flywheel) on ElasticShaft.fmu
+  (shafts/elastic_shaft.toml: k = 1e4 N.m/rad, 5 % damping) to FourBar.fmu in torque causality
+  without flywheel (its motor line off): Drive.omega -> Shaft.omega_a, FourBar.omega1 ->
+  Shaft.omega_b, Shaft.tau -> Drive.tau_load and FourBar.tau_ext. The shaft's torsional mode (a
+  period of 20 ms) makes inputs held over a step unstable above 2 c / k = 0.63 ms: its fixed step
+  is 0.1 ms. The same system with the shaft as an equation (validation/coupling.py's
+  shaft_reference) is the reference.
+
 - ``PressCushion.ssp``: TogglePress.fmu (the knuckle-joint press of the tests, its data-file
   cushion switched off: k_cushion = c_cushion = 0) and DieCushion.fmu on its ram port:
   Press.ram_s -> Cushion.s, Press.ram_v -> Cushion.v, Cushion.F -> Press.ram_F. The same press
@@ -27,7 +35,7 @@ Parameter sets (SSV files, bound to each component):
   the FMU's refusal.
 
 The default experiment (0 to 2 s) carries the Open Simulation Platform's fixed-step annotation
-(1 ms), which both masters read.
+(1 ms; the system's own where its coupling needs a smaller one), which both masters read.
 """
 
 from __future__ import annotations
@@ -46,7 +54,7 @@ MOTOR_OFF = {"A": 0.0, "B": 0.0, "A_low": 0.0, "B_low": 0.0}
 WELL = "rp11l_guo"
 
 
-def _drive_values(speed_causal: bool) -> dict[str, float]:
+def drive_values(speed_causal: bool) -> dict[str, float]:
     """The drive file's parameters and set-point (not its speed input), with its speed-causal
     parameters for DriveSpeed.fmu."""
     from ..dynamics.drive import load_drive
@@ -77,6 +85,14 @@ def _cushion_values() -> dict[str, float]:
     return {n: p.value for n, p in load_cushion("die_cushion").parameters.items()}
 
 
+def shaft_values() -> dict[str, float]:
+    """The packaged shaft file's parameters (DriveShaftFourBar.ssp's shaft)."""
+    from ..dynamics.shaft import load_shaft
+
+    return {n: p.value for n, p in load_shaft("elastic_shaft").parameters.items()}
+
+
+
 @dataclass(frozen=True)
 class System:
     name: str
@@ -88,6 +104,7 @@ class System:
     files: dict            # component -> () -> its data file's parameter values, written out in every set
     mechanism: str = "FourBar"     # the component the set "refused" gives J_flywheel = -1
     stop_time: float = 2.0         # s, the DefaultExperiment's
+    step: float = 1e-3             # s, the fixed step its annotation gives the masters
 
 
 SYSTEMS = {s.name: s for s in (
@@ -96,13 +113,22 @@ SYSTEMS = {s.name: s for s in (
            {"FourBar": (("omega1", "output"), ("tau_ext", "input")),
             "Drive": (("tau", "output"), ("omega", "input"), ("omega_set", "input"))},
            (("Drive", "tau", "FourBar", "tau_ext"), ("FourBar", "omega1", "Drive", "omega")), {"FourBar": MOTOR_OFF},
-           {"Drive": lambda: _drive_values(False)}),
+           {"Drive": lambda: drive_values(False)}),
     System("FourBarDriveSpeed", "seed-000 four-bar in speed causality, driven by a DC motor that carries the "
            "rotor and flywheel", {"FourBar": "FourBarSpeed", "Drive": "DriveSpeed"},
            {"FourBar": (("tau_drive", "output"), ("omega1", "input")),
             "Drive": (("omega", "output"), ("tau_load", "input"), ("omega_set", "input"))},
            (("Drive", "omega", "FourBar", "omega1"), ("FourBar", "tau_drive", "Drive", "tau_load")),
-           {"FourBar": {"J_flywheel": 0.0}}, {"Drive": lambda: _drive_values(True)}),
+           {"FourBar": {"J_flywheel": 0.0}}, {"Drive": lambda: drive_values(True)}),
+    System("DriveShaftFourBar", "seed-000 four-bar driven through an elastic shaft by a DC motor that carries the "
+           "rotor and flywheel", {"Drive": "DriveSpeed", "Shaft": "ElasticShaft", "FourBar": "FourBar"},
+           {"Drive": (("omega", "output"), ("tau_load", "input"), ("omega_set", "input")),
+            "Shaft": (("tau", "output"), ("omega_a", "input"), ("omega_b", "input")),
+            "FourBar": (("omega1", "output"), ("tau_ext", "input"))},
+           (("Drive", "omega", "Shaft", "omega_a"), ("FourBar", "omega1", "Shaft", "omega_b"),
+            ("Shaft", "tau", "Drive", "tau_load"), ("Shaft", "tau", "FourBar", "tau_ext")),
+           {"FourBar": {**MOTOR_OFF, "J_flywheel": 0.0}},
+           {"Drive": lambda: drive_values(True), "Shaft": shaft_values}, step=1e-4),
     System("PressCushion", "knuckle-joint press with a die cushion FMU on its ram port",
            {"Press": "TogglePress", "Cushion": "DieCushion"},
            {"Press": (("ram_s", "output"), ("ram_v", "output"), ("omega1", "output"), ("ram_F", "input")),
@@ -226,7 +252,7 @@ def _native_components(spec: System, fmus: Path) -> dict[str, Path]:
     return {stem: fmus / f"{stem}.fmu" for stem in spec.sources.values()}
 
 
-def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float = 1e-3,
+def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float | None = None,
               system: "str | System" = "FourBarDrive", native: bool = False) -> Path:
     """``out``/SYSTEM.ssp from the FMUs in ``fmus`` (``make fmu`` builds them). ``native``: every
     FMU must be native (no Python on the host)."""
@@ -243,6 +269,8 @@ def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float
             raise CrankfmuError(f"no {stem}.fmu in {fmus}{what}")
     if stop_time is None:
         stop_time = spec.stop_time
+    if step is None:
+        step = spec.step
     sets = parameter_sets(spec)
     paths = (_native_components(spec, fmus) if native
              else {stem: fmus / f"{stem}.fmu" for stem in spec.sources.values()})
