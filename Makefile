@@ -50,6 +50,9 @@ $(STAMP): pyproject.toml setup.py $(wildcard src/crankfmu/native/*/*.c src/crank
 $(DEV_STAMP): $(STAMP)
 	@$(BIN)/python -m pip install --quiet -e '.[dev]' > $(VENV)/install-dev.log 2>&1 \
 	  || { cat $(VENV)/install-dev.log; echo "make: pip install of the test tools failed"; exit 1; }
+	@# CoFMPy, a master in pure Python: without its pinned dependencies (pyproject's dev has what it imports)
+	@$(BIN)/python -m pip install --quiet --no-deps cofmupy==1.0.0 >> $(VENV)/install-dev.log 2>&1 \
+	  || { cat $(VENV)/install-dev.log; echo "make: pip install of cofmupy failed"; exit 1; }
 	@# the native FMUs' win64 binaries: Debian's MinGW-w64 cross compiler
 	@command -v x86_64-w64-mingw32-gcc >/dev/null || { apt-get update -qq && apt-get install -y -qq gcc-mingw-w64-x86-64; } \
 	  || echo "make: could not install gcc-mingw-w64-x86-64 (apt-get, as root): native FMUs get no win64 binary"

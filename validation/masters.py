@@ -58,7 +58,8 @@ def largest_difference(a: MasterRun, b: MasterRun, variable: str, step: float) -
 def version(master: str) -> str:
     from importlib.metadata import PackageNotFoundError, version as package_version
 
-    package = {"fmpy": "fmpy", "ecos": "ecospy", "ecospy": "ecospy", "libcosim": "libcosimpy"}[master]
+    package = {"fmpy": "fmpy", "ecos": "ecospy", "ecospy": "ecospy", "libcosim": "libcosimpy", "ecco": "libcosimpy",
+               "cofmpy": "cofmupy"}[master]
     try:
         return f"{package} {package_version(package)}"
     except PackageNotFoundError:
@@ -130,6 +131,33 @@ def ecco(fmus: dict, connections, bonds, parameters: dict, stop_time: float, rec
                      done.returncode, done.stdout + done.stderr, data.get("error"))
 
 
+def cofmpy(fmus: dict, connections, parameters: dict, stop_time: float, step: float, record: list[str],
+           iterative: bool, bound: float = np.inf) -> MasterRun:
+    """CoFMPy (PyPI cofmupy, pure Python on fmpy) on the FMUs ``fmus`` ({instance: path}) with plain
+    ``connections`` ((from, output, to, input), ...), each instance's ``parameters`` set as its
+    "initialization", Jacobi at the fixed ``step``: one pass per step, or ``iterative`` (each step
+    repeated from the FMUs' saved states until the inputs used match the outputs at its end, its own
+    tolerance and pass limit). Records ``record`` ("instance.variable") at every communication
+    point; a run whose first recorded value passes ``bound`` in magnitude stops there (CoFMPy has
+    no bound: a diverging coupling spins the FMUs ever faster). In a child process."""
+    job = {"master": "cofmpy", "fmus": {k: str(Path(v).resolve()) for k, v in fmus.items()},
+           "connections": [list(c) for c in connections], "parameters": parameters, "stop_time": stop_time,
+           "step": step, "variables": list(record), "iterative": iterative,
+           "bound": bound if np.isfinite(bound) else None}
+    cmd = [sys.executable, "-m", "crankfmu.validation.masters", json.dumps(job)]
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT)
+    except subprocess.TimeoutExpired:
+        return MasterRun("cofmpy", "", error=f"no answer within {TIME_LIMIT} s", returncode=-1)
+    lines = [line for line in done.stdout.splitlines() if line.startswith("RESULT ")]
+    if done.returncode != 0 or not lines:
+        return MasterRun("cofmpy", "", returncode=done.returncode, output=done.stdout + done.stderr,
+                         error=f"exit status {done.returncode}" + ("" if lines else ", no result"))
+    data = json.loads(lines[-1][7:])
+    return MasterRun("cofmpy", "", np.asarray(data["time"]), {k: np.asarray(v) for k, v in data["values"].items()},
+                     done.returncode, done.stdout + done.stderr, data.get("error"))
+
+
 def _run_ecos_cli(path, stop_time, step, variables, parameter_set, env=None) -> MasterRun:
     with tempfile.TemporaryDirectory() as tmp:
         # ecos passes an FMU's messages on at its debug level only
@@ -174,6 +202,8 @@ def _child(job: dict) -> dict:
         return _child_libcosim(job, n)
     if master == "ecco":
         return _child_ecco(job)
+    if master == "cofmpy":
+        return _child_cofmpy(job)
     raise SystemExit(f"unknown master {master}")
 
 
@@ -308,6 +338,71 @@ def _child_ecco(job):
     watched = [(index[n.split(".", 1)[0]], ref(*n.split(".", 1))) for n in job["variables"]]
     return _libcosim_record(execution, observer, watched, job["variables"],
                             lambda times: not times or times[-1] < job["stop_time"] - 1e-12, "ecco")
+
+
+def _cofmpy_reads_numbers():
+    """cofmupy 1.0.0 was written against fmpy 0.3.20, whose model description gives the default
+    experiment's values as numbers; later fmpy keeps them as text, and cofmupy's master fails taking
+    the smallest step size of its FMUs (numpy's minimum of strings). Its FMU wrappers then read
+    descriptions with the numbers restored."""
+    import cofmupy.wrappers as wrappers
+
+    read = wrappers.read_model_description
+
+    def read_model_description(*args, **kwargs):
+        description = read(*args, **kwargs)
+        experiment = description.defaultExperiment
+        for name in ("startTime", "stopTime", "tolerance", "stepSize"):
+            value = getattr(experiment, name, None) if experiment is not None else None
+            if isinstance(value, str):
+                setattr(experiment, name, float(value))
+        return description
+
+    wrappers.read_model_description = read_model_description
+
+
+def _child_cofmpy(job):
+    import tempfile
+
+    from cofmupy import Coordinator
+
+    _cofmpy_reads_numbers()
+    targets: dict = {}
+    for a, output, b, input_ in job["connections"]:
+        targets.setdefault((a, output), []).append({"id": b, "variable": input_})
+    config = {"fmus": [{"id": name, "path": path, "initialization": job["parameters"].get(name, {})}
+                       for name, path in job["fmus"].items()],
+              "connections": [{"source": {"id": a, "variable": v}, "target": t} for (a, v), t in targets.items()],
+              "cosim_method": "jacobi", "iterative": bool(job["iterative"])}
+    n = int(round(job["stop_time"] / job["step"]))
+    watched = [tuple(name.split(".", 1)) for name in job["variables"]]
+    times, rows, error = [], [], None
+    tempfile.tempdir = tempfile.mkdtemp(prefix="crankfmu-cofmpy-")      # fmpy's unpacked FMUs, left by CoFMPy
+    coordinator = Coordinator()
+    try:
+        coordinator.start(config)
+        master = coordinator.master
+        for k in range(n):          # its run_simulation's "while t < end" may add a step on round-off
+            coordinator.do_step(job["step"])
+            times.append((k + 1) * job["step"])
+            rows.append([float(master.get_variable(w)[0]) for w in watched])
+            if job["bound"] is not None and not abs(rows[-1][0]) <= job["bound"]:
+                error = f"{job['variables'][0]} = {rows[-1][0]:.6g} at t = {times[-1]:.6g} s, beyond {job['bound']:.6g}"
+                break
+    except Exception as exc:                         # noqa: BLE001
+        error = f"{type(exc).__name__}: {exc}"
+    finally:
+        for handler in (coordinator.master.fmu_handlers.values() if coordinator.master else ()):
+            for call in (handler.fmu.terminate, handler.fmu.freeInstance):     # CoFMPy frees nothing
+                try:
+                    call()
+                except Exception:                    # noqa: BLE001
+                    pass
+        import shutil
+
+        shutil.rmtree(tempfile.tempdir, ignore_errors=True)
+    columns = np.array(rows).T if rows else np.zeros((len(watched), 0))
+    return {"time": times, "values": {v: c.tolist() for v, c in zip(job["variables"], columns)}, "error": error}
 
 
 if __name__ == "__main__":

@@ -169,16 +169,30 @@ class Measured:
     failure: str = ""          # what the FMU or the master said where the run diverged
 
 
+#: the third-party masters measure() runs besides cosim's modes: CoFMPy's Jacobi, one pass a step
+#: or iterated with rollback
+COFMPY = {"cofmpy": False, "cofmpy-iterative": True}
+
+
 def measure(s: Scene, built: dict, mode: str, step: float, theta: float = 0.5, folder: Path | None = None,
             references: dict | None = None) -> Measured:
-    """One run of scene ``s`` on the FMUs ``built`` (build()) in ``mode`` at ``step``, against its
-    reference (kept in ``references`` by the number of points, where given)."""
+    """One run of scene ``s`` on the FMUs ``built`` (build()) in ``mode`` (cosim's MODES, or COFMPY's)
+    at ``step``, against its reference (kept in ``references`` by the number of points, where given)."""
     fmus = {component: built[fmu] for component, fmu in s.fmus.items()}
     cache = references if references is not None else {}
     n = int(round(s.stop_time / step)) + 1
     if n not in cache:
         cache[n] = s.reference(np.arange(n) * step)
     reference = cache[n]["omega1"]
+    if mode in COFMPY:
+        from crankfmu.validation import masters
+
+        run = masters.cofmpy(fmus, s.coupling.links(), s.parameters, s.stop_time, step, [s.omega], COFMPY[mode],
+                             bound=DIVERGED * np.max(np.abs(reference)))
+        if run.error or run.time.size != n - 1:
+            return Measured(np.inf, int(run.time.size), run.error or "CoFMPy stopped early")
+        error = np.max(np.abs(run[s.omega] - reference[1:])) / np.max(np.abs(reference))
+        return Measured(float(error), n - 1)
     try:
         run = cosimulate(fmus, s.coupling, s.parameters, s.stop_time, step, mode, record=(s.omega,), folder=folder,
                          theta=theta, bound=DIVERGED * np.max(np.abs(reference)))
