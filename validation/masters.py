@@ -90,6 +90,13 @@ def run(master: str, path, stop_time: float, step: float, variables: list[str],
         return _run_ecos_cli(path, stop_time, step, variables, parameter_set, env)
     job = {"master": master, "path": path, "stop_time": stop_time, "step": step, "variables": variables,
            "start_values": start_values or {}, "parameter_set": parameter_set, "instance": instance}
+    return _in_child(job, path, env)
+
+
+def _in_child(job: dict, path: str = "", env: dict | None = None) -> MasterRun:
+    """The master ``job`` says, run by this module in a child process (a master that aborts takes
+    only the child down), its RESULT line read back."""
+    master = job["master"]
     cmd = [sys.executable, "-m", "crankfmu.validation.masters", json.dumps(job)]
     try:
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT, env=env)
@@ -117,18 +124,7 @@ def ecco(fmus: dict, connections, bonds, parameters: dict, stop_time: float, rec
            "connections": [list(c) for c in connections], "bonds": [list(b) for b in bonds],
            "parameters": parameters, "stop_time": stop_time, "step": step, "min_step": min_step,
            "max_step": max_step, "tolerance": tolerance, "variables": list(record)}
-    cmd = [sys.executable, "-m", "crankfmu.validation.masters", json.dumps(job)]
-    try:
-        done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT)
-    except subprocess.TimeoutExpired:
-        return MasterRun("ecco", "", error=f"no answer within {TIME_LIMIT} s", returncode=-1)
-    lines = [line for line in done.stdout.splitlines() if line.startswith("RESULT ")]
-    if done.returncode != 0 or not lines:
-        return MasterRun("ecco", "", returncode=done.returncode, output=done.stdout + done.stderr,
-                         error=f"exit status {done.returncode}" + ("" if lines else ", no result"))
-    data = json.loads(lines[-1][7:])
-    return MasterRun("ecco", "", np.asarray(data["time"]), {k: np.asarray(v) for k, v in data["values"].items()},
-                     done.returncode, done.stdout + done.stderr, data.get("error"))
+    return _in_child(job)
 
 
 def cofmpy(fmus: dict, connections, parameters: dict, stop_time: float, step: float, record: list[str],
@@ -144,18 +140,7 @@ def cofmpy(fmus: dict, connections, parameters: dict, stop_time: float, step: fl
            "connections": [list(c) for c in connections], "parameters": parameters, "stop_time": stop_time,
            "step": step, "variables": list(record), "iterative": iterative,
            "bound": bound if np.isfinite(bound) else None}
-    cmd = [sys.executable, "-m", "crankfmu.validation.masters", json.dumps(job)]
-    try:
-        done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIME_LIMIT)
-    except subprocess.TimeoutExpired:
-        return MasterRun("cofmpy", "", error=f"no answer within {TIME_LIMIT} s", returncode=-1)
-    lines = [line for line in done.stdout.splitlines() if line.startswith("RESULT ")]
-    if done.returncode != 0 or not lines:
-        return MasterRun("cofmpy", "", returncode=done.returncode, output=done.stdout + done.stderr,
-                         error=f"exit status {done.returncode}" + ("" if lines else ", no result"))
-    data = json.loads(lines[-1][7:])
-    return MasterRun("cofmpy", "", np.asarray(data["time"]), {k: np.asarray(v) for k, v in data["values"].items()},
-                     done.returncode, done.stdout + done.stderr, data.get("error"))
+    return _in_child(job)
 
 
 def _run_ecos_cli(path, stop_time, step, variables, parameter_set, env=None) -> MasterRun:
