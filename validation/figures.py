@@ -124,22 +124,23 @@ def plot_work_precision(points, path: Path, title: str) -> Path:
 
 
 def plot_coupled(scene: str, rows: list[dict], path: Path) -> Path:
-    """A coupled scene's error against the communication step, one line per master labelled at its
-    end (no legend box); above it, a strip with a row per master and an x at each step where its run
-    diverged."""
+    """A coupled scene's error against the communication step, one line per master (a third-party
+    master's dashed), each labelled in the right margin with a leader to its line's end, the labels
+    in the order of the ends and none over another (no legend box); above it, a strip with a row per
+    master and an x at each step where its run diverged."""
     plt = pyplot()
     masters = list(dict.fromkeys(r["master"] for r in rows))
-    fig, (strip, ax) = plt.subplots(2, 1, figsize=(7.6, 5.2), sharex=True,
+    fig, (strip, ax) = plt.subplots(2, 1, figsize=(8.4, 5.4), sharex=True,
                                     gridspec_kw={"height_ratios": [0.9, 4.0], "hspace": 0.08})
+    ends = []
     for k, master in enumerate(masters):
         mine = sorted((r["step"], r["error"]) for r in rows if r["master"] == master)
         color = f"C{k}"
         finite = [(h, e) for h, e in mine if math.isfinite(e) and e > 0]
         if finite:
-            ax.loglog(*zip(*finite), marker="o", ms=4, lw=1.2, color=color)
-            h, e = finite[-1]
-            ax.annotate(master, (h, e), xytext=(6, 0), textcoords="offset points", fontsize=8, color=color,
-                        va="center")
+            ax.loglog(*zip(*finite), marker="osD^v<>"[k % 7], ms=4, lw=1.2, color=color,
+                      ls="--" if master.startswith("CoFMPy") else "-")
+            ends.append((math.log10(finite[-1][1]), finite[-1][0], master, color))
         diverged = [h for h, e in mine if not math.isfinite(e)]
         strip.plot(diverged, [k] * len(diverged), "x", ms=7, color=color)
     strip.set_yticks(range(len(masters)), masters, fontsize=7)
@@ -151,8 +152,19 @@ def plot_coupled(scene: str, rows: list[dict], path: Path) -> Path:
     ax.set_ylabel("max |omega1 - reference| / max omega1 (1)")
     ax.grid(True, which="both", lw=0.3, color="0.85")
     steps = sorted({r["step"] for r in rows})
-    ax.set_xlim(steps[0] / 1.5, steps[-1] * 4)
-    fig.subplots_adjust(left=0.2, right=0.97, top=0.93, bottom=0.11)
+    ax.set_xlim(steps[0] / 1.5, steps[-1] * 1.5)
+    if ends:
+        low, high = (math.log10(v) for v in ax.get_ylim())
+        placed = []
+        for y, h, master, color in sorted(ends):
+            fraction = (y - low) / (high - low)
+            placed.append((max(fraction, placed[-1][0] + 0.06) if placed else fraction, y, h, master, color))
+        shift = max(0.0, placed[-1][0] - 1.0)           # the top label stays inside the plot's height
+        for fraction, y, h, master, color in placed:
+            ax.annotate(master, (h, 10 ** y), xytext=(1.03, fraction - shift), textcoords="axes fraction", fontsize=8,
+                        color=color, va="center", annotation_clip=False,
+                        arrowprops={"arrowstyle": "-", "color": color, "lw": 0.5, "alpha": 0.6})
+    fig.subplots_adjust(left=0.2, right=0.8, top=0.93, bottom=0.11)
     save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
