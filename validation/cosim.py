@@ -342,7 +342,10 @@ class Master:
                 break
             t = times[n]
             if mode == "rollback":
-                z = self.rollback(t, step, u, z, self.extrapolated(y, z) if self._all_derivatives() else 0.0 * u)
+                # Newton starts from the lines the FMUs' output derivatives give (held where an FMU gives
+                # none): the rod string's load answers its end position with a segment's stiffness, and
+                # from held lines the first iterate overshoots by that stiffness times a step's travel
+                z = self.rollback(t, step, u, z, self.extrapolated(y, z))
                 continue
             if mode == "hold":              # values only, as a zero-order-hold master sets them
                 dy = np.zeros(len(y))
@@ -358,9 +361,6 @@ class Master:
             self.do_step(t, step)
             z = self.coupling.advance(z, y, dy, step, self.theta if mode == "implicit" else 0.5)
         return Coupled(times, recorded, self.steps)
-
-    def _all_derivatives(self) -> bool:
-        return all(self.units[n].derivatives for n, _ in self.out)
 
     def close(self):
         for unit in self.units.values():
