@@ -232,7 +232,8 @@ def test_the_harness_reports_the_coupled_scenes_and_fails_a_missed_bar(built, tm
     assert coupled.coupled_fmus({str(p): kind_of(p) for p in built.values()}) == {
         name: path for name, path in built.items() if name != "TogglePress"}
     monkeypatch.setattr(coupled, "SCENES", (("FourBarDrive", {}),))
-    monkeypatch.setattr(coupled, "AGREES", {})
+    for other in ("AGREES", "ORDERS", "STABLE"):
+        monkeypatch.setattr(coupled, other, {})
     monkeypatch.setattr(coupled, "BARS", {("FourBarDrive", "implicit", 1e-3): 1e-4,
                                           ("FourBarDrive", "implicit", 1e-2): 1e-3})
     checks = CheckList(echo=None)
