@@ -157,14 +157,15 @@ def quoted_refusals() -> list[tuple[str, float, str]]:
 
 
 def test_the_refusals_docs_fmus_quotes_are_what_the_fmu_says(built):
-    from fmpy import simulate_fmu
+    from crankfmu.validation.fmu_runner import simulate_logged
 
     rows = quoted_refusals()
     assert len(rows) >= 4, rows
     for name, value, quoted in rows:
         log = []
         with pytest.raises(Exception):
-            simulate_fmu(str(built["python"]), stop_time=0.01, start_values={name: value}, debug_logging=False,
-                         logger=lambda *args: log.append(args[-1].decode() if isinstance(args[-1], bytes) else args[-1]))
+            simulate_logged(str(built["python"]), stop_time=0.01, start_values={name: value}, debug_logging=False,
+                            logger=lambda *args: log.append(args[-1].decode() if isinstance(args[-1], bytes)
+                                                            else args[-1]))
         start = quoted.split("...")[0].strip()
         assert any(line.startswith(start) for line in log), (name, value, quoted, log[-3:])

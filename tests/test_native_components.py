@@ -25,7 +25,7 @@ from crankfmu.cli import main
 from crankfmu.dynamics.cushion import cushion_force as python_cushion_force
 from crankfmu.dynamics.drive import DRIVE_CONSTANTS, load_drive
 from crankfmu.dynamics.shaft import shaft_torque as python_shaft_torque, shaft_twist as python_shaft_twist
-from crankfmu.native import DriveSteps, cushion_force, expm4, shaft_torque, shaft_twist
+from crankfmu.native.physics import DriveSteps, cushion_force, expm4, shaft_torque, shaft_twist
 from crankfmu.numerics import expm
 
 ROOT = Path(__file__).resolve().parents[1]

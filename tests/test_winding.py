@@ -176,13 +176,13 @@ def test_messages_print_numbers_as_written_and_tracebacks_on_request(built, tmp_
     import subprocess
     import sys
 
-    from fmpy import simulate_fmu
+    from crankfmu.validation.fmu_runner import simulate_logged
 
     messages = []
     logger = lambda *args: messages.append(args[-1].decode() if isinstance(args[-1], bytes) else str(args[-1]))  # noqa: E731
     with pytest.raises(Exception):
-        simulate_fmu(str(built / "native" / "Whitworth.fmu"), stop_time=0.01, start_values={"h": 0.5},
-                     logger=logger, debug_logging=False)
+        simulate_logged(str(built / "native" / "Whitworth.fmu"), stop_time=0.01, start_values={"h": 0.5},
+                        logger=logger, debug_logging=False)
     refusal = next(m for m in messages if "h = 0.5" in m)
     assert "r = 0.1)" in refusal and "0.1000000" not in refusal
     assert "at phi1 = 8.750 deg the contour equations have no real solution" in refusal

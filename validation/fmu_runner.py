@@ -24,6 +24,34 @@ from crankfmu.fmi.source import crankfmu_annotation
 from crankfmu.progress import ProgressBar
 
 
+#: fmpy's printer and the callbacks that carry it, kept for the process's life (simulate_logged)
+_PROCESS_LOGGER: dict = {}
+
+
+def simulate_logged(*args, logger, **kwargs):
+    """fmpy.simulate_fmu with the FMU's messages passed to ``logger``, in this process. fmpy (0.3.32)
+    routes every FMI 2.0 FMU's messages through one process-wide pointer in its logging proxy, which
+    simulate_fmu points at a callback it frees when it returns: any FMU that logs later through
+    fmpy's default callbacks (an FMU2Slave instantiated without its own) then calls freed memory, and
+    the process dies in that FMU's fmi2DoStep (a segfault seen in a test worker when a diverging
+    coupling made FourBar.fmu refuse a step). The pointer is set back here to a logger of the
+    process's life, fmpy's own printer."""
+    from ctypes import byref
+
+    from fmpy import simulate_fmu
+    from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, printLogMessage
+    from fmpy.logging import addLoggerProxy
+
+    try:
+        return simulate_fmu(*args, logger=logger, **kwargs)
+    finally:
+        if not _PROCESS_LOGGER:
+            _PROCESS_LOGGER.update(printer=fmi2CallbackLoggerTYPE(printLogMessage), callbacks=fmi2CallbackFunctions())
+        # addLoggerProxy points fmpy's pointer at callbacks.logger (and puts its proxy in that field)
+        _PROCESS_LOGGER["callbacks"].logger = _PROCESS_LOGGER["printer"]
+        addLoggerProxy(byref(_PROCESS_LOGGER["callbacks"]))
+
+
 @dataclass
 class FmuRun:
     """Outputs of one fmpy run at its communication points (``time`` s, others in their units)."""
@@ -169,7 +197,6 @@ class FmuUnderTest:
         """Simulate from 0 to ``stop_time`` s with communication (output) step ``step`` s, as
         Co-Simulation or as Model Exchange through fmpy's CVode at relative tolerance ``rtol``;
         ``inputs``: a structured array (time and input columns), as fmpy takes it."""
-        from fmpy import simulate_fmu
 
         log: list[str] = []
 
@@ -204,7 +231,7 @@ class FmuUnderTest:
             interval = step / math.ceil(step / interval)
         started = time.perf_counter()
         try:
-            result = simulate_fmu(self.unzipdir, model_description=self.model_description, validate=False,
+            result = simulate_logged(self.unzipdir, model_description=self.model_description, validate=False,
                                   start_time=0.0, stop_time=stop_time, output_interval=interval,
                                   start_values=start_values, output=output or self.outputs,
                                   debug_logging=True, logger=logger, step_finished=step_finished,

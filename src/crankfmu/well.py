@@ -240,7 +240,9 @@ class CoupledWell:
             if not (self.y.dtype == np.float64 and self.y.flags.c_contiguous):
                 self.y = np.array(self.y, dtype=float)
                 arrays = (self.y, *arrays[1:])
-            self._c_steps = kernel.WellSteps(self.stepper, self.y, self.i_port, self.n_ports, self.rope.breakpoints,
+            from .native.physics import WellSteps
+
+            self._c_steps = WellSteps(self.stepper, self.y, self.i_port, self.n_ports, self.rope.breakpoints,
                                              self.rope.cubic_array, self.rope.h, self.string.kernel, self.string.c,
                                              u, v, last_u, x, self.dt)
             self._c_bound = arrays

@@ -253,7 +253,7 @@ class RodString:
         # well run; this module's numpy step stays as their reference (and for the linear foot)
         self._kernel = None
         if self.in_c and isinstance(self.pump, ValvePump):
-            from ..native import StringSteps
+            from ..native.physics import StringSteps
 
             g = self.grid
             self._kernel = StringSteps(g.mass, g.weight, g.stiffness, c,
@@ -291,7 +291,7 @@ class RodString:
     # ---------------------------------------------------------------- stepping
     @property
     def kernel(self):
-        """The C steps (native.StringSteps), or None when this string steps in numpy."""
+        """The C steps (native.physics.StringSteps), or None when this string steps in numpy."""
         return self._kernel
 
     @property

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..contract import CUSHION_OUTPUTS
 from ..dynamics.cushion import load_cushion
-from ..native import cushion_force
+from ..native.physics import cushion_force
 from .core import Declared, SlaveCore
 
 

@@ -6,7 +6,7 @@ Inputs: the crank speed ``omega`` and the set-point ``omega_set``; outputs: the 
 ``P_el`` = u i and the PI controller's state ``x``. Each fmi2DoStep advances the drive's state by the exact solution with the inputs
 held at their values (the co-simulation's zero-order hold), so the drive adds no error of its own:
 a coupled run's error is the coupling's alone. The step is the components' C
-(crank_components.c, through native.DriveSteps), the one the native Drive.fmu compiles in;
+(crank_components.c, through native.physics.DriveSteps), the one the native Drive.fmu compiles in;
 dynamics.drive.DcDrive states the same model in Python, the reference the tests compare with.
 
 DriveSpeed.fmu carries the rotor and flywheel (J_drive) and outputs the crank speed ``omega``
@@ -20,7 +20,7 @@ import numpy as np
 
 from ..contract import DRIVE_OUTPUTS as OUTPUTS, DRIVE_SPEED_OUTPUTS
 from ..dynamics.drive import DRIVE_CONSTANTS, load_drive
-from ..native import DriveSteps
+from ..native.physics import DriveSteps
 from .core import Declared, SlaveCore
 
 

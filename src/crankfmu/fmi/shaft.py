@@ -14,7 +14,7 @@ import numpy as np
 
 from ..contract import SHAFT_OUTPUTS
 from ..dynamics.shaft import load_shaft
-from ..native import shaft_torque, shaft_twist
+from ..native.physics import shaft_torque, shaft_twist
 from .core import Declared, SlaveCore
 
 
