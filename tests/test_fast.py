@@ -274,3 +274,25 @@ def test_a_step_clipped_to_the_limit_ends_on_it_exactly():
         stepper.start(0.0, model.y0)
         stepper.advance(t_limit, t_limit)     # raised SchemeError (underflow) before the fix
         assert stepper.state[layout.T] == t_limit
+
+
+@pytest.mark.parametrize("field, value", [("STEP_INTERVAL", 7.0), ("STEP_MOTOR", 9.0), ("STEP_DIRECTION", 0.5)])
+def test_a_state_whose_last_step_holds_no_mode_the_kernel_wrote_is_refused(field, value):
+    """The output row inside the last step reads the step's mode (its switch interval indexes the
+    slider forces): a state whose step fields no kernel wrote (a damaged serialized FMU state) is
+    refused for its output row and for a step, never indexed beyond the tables. The same state
+    untouched gives the trajectory's row."""
+    from crankfmu.errors import CrankfmuError, SchemeError
+    from crankfmu.integrators.fast import FastStepper
+
+    model = crankfmu.load_scenario("seed001").build()
+    stepper = FastStepper(table_of(model.reduced), model.motor, model.reduced.J_flywheel, 1e-10)
+    stepper.start(0.0, model.y0)
+    stepper.advance(0.5, 1.0)                      # the last step ends beyond 0.5 s
+    inside = 0.5 * (stepper.state[layout.T_PREV] + stepper.state[layout.T])
+    assert np.all(np.isfinite(stepper.refresh(inside)))
+    stepper.state[layout._LAYOUT[field]] = value
+    with pytest.raises(CrankfmuError, match="state is corrupted"):
+        stepper.refresh(inside)
+    with pytest.raises(SchemeError, match="no mode it can have written"):
+        stepper.advance(0.6, 1.0)

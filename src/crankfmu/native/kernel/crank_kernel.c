@@ -337,15 +337,22 @@ double kernel_locate(const double* S, int slot, double level, double lo, double 
     return hi;
 }
 
-/* whether S's discrete state is one the kernel can have written: a motor branch, a direction, a
- * switch interval of these tables (a state a host corrupted is refused, never indexed with) */
-int kernel_mode_ok(const double* S, const CkTables* T)
+static int mode_ok(double motor, double direction, double k, const CkTables* T)
 {
-    double motor = S[CK_MOTOR], direction = S[CK_DIRECTION], k = S[CK_INTERVAL];
     if (!(motor == CK_LOW || motor == CK_HIGH || motor == CK_SLIDE)) return 0;
     if (!(direction == 1.0 || direction == -1.0 || direction == 0.0)) return 0;
     if (T->m == 0) return k == 0.0;
     return k >= 0.0 && k < T->m && k == floor(k);
+}
+
+/* whether S's discrete state is one the kernel can have written: a motor branch, a direction, a
+ * switch interval of these tables, now and over the last step (the output row inside the last
+ * step reads the step's; a state a host corrupted or deserialized from damaged bytes is refused,
+ * never indexed with) */
+int kernel_mode_ok(const double* S, const CkTables* T)
+{
+    return mode_ok(S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T)
+           && mode_ok(S[CK_STEP_MOTOR], S[CK_STEP_DIRECTION], S[CK_STEP_INTERVAL], T);
 }
 
 /* one accepted step, not beyond t_limit, ending on the first event crossed */
@@ -375,6 +382,10 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
     }
     double factor = err == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(err, ERROR_EXPONENT));
     double h_next = fmin(h * factor, P[CK_H_MAX]);
+    /* with no limit (no stop time, no largest step) a step whose error is exactly zero (a crank at
+     * rest) grows tenfold each time: kept finite, for an infinite step would never be accepted and
+     * never shrink (inf * 0.2) */
+    if (!isfinite(h_next)) h_next = h;
     double t_new = to_limit ? t_limit : t + h;
 
     kernel_events(S, t, w->y, T, P, w->work, w->g0);

@@ -342,6 +342,7 @@ static void read_mechanism(Reader* r)
     /* what the model relies on */
     if (!r->failed && (d->n_outputs < 1 || d->n_fixed < 0 || d->n_quantities < 0 || d->n_reactions < 0 ||
                        d->n_quantity_coordinates < 0 || d->reaction_terms < 1 || d->table_functions < 1 ||
+                       d->table_functions > CK_MAX_FUNCTIONS ||
                        d->table_sliders < 0 || d->cycle_turns < 1 || d->cycle_turns > 8 || p->cycle_turns != d->cycle_turns ||
                        (d->causality_speed != 0 && d->causality_speed != 1)))
         refuse(r, "is damaged: its counts are out of range");
