@@ -273,7 +273,9 @@ def test_the_shafts_linear_system_and_its_step_on_input_lines(built, variant, tm
     derivatives is the closed form (d der(twist) = d omega_a - d omega_b; d tau = k d twist + c
     (d omega_a - d omega_b)) to 1e-9; the output derivative of tau along input lines is
     k (omega_a - omega_b) + c (rate_a - rate_b); and a step with the inputs' derivatives set ends at
-    the twist the two lines integrate to (a master's extrapolated inputs cost the shaft nothing)."""
+    the twist the two lines integrate to (a master's extrapolated inputs cost the shaft nothing),
+    with the speeds and the torque at the lines' ends (a master that reads the torque before it sets
+    the speeds again, as a rollback does for its residual, reads the end's damping)."""
     fmu, md, vr = slave(built["ElasticShaft", variant], tmp_path)
     p = {v.name: float(v.start) for v in md.modelVariables if v.causality == "parameter"}
     k, c = p["k"], p["c"]
@@ -298,6 +300,10 @@ def test_the_shafts_linear_system_and_its_step_on_input_lines(built, variant, tm
         fmu.doStep(1e-3, h) if fmi3 else fmu.doStep(currentCommunicationPoint=1e-3, communicationStepSize=h)
         expected = twist + 1.5 * h + 0.5 * (slope_a - slope_b) * h * h
         assert get(fmu, [vr["twist"]])[0] == pytest.approx(expected, rel=1e-12)
+        # at the step's end the speeds are at their lines' ends, and the torque reads them there
+        ends = (20.0 + slope_a * h, 18.5 + slope_b * h)
+        assert tuple(get(fmu, [vr["omega_a"], vr["omega_b"]])) == pytest.approx(ends, rel=1e-15)
+        assert get(fmu, [vr["tau"]])[0] == pytest.approx(k * expected + c * (ends[0] - ends[1]), rel=1e-12)
     finally:
         fmu.terminate()
         fmu.freeInstance()

@@ -107,7 +107,7 @@ def test_the_c_master_extrapolates_with_the_fmi2_dlls_under_wine_as_on_linux(bui
     FMUs' linux64 binaries and, compiled with MinGW, their win64 DLLs under wine: the same rows to
     1e-12 of the scale (the binaries are compiled from the same C, FMA contraction off), within 2e-4
     of the one-model reference at 1 ms as validation/cosim.py's master; and the directional
-    derivatives the DLLs give: d der(omega1)/d tau_ext = 1/J_red, d der(i)/d i = -R/L."""
+    derivatives the DLLs give: d der(omega1)/d tau_ext = 1/J_red, d der(i)/d i = -R/L to 1e-9."""
     import shutil
     import subprocess
 
@@ -176,7 +176,10 @@ def test_the_c_master_extrapolates_with_the_fmi2_dlls_under_wine_as_on_linux(bui
     assert windows.shape == linux.shape
     for k in (1, 2):
         assert np.max(np.abs(windows[:, k] - linux[:, k])) <= 1e-12 * np.max(np.abs(linux[:, k]))
-    assert np.allclose(windows_directional, linux_directional, rtol=1e-12)
+    # central differences of the rates (Richardson): the last bits of the two C libraries' exp in
+    # the state reach them as about 1e-10 of the value; both are the closed form to 1e-9
+    assert np.allclose(windows_directional, expected, rtol=1e-9)
+    assert np.allclose(windows_directional, linux_directional, rtol=1e-9)
 
 
 def test_libcosims_ecco_runs_fourbardrive_on_its_power_bond(built, tmp_path):

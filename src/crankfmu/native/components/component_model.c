@@ -179,7 +179,14 @@ int co_do_step(Component* c, const char* call, double t, double h)
     if (r >= 0)
         return co_fail(c, "%s: cannot step: %s has no valid value (valid range %s)", call, c->d->variables[r].name,
                        c->d->variables[r].range);
-    model_step(c, c->now.values, c->now.rate, c->now.state, target - c->now.time);
+    double dt = target - c->now.time;
+    model_step(c, c->now.values, c->now.rate, c->now.state, dt);
+    /* an input given a derivative ran as a line over the step, and is at its end there: the outputs
+     * that read it at once (the cushion's force, the shaft's damping torque, the drive's voltage) are
+     * the end's, as a master reading them before it sets the inputs again (a rollback's residual)
+     * takes them; the next step goes on along the line unless the host sets the input */
+    for (int vr = 0; vr < c->d->n_variables; vr++)
+        if (c->d->variables[vr].kind == KIND_INPUT && c->now.rate[vr] != 0.0) c->now.values[vr] += c->now.rate[vr] * dt;
     model_outputs(c, c->now.values, c->now.state);
     if (!outputs_finite(c)) {
         c->now.phase = CM_FAILED;
