@@ -104,6 +104,7 @@ fmu-python: $(STAMP)
 	@$(BIN)/crankfmu fmu seed000 --causality speed --out build/fmus
 	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --out build/fmus
 	@$(BIN)/crankfmu fmu die_cushion --cushion --out build/fmus
+	@$(BIN)/crankfmu fmu elastic_shaft --shaft --out build/fmus
 	@$(BIN)/crankfmu fmu rp11l_guo --well --out build/fmus
 
 # native FMUs (C, linux64 and win64, no Python on the host)
@@ -118,10 +119,12 @@ fmu-native-b: $(STAMP)
 	@$(BIN)/crankfmu fmu dc_pi --drive --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu die_cushion --cushion --native --out build/fmus/native
+	@$(BIN)/crankfmu fmu elastic_shaft --shaft --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu rp11l_guo --well --native --out build/fmus/native
 	@$(BIN)/crankfmu fmu dc_pi --drive --native --fmi-version 3 --out build/fmus/native3
 	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --native --fmi-version 3 --out build/fmus/native3
 	@$(BIN)/crankfmu fmu die_cushion --cushion --native --fmi-version 3 --out build/fmus/native3
+	@$(BIN)/crankfmu fmu elastic_shaft --shaft --native --fmi-version 3 --out build/fmus/native3
 	@$(BIN)/crankfmu fmu rp11l_guo --well --native --fmi-version 3 --out build/fmus/native3
 
 # the main job: every FMU, the papers' studies and the pumping well (two lines of work on the two
