@@ -24,8 +24,9 @@ import pytest
 from crankfmu.cli import main
 from crankfmu.dynamics.cushion import cushion_force as python_cushion_force
 from crankfmu.dynamics.drive import DRIVE_CONSTANTS, load_drive
-from crankfmu.dynamics.shaft import shaft_torque as python_shaft_torque, shaft_twist as python_shaft_twist
-from crankfmu.native.physics import DriveSteps, cushion_force, expm4, shaft_torque, shaft_twist
+from crankfmu.dynamics.shaft import shaft_energy as python_shaft_energy, shaft_torque as python_shaft_torque, \
+    shaft_twist as python_shaft_twist
+from crankfmu.native.physics import DriveSteps, cushion_force, expm4, shaft_energy, shaft_torque, shaft_twist
 from crankfmu.numerics import expm
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -118,6 +119,10 @@ def test_shaft_law_and_step_in_c_equal_the_python_shaft():
         difference = lambda t: (omega_a + rate_a * t) - (omega_b + rate_b * t)  # noqa: E731
         simpson = h / 6 * (difference(0) + 4 * difference(h / 2) + difference(h))
         assert after == pytest.approx(twist + simpson, rel=1e-13, abs=1e-15)
+        # the stored energy is the spring's work from no twist: k x integrated over [0, twist]
+        # (Simpson's rule is exact for the line), C equal to Python bit for bit
+        assert shaft_energy(k, twist) == python_shaft_energy(values, twist)
+        assert shaft_energy(k, twist) == pytest.approx(twist / 6 * (0 + 4 * k * twist / 2 + k * twist), rel=1e-14)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -41,6 +41,11 @@ def shaft_twist(twist, omega_a, omega_b, h, rate_a=0.0, rate_b=0.0):
     return twist + (omega_a - omega_b) * h + 0.5 * (rate_a - rate_b) * h * h
 
 
+def shaft_energy(values: dict, twist):
+    """The spring's elastic energy (J), k twist^2 / 2."""
+    return 0.5 * values["k"] * twist * twist
+
+
 def load_shaft(name_or_path) -> ComponentFile:
     """A shaft file: a packaged name (``"elastic_shaft"``) or a path to a .toml file."""
     return load_component(name_or_path, _FILES, "shaft", PARAMETERS, INPUTS)

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..contract import SHAFT_OUTPUTS
 from ..dynamics.shaft import load_shaft
-from ..native.physics import shaft_torque, shaft_twist
+from ..native.physics import shaft_energy, shaft_torque, shaft_twist
 from .core import Declared, SlaveCore
 
 
@@ -33,7 +33,7 @@ class ShaftCore(SlaveCore):
     def _update_outputs(self):
         v = self.values
         self.out[:] = (shaft_torque(v["k"], v["c"], self.twist, v["omega_a"], v["omega_b"]), self.twist,
-                       0.5 * v["k"] * self.twist ** 2)
+                       shaft_energy(v["k"], self.twist))
 
     def initialise(self):
         self.twist = self.values["twist_start"]

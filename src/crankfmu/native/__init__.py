@@ -111,6 +111,7 @@ def _load() -> ctypes.CDLL:
         "cc_cushion_force": (ctypes.c_double, [ctypes.c_double] * 6),
         "cc_shaft_torque": (ctypes.c_double, [ctypes.c_double] * 5),
         "cc_shaft_twist": (ctypes.c_double, [ctypes.c_double] * 6),
+        "cc_shaft_energy": (ctypes.c_double, [ctypes.c_double] * 2),
         "cc_string_step": (None, [ctypes.c_int, D, D, D, ctypes.c_double, D, D, D, D, D, ctypes.c_double,
                                   ctypes.c_double, D]),
         "cc_string_advance": (None, [ctypes.c_int, D, D, D, ctypes.c_double, D, D, D, D, D, ctypes.c_double,

@@ -67,6 +67,11 @@ def shaft_twist(twist: float, omega_a: float, omega_b: float, h: float, rate_a: 
     return LIBRARY.cc_shaft_twist(twist, omega_a, omega_b, rate_a, rate_b, h)
 
 
+def shaft_energy(k: float, twist: float) -> float:
+    """The elastic energy the shaft's spring stores (J), by the components' C."""
+    return LIBRARY.cc_shaft_energy(k, twist)
+
+
 #: the rod string's scalars (crank_components.h's CS_*), in order
 STRING_SCALARS = ("t", "load", "work", "damping_loss", "motion", "u_top", "u_bottom", "hydraulic", "friction_loss",
                   "stop_loss", "gas")

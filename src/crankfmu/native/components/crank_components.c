@@ -149,6 +149,11 @@ double cc_shaft_twist(double twist, double omega_a, double omega_b, double rate_
     return twist + (omega_a - omega_b) * h + 0.5 * (rate_a - rate_b) * h * h;
 }
 
+double cc_shaft_energy(double k, double twist)
+{
+    return 0.5 * k * twist * twist;
+}
+
 /* the pump's motion: up (the travelling valve closed, the plunger lifting the fluid), down, at rest */
 enum { PUMP_DOWN = -1, PUMP_REST = 0, PUMP_UP = 1 };
 

@@ -48,9 +48,11 @@ CK_API double cc_cushion_force(double k, double c, double L_free, double s_seat,
 /* An elastic shaft between side a (a drive) and side b (a machine's crank): the torque it passes
  * from a to b, k twist + c (omega_a - omega_b) (N.m; it drives b and loads a), twist = phi_a - phi_b;
  * and the twist after h s with each side's speed a line from the step's start (rates rad/s2; 0:
- * held): exact, the twist is the integral of the speed difference */
+ * held): exact, the twist is the integral of the speed difference; and the elastic energy the
+ * spring stores, k twist^2 / 2 (J) */
 CK_API double cc_shaft_torque(double k, double c, double twist, double omega_a, double omega_b);
 CK_API double cc_shaft_twist(double twist, double omega_a, double omega_b, double rate_a, double rate_b, double h);
+CK_API double cc_shaft_energy(double k, double twist);
 
 /* The sucker-rod string (dynamics/rodstring.py states the same scheme: its reference): n nodes, 0
  * the polished rod, n - 1 the plunger; per node its mass (kg) and buoyant weight (N, downward), per
