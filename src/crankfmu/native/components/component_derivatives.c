@@ -32,8 +32,7 @@ static int evaluate(void* model, const double* z, double* values, double* rates)
     memcpy(p->state, c->now.state, sizeof(double) * (size_t)(p->n_states > 0 ? p->n_states : 0));
     for (int j = 0; j < p->n_states; j++) p->state[j] = z[j];
     for (int k = 0; k < p->n_inputs; k++) p->values[p->input_vr[k]] = z[p->n_states + k];
-    model_outputs(c, p->values, p->state);
-    if (rates) model_rates(c, p->values, p->state, rates);
+    model_outputs_rates(c, p->values, p->state, rates);   /* the rates once, with the outputs */
     for (size_t i = 0; i < p->n_unknowns; i++) {
         double x = p->values[p->unknowns[i]];
         if (!isfinite(x)) return -1;
@@ -52,8 +51,7 @@ static int point_of(Component* c, const char* call, Point* p)
         return co_fail(c, "%s: not provided by this FMU (a rod string's explicit steps on its grid are not smooth "
                        "equations a derivative can be taken of)", call);
     p->n_inputs = 0;
-    for (int vr = 0; vr < c->d->n_variables; vr++)
-        if (c->d->variables[vr].kind == KIND_INPUT && p->n_states + p->n_inputs < MAX_Z) p->input_vr[p->n_inputs++] = vr;
+    for (int k = 0; k < c->n_inputs && p->n_states + p->n_inputs < MAX_Z; k++) p->input_vr[p->n_inputs++] = c->input_vr[k];
     for (int j = 0; j < p->n_states; j++) p->z[j] = c->now.state[j];
     for (int k = 0; k < p->n_inputs; k++) p->z[p->n_states + k] = c->now.values[p->input_vr[k]];
     for (int j = 0; j < p->n_states + p->n_inputs; j++) p->scale[j] = fmax(1.0, fabs(p->z[j]));

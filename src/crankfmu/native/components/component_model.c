@@ -44,6 +44,8 @@ int co_init(Component* c, const char* call, const ModelData* d, CmLogger log, vo
     c->log = log;
     c->host = host;
     if (model_bind(c, why, sizeof why) != 0) return co_fail(c, "%s: the model file %s: %s", call, CM_MODEL_FILE, why);
+    for (int vr = 0; vr < d->n_variables; vr++)
+        if (d->variables[vr].kind == KIND_INPUT) c->input_vr[c->n_inputs++] = vr;
     co_reset(c);
     return CM_OK;
 }
@@ -185,8 +187,10 @@ int co_do_step(Component* c, const char* call, double t, double h)
      * that read it at once (the cushion's force, the shaft's damping torque, the drive's voltage) are
      * the end's, as a master reading them before it sets the inputs again (a rollback's residual)
      * takes them; the next step goes on along the line unless the host sets the input */
-    for (int vr = 0; vr < c->d->n_variables; vr++)
-        if (c->d->variables[vr].kind == KIND_INPUT && c->now.rate[vr] != 0.0) c->now.values[vr] += c->now.rate[vr] * dt;
+    for (int k = 0; k < c->n_inputs; k++) {
+        int vr = c->input_vr[k];
+        if (c->now.rate[vr] != 0.0) c->now.values[vr] += c->now.rate[vr] * dt;
+    }
     model_outputs(c, c->now.values, c->now.state);
     if (!outputs_finite(c)) {
         c->now.phase = CM_FAILED;

@@ -36,6 +36,10 @@ typedef struct {
     int stale;                     /* in initialisation mode: a value was set since the outputs were computed */
     /* the value references of the variables the kind's model uses, by its names (component_models.c) */
     int slot[CM_MAX_VARIABLES];
+    /* the inputs' value references in order: a step advances those given a derivative without
+     * passing over every variable (a rod string has hundreds) */
+    int input_vr[CM_MAX_VARIABLES];
+    int n_inputs;
     int n_tapers;                  /* a rod string's */
     CmLogger log;
     void* host;
@@ -84,6 +88,9 @@ int model_state_size(const Component* c, const double* values, char* why, int wh
 void model_start(const Component* c, const double* values, double t, double* state);
 void model_step(const Component* c, const double* values, const double* rates, double* state, double h);
 void model_outputs(const Component* c, double* values, const double* state);
+/* the same, and the smooth states' rates into rates (as model_rates; NULL: written to the der(...)
+ * variables only), for callers that need both without computing the rates twice */
+void model_outputs_rates(const Component* c, double* values, const double* state, double* rates);
 /* the smooth models' equations: how many continuous states (the first of the state array; -1: a
  * rod string, none the derivatives can use), their names where an output is one (else NULL), and
  * their rates at the values and state */

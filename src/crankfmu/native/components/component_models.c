@@ -150,7 +150,7 @@ static void shaft_outputs(const Component* c, double* v, const double* s)
 {
     V(SH_TAU) = cc_shaft_torque(V(SH_K), V(SH_C), s[0], V(SH_OMEGA_A), V(SH_OMEGA_B));
     V(SH_TWIST) = s[0];
-    V(SH_E_SPRING) = 0.5 * V(SH_K) * s[0] * s[0];
+    V(SH_E_SPRING) = cc_shaft_energy(V(SH_K), s[0]);
 }
 
 /* ------------------------------------------------------------------------------ the rod string */
@@ -313,7 +313,7 @@ void model_rates(const Component* c, const double* v, const double* s, double* r
                    rotor ? V(DR_J_DRIVE) : 1.0, rotor, rates);
 }
 
-void model_outputs(const Component* c, double* v, const double* s)
+void model_outputs_rates(const Component* c, double* v, const double* s, double* rates)
 {
     switch (c->d->kind) {
     case CM_MODEL_DRIVE:
@@ -325,9 +325,15 @@ void model_outputs(const Component* c, double* v, const double* s)
     default: string_outputs(c, v, s); return;
     }
     /* the states' rates, der(...) variables a master reads for the model's linear system */
-    double rates[3];
+    double own[3];
+    if (!rates) rates = own;
     int n = model_smooth_states(c);
     model_rates(c, v, s, rates);
     for (int j = 0; j < n; j++)
         if (rate_variable(c, j) >= 0) v[rate_variable(c, j)] = rates[j];
+}
+
+void model_outputs(const Component* c, double* v, const double* s)
+{
+    model_outputs_rates(c, v, s, NULL);
 }
