@@ -117,20 +117,20 @@ def run(built: dict, out: Path, quick: bool, checks, progress=lambda label, frac
             | {m for (t, m) in STABLE if t == tag}
         masters = [m for m in MASTERS if (not quick or m[0] in barred | {"hold"})
                    and (m[1] not in scenes.COFMPY or cofmpy)]
-        finest = scenes.scene(name, **kwargs).smallest_step
+        scene = scenes.scene(name, **kwargs)    # built once: the shaft's needs the machine's inertia
+        finest = scene.smallest_step
         steps = sorted({h for (t, _, h) in BARS if t == tag} | {h for (t, *_, h) in AGREES if t == tag}
                        | {h for (t, _), h in STABLE.items() if t == tag}) if quick \
             else [h for h in STEPS if h >= finest]
         if masters and (not quick or barred):
-            plan.append((name, kwargs, tag, masters, steps))
-    needed = {fmu for name, kwargs, *_ in plan for fmu in scenes.scene(name, **kwargs).fmus.values()}
+            plan.append((scene, tag, masters, steps))
+    needed = {fmu for scene, *_ in plan for fmu in scene.fmus.values()}
     missing = sorted(needed - built.keys())
     if missing:
         built = {**built, **scenes.build(out / "coupled_fmus", missing)}
     result = []
     total, done = sum(len(m) * len(h) for *_, m, h in plan), 0
-    for name, kwargs, tag, masters, steps in plan:
-        scene = scenes.scene(name, **kwargs)
+    for scene, tag, masters, steps in plan:
         references, rows = {}, []
         for master, mode, theta in masters:
             for h in steps:

@@ -371,6 +371,8 @@ def _child_cofmpy(job):
             coordinator.do_step(job["step"])
             times.append((k + 1) * job["step"])
             rows.append([float(master.get_variable(w)[0]) for w in watched])
+            # only the first recorded variable is watched: the scenes record the speed they compare
+            # first, and a diverging coupling shows there as soon as anywhere
             if job["bound"] is not None and not abs(rows[-1][0]) <= job["bound"]:
                 error = f"{job['variables'][0]} = {rows[-1][0]:.6g} at t = {times[-1]:.6g} s, beyond {job['bound']:.6g}"
                 break
