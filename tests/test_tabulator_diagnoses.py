@@ -3,7 +3,8 @@ triggers it (the single-cylinder engine of tests/data/user with one thing change
 
 - a load that repeats every two turns (a four-stroke engine's gas force, cos(phi1/2)): not
   periodic over one turn, with its values a turn apart, not a "discontinuity";
-- a couple with a step: a jump, with its size and angle;
+- a couple with a step that is no kink (atan2's cut): a jump, with its size and angle; one written
+  with sign() is a kink, located (tests/test_kinks.py), and passes;
 - a gas force so peaky that 2**16 intervals cannot follow it: continuous but steep, its slope and
   the intervals it would need, not a dead point;
 - a force that divides by zero: not finite, with the expression and the angle;
@@ -65,11 +66,25 @@ def test_no_build_writes_an_fmu_of_it_that_cannot_initialise(tmp_path):
     assert not out.exists() or not any(out.iterdir())
 
 
+SAWTOOTH = 'kind = "couple"\nlink = "crank"\nmoment = "-100*atan2(sin(phi1 - 1), cos(phi1 - 1))"'
+
+
 def test_a_couple_with_a_step_jumps(tmp_path):
-    step = 'kind = "couple"\nlink = "crank"\nmoment = "-100*max(0, sign(sin(phi1 - 1)))"'
-    said = check(tmp_path, ENGINE.replace(FORCE, step), "step")
-    assert "jumps by -100 between phi1 = 57.29 to 57.30 deg" in said, said     # sin(phi1 - 1) = 0 at 1 rad
+    """A step that is no kink (atan2's cut: a sawtooth) is a jump, sized and placed."""
+    said = check(tmp_path, ENGINE.replace(FORCE, SAWTOOTH), "step")
+    # at phi1 - 1 = pi (237.30 deg) atan2 falls from pi to -pi: -100 times that is +628.3
+    assert "jumps by 628.3 between phi1 = 237.29 to 237.30 deg" in said, said
     assert "not a dead point" in said, said
+
+
+def test_a_step_written_with_sign_is_a_located_kink_not_a_jump(tmp_path):
+    path = tmp_path / "kink.toml"
+    path.write_text(ENGINE.replace(FORCE, 'kind = "couple"\nlink = "crank"\nmoment = "-100*max(0, sign(sin(phi1 - 1)))"'))
+    run = subprocess.run([sys.executable, "-m", "crankfmu", "check", str(path)], capture_output=True, text=True,
+                         timeout=300)
+    assert run.returncode == 0, run.stdout + run.stderr
+    # sin(phi1 - 1) = 0 at 1 rad and 1 + pi rad
+    assert "they switch at phi1 = 57.30, 237.30 deg" in run.stdout, run.stdout
 
 
 def test_a_steep_continuous_load_says_its_slope_and_the_intervals_it_needs(tmp_path):
@@ -115,7 +130,7 @@ def test_the_native_fmu_calls_a_dead_point_a_dead_point_in_its_own_message(tmp_p
         return model._model.error_jumps
 
     assert c_verdict(ENGINE.replace("l2 = { value = 0.14,", "l2 = { value = 0.0400001,")) == 0
-    assert c_verdict(ENGINE.replace(FORCE, 'kind = "couple"\nlink = "crank"\nmoment = "-100*max(0, sign(sin(phi1 - 1)))"')) == 1
+    assert c_verdict(ENGINE.replace(FORCE, SAWTOOTH)) == 1
 
 
 @pytest.mark.parametrize("turns", [2, 3])

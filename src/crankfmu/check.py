@@ -128,6 +128,13 @@ def unknown_names(definition, parameters: set[str]) -> list[tuple[str, set[str]]
         assigned.add(name)
     for u, text in (definition.guess or {}).items():
         check(text, f"[assembly] guess {u}")
+    above: set[str] = set()
+    for name, value in definition.constants.items():
+        if isinstance(value, Expression):     # the parameters and the constants above it
+            names = value.names - set(parameters) - above - set(CONSTANTS)
+            if names:
+                problems.append((f"[assembly] constants {name}", names))
+        above.add(name)
     merged: dict[str, set] = {}
     for where, names in problems:
         merged.setdefault(where, set()).update(names)
@@ -140,7 +147,7 @@ def grashof(definition, values) -> list[str]:
     """The Grashof class of each contour that is a four-bar loop (four terms of constant length,
     one of them the crank phi1, one a constant direction: the frame), from the link lengths alone
     (no assembly needed: it explains an assembly that fails)."""
-    env = {**values, **definition.constants}
+    env = {**values, **definition.constant_values(values)}
     out = []
     for cname, terms in definition.contours:
         if len(terms) != 4 or any(t.length for t in terms):
@@ -213,6 +220,11 @@ def check_scenario(source) -> Report:
                   "; no [[joints]]: no joint reactions, the drawing joins points to their base points"))
     if bad:
         return report
+    try:                                    # an expression constant that is not finite at the file's values
+        definition.constant_values(scenario.values)
+    except DefinitionError as exc:
+        report.add("FAIL", str(exc), locate(mech_file, str(exc).split(": ", 1)[-1].split(" = ")[0]))
+        return report
 
     try:
         mechanism, worst, at = scenario.assembled_mechanism()
@@ -247,6 +259,7 @@ def check_scenario(source) -> Report:
                    + ", ".join(q.name for q in port.quantities))
     if not loads_finite(report, model, path):
         return report
+    kinks_located(report, model)
     fmu_declarations(report, source, scenario, path)
     native_tables_check(report, scenario, path)
     steady_cycle_check(report, scenario, path)
@@ -278,6 +291,21 @@ def steady_cycle_check(report: Report, scenario, path):
 #: the angles where each load expression is evaluated by check: every 0.1 deg, the crank's dead
 #: centres (0, 90, 180, 270 deg) among them
 FINITE_GRID = np.linspace(0.0, 2 * math.pi, 3601)
+
+
+def kinks_located(report: Report, model):
+    """Each load's kinks (user_loads.KinkedLoad) and where over the turn they switch: the angles
+    every path steps onto, as it does a slider force's switch."""
+    from .dynamics.user_loads import KinkedLoad
+
+    for load in model.reduced.loads:
+        if isinstance(load, KinkedLoad):
+            # two kinks of one angle (sign(s) and max(0, sign(s))) are one switch, as in the schedule
+            angles = sorted({round(a % (2 * math.pi), 13) for a in load.switch_angles(model.mechanism)})
+            where = (f"switch at phi1 = {', '.join(f'{math.degrees(a):.2f}' for a in angles)} deg" if angles
+                     else "keep one side over the whole turn")
+            report.add("OK", f"the load on {load.link} has {len(load.arguments)} kink(s), {', '.join(load.calls)}; "
+                       f"they {where}: every path steps onto those angles and tabulates each side smooth")
 
 
 def loads_finite(report: Report, model, path) -> bool:

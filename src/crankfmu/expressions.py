@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ast
 import math
+import re
 from typing import Mapping
 
 import numpy as np
@@ -155,6 +156,80 @@ class Expression:
 
     def __repr__(self) -> str:
         return f"Expression({self.source!r})"
+
+
+#: the functions whose value has a kink or a jump where their argument crosses zero: max(a, b) and
+#: min(a, b) where a - b does, abs(a) and sign(a) where a does
+KINKS = ("max", "min", "abs", "sign")
+
+
+class _KinkCalls(ast.NodeTransformer):
+    """Numbers the kink calls of a tree in pre-order by their argument's text (the same argument
+    twice is one kink; a kink raised to a power is none), and with ``bits`` replaces each by its branch on the side of zero that bit
+    says (1: the argument positive): max(a, b) -> a or b, min(a, b) -> b or a, abs(a) -> a or -a,
+    sign(a) -> 1 or -1."""
+
+    def __init__(self, bits=None):
+        self.arguments: list[str] = []
+        self.calls: list[str] = []      # each argument's first call, as written (for messages)
+        self.bits = bits
+
+    def visit_BinOp(self, node):
+        # a kink raised to a power (max(0, x)**3: an engine's valve law, a Hertz contact's 1.5) is
+        # smooth to that order at its corner and held as it is; the kinks inside it still count
+        if isinstance(node.op, ast.Pow) and self._is_kink(node.left):
+            node.left.args = [self.visit(a) for a in node.left.args]
+            node.right = self.visit(node.right)
+            return node
+        return self.generic_visit(node)
+
+    @staticmethod
+    def _is_kink(node) -> bool:
+        return (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in KINKS
+                and len(node.args) == (2 if node.func.id in ("max", "min") else 1))
+
+    def visit_Call(self, node):
+        name = node.func.id if isinstance(node.func, ast.Name) else None
+        if not self._is_kink(node):
+            return self.generic_visit(node)
+        a = node.args[0]
+        argument = ast.BinOp(a, ast.Sub(), node.args[1]) if len(node.args) == 2 else a
+        text = ast.unparse(argument)
+        if text not in self.arguments:
+            self.arguments.append(text)
+            # as written: the whole numbers the parse made floats back without ".0"
+            self.calls.append(re.sub(r"(\d)\.0\b", r"\1", ast.unparse(node)) if self.bits is None else "")
+        if self.bits is None:
+            return self.generic_visit(node)
+        positive = self.bits[self.arguments.index(text)]
+        node = self.generic_visit(node)        # the branches' own kinks, on their bits
+        if name == "max":
+            return node.args[0] if positive else node.args[1]
+        if name == "min":
+            return node.args[1] if positive else node.args[0]
+        if name == "abs":
+            return node.args[0] if positive else ast.UnaryOp(ast.USub(), node.args[0])
+        return ast.Constant(1.0 if positive else -1.0)
+
+
+def kink_arguments(source: str, where: str = "expression") -> list[str]:
+    """The arguments (as text) whose sign picks a branch of the expression's kink calls, in
+    pre-order: an expression is smooth between the angles where one of them crosses zero."""
+    return kink_calls(source, where)[0]
+
+
+def kink_calls(source: str, where: str = "expression") -> tuple[list[str], list[str]]:
+    """(the arguments of :func:`kink_arguments`, each one's call as written: "max(0, xB - x_w)")."""
+    finder = _KinkCalls()
+    finder.visit(parse(source, where))
+    return finder.arguments, finder.calls
+
+
+def kink_branch(source: str, bits, where: str = "expression") -> str:
+    """The expression with each kink call replaced by its branch on the side ``bits`` says (one bit
+    per argument of :func:`kink_arguments`, 1: positive): smooth wherever its arguments are."""
+    tree = _KinkCalls(tuple(bits)).visit(parse(source, where))
+    return ast.unparse(ast.fix_missing_locations(tree))
 
 
 def evaluate(source, env: Mapping[str, object], where: str = "expression") -> float:

@@ -219,6 +219,7 @@ class Scenario:
             if spec.get("kind") in USER_LOADS:
                 made = parse_user_load(spec, mechanism, {l.name for l in links}, values, f"{self.where}: load {i + 1}")
                 _check_affine(made, mechanism, values, f"{self.where}: load {i + 1}")
+                _check_kinks(made, self.cycle_turns, f"{self.where}: load {i + 1}")
                 loads += made
             else:
                 loads.append(self._make_load(spec, mechanism, links, values, found.get(i)))
@@ -369,6 +370,19 @@ class Scenario:
             return True
         except CrankfmuError:
             return False
+
+
+def _check_kinks(loads, cycle_turns: int, where: str) -> None:
+    """A load's kinks are located over one crank turn (user_loads.KinkedLoad): a machine whose
+    cycle is longer (a four-stroke engine's) is refused by name."""
+    from .dynamics.user_loads import KinkedLoad
+
+    for load in loads:
+        if isinstance(load, KinkedLoad) and cycle_turns != 1:
+            raise DefinitionError(
+                f"{where}: its kinks ({', '.join(load.calls)}) are "
+                f"located over one crank turn, and this machine's cycle is {cycle_turns} turns: a kink in a load of a "
+                "machine whose cycle is longer than a turn is not supported yet (write the load smooth)")
 
 
 def _check_affine(loads, mechanism, values, where: str) -> None:

@@ -35,7 +35,7 @@ OPS = ("literal", "copy", "add", "sub", "mul", "div", "pow", "neg",
 OP = {name: i for i, name in enumerate(OPS)}
 _BINARY = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div", ast.Pow: "pow"}
 SETUP, CLOSED, ROWS, VALUES, OUTPUTS, REACTIONS, FIRST_SEARCH = range(7)
-ROCKER, REVERSALS, BAND = range(3)
+ROCKER, REVERSALS, BAND, ZEROS = range(4)
 
 
 class Unsupported(Exception):

@@ -20,7 +20,8 @@ applied    {term: [(link, point or None, fx, fy, moment registers or None)]}, te
 from __future__ import annotations
 
 from ..expressions import Expression
-from .program import BAND, REVERSALS, ROCKER, Unsupported
+from .program import BAND, REVERSALS, ROCKER, ZEROS, Unsupported
+from .user_loads import kinked
 
 
 class LoadClauses:
@@ -190,6 +191,10 @@ class LoadClauses:
             return {"position": lambda: self._user_torque(link, point, part("rest")),
                     "viscous": lambda: self._user_torque(link, point, per_omega(part("rest"), part("per_omega1"))),
                     "applied": {"1": lambda: parts_record("rest"), "omega1": lambda: parts_record("per_omega1")}}
+        kinks = None if direction is not None else kinked(
+            {k: Expression(str(spec[k]), f"{at} {k}") for k in ("fx", "fy", "moment") if k in spec}, at)
+        if kinks:
+            return self._kinked_force(link, point, kinks, at)
         if direction is None:
             return {"position": lambda: self._user_torque(link, point, self._user_components(spec, at)),
                     "applied": {"1": lambda: record(spec)}}
@@ -209,6 +214,35 @@ class LoadClauses:
                 "values": values, "searches": [(REVERSALS, rate, None, -1, -1, -1, -1)],
                 "column_names": (f"{link} {direction} rising", f"{link} {direction} falling"),
                 "applied": {("column", j): (lambda side=side: record(side)) for j, side in enumerate(sides)}}
+
+    def _kinked_force(self, link, point, kinks, at):
+        """user_loads.KinkedLoad: a column per pattern of its kinks' sides (the expressions on that
+        pattern's branches), the pattern of the arguments' signs 1 and the others 0 on each
+        interval, the arguments' zeros the switch angles."""
+        c = self.c
+        arguments, branches, _ = kinks
+        names = self.position_names()
+
+        def argument(a):
+            return c.expression(a.source, names, a.where)
+
+        def branch(expressions):
+            return {k: c.expression(e.source, names, e.where) for k, e in expressions.items()}
+
+        def values():
+            signs = [c.emit("if_positive", argument(a), self.one, self.zero) for a in arguments]
+            out = []
+            for pattern in range(len(branches)):
+                factors = [s if (pattern >> i) & 1 else c.emit("sub", self.one, s) for i, s in enumerate(signs)]
+                out.append(c.mul(*factors) if len(factors) > 1 else factors[0])
+            return out
+        n = len(arguments)
+        return {"columns": lambda: [self._user_torque(link, point, branch(b)) for b in branches],
+                "values": values,
+                "searches": [(ZEROS, (lambda a=a: argument(a)), None, -1, -1, -1, -1) for a in arguments],
+                "column_names": tuple(f"{link} kink pattern {j:0{n}b}" for j in range(len(branches))),
+                "applied": {("column", j): (lambda b=b: [(link, point, *(branch(b).get(k) for k in ("fx", "fy", "moment")))])
+                            for j, b in enumerate(branches)}}
 
     def _spring_damper(self, spec, at):
         c = self.c

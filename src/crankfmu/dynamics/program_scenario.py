@@ -62,8 +62,9 @@ class _Compiler(LoadClauses):
         d, c = self.definition, self.c
         c.begin(SETUP)
         self.one, self.zero = c.literal(1.0), c.literal(0.0)
-        for name, value in d.constants.items():
-            self.env[name] = c.literal(value)
+        for name, value in d.constants.items():     # an expression's at binding: it follows the parameters
+            self.env[name] = c.literal(value) if isinstance(value, float) else \
+                c.expression(value.source, self.env, value.where)
         chains = [terms for _, terms in d.contours] + [d.points[p][0] for p in self.points]
         variables = d.variables
         terms, offsets = [], {}

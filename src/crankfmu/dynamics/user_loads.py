@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import DefinitionError
-from ..expressions import Expression
+from ..expressions import Expression, kink_arguments, kink_branch, kink_calls
 from ..mechanisms import Kinematics, Mechanism
 from .loads import TECHNOLOGICAL, AppliedLoad
 
@@ -45,7 +45,7 @@ from .loads import TECHNOLOGICAL, AppliedLoad
 def position_env(mechanism: Mechanism, kin: Kinematics, omega1=None) -> dict:
     """Names a load expression may use: parameters, constants, phi1, unknowns, P_x and P_y; with
     ``omega1`` also the speeds (speed_names)."""
-    env = {**mechanism.parameters, **mechanism.definition.constants, "phi1": kin.phi1}
+    env = {**mechanism.parameters, **mechanism.constants, "phi1": kin.phi1}
     env.update(kin.q)
     for p in mechanism.point_names:
         x, y, dx, dy = kin.point(p)[:4]
@@ -162,6 +162,94 @@ class ExpressionLoad:
             raise DefinitionError(f"load on {self.link}: {self.direction_of} never changes direction over the "
                                   "turn: give one expression without direction_of")
         return [a for a, _ in found]
+
+
+#: a load's kinks at most: its columns are one per pattern of their sides, 2**MAX_KINKS
+MAX_KINKS = 3
+
+
+@dataclass
+class KinkedLoad(ExpressionLoad):
+    """A force or couple of the position whose expressions have kinks (max, min, abs, sign: a
+    contact max(0, y_ground - P_y), a stop, a clearance): smooth between the crank angles where a
+    kink's argument crosses zero, the switch angles, which the integrators locate as they do a
+    slider force's. The load is a switched load: one column per pattern of the arguments' signs,
+    each the torque of the expressions with every kink on that pattern's branch (smooth over the
+    whole turn, so a table of it has no kink to follow), and on each interval between switch
+    angles the pattern that holds there is 1, the others 0. Exact where evaluated (``torque``)."""
+
+    arguments: tuple = ()             # the kinks' arguments, Expressions of the position
+    branches: tuple = ()              # per pattern (bit i: argument i > 0), the expressions of that branch
+    calls: tuple = ()                 # each kink as written, for messages: "max(0, xB - x_w)"
+
+    @property
+    def position_only(self) -> bool:
+        return False
+
+    def torque(self, kin: Kinematics, omega1=None):
+        return self._torque_of(kin, self.increasing)
+
+    def applied(self, kin: Kinematics, omega1=None) -> list[AppliedLoad]:
+        return [AppliedLoad(self.link, self.point, *self._components(kin, self.increasing))]
+
+    @property
+    def column_names(self) -> tuple[str, ...]:
+        return tuple(f"{self.link} kink pattern {pattern:0{len(self.arguments)}b}"
+                     for pattern in range(len(self.branches)))
+
+    def columns(self, kin: Kinematics, needed=None) -> list:
+        needed = (True,) * len(self.branches) if needed is None else needed
+        return [self._torque_of(kin, branch) if use else np.zeros_like(kin.phi1)
+                for branch, use in zip(self.branches, needed)]
+
+    def signs(self, kin: Kinematics) -> list:
+        """Each argument > 0 at the kinematics' angles (booleans)."""
+        env = position_env(self.mechanism, kin)
+        return [np.broadcast_to(np.asarray(a.evaluate(env), dtype=float) > 0.0, kin.phi1.shape) for a in self.arguments]
+
+    def values(self, kin: Kinematics, omega1) -> list:
+        """1 for the pattern of the arguments' signs at each angle, 0 for the others."""
+        signs = self.signs(kin)
+        pattern = sum(sign.astype(int) << i for i, sign in enumerate(signs))
+        return [np.where(pattern == j, 1.0, 0.0) for j in range(len(self.branches))]
+
+    def column_applied(self, kin: Kinematics, column: int) -> list[AppliedLoad]:
+        return [AppliedLoad(self.link, self.point, *self._components(kin, self.branches[column]))]
+
+    def switch_angles(self, mechanism: Mechanism) -> list[float]:
+        """Where an argument crosses zero over the turn (none: that kink keeps one side)."""
+        angles = []
+        for a in self.arguments:
+            angles += [angle for angle, _, _ in mechanism.crossings(
+                lambda kin, a=a: np.broadcast_to(np.asarray(a.evaluate(position_env(mechanism, kin)), dtype=float),
+                                                 kin.phi1.shape), [0.0])]
+        return angles
+
+
+def kinked(expressions: dict, where: str):
+    """(arguments, branches, calls) of a load's expressions ({key: Expression}) with kinks, None
+    without; more than MAX_KINKS distinct arguments are refused by name."""
+    found = {}
+    for e in expressions.values():
+        for argument, call in zip(*kink_calls(e.source, e.where)):
+            found.setdefault(argument, call)
+    arguments = list(found)
+    if not arguments:
+        return None
+    if len(arguments) > MAX_KINKS:
+        raise DefinitionError(f"{where}: {len(arguments)} kinks ({', '.join(found.values())}); at most {MAX_KINKS} "
+                              "per load: split it into several loads")
+    branches = []
+    for pattern in range(2 ** len(arguments)):
+        bits = [(pattern >> i) & 1 for i in range(len(arguments))]
+        branch = {}
+        for key, e in expressions.items():
+            own = kink_arguments(e.source, e.where)
+            branch[key] = Expression(kink_branch(e.source, [bits[arguments.index(a)] for a in own], e.where),
+                                     f"{e.where} (its branch {pattern:0{len(arguments)}b})")
+        branches.append(branch)
+    return (tuple(Expression(a, f"{where}: the argument of {found[a]}") for a in arguments), tuple(branches),
+            tuple(found.values()))
 
 
 @dataclass
@@ -298,6 +386,10 @@ def parse_user_load(spec, mechanism: Mechanism, links: set[str], values: dict, w
                 raise DefinitionError(f"{where}: {kind} needs {' or '.join(keys)} (expressions)")
             expressions = {k: expression(spec[k], k, may_read_speeds=True) for k in keys if k in spec}
             reads_speed = any(e.names & speeds for e in expressions.values())
+            kinks = None if reads_speed else kinked(expressions, f"{where}: {kind}")
+            if kinks:
+                return [KinkedLoad(link, point, expressions, mechanism=mechanism, arguments=kinks[0],
+                                   branches=kinks[1], calls=kinks[2])]
             return [(SpeedLoad if reads_speed else ExpressionLoad)(link, point, expressions, mechanism=mechanism)]
         if "." in str(direction):
             p, _, axis = str(direction).partition(".")

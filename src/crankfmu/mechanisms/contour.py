@@ -59,7 +59,9 @@ class Mechanism(TurnChecks):
                  *, use_closed_form: bool = True):
         self.definition = definition
         self.parameters = dict(parameters)
-        env = {**self.parameters, **definition.constants}
+        #: the [assembly] constants at these parameters (an expression's value follows them)
+        self.constants = definition.constant_values(self.parameters)
+        env = {**self.parameters, **self.constants}
         names = definition.variables
         self._index = {n: i for i, n in enumerate(names)}
         self.n_unknowns = len(definition.unknowns)

@@ -5,8 +5,11 @@ binds a definition to parameter values and solves it."""
 from __future__ import annotations
 
 import ast
+import math
 from dataclasses import dataclass, field
 from typing import Mapping
+
+import numpy as np
 
 from ..errors import DefinitionError
 from ..expressions import Expression, parse
@@ -160,7 +163,9 @@ class MechanismDefinition:
     branch: str
     closed_form: list[tuple[str, Expression]] | None
     guess: dict[str, str] | None
-    constants: dict[str, float] = field(default_factory=dict)
+    #: [assembly] constants: numbers, or expressions of the parameters and the constants above them
+    #: (a triangle's angle that follows its sides), evaluated whenever the parameters are bound
+    constants: dict[str, float | Expression] = field(default_factory=dict)
     source: str = ""
     joints: list[JointDefinition] = field(default_factory=list)
     point_sources: dict[str, str] = field(default_factory=dict)   # [points] as written
@@ -169,6 +174,28 @@ class MechanismDefinition:
     @property
     def variables(self) -> list[str]:
         return ["phi1", *self.unknowns]
+
+    def constant_values(self, parameters: Mapping[str, float]) -> dict[str, float]:
+        """The constants' values at these parameter values, in the file's order."""
+        env = {**parameters}
+        out = {}
+        for name, value in self.constants.items():
+            if isinstance(value, Expression):
+                with np.errstate(all="ignore"):
+                    value = float(value.evaluate(env))
+                if not math.isfinite(value):
+                    raise DefinitionError(f"{self.constants[name].where} = {self.constants[name].source!r} is not "
+                                          f"finite ({value:g}) at these parameter values: a constant must be a "
+                                          "finite number")
+            env[name] = out[name] = value
+        return out
+
+    def _through_constants(self, names: set[str]) -> set[str]:
+        """``names`` with the parameters that the constants among them are expressions of."""
+        for name, value in reversed(list(self.constants.items())):
+            if name in names and isinstance(value, Expression):
+                names = names | value.names
+        return names
 
     @property
     def geometry_parameters(self) -> list[str]:
@@ -181,6 +208,7 @@ class MechanismDefinition:
             assigned = {n for n, _ in self.closed_form}
             for _, expr in self.closed_form:
                 names |= expr.names - assigned
+        names = self._through_constants(names)
         names -= set(self.variables) | set(self.constants)
         return sorted(names)
 
@@ -190,7 +218,7 @@ class MechanismDefinition:
         names: set[str] = set()
         for link in self.links.values():
             names |= Expression(link.mass).names | Expression(link.inertia).names
-        return sorted(names - set(self.constants))
+        return sorted(self._through_constants(names) - set(self.constants))
 
     @classmethod
     def from_dict(cls, data: Mapping, where: str = "mechanism") -> "MechanismDefinition":
@@ -264,7 +292,20 @@ class MechanismDefinition:
         branch = assembly.get("branch", "")
         if not branch:
             raise DefinitionError(f"{where}: [assembly] must state the branch in words ('branch = ...')")
-        constants = {k: float(v) for k, v in assembly.get("constants", {}).items()}
+        constants = {}
+        for k, v in assembly.get("constants", {}).items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                constants[k] = float(v)
+            elif isinstance(v, str):
+                constants[k] = Expression(v, f"{where}: [assembly] constants {k}")
+                later = constants[k].names & ({*assembly.get("constants", {})} - {*constants} | {k})
+                if later:
+                    raise DefinitionError(f"{where}: [assembly] constants {k} = {v!r} uses {', '.join(sorted(later))}, "
+                                          "defined after it (or itself): a constant may use the parameters and the "
+                                          "constants above it")
+            else:
+                raise DefinitionError(f"{where}: [assembly] constants {k} = {v!r} must be a number or an expression "
+                                      "string of the parameters")
         closed_form = None
         if "closed_form" in assembly:
             closed_form = []

@@ -325,7 +325,7 @@ static int searches(mm_model *m)
             r[f[4]] = fall;
             continue;
         }
-        if (n == 0) return MM_NO_REVERSAL;
+        if (n == 0 && f[0] == MM_REVERSALS) return MM_NO_REVERSAL;
         for (int k = 0; k < n; ++k)
             if ((status = add_switch(m, roots[k]))) return status;
         if (f[3] >= 0) {

@@ -42,8 +42,10 @@ enum mm_search {
     MM_ROCKER,        /* the section's value is a rocker's rate: its one rise -> register a, fall -> b */
     MM_REVERSALS,     /* the value is a rate: where it vanishes are switch angles; with a >= 0 the aux
                          section's value there gives its smallest (-> a) and largest (-> b) */
-    MM_BAND           /* the value is a position with extremes in registers a, b: the switch angles
+    MM_BAND,          /* the value is a position with extremes in registers a, b: the switch angles
                          where it crosses a + f (b - a) and b - f (b - a), f = the values of c and d */
+    MM_ZEROS          /* the value is a kink's argument (max, min, abs, sign in a load): where it
+                         crosses zero are switch angles; none is allowed (the kink keeps one side) */
 };
 #define MM_SEARCH_FIELDS 7
 #define MM_TERM_FIELDS 6     /* chain, coefficient register, length column, angle column, offset register,

@@ -1,0 +1,220 @@
+"""Kinks in a user's load (max, min, abs, sign): a press closing on its workpiece,
+fx = -k_w max(0, xB - x_w), is a switched load whose switch angles are where the ram meets the
+workpiece, on every path.
+
+- The branches of an expression reproduce it on each side of its kinks (random points).
+- The contact angles the C model and the Python engine find are the closed form's (the in-line
+  slider-crank's xB(phi1) = x_w solved by brentq), to 1e-12 rad.
+- omega1(t) of the fast path, the reference integrator, the Python FMU and the native FMI 2.0 and
+  3.0 FMUs (Co-Simulation) against an independent reference within 1e-8: the in-line slider-crank's
+  Lagrange equation from its closed-form kinematics, differentiated by hand here, integrated by
+  DOP853 at rtol 1e-13 and restarted at each contact so that no step straddles the kink. Model
+  Exchange (CVode at 1e-10) within 1e-6. A native FMU with x_w and k_w set before initialisation
+  relocates its contact angles (the same reference at those values, 1e-8).
+- A load with more kinks than it may have is refused by name.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+
+import crankfmu
+from crankfmu.cli import main
+from crankfmu.dynamics.tabulated import table_of
+from crankfmu.errors import DefinitionError
+from crankfmu.expressions import Expression, kink_arguments, kink_branch
+
+SCENARIO = Path(__file__).resolve().parent / "data" / "user" / "press_contact_scenario.toml"
+STOP = 2.0
+
+
+def lagrange_terms(phi, p):
+    """(J, J'/2, Q, xB) of the in-line slider-crank with the contact, by hand from sin(phi2) =
+    -l1 sin(phi1) / l2: bars of mass q l with centres at mid-length, a slider of m3 at B."""
+    l1, l2, m3, g = p["l1"], p["l2"], p["m3"], p["g"]
+    m1, m2 = p["q1"] * l1, p["q2"] * l2
+    s, c = math.sin(phi), math.cos(phi)
+    lam = l1 / l2
+    s2 = -lam * s
+    c2 = math.sqrt(1.0 - s2 * s2)
+    d2 = -lam * c / c2                                       # dphi2/dphi1
+    dd2 = lam * s / c2 - lam ** 3 * s * c * c / c2 ** 3
+    dgx = -l1 * s - 0.5 * l2 * s2 * d2                       # the rod's centre
+    dgy = l1 * c + 0.5 * l2 * c2 * d2
+    ddgx = -l1 * c + 0.5 * l2 * (-c2 * d2 * d2 - s2 * dd2)
+    ddgy = -l1 * s + 0.5 * l2 * (-s2 * d2 * d2 + c2 * dd2)
+    xB = l1 * c + l2 * c2
+    dxB = -l1 * s - l2 * s2 * d2
+    ddxB = -l1 * c - l2 * (c2 * d2 * d2 + s2 * dd2)
+    I2 = m2 * l2 ** 2 / 12
+    J = p["J_flywheel"] + m1 * l1 ** 2 / 3 + m2 * (dgx ** 2 + dgy ** 2) + I2 * d2 ** 2 + m3 * dxB ** 2
+    half_dJ = m2 * (dgx * ddgx + dgy * ddgy) + I2 * d2 * dd2 + m3 * dxB * ddxB
+    Q = -g * (m1 * 0.5 * l1 * c + m2 * dgy) - p["k_w"] * max(0.0, xB - p["x_w"]) * dxB
+    return J, half_dJ, Q, xB
+
+
+def reference(p, times):
+    """omega1 at ``times``: DOP853 restarted at every contact."""
+    def motor(w):
+        return p["A"] - p["B"] * w if w > p["omega_switch"] else p["A_low"] - p["B_low"] * w
+
+    def rhs(t, y):
+        J, half_dJ, Q, _ = lagrange_terms(y[0], p)
+        return [y[1], (motor(y[1]) + Q - half_dJ * y[1] ** 2) / J]
+
+    def contact(t, y):
+        return lagrange_terms(y[0], p)[3] - p["x_w"]
+    pieces, t, y = [], 0.0, [p["phi1_start"], p["omega1_start"]]
+    while t < STOP:
+        run = solve_ivp(rhs, (t, STOP), y, method="DOP853", rtol=1e-13, atol=1e-12, dense_output=True,
+                        events=contact)
+        crossed = [e for e in run.t_events[0] if e > t + 1e-12]
+        end = crossed[0] if crossed else STOP
+        if not crossed and run.status == 1:          # stopped on the start's own contact: go on past it
+            run = solve_ivp(rhs, (t, STOP), y, method="DOP853", rtol=1e-13, atol=1e-12, dense_output=True)
+        pieces.append((t, end, run.sol))
+        t, y = end, run.sol(end)
+    return np.array([next(sol(x)[1] for a, b, sol in pieces if a <= x <= b) for x in times])
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return crankfmu.load_scenario(str(SCENARIO))
+
+
+@pytest.fixture(scope="module")
+def values(scenario):
+    return {k: scenario[k] for k in scenario.parameters}
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    out = tmp_path_factory.mktemp("kinks")
+    for folder, extra in (("python", []), ("native", ["--native"]), ("native3", ["--native", "--fmi-version", "3"])):
+        assert main(["fmu", str(SCENARIO), *extra, "--out", str(out / folder)]) == 0
+    return {folder: out / folder / "PressContact.fmu" for folder in ("python", "native", "native3")}
+
+
+def test_the_branches_are_the_expression_on_each_side_of_its_kinks():
+    source = "k*max(0, y0 - y) + abs(min(y, 2*x) - 1)*sign(x) - max(x, y)"
+    arguments = kink_arguments(source)
+    assert len(arguments) == 5
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        env = dict(zip(("k", "y0", "y", "x"), rng.normal(0.0, 2.0, 4)))
+        bits = [int(Expression(a).evaluate(env) > 0.0) for a in arguments]
+        exact = Expression(source).evaluate(env)
+        assert Expression(kink_branch(source, bits)).evaluate(env) == pytest.approx(exact, rel=1e-14, abs=1e-14)
+
+
+def test_the_contact_angles_are_where_the_ram_meets_the_workpiece(scenario, values):
+    """The switch angles of the C model's table (the fast path's and native FMU's) and of the
+    Python engine's schedule against xB(phi1) = x_w solved by brentq."""
+    def gap(phi):
+        return lagrange_terms(phi, values)[3] - values["x_w"]
+    grid = np.linspace(0.0, 2 * math.pi, 721)
+    signs = np.sign([gap(a) for a in grid])
+    closed = sorted(brentq(gap, grid[i], grid[i + 1], xtol=1e-15) for i in np.flatnonzero(signs[:-1] != signs[1:]))
+    assert len(closed) == 2
+    model = scenario.build()
+    c_angles = table_of(model.reduced).switch_angles
+    python_angles = model.reduced.slider_schedule()[0]
+    assert np.allclose(sorted(c_angles), closed, atol=1e-12, rtol=0)
+    assert np.allclose(sorted(python_angles), closed, atol=1e-12, rtol=0)
+
+
+@pytest.mark.parametrize("method", ["fast", "reference"])
+def test_the_engine_follows_the_contact(scenario, values, method):
+    times = np.linspace(0.0, STOP, 401)
+    result = crankfmu.simulate(scenario, t_end=STOP, method=method, rtol=None, output_times=times)
+    expected = reference(values, times)
+    assert np.max(np.abs(result.omega1 - expected)) / np.max(np.abs(expected)) < 1e-8
+
+
+@pytest.mark.parametrize("fmu", ["python", "native", "native3"])
+def test_the_fmus_follow_the_contact(fmus, values, fmu):
+    from fmpy import simulate_fmu
+
+    result = simulate_fmu(str(fmus[fmu]), stop_time=STOP, output_interval=1e-3, output=["omega1"])
+    expected = reference(values, result["time"])
+    assert np.max(np.abs(result["omega1"] - expected)) / np.max(np.abs(expected)) < 1e-8
+    if fmu != "python":         # Model Exchange: CVode, its event indicators on the contact angles
+        me = simulate_fmu(str(fmus[fmu]), stop_time=STOP, output_interval=1e-3, output=["omega1"],
+                          fmi_type="ModelExchange", relative_tolerance=1e-10)
+        assert np.max(np.abs(me["omega1"] - reference(values, me["time"]))) / np.max(np.abs(expected)) < 1e-6
+
+
+def test_a_native_fmu_relocates_its_contact_when_the_workpiece_moves(fmus, values):
+    from fmpy import simulate_fmu
+
+    moved = {"x_w": 0.70, "k_w": 5e4}
+    result = simulate_fmu(str(fmus["native"]), stop_time=STOP, output_interval=1e-3, output=["omega1"],
+                          start_values=moved)
+    expected = reference({**values, **moved}, result["time"])
+    assert np.max(np.abs(result["omega1"] - expected)) / np.max(np.abs(expected)) < 1e-8
+
+
+def test_too_many_kinks_in_one_load_are_refused(scenario):
+    from crankfmu.scenario import Scenario
+
+    data = {**scenario.data, "loads": [{"kind": "force", "link": "slider", "point": "B", "fy": "0",
+                                        "fx": "max(0, xB - x_w) + abs(phi2) + sign(xB) + min(phi2, 0.1)"}]}
+    with pytest.raises(DefinitionError, match=r"4 kinks .* at most 3 per load"):
+        Scenario(data, scenario.where, scenario.path).build()
+
+
+# ------------------------------------------------------------------------------------------------
+# [assembly] constants as expressions: a triangle's angle that follows its sides
+
+TRIANGLE = SCENARIO.parent / "triangle_scenario.toml"            # beta = "acos(...)" in [assembly] constants
+TRIANGLE_INLINE = SCENARIO.parent / "triangle_inline_scenario.toml"   # the same text written where beta is used
+
+
+@pytest.mark.parametrize("method", ["fast", "reference"])
+def test_a_constant_that_follows_the_sides_moves_as_the_inlined_one(method):
+    """At the file's values and with a side changed (the constant follows it): the same motion."""
+    times = np.linspace(0.0, 1.0, 201)
+    for changes in ({}, {"b": 0.4, "a": 0.28}):
+        runs = [crankfmu.simulate(crankfmu.load_scenario(str(path)).with_params(**changes), t_end=1.0,
+                                  method=method, rtol=None, output_times=times) for path in (TRIANGLE, TRIANGLE_INLINE)]
+        assert np.max(np.abs(runs[0].omega1 - runs[1].omega1)) <= 1e-10 * np.max(np.abs(runs[1].omega1))
+    moved = crankfmu.simulate(crankfmu.load_scenario(str(TRIANGLE)).with_params(b=0.4), t_end=1.0, method=method,
+                              rtol=None, output_times=times)
+    assert np.max(np.abs(moved.omega1 - runs[0].omega1)) > 1e-3       # the side matters: the test can fail
+
+
+def test_a_native_fmu_evaluates_its_constants_when_the_sides_are_set(tmp_path):
+    from fmpy import simulate_fmu
+
+    results = []
+    for path, name in ((TRIANGLE, "Triangle"), (TRIANGLE_INLINE, "TriangleInline")):
+        assert main(["fmu", str(path), "--native", "--out", str(tmp_path / name)]) == 0
+        results.append(simulate_fmu(str(tmp_path / name / f"{name}.fmu"), stop_time=1.0, output_interval=1e-3,
+                                    output=["omega1"], start_values={"b": 0.4})["omega1"])
+    assert np.max(np.abs(results[0] - results[1])) <= 1e-10 * np.max(np.abs(results[1]))
+
+
+@pytest.mark.parametrize("constant, message", [
+    ("beta = \"acos(q)\"", r"\[assembly\] constants beta.*\bq\b"),
+    ("beta = \"gamma*2\", gamma = 0.1", r"constants beta = 'gamma\*2' uses gamma, defined after it"),
+    ("beta = \"acos(l2/a)\"", r"constants beta = 'acos\(l2/a\)' is not finite \(nan\)"),
+])
+def test_bad_constants_are_refused_by_name(tmp_path, constant, message):
+    text = (SCENARIO.parent / "triangle.toml").read_text()
+    start = text.index("constants = {")
+    end = text.index("\n", start)
+    (tmp_path / "triangle.toml").write_text(text[:start] + f"constants = {{ branch = 1.0, {constant} }}" + text[end:])
+    (tmp_path / "triangle_scenario.toml").write_text(TRIANGLE.read_text())
+    from crankfmu.check import check_scenario
+
+    report = check_scenario(str(tmp_path / "triangle_scenario.toml"))
+    assert report.status in (1, 2)
+    assert re.search(message, report.text()), report.text()
+    assert "Traceback" not in report.text()
