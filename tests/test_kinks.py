@@ -218,3 +218,26 @@ def test_bad_constants_are_refused_by_name(tmp_path, constant, message):
     assert report.status in (1, 2)
     assert re.search(message, report.text()), report.text()
     assert "Traceback" not in report.text()
+
+
+def test_a_kink_that_keeps_one_side_over_the_turn_acts_on_it(scenario, tmp_path):
+    """A workpiece the ram presses all the turn round (x_w below the ram's travel): the kink's
+    argument never changes sign, no switch angle, and the load is its one side everywhere (the
+    same load written without max, to round-off), on the fast path and in the native FMU."""
+    from fmpy import simulate_fmu
+
+    text = SCENARIO.read_text().replace('x_w = { value = 0.72,', 'x_w = { value = 0.2,').replace(
+        'k_w = { value = 2.0e5,', 'k_w = { value = 2.0e2,')
+    smooth = text.replace('fx = "-k_w*max(0, xB - x_w)"', 'fx = "-k_w*(xB - x_w)"')
+    runs = []
+    for name, body in (("kinked", text), ("smooth", smooth)):
+        (tmp_path / f"{name}.toml").write_text(body.replace('fmu = "PressContact"', f'fmu = "{name.title()}"'))
+        s = crankfmu.load_scenario(str(tmp_path / f"{name}.toml"))
+        times = np.linspace(0.0, 1.0, 101)
+        runs.append(crankfmu.simulate(s, t_end=1.0, method="fast", rtol=None, output_times=times).omega1)
+        assert main(["fmu", str(tmp_path / f"{name}.toml"), "--native", "--out", str(tmp_path / name)]) == 0
+        runs.append(simulate_fmu(str(tmp_path / name / f"{name.title()}.fmu"), stop_time=1.0, output_interval=1e-2,
+                                 output=["omega1"])["omega1"])
+    assert np.max(np.abs(runs[0] - runs[2])) <= 1e-10 * np.max(np.abs(runs[2]))
+    assert np.max(np.abs(runs[1] - runs[3])) <= 1e-10 * np.max(np.abs(runs[3]))
+    assert np.max(np.abs(runs[2] - runs[0])) < np.max(np.abs(runs[2] - runs[2][0]))    # the load does act

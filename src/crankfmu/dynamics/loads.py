@@ -207,8 +207,10 @@ def slider_schedule(mechanism: Mechanism, sliders: list[SliderForce]):
     switch = np.array(angles, dtype=float)
     n_columns = sum(len(load.column_names) for load in sliders)
     forces = np.zeros((max(len(switch), 1), 2, n_columns))
-    if len(switch):
-        mids = 0.5 * (switch + np.append(switch[1:], switch[0] + TWO_PI))
+    if n_columns:
+        # no switch: one interval, the whole turn, its values those anywhere on it (a kink whose
+        # argument keeps its sign; crank_assembly.c's searches do the same)
+        mids = 0.5 * (switch + np.append(switch[1:], switch[0] + TWO_PI)) if len(switch) else np.array([0.5 * TWO_PI])
         kin = mechanism.kinematics(mids % TWO_PI)
         s = 0
         for load in sliders:

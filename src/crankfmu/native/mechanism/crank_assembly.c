@@ -344,9 +344,12 @@ static int searches(mm_model *m)
     qsort(m->switches, m->n_switches, sizeof(double), mm_ascending);
     /* the switched loads' values on each interval, for each direction of the crank */
     int nc = p->n_columns;
-    for (int k = 0; k < m->n_switches; ++k) {
-        double next = k + 1 < m->n_switches ? m->switches[k + 1] : m->switches[0] + TWO_PI;
-        double mid = fmod(0.5 * (m->switches[k] + next), TWO_PI);
+    /* no switch: one interval, the whole turn, its values those anywhere on it (a kink whose argument
+     * keeps its sign; loads.slider_schedule does the same) */
+    int intervals = m->n_switches > 0 ? m->n_switches : (nc > 0 ? 1 : 0);
+    for (int k = 0; k < intervals; ++k) {
+        double next = k + 1 < m->n_switches ? m->switches[k + 1] : (m->n_switches ? m->switches[0] + TWO_PI : 0.0);
+        double mid = m->n_switches ? fmod(0.5 * (m->switches[k] + next), TWO_PI) : 0.5 * TWO_PI;
         int status = mm_kinematics(m, mid, NULL);
         if (status) return status;
         for (int d = 0; d < 2; ++d) {
