@@ -60,10 +60,12 @@ def lagrange_terms(phi, p):
     return J, half_dJ, Q, xB
 
 
-def reference(p, times):
-    """omega1 at ``times``: DOP853 restarted at every contact."""
+def reference(p, times, speed_torque=lambda w: 0.0):
+    """omega1 at ``times``: DOP853 restarted at every contact; ``speed_torque(omega1)``: a load of
+    the speed on the crank (N.m) beside the motor (tests/test_speed_loads.py's fan)."""
     def motor(w):
-        return p["A"] - p["B"] * w if w > p["omega_switch"] else p["A_low"] - p["B_low"] * w
+        line = p["A"] - p["B"] * w if w > p["omega_switch"] else p["A_low"] - p["B_low"] * w
+        return line + speed_torque(w)
 
     def rhs(t, y):
         J, half_dJ, Q, _ = lagrange_terms(y[0], p)

@@ -388,10 +388,20 @@ def _check_kinks(loads, cycle_turns: int, where: str) -> None:
 def _check_affine(loads, mechanism, values, where: str) -> None:
     """A user's load of the speeds must be affine in omega1 (user_loads.SpeedLoad): checked at 48
     angles over (-w, 3 w), w the start speed (at least 10 rad/s), to 1e-9 of its size."""
+    from .dynamics.speed_loads import PolynomialSpeedLoad
     from .dynamics.user_loads import SpeedLoad
 
     for load in loads:
-        if isinstance(load, SpeedLoad):
+        if isinstance(load, PolynomialSpeedLoad):
+            kin = mechanism.kinematics((np.arange(48) + 0.5) * (2.0 * math.pi / 48))
+            gap = load.polynomial_gap(kin)
+            if not gap <= 1e-9:
+                written = ", ".join(f"{k} = {str(e.source)!r}" for k, e in load.increasing.items())
+                raise DefinitionError(
+                    f"{where}: {written} is no polynomial of degree <= 2 in omega1 on each side of omega1 = 0: its "
+                    f"torque departs from the quadratic through its values at 1, 2 and 3 times {load.scale:g} rad/s by "
+                    f"{gap:.2g} of its size; a general law of the speeds (T0*(1 - exp(-omega1/w0))) is not supported yet")
+        elif isinstance(load, SpeedLoad):
             kin = mechanism.kinematics((np.arange(48) + 0.5) * (2.0 * math.pi / 48))
             gap = load.affine_gap(kin, max(abs(values["omega1_start"]), 10.0))
             if not gap <= 1e-9:
@@ -399,8 +409,8 @@ def _check_affine(loads, mechanism, values, where: str) -> None:
                 raise DefinitionError(
                     f"{where}: {written} is not affine in the speeds (omega1, P_vx, P_vy, U_dot): its torque departs "
                     f"from Q0 + omega1 Q1 by {gap:.2g} of its size. The fast path, the kernel and the FMUs hold a "
-                    "load of the speeds as Q0(phi1) + omega1 Q1(phi1) (a brake -c*omega1, a generator a + b*omega1, a "
-                    "damper -c*P_vx); a load in omega1**2 (a fan, a propeller) is not supported yet")
+                    "load of the speeds of degree 1 as Q0(phi1) + omega1 Q1(phi1) (a brake -c*omega1, a generator "
+                    "a + b*omega1, a damper -c*P_vx), one of degree 2 (a fan -c*omega1*abs(omega1)) by its parts")
 
 
 @dataclass

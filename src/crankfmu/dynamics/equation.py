@@ -76,7 +76,15 @@ class MovementEquation:
         self.ports = list(reduced.ports)
         self.port_inputs = list(port_inputs) if port_inputs is not None else [0.0] * len(self.ports)
         self.n_rhs = 0
-        self.sliders = reduced.sliders
+        # a load of the speeds with columns (speed_loads.PolynomialSpeedLoad) is evaluated exactly here,
+        # smooth on each side of omega1 = 0: only the loads switched by the angle use the schedule,
+        # each from its own columns' offset in it
+        self.sliders = [load for load in reduced.sliders if not getattr(load, "has_speed_columns", False)]
+        offsets, offset = {}, 0
+        for load in reduced.sliders:
+            offsets[id(load)] = offset
+            offset += len(load.column_names)
+        self._slider_offsets = [(load, offsets[id(load)]) for load in self.sliders]
         self._smooth_velocity_loads = [load for load in reduced.loads
                                        if not load.position_only and load not in self.sliders]
 
@@ -111,11 +119,8 @@ class MovementEquation:
         if self.sliders and mode.direction != 0:
             _, forces = self.reduced.slider_schedule()
             side = 0 if mode.direction > 0 else 1
-            s = 0
-            for load in self.sliders:
-                n = len(load.column_names)
-                factors = forces[mode.interval, side, s:s + n]
-                s += n
+            for load, s in self._slider_offsets:
+                factors = forces[mode.interval, side, s:s + len(load.column_names)]
                 # a direction-dependent load has one column switched on per interval: the other
                 # direction's expressions are not evaluated on this hot path
                 for factor, column in zip(factors, load.columns(kin, factors != 0.0)):

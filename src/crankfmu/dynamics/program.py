@@ -94,6 +94,9 @@ class Program:
     #: crank turns of the machine's cycle (the scenario's cycle_turns): the reduced model's and the
     #: reactions' tables repeat over it
     cycle_turns: int = 1
+    #: (n_columns,) the power of omega1 each switched column's value is multiplied by (a load of the
+    #: speeds' parts in omega1 and omega1^2; 0 for the slider forces, kinks, directions)
+    column_powers: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
 
 
 class _Code:

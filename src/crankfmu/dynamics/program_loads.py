@@ -21,7 +21,42 @@ from __future__ import annotations
 
 from ..expressions import Expression
 from .program import BAND, REVERSALS, ROCKER, ZEROS, Unsupported
+from .speed_loads import SPEED_COLUMNS, quadratic_parts, speed_class, speed_scale
 from .user_loads import kinked
+
+
+class _Registers:
+    """A vector of registers with the arithmetic speed_loads.quadratic_parts does on arrays, emitted
+    as the program's instructions."""
+
+    def __init__(self, c, regs):
+        self.c, self.regs = c, list(regs)
+
+    def _apply(self, other, op, swap=False):
+        if isinstance(other, _Registers):
+            pairs = zip(self.regs, other.regs)
+        else:
+            literal = self.c.literal(float(other))
+            pairs = ((r, literal) for r in self.regs)
+        return _Registers(self.c, [self.c.emit(op, *((b, a) if swap else (a, b))) for a, b in pairs])
+
+    def __add__(self, other):
+        return self._apply(other, "add")
+
+    def __sub__(self, other):
+        return self._apply(other, "sub")
+
+    def __mul__(self, other):
+        return self._apply(other, "mul")
+
+    def __truediv__(self, other):
+        return self._apply(other, "div")
+
+    __radd__ = __add__
+    __rmul__ = __mul__
+
+    def __rsub__(self, other):
+        return self._apply(other, "sub", swap=True)
 
 
 class LoadClauses:
@@ -173,8 +208,14 @@ class LoadClauses:
             return [(link, point, regs.get("fx"), regs.get("fy"), regs.get("moment"))]
         direction = spec.get("direction_of")
         speeds = set(self.speed_names(at_rest=True))
-        if direction is None and any(Expression(str(spec[k]), at).names & speeds for k in ("fx", "fy", "moment")
-                                     if k in spec):
+        reads_speed = direction is None and any(Expression(str(spec[k]), at).names & speeds
+                                                for k in ("fx", "fy", "moment") if k in spec)
+        if reads_speed:
+            signed = speed_class({k: Expression(str(spec[k]), f"{at} {k}") for k in ("fx", "fy", "moment")
+                                  if k in spec}, speeds, at)
+            if signed is not None:
+                return self._speed_polynomial(spec, link, point, signed, at)
+        if reads_speed:
             # user_loads.SpeedLoad, affine in omega1: its value at rest with the position's loads, the
             # rest per omega1 as the viscous row (the difference of the two: the load at omega1 = 1
             # less the load at rest)
@@ -214,6 +255,52 @@ class LoadClauses:
                 "values": values, "searches": [(REVERSALS, rate, None, -1, -1, -1, -1)],
                 "column_names": (f"{link} {direction} rising", f"{link} {direction} falling"),
                 "applied": {("column", j): (lambda side=side: record(side)) for j, side in enumerate(sides)}}
+
+    def speed_names_at(self, omega1: float):
+        """user_loads.speed_names as registers at the crank speed ``omega1`` (rad/s): each speed is
+        omega1 times its transfer function."""
+        c, w = self.c, self.c.literal(omega1)
+        names = {"omega1": w}
+        for u in self.unknowns:
+            names[f"{u}_dot"] = c.mul(self.q(u)[1], w)
+        for p in self.points:
+            x = self.point(p)
+            names[f"{p}_vx"], names[f"{p}_vy"] = c.mul(x[2], w), c.mul(x[3], w)
+        return names
+
+    def _speed_polynomial(self, spec, link, point, signed, at):
+        """speed_loads.PolynomialSpeedLoad: its parts at rest and per omega1 with the position's loads
+        and the dampers, its omega1^2 part (and by direction, its parts of each power) as columns
+        whose values the kernel multiplies by omega1's powers; the parts fitted at six speeds."""
+        c = self.c
+        scale = speed_scale(self.scenario.values)
+        keys = [k for k in ("fx", "fy", "moment") if k in spec]
+
+        def parts():
+            def at_speed(w):                  # a vector of registers: one per key
+                names = {**self.position_names(), **self.speed_names_at(w)}
+                return _Registers(c, [c.expression(spec[k], names, f"{at} {k}") for k in keys])
+            sym, anti = quadratic_parts(at_speed, scale)
+            as_dict = lambda v: dict(zip(keys, v.regs))          # noqa: E731
+            return [as_dict(v) for v in sym], [as_dict(v) for v in anti]
+
+        def torque(part, index):
+            return lambda: self._user_torque(link, point, parts()[part][index])
+
+        def record(part, index):
+            return lambda: [(link, point, *(parts()[part][index].get(k) for k in ("fx", "fy", "moment")))]
+        chosen = [(0, 2)] + ([(1, 0), (1, 1), (1, 2)] if signed else [])
+        n = len(chosen)
+
+        def values():
+            side = c.emit("if_positive", self.omega1, self.one, c.emit("neg", self.one))
+            return [self.one] + [side] * (n - 1)
+        return {"position": torque(0, 0), "viscous": torque(0, 1),
+                "columns": lambda: [torque(part, index)() for part, index in chosen],
+                "values": values, "powers": tuple(power for _, power in SPEED_COLUMNS[:n]),
+                "column_names": tuple(f"{link} {name}" for name, _ in SPEED_COLUMNS[:n]),
+                "applied": {"1": record(0, 0), "omega1": record(0, 1),
+                            **{("column", j): record(part, index) for j, (part, index) in enumerate(chosen)}}}
 
     def _kinked_force(self, link, point, kinks, at):
         """user_loads.KinkedLoad: a column per pattern of its kinks' sides (the expressions on that

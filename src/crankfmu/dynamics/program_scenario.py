@@ -166,6 +166,9 @@ class _Compiler(LoadClauses):
             check_names=tuple(n for _, n in self.checks), row_names=tuple(row_names),
             n_ports=len(self.scenario.data.get("ports", [])),
             column_names=tuple(n for load in loads for n in load.get("column_names", ())),
+            column_powers=np.array([p for load in loads
+                                    for p in load.get("powers", (0,) * len(load.get("column_names", ())))],
+                                   dtype=np.int32),
             table_parameters=tuple(sorted(c.used)), found=tuple(self.found),
             coordinates=np.array(coordinates, dtype=np.int32).reshape(-1, 4), coordinate_names=tuple(coordinate_names),
             cycle_turns=self.scenario.cycle_turns, **reactions,

@@ -46,8 +46,9 @@ class ReducedModel:
         self.velocity_dependent = any(not load.position_only for load in loads)
         # switched loads: constant or tabulated between switch angles, by direction (slider forces,
         # direction-dependent user loads)
+        # (and a load of the speeds' parts in omega1^2 and by direction: speed_loads.PolynomialSpeedLoad)
         self.sliders = [load for load in loads if hasattr(load, "switch_angles") and not load.position_only
-                        and not getattr(load, "linear_in_omega1", False)]
+                        and (not getattr(load, "linear_in_omega1", False) or getattr(load, "has_speed_columns", False))]
         self._slider_schedule = None
 
     def slider_schedule(self):

@@ -70,11 +70,14 @@ class ReducedTable:
     construction: str = ""       # how the cubics were made (a Fourier series, or a spline of samples)
     n_ports: int = 0
     period: float = TWO_PI       # rad: the machine's cycle (cycle_turns turns) the functions repeat over
+    #: (n_sliders,) the power of omega1 each switched column's value is multiplied by (0; a load of
+    #: the speeds' parts 1 and 2: a fan's -c omega1 |omega1|); None: every column 0
+    powers: np.ndarray | None = None
 
     def arrays(self) -> tuple:
-        """(coefficients, switch_angles, forces, n_ports, period): the table as the C kernel takes it
-        (native.Tables)."""
-        return self.coefficients, self.switch_angles, self.forces, self.n_ports, self.period
+        """(coefficients, switch_angles, forces, n_ports, period, powers): the table as the C kernel
+        takes it (native.Tables)."""
+        return self.coefficients, self.switch_angles, self.forces, self.n_ports, self.period, self.powers
 
     @property
     def n_intervals(self) -> int:
@@ -104,7 +107,8 @@ class ReducedTable:
             direction = modes.direction_imposed(omega1)
             for s in range(self.forces.shape[2]):
                 force = np.where(direction > 0, self.forces[k, 0, s], np.where(direction < 0, self.forces[k, 1, s], 0.0))
-                Q = Q + force * values[FIRST_SLIDER + s]
+                power = 0 if self.powers is None else int(self.powers[s])
+                Q = Q + force * omega1 ** power * values[FIRST_SLIDER + s]
         return J, values[HALF_DJ], Q
 
 
@@ -156,9 +160,11 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
     coefficients, error, construction = build_cubics(engine, tolerance, n_start, n_max, loosest,
                                                      ("the reduced model", names, kinematic), reduced.cycle_turns)
     switch, forces = reduced.slider_schedule()
+    powers = np.array([p for load in sliders for p in getattr(load, "column_powers", (0,) * len(load.column_names))],
+                      dtype=np.int32)
     return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(name for load in sliders for name in load.column_names), construction,
-                        len(reduced.ports), reduced.period)
+                        len(reduced.ports), reduced.period, powers)
 
 
 @dataclass
@@ -278,7 +284,7 @@ def c_table(scenario, values: dict, tolerance: float = 1e-11, model=None) -> Red
         return None
     return ReducedTable(coefficients, switches, forces, error, tolerance, time.perf_counter() - started,
                         model.program.column_names, construction, model.program.n_ports,
-                        TWO_PI * model.program.cycle_turns)
+                        TWO_PI * model.program.cycle_turns, np.asarray(model.program.column_powers, dtype=np.int32))
 
 
 def c_output_tables(scenario, values: dict, quantities, tolerance: float, reaction_tolerance: float, reactions: bool,
@@ -349,6 +355,10 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
     names = tuple(name for name, _, _ in reaction_outputs(reduced.mechanism.definition))
     fixed = [load for load in reduced.loads if load.position_only]
     viscous = [load for load in reduced.loads if getattr(load, "linear_in_omega1", False)]
+    # a load of the speeds beyond affine (speed_loads.PolynomialSpeedLoad) gives its parts at rest and
+    # per omega1 as forces of its own; its other parts are columns
+    polynomial = [load for load in viscous if hasattr(load, "applied_parts")]
+    viscous = [load for load in viscous if load not in polynomial]
     with_rest = [load for load in viscous if hasattr(load, "parts")]       # user_loads.SpeedLoad
     columns = [(load, j) for load in reduced.sliders for j in range(len(load.column_names))]
 
@@ -367,6 +377,10 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
                solve(phi1, epsilon1=1.0, inertia=True),
                solve(phi1, omega1=1.0, inertia=True),
                solve(phi1, omega1=1.0, loads=viscous) - at_rest]
+        for k, term in ((0, 0), (1, 3)):            # the polynomial loads' parts at rest and per omega1
+            if polynomial:
+                out[term] = out[term] + solve(phi1, extra=lambda kin, k=k: [
+                    part for load in polynomial for part in load.applied_parts(kin)[k]])
         for load, j in columns:
             out.append(solve(phi1, extra=lambda kin, load=load, j=j: load.column_applied(kin, j)))
         for port in reduced.ports:

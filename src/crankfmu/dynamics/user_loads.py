@@ -6,10 +6,10 @@ unknown of the contours (link angles, slider coordinates) and every point's coor
 ``P_x``, ``P_y``. A ``force`` or ``couple`` may also read the speeds (a brake, a generator, a
 damper on a point): ``omega1`` (rad/s), each point's velocity ``P_vx``, ``P_vy`` (m/s) and each
 unknown's rate ``U_dot`` (rad/s or m/s: ``phi2_dot``, ``xB_dot``), all omega1 times a transfer
-function of phi1. Its torque must then be affine in the speeds, Q0(phi1) + omega1 Q1(phi1),
-which the fast path, the kernel and both FMUs hold exactly at every step (Q0 with the position's
-loads, Q1 as the viscous coefficient; nothing is tabulated in omega1); a load that is not
-affine (omega1**2) is refused by name. Each states its power, so the energy balance and the
+function of phi1. A torque affine in the speeds, Q0(phi1) + omega1 Q1(phi1), the fast path,
+the kernel and both FMUs hold exactly at every step (Q0 with the position's loads, Q1 as the
+viscous coefficient; nothing is tabulated in omega1); one of degree 2 (a fan) by its parts per
+power of omega1 (speed_loads.py); beyond that a load is refused by name. Each states its power, so the energy balance and the
 Newton-Euler reactions hold for it:
 
 - ``force`` at a point of a link, components ``fx``, ``fy`` (N): power F . v_P, reduced to the
@@ -386,11 +386,15 @@ def parse_user_load(spec, mechanism: Mechanism, links: set[str], values: dict, w
                 raise DefinitionError(f"{where}: {kind} needs {' or '.join(keys)} (expressions)")
             expressions = {k: expression(spec[k], k, may_read_speeds=True) for k in keys if k in spec}
             reads_speed = any(e.names & speeds for e in expressions.values())
-            kinks = None if reads_speed else kinked(expressions, f"{where}: {kind}")
+            if reads_speed:
+                from .speed_loads import speed_load
+
+                return [speed_load(link, point, expressions, mechanism, speeds, values, f"{where}: {kind}")]
+            kinks = kinked(expressions, f"{where}: {kind}")
             if kinks:
                 return [KinkedLoad(link, point, expressions, mechanism=mechanism, arguments=kinks[0],
                                    branches=kinks[1], calls=kinks[2])]
-            return [(SpeedLoad if reads_speed else ExpressionLoad)(link, point, expressions, mechanism=mechanism)]
+            return [ExpressionLoad(link, point, expressions, mechanism=mechanism)]
         if "." in str(direction):
             p, _, axis = str(direction).partition(".")
             if p not in mechanism.point_names or axis not in ("x", "y"):

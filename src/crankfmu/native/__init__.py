@@ -146,7 +146,7 @@ class _Tables(ctypes.Structure):
     _fields_ = [("coefficients", ctypes.c_void_p), ("n_functions", ctypes.c_int),
                 ("n", ctypes.c_int), ("switch_angles", ctypes.c_void_p), ("m", ctypes.c_int),
                 ("forces", ctypes.c_void_p), ("n_sliders", ctypes.c_int), ("n_ports", ctypes.c_int),
-                ("period", ctypes.c_double)]
+                ("period", ctypes.c_double), ("powers", ctypes.c_void_p)]
 
 
 LIBRARY = _load()
@@ -237,18 +237,21 @@ def _d(array: np.ndarray) -> int:
 class Tables:
     """A design's tables as the C kernel takes them; keeps the arrays alive while in use."""
 
-    def __init__(self, coefficients, switch_angles, forces, n_ports: int = 0, period: float = 2.0 * math.pi):
+    def __init__(self, coefficients, switch_angles, forces, n_ports: int = 0, period: float = 2.0 * math.pi,
+                 powers=None):
+        forces = np.ascontiguousarray(forces, dtype=float)
+        columns = forces.shape[2] if forces.ndim == 3 else 0
         self.arrays = (np.ascontiguousarray(coefficients, dtype=float),
-                       np.ascontiguousarray(switch_angles, dtype=float),
-                       np.ascontiguousarray(forces, dtype=float))
-        C, sw, fo = self.arrays
+                       np.ascontiguousarray(switch_angles, dtype=float), forces,
+                       np.ascontiguousarray(np.zeros(columns) if powers is None else powers, dtype=np.int32))
+        C, sw, fo, pw = self.arrays
         if C.shape[0] > _LAYOUT["MAX_FUNCTIONS"]:
             raise CrankfmuError(f"the C kernel takes at most {_LAYOUT['MAX_FUNCTIONS']} tabulated functions "
                                 f"(4, one per slider force and one per port), got {C.shape[0]}")
         if n_ports > MAX_PORTS:
             raise CrankfmuError(f"the C kernel takes at most {MAX_PORTS} ports, got {n_ports}")
         self.struct = _Tables(_d(C), C.shape[0], C.shape[1], _d(sw), sw.shape[0], _d(fo),
-                              fo.shape[2] if fo.ndim == 3 else 0, n_ports, period)
+                              fo.shape[2] if fo.ndim == 3 else 0, n_ports, period, pw.ctypes.data)
         self.pointer = ctypes.addressof(self.struct)
 
 

@@ -67,7 +67,8 @@ void kernel_coefficients(double t, double phi, double omega, double direction, d
     if (direction != 0.0) {
         int d = direction > 0.0 ? 0 : 1;
         int k = (int)interval;
-        for (int s = 0; s < T->n_sliders; s++) q += T->forces[((size_t)k * 2 + d) * T->n_sliders + s] * work[4 + s];
+        for (int s = 0; s < T->n_sliders; s++)
+            q += T->forces[((size_t)k * 2 + d) * T->n_sliders + s] * ck_column_speed(T, s, omega) * work[4 + s];
     }
     *half_dJ = work[1];
     *Q = q;

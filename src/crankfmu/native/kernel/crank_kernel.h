@@ -71,7 +71,9 @@ enum { CK_MAX_FUNCTIONS = 64 };
  * forces[k][direction 0 forward, 1 backward][n_sliders] of each switch interval. The last n_ports
  * functions are the ports' transfer functions (ds/dphi1 of a force's point along its axis, or
  * dangle/dphi1 of a couple's link): a port's input times its transfer function is a torque on the
- * crank, whose power is accounted in W_ext. */
+ * crank, whose power is accounted in W_ext. A switched column may be a load's part in omega1 or
+ * omega1^2 (a fan's -c omega1 |omega1|: columns per power, the direction's sign its value): powers[s]
+ * is the power of omega1 its value is multiplied by (0, 1 or 2; NULL: every column 0). */
 typedef struct {
     const double* coefficients;
     int n_functions, n;
@@ -81,7 +83,15 @@ typedef struct {
     int n_sliders;
     int n_ports;
     double period;
+    const int* powers;
 } CkTables;
+
+/* omega1 to column s's power (1 where it has none) */
+static inline double ck_column_speed(const CkTables* T, int s, double omega)
+{
+    int p = T->powers ? T->powers[s] : 0;
+    return p == 0 ? 1.0 : (p == 1 ? omega : omega * omega);
+}
 
 /* the hash of the sources this library was compiled from (sources.py computes the same) */
 CK_API const char* ck_source_digest(void);

@@ -325,6 +325,8 @@ static void read_mechanism(Reader* r)
     p->joints = read_ints(r, "the program's joints", &p->n_joints);
     p->term_inertia = read_ints(r, "the program's reaction terms", &p->n_terms_reaction);
     p->applied = read_ints(r, "the program's applied loads", &p->n_applied);
+    int n_powers;
+    d->column_powers = read_ints(r, "the program's column powers", &n_powers);
     int* scalars[] = {&p->n_q, &p->n_contours, &p->n_chains, &p->closed_form, &p->guess, &p->phi1, &p->kinematics,
                       &p->n_points, &p->omega1, &p->crank, &p->cycle_turns};
     for (size_t k = 0; k < sizeof scalars / sizeof scalars[0]; k++) *scalars[k] = read_int(r, "the program");
@@ -359,6 +361,8 @@ static void read_mechanism(Reader* r)
 
     expect_count(r, "table rows", p->n_rows, d->table_functions);
     expect_count(r, "table columns", p->n_columns, d->table_sliders);
+    expect_count(r, "column powers", n_powers, p->n_columns);
+    within(r, "the column powers", d->column_powers, n_powers, 0, 3);
     expect_count(r, "chain constants", n_chain_constants, 2 * p->n_chains);
     expect_count(r, "angle columns", n_angle_column, p->n_q);
     expect_count(r, "parameter values", n_value, d->n_program_parameters);

@@ -20,7 +20,7 @@
 
 #define CM_MODEL_FILE "crankfmu-model.bin"      /* its name in resources/ */
 #define CM_MODEL_MAGIC "crankfmu model\0\0"
-#define CM_MODEL_FORMAT 2
+#define CM_MODEL_FORMAT 3
 /* what the file's model is: a mechanism (crank_model.c), or a component (component_model.c): the
  * drive (torque out, speed in), the drive in speed causality (it carries the rotor), the die
  * cushion, the rod string, the elastic shaft */
@@ -81,6 +81,7 @@ typedef struct {
      * reactions: reaction k is sum_j reaction_terms weights (ck_reaction_weights) times the
      * reactions table's cubics k reaction_terms + j (ReactionTable) */
     const int *quantity_coordinate, *quantity_order;
+    const int *column_powers;       /* each switched column's power of omega1 (CkTables.powers) */
     /* the scenario compiled for the C mechanism model, and each of its parameters' value reference
      * (-1: a parameter the FMU does not declare, at program_parameter_value), name; the names of
      * its checks and unknowns; the geometry parameters a refused assembly names, and the
