@@ -12,6 +12,11 @@ workpiece, on every path.
   Exchange (CVode at 1e-10) within 1e-6. A native FMU with x_w and k_w set before initialisation
   relocates its contact angles (the same reference at those values, 1e-8).
 - A load with more kinks than it may have is refused by name.
+- Jansen's leg (tests/data/user/jansen*.toml, written from the guide: seven bodies, three contours,
+  its plates' angles constants that follow their sides) walking on the ground through
+  fy = k_g max(0, y_ground - G_y): the fast path, the Python FMU and the native FMI 2.0 and 3.0
+  FMUs (Co-Simulation) within 1e-8 of an independent reference over 4 s (tests/jansen_reference.py:
+  circle intersections, complex-step velocities, Lagrange's equation); Model Exchange within 1e-6.
 """
 
 from __future__ import annotations
@@ -243,3 +248,53 @@ def test_a_kink_that_keeps_one_side_over_the_turn_acts_on_it(scenario, tmp_path)
     assert np.max(np.abs(runs[0] - runs[2])) <= 1e-10 * np.max(np.abs(runs[2]))
     assert np.max(np.abs(runs[1] - runs[3])) <= 1e-10 * np.max(np.abs(runs[3]))
     assert np.max(np.abs(runs[2] - runs[0])) < np.max(np.abs(runs[2] - runs[2][0]))    # the load does act
+
+
+# ------------------------------------------------------------------------------------------------
+# Jansen's leg walking on the ground
+
+JANSEN = SCENARIO.parent / "jansen_scenario.toml"
+JANSEN_STOP = 4.0
+
+
+@pytest.fixture(scope="module")
+def jansen(tmp_path_factory):
+    import jansen_reference
+
+    scenario = crankfmu.load_scenario(str(JANSEN))
+    out = tmp_path_factory.mktemp("jansen")
+    fmus = {}
+    for folder, extra in (("python", []), ("native", ["--native"]), ("native3", ["--native", "--fmi-version", "3"])):
+        assert main(["fmu", str(JANSEN), *extra, "--out", str(out / folder)]) == 0
+        fmus[folder] = out / folder / "JansenLeg.fmu"
+    reference = jansen_reference.omega1({k: scenario[k] for k in scenario.parameters}, JANSEN_STOP)
+    return scenario, fmus, reference
+
+
+def test_jansens_leg_touches_the_ground_twice_a_turn(jansen):
+    scenario, _, _ = jansen
+    model = scenario.build()
+    assert len(table_of(model.reduced).switch_angles) == 2
+
+
+def test_jansens_leg_walks_on_the_fast_path(jansen):
+    scenario, _, reference = jansen
+    times = np.linspace(0.0, JANSEN_STOP, 801)
+    result = crankfmu.simulate(scenario, t_end=JANSEN_STOP, method="fast", rtol=None, output_times=times)
+    expected = reference(times)
+    assert np.max(np.abs(result.omega1 - expected)) / np.max(np.abs(expected)) < 1e-8
+
+
+@pytest.mark.parametrize("fmu", ["python", "native", "native3"])
+def test_jansens_leg_walks_in_every_fmu(jansen, fmu):
+    from fmpy import simulate_fmu
+
+    _, fmus, reference = jansen
+    result = simulate_fmu(str(fmus[fmu]), stop_time=JANSEN_STOP, output_interval=1e-3, output=["omega1"])
+    expected = reference(result["time"])
+    assert np.max(np.abs(result["omega1"] - expected)) / np.max(np.abs(expected)) < 1e-8
+    if fmu != "python":
+        me = simulate_fmu(str(fmus[fmu]), stop_time=JANSEN_STOP, output_interval=1e-3, output=["omega1"],
+                          fmi_type="ModelExchange", relative_tolerance=1e-10)
+        at = reference(me["time"])
+        assert np.max(np.abs(me["omega1"] - at)) / np.max(np.abs(at)) < 1e-6
