@@ -99,7 +99,7 @@ $(FMU_STAMP): $(STAMP) $(FMU_SOURCES) $(wildcard $(DEV_STAMP))
 	@touch $@
 
 fmu-python: $(STAMP)
-	@for s in seed000 seed001 seed002 seed003 seed004 pumpjack engine1 engine4; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
+	@for s in seed000 seed001 seed002 seed003 seed004 pumpjack engine1 engine4 jansen; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
 	@$(BIN)/crankfmu fmu dc_pi --drive --out build/fmus
 	@$(BIN)/crankfmu fmu seed000 --causality speed --out build/fmus
 	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --out build/fmus
@@ -109,9 +109,9 @@ fmu-python: $(STAMP)
 
 # native FMUs (C, linux64 and win64, no Python on the host)
 fmu-native-a: $(STAMP)
-	@for s in seed000 seed001 seed002 engine1; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
+	@for s in seed000 seed001 seed002 engine1 jansen; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
 	@$(BIN)/crankfmu fmu seed000 --native --causality speed --out build/fmus/native
-	@for s in seed000 seed001 seed002 engine1; do $(BIN)/crankfmu fmu $$s --native --fmi-version 3 --out build/fmus/native3 || exit 1; done
+	@for s in seed000 seed001 seed002 engine1 jansen; do $(BIN)/crankfmu fmu $$s --native --fmi-version 3 --out build/fmus/native3 || exit 1; done
 
 fmu-native-b: $(STAMP)
 	@for s in seed003 seed004 pumpjack engine4; do $(BIN)/crankfmu fmu $$s --native --out build/fmus/native || exit 1; done
@@ -174,6 +174,10 @@ demo-well: $(STAMP)
 	$(BIN)/crankfmu simulate engine1 --method fast --out $(OUT)/engine1
 	$(BIN)/crankfmu flywheel engine1 --delta 0.02 --out $(OUT)/engine1
 	$(BIN)/crankfmu draw engine1 --out $(OUT)/engine1/mechanism.png
+	# a machine that touches: Jansen's leg walking on the ground (a max() contact), its foot's path
+	$(BIN)/crankfmu simulate jansen --method fast --out $(OUT)/jansen
+	$(BIN)/crankfmu draw jansen --out $(OUT)/jansen/mechanism.png
+	$(BIN)/crankfmu animate jansen --result $(OUT)/jansen --out $(OUT)/jansen/run.gif
 	$(BIN)/crankfmu animate seed000 --result $(OUT) --out $(OUT)/seed000_run.gif
 	for s in seed003 seed004; do $(BIN)/crankfmu animate $$s --out $(OUT)/$$s/mechanism.gif || exit 1; done
 

@@ -1,4 +1,4 @@
-"""An independent reference of Jansen's leg on the ground (tests/data/user/jansen*.toml): its
+"""An independent reference of Jansen's leg on the ground (the packaged scenario jansen): its
 positions by circle intersections (no contour, no Newton), the points' velocities per omega1 by
 complex-step differentiation of those positions (exact to rounding), J(phi1) from the links' mass
 centres and angular velocities, J' by an 8th-order central difference of J, the Lagrange equation

@@ -53,12 +53,14 @@ def _scenario(name, guide):
 
 def _perturbed(scenario):
     """The scenario with its first geometry parameter 2 % longer (or shorter, where longer does not
-    assemble), and every mass 10 % heavier: a design of another geometry."""
+    assemble), and every mass parameter that is no length 10 % heavier (Jansen's leg's masses are its
+    bars' lengths times q): a design of another geometry."""
     definition = scenario.mechanism_definition()
     for factor in (1.02, 0.98):
         name = definition.geometry_parameters[0]
         changes = {name: scenario[name] * factor}
-        changes.update({p: scenario[p] * 1.1 for p in definition.mass_parameters if p in scenario.parameters})
+        changes.update({p: scenario[p] * 1.1 for p in definition.mass_parameters
+                        if p in scenario.parameters and p not in definition.geometry_parameters})
         candidate = scenario.with_params(**changes)
         try:
             candidate.build()

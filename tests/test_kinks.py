@@ -12,7 +12,7 @@ workpiece, on every path.
   Exchange (CVode at 1e-10) within 1e-6. A native FMU with x_w and k_w set before initialisation
   relocates its contact angles (the same reference at those values, 1e-8).
 - A load with more kinks than it may have is refused by name.
-- Jansen's leg (tests/data/user/jansen*.toml, written from the guide: seven bodies, three contours,
+- Jansen's leg (the packaged scenario jansen, written from the guide: seven bodies, three contours,
   its plates' angles constants that follow their sides) walking on the ground through
   fy = k_g max(0, y_ground - G_y): the fast path, the Python FMU and the native FMI 2.0 and 3.0
   FMUs (Co-Simulation) within 1e-8 of an independent reference over 4 s (tests/jansen_reference.py:
@@ -253,7 +253,7 @@ def test_a_kink_that_keeps_one_side_over_the_turn_acts_on_it(scenario, tmp_path)
 # ------------------------------------------------------------------------------------------------
 # Jansen's leg walking on the ground
 
-JANSEN = SCENARIO.parent / "jansen_scenario.toml"
+JANSEN = "jansen"          # the packaged scenario
 JANSEN_STOP = 4.0
 
 
@@ -261,11 +261,11 @@ JANSEN_STOP = 4.0
 def jansen(tmp_path_factory):
     import jansen_reference
 
-    scenario = crankfmu.load_scenario(str(JANSEN))
+    scenario = crankfmu.load_scenario(JANSEN)
     out = tmp_path_factory.mktemp("jansen")
     fmus = {}
     for folder, extra in (("python", []), ("native", ["--native"]), ("native3", ["--native", "--fmi-version", "3"])):
-        assert main(["fmu", str(JANSEN), *extra, "--out", str(out / folder)]) == 0
+        assert main(["fmu", JANSEN, *extra, "--out", str(out / folder)]) == 0
         fmus[folder] = out / folder / "JansenLeg.fmu"
     reference = jansen_reference.omega1({k: scenario[k] for k in scenario.parameters}, JANSEN_STOP)
     return scenario, fmus, reference

@@ -35,7 +35,7 @@ DESCRIPTION = """Planar crank mechanisms with their motor, flywheel and loads, f
 simulate them, study them as the papers do, and build FMUs of them (Python: FMI 2.0 Co-Simulation;
 native: FMI 2.0 or 3.0, Co-Simulation and Model Exchange) that the validation harness proves against
 an in-process reference. Each command takes a packaged
-scenario name (seed000 ... seed004, pumpjack) or the path of your own scenario file;
+scenario name (seed000 ... seed004, pumpjack, engine1, engine4, jansen) or the path of your own scenario file;
 crankfmu COMMAND --help tells more."""
 
 

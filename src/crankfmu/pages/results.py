@@ -25,7 +25,8 @@ from ..errors import CrankfmuError
 from .markup import page
 
 #: the order of the groups: the papers' scenarios, the beam pumping unit and its well, the engines
-ORDER = ("seed000", "seed001", "seed002", "seed003", "seed004", "pumpjack", "rp11l_guo", "engine1", "engine4")
+ORDER = ("seed000", "seed001", "seed002", "seed003", "seed004", "pumpjack", "rp11l_guo", "engine1", "engine4",
+         "jansen")
 IMAGES = (".png", ".gif")
 
 
