@@ -6,6 +6,9 @@
   the fast path, the reference integrator, the Python FMU and the native FMI 2.0 and 3.0 FMUs
   (Co-Simulation) against the independent Lagrange reference of test_kinks with the fan's torque,
   within 1e-8; Model Exchange (CVode at 1e-10) within 1e-6.
+- The four-stroke engine driving a fan (tests/data/user/engine4s_fan_scenario.toml, a cycle of two
+  turns): the fast path and the native FMU within 1e-7 of the hand-written reference of
+  tests/engine_reference.py with the fan's torque (no crankfmu code).
 - The four-cylinder engine driving a fan in place of its generator: the fast path and the native
   FMU against the reference integrator within 1e-7, and the fast path's energy balance closed.
 - A law that is no polynomial of degree <= 2 in the speeds (1 - exp(-omega1/w0), omega1**3) is refused by
@@ -97,6 +100,29 @@ def test_the_fmus_drive_the_fan(press, fmu):
                           fmi_type="ModelExchange", relative_tolerance=1e-10)
         at = press_reference(values, me["time"], fan)       # ME's rows include its events' times
         assert np.max(np.abs(me["omega1"] - at)) / np.max(np.abs(at)) < 1e-6
+
+
+def test_the_four_stroke_engine_drives_a_fan(tmp_path):
+    """The hand-written engine's motor torque with the fan's beside it: A - B omega1 - c omega1 |omega1|."""
+    from fmpy import simulate_fmu
+
+    from engine_reference import Engine
+
+    path = USER / "engine4s_fan_scenario.toml"
+
+    class FanEngine(Engine):
+        def torque(self, omega):
+            return super().torque(omega) - self.p["c_fan"] * omega * abs(omega)
+    scenario = crankfmu.load_scenario(str(path))
+    stop = scenario.data["experiment"]["stop_time"]
+    assert main(["fmu", str(path), "--native", "--out", str(tmp_path)]) == 0
+    native = simulate_fmu(str(tmp_path / "Engine4SFan.fmu"), stop_time=stop, output_interval=1e-3, output=["omega1"])
+    expected = FanEngine(path).run(native["time"])
+    fast = crankfmu.simulate(scenario, t_end=stop, method="fast", rtol=None, output_times=native["time"])
+    scale = np.max(np.abs(expected))
+    assert np.max(np.abs(fast.omega1 - expected)) / scale < 1e-7
+    assert np.max(np.abs(native["omega1"] - expected)) / scale < 1e-7
+    assert np.max(np.abs(expected - Engine(path).run(native["time"]))) > 1.0       # the fan acts
 
 
 def test_the_four_cylinder_engine_drives_a_fan(tmp_path):
