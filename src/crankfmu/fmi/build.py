@@ -39,6 +39,7 @@ from .. import units as si
 from ..contract import direct_dependencies
 from ..atomic import replacing
 from ..errors import CrankfmuError
+from .archive import add_bytes, add_file
 from .background import reference_beside
 from .reference import LS_REF, LS_REF_MANIFEST, cross_check_options
 from .source import Source, preflight, vendor_annotations
@@ -335,19 +336,19 @@ def build(kind: str, data_name: str, dest: Path, name: str | None = None, causal
                     with stage(name, "the documentation"):
                         docs = source.documentation(name, data, slave_parameters, reference_run, build="python",
                                                     platforms=sorted(platform_binaries))
-                zout.writestr(item, data)
+                add_bytes(zout, item.filename, data, like=item)
             reference = reference_run()
             with stage(name, "writing the FMU"):
                 for platform, library in platform_binaries.items():
                     inner = f"{name}_pythonfmu.so" if platform == "linux64" else f"{name}{library.suffix}"
-                    zout.write(library, f"binaries/{platform}/{inner}")
-                zout.write(shim, binary)
-                zout.writestr("resources/python_env.txt", python_env())
+                    add_file(zout, library, f"binaries/{platform}/{inner}")
+                add_file(zout, shim, binary)
+                add_bytes(zout, "resources/python_env.txt", python_env())
                 for path, content in docs.items():
-                    zout.writestr(path, content)
+                    add_bytes(zout, path, content)
                 if reference is not None:
-                    zout.writestr(f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=name))
-                    zout.writestr(f"{LS_REF}/{name}_out.csv", reference)
+                    add_bytes(zout, f"{LS_REF}/fmi-ls-manifest.xml", LS_REF_MANIFEST.format(name=name))
+                    add_bytes(zout, f"{LS_REF}/{name}_out.csv", reference)
         if reference is not None:
             with stage(name, "writing the cross-check files"):
                 Path(written.enter_context(replacing(dest / f"{name}_ref.csv"))).write_text(reference, encoding="utf-8")

@@ -28,6 +28,7 @@ from pathlib import Path
 
 from ..atomic import replacing
 from ..errors import CrankfmuError
+from .archive import add_bytes, add_file
 from ..native.sources import FMU_COMPILERS, PLATFORMS, RUNTIMES, compile_runtime, runtime, runtime_files, runtime_name
 from .background import reference_beside
 from .reference import LS_REF, LS_REF_MANIFEST, cross_check_options
@@ -122,15 +123,15 @@ def package_native(source, dest: Path, describe, parameters: dict, reference, ex
             reference()
         partial = written.enter_context(replacing(out))
         with stage(fmu, "writing the FMU"), zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("modelDescription.xml", md)
+            add_bytes(z, "modelDescription.xml", md)
             for folder, binary in runtimes.items():
-                z.write(binary, f"binaries/{folder}/{fmu}{binary.suffix}")
+                add_file(z, binary, f"binaries/{folder}/{fmu}{binary.suffix}")
             for path in files:
-                z.write(path, f"sources/{path.name}")
-            z.writestr("sources/CMakeLists.txt", cmake_lists(fmu))
-            z.writestr("sources/buildDescription.xml", build_description(fmu, sources))
+                add_file(z, path, f"sources/{path.name}")
+            add_bytes(z, "sources/CMakeLists.txt", cmake_lists(fmu))
+            add_bytes(z, "sources/buildDescription.xml", build_description(fmu, sources))
             for path, content in {**docs, **extra}.items():
-                z.writestr(path, content)
+                add_bytes(z, path, content)
         if check is not None:
             with stage(fmu, "initialising the FMU at its start values"):
                 check()

@@ -48,6 +48,7 @@ from xml.sax.saxutils import quoteattr
 
 from ..atomic import replacing
 from ..errors import CrankfmuError
+from .archive import add_bytes, add_file
 
 MOTOR_OFF = {"A": 0.0, "B": 0.0, "A_low": 0.0, "B_low": 0.0}
 #: the well of PumpingWell.ssp
@@ -277,12 +278,12 @@ def write_ssp(fmus: Path, out: Path, stop_time: float | None = None, step: float
     out.mkdir(parents=True, exist_ok=True)
     path = out / f"{system}.ssp"
     with replacing(path) as partial, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd", _ssd(spec, sets, stop_time, step))
+        add_bytes(z, "SystemStructure.ssd", _ssd(spec, sets, stop_time, step))
         for name, per_component in sets.items():
             for comp, values in per_component.items():
-                z.writestr(f"ssv/{name}_{comp}.ssv", _ssv(name, values))
+                add_bytes(z, f"ssv/{name}_{comp}.ssv", _ssv(name, values))
         for stem, fmu in paths.items():
-            z.write(fmu, f"resources/{stem}.fmu")
+            add_file(z, fmu, f"resources/{stem}.fmu")
     return path
 
 
