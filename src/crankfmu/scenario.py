@@ -22,7 +22,7 @@ from .contract import CONTRACT_PARAMETERS
 from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation, ReducedModel,
                        SliderForce, ViscousForce, Weights)
 from .dynamics.equation import STATE_SIZE
-from .dynamics.user_loads import parse_user_load
+from .dynamics.user_entries import parse_user_load
 from .datafiles import packaged, read_toml
 from .errors import AssemblyError, CrankfmuError, DefinitionError, ParameterError, ScenarioNotFound
 from .expressions import Expression, evaluate
