@@ -21,6 +21,7 @@ workpiece, on every path.
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from pathlib import Path
@@ -135,6 +136,35 @@ def test_the_contact_angles_are_where_the_ram_meets_the_workpiece(scenario, valu
     python_angles = model.reduced.slider_schedule()[0]
     assert np.allclose(sorted(c_angles), closed, atol=1e-12, rtol=0)
     assert np.allclose(sorted(python_angles), closed, atol=1e-12, rtol=0)
+
+
+def test_simulate_draws_the_contact_force_at_its_located_angles(values, tmp_path):
+    """contacts.png's caption states the switch angles and the peak of fx = -k_w max(0, xB - x_w):
+    both against the hand-written xB(phi1) (brentq for the angles, a 0.01 deg grid for the peak, the
+    figure's grid being 0.05 deg: the peak of a smooth curve is met to (0.05 deg)^2)."""
+    from PIL import Image
+
+    assert main(["simulate", str(SCENARIO), "--method", "fast", "--out", str(tmp_path)]) == 0
+    with Image.open(tmp_path / "contacts.png") as image:
+        caption = image.text["Description"]
+    gap = lambda phi: lagrange_terms(phi, values)[3] - values["x_w"]       # noqa: E731
+    grid = np.linspace(0.0, 2 * math.pi, 36001)
+    gaps = np.array([gap(a) for a in grid])
+    crossing = np.flatnonzero(np.sign(gaps[:-1]) != np.sign(gaps[1:]))
+    closed = sorted(math.degrees(brentq(gap, grid[i], grid[i + 1], xtol=1e-15)) for i in crossing)
+    stated = re.search(r"switches at phi1 = ([0-9.]+), ([0-9.]+) deg", caption)
+    assert stated, caption
+    assert [float(a) for a in stated.groups()] == pytest.approx(closed, abs=0.006)      # printed to 0.01 deg
+    peak = re.search(r"fx on slider at B peaks at ([-0-9.e+]+) N", caption)
+    assert peak, caption
+    expected = -values["k_w"] * np.max(np.maximum(gaps, 0.0))
+    assert float(peak.group(1)) == pytest.approx(expected, rel=1e-3)                   # printed to 4 digits
+    assert json.loads((tmp_path / "summary.json").read_text())["figures"][-1] == "contacts.png"
+
+
+def test_a_run_without_a_kink_draws_no_contact(tmp_path):
+    assert main(["simulate", "seed000", "--method", "fast", "--out", str(tmp_path)]) == 0
+    assert not (tmp_path / "contacts.png").exists()
 
 
 @pytest.mark.parametrize("method", ["fast", "reference"])

@@ -1,6 +1,7 @@
 """The reports: what each job writes from its result (CSV, JSON and the figures of ``plots``).
 
-A run of ``crankfmu simulate``: timeseries.csv, summary.json and paper Figs. 3-4; the equilibrium
+A run of ``crankfmu simulate``: timeseries.csv, summary.json, paper Figs. 3-4 and, where loads have
+kinks, their contact figure; the equilibrium
 study: summary.json, one CSV per speed, the moments and reactions; the flywheel study:
 flywheel.json and its four figures. The studies compute and return dataclasses; writing is here.
 """
@@ -16,6 +17,7 @@ import numpy as np
 from .plots import (plot_cycles, plot_flywheel, plot_inertia, plot_moments, plot_movement, plot_reactions,
                     plot_stability, plot_turning_moment)
 from .contract import COLUMNS
+from .pictures.contact import plot_contacts
 from .simulation import Result
 from .atomic import replacing, write_text
 
@@ -67,8 +69,9 @@ def write_run(result: Result, out_dir: str | Path) -> dict:
     summary = result.summary()
     summary["columns"] = {**COLUMNS, **{name: unit for name, (_, unit) in extra_columns(result).items()}}
     write_timeseries(result, out / "timeseries.csv")
+    figures = plot_cycles(result, out, exp.cycles, exp.summary_cycle) + plot_contacts(result, out)
+    summary["figures"] = [p.name for p in figures]
     write_summary(summary, out / "summary.json")
-    plot_cycles(result, out, exp.cycles, exp.summary_cycle)
     return summary
 
 

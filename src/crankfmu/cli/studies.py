@@ -54,7 +54,7 @@ def cmd_simulate(args) -> int:
     print(f"  J_red       {summary['J_red_min']:.6f} .. {summary['J_red_max']:.6f} kg.m2")
     print(f"  energy      W_motor {e['W_motor']:.4f} J, W_load {e['W_load']:.4f} J, dE_kin {e['dE_kin']:.4f} J "
           f"over {e['over']}: residual {e['residual']:.2e}")
-    print(f"  wrote {args.out}/timeseries.csv, summary.json, omega1_cycles.png, omega1_cycle{k}.png")
+    print(f"  wrote {args.out}/timeseries.csv, summary.json, {', '.join(summary['figures'])}")
     return 0
 
 
