@@ -114,3 +114,61 @@ def test_the_cli_page_check_fails_on_a_missing_option_or_command():
     # a command's section gone
     without = re.sub(r"^## crankfmu well\n.*?(?=^## )", "", text, flags=re.M | re.S)
     assert "crankfmu well" in missing_from_cli_page(without)
+
+
+def option_rows(section: str) -> dict[str, tuple[str, str]]:
+    """A cli.md section's option table: ``--flag`` -> (meaning, default), the cells as written."""
+    rows = {}
+    for line in section.splitlines():
+        m = re.match(r"^\| `(--[\w-]+)[^`]*` \|", line)
+        if m:
+            cells = [c.strip() for c in re.split(r"(?<!\\)\|", line.strip())[1:-1]]
+            rows[m.group(1)] = (cells[1], cells[2]) if len(cells) >= 3 else (cells[-1], "")
+    return rows
+
+
+def help_disagreements(text: str) -> list[str]:
+    """Where ``crankfmu COMMAND --help`` and docs/cli.md say different things: a command whose
+    description opens with a leaked usage line (``crankfmu ...``), an option without help text, an
+    option of the page's tables that the command does not have, a required option the page does not
+    call required (or the reverse), a default the page's table does not state."""
+    import argparse
+
+    sections = cli_sections(text)
+    found = []
+    for name, parser in cli_parsers():
+        if not name:
+            continue
+        if (parser.description or "").lstrip().startswith("``"):
+            found.append(f"crankfmu {name} --help: its description opens with a usage line")
+        actions = {s: a for a in parser._actions for s in a.option_strings if s.startswith("--") and s != "--help"}
+        for flag, action in actions.items():
+            if not (action.help or "").strip():
+                found.append(f"crankfmu {name} {flag}: no help text")
+        rows = option_rows(sections.get(name, ""))
+        for flag, (_, default) in rows.items():
+            action = actions.get(flag)
+            if action is None:
+                found.append(f"crankfmu {name} {flag}: in docs/cli.md's table, not in the command")
+                continue
+            if action.required != (default == "required"):
+                found.append(f"crankfmu {name} {flag}: required {action.required}, docs/cli.md says {default!r}")
+            value = action.default
+            if isinstance(value, (int, float, str)) and not isinstance(value, bool) and value != argparse.SUPPRESS:
+                if str(value) not in default:
+                    found.append(f"crankfmu {name} {flag}: default {value!r}, docs/cli.md says {default!r}")
+    return found
+
+
+def test_every_help_agrees_with_the_cli_page():
+    found = help_disagreements(CLI_PAGE.read_text())
+    assert not found, "\n".join(found)
+
+
+def test_the_help_check_fails_on_a_changed_default_or_a_documented_option_the_command_lacks():
+    text = CLI_PAGE.read_text()
+    changed = text.replace("| `--frames N` | frames, spread evenly over the motion | 120 |",
+                           "| `--frames N` | frames, spread evenly over the motion | 100 |")
+    assert "crankfmu animate --frames: default 120, docs/cli.md says '100'" in help_disagreements(changed)
+    extra = text.replace("| `--fps N` |", "| `--fps N` | x | 20 |\n| `--speed X` |")
+    assert "crankfmu animate --speed: in docs/cli.md's table, not in the command" in help_disagreements(extra)

@@ -5,8 +5,8 @@ passed, M failed`` with each other verdict counted (disagree, fitted, not compar
 at least one passed; 1 on any failure (a published number that changed included) or when nothing
 passed; 2 on bad input (an --fmu that is not an FMU crankfmu built).
 
-Without ``--fmu`` it takes every FMU under build/fmus/ (the native ones in build/fmus/native/
-too). Each FMU is checked as its kind asks (its crankfmu VendorAnnotation says what it is):
+Without ``--fmu`` it takes every FMU under build/fmus/ and its folders (make fmu's native/ and
+native3/). Each FMU is checked as its kind asks (its crankfmu VendorAnnotation says what it is):
 
 * a mechanism in torque causality, Python or native: the default experiment against the
   reference in each interface it has (Co-Simulation; Model Exchange through fmpy's CVode), every
@@ -33,6 +33,7 @@ import traceback
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from crankfmu.cli.arguments import described
 from crankfmu.errors import CrankfmuError
 
 from .checks import CheckList
@@ -360,9 +361,10 @@ def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None =
 
 
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
-    parser = parser or argparse.ArgumentParser(prog="crankfmu validate", description=__doc__.split("\n\n")[0])
+    parser = parser or argparse.ArgumentParser(prog="crankfmu validate", description=described(__doc__))
     parser.add_argument("--fmu", action="append", default=[], metavar="PATH",
-                        help=f"an FMU to validate (repeatable; default: every FMU under {DEFAULT_FMUS}/)")
+                        help=f"an FMU to validate, repeatable; any FMU crankfmu built, from any folder (default: "
+                             f"every FMU under {DEFAULT_FMUS}/ and its folders, make fmu's native/ and native3/)")
     parser.add_argument("--out", default="build/validation",
                         help="directory for report.md and the plots (default: build/validation)")
     parser.add_argument("--quick", action="store_true", help="the CI subset: shorter hard cases, fewer "
@@ -370,7 +372,8 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
                         help="worker processes, one data file's FMUs each (default: the machine's cores)")
     parser.add_argument("--junit", default=None, metavar="FILE",
-                        help="also write the checks as JUnit XML (one test case per check) for a CI system")
+                        help="also write the checks as JUnit XML (one test case per check) for a CI system "
+                             "(default: none)")
     return parser
 
 

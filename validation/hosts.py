@@ -27,6 +27,7 @@ import numpy as np
 from . import coupling, masters
 from .fmu_runner import FmuUnderTest
 from crankfmu.atomic import write_text
+from crankfmu.cli.arguments import described
 
 REFUSAL = "J_flywheel: parameter J_flywheel = -1.0 is out of range: valid range [0, inf) kg.m2"
 LIBCOSIM_ABORT = ("libcosim aborts (SIGABRT) after showing the refusal: cosim::error thrown from "
@@ -188,10 +189,11 @@ def run(fmus: Path, out: Path, quick: bool) -> int:
 
 
 def build_parser(parser=None):
-    parser = parser or argparse.ArgumentParser(prog="crankfmu hosts", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--fmus", default="build/fmus", help="folder with FourBar.fmu and Drive.fmu (make fmu)")
-    parser.add_argument("--out", default="build/hosts")
-    parser.add_argument("--quick", action="store_true", help="the SSP at 1 ms only (make test)")
+    parser = parser or argparse.ArgumentParser(prog="crankfmu hosts", description=described(__doc__))
+    parser.add_argument("--fmus", default="build/fmus",
+                        help="folder with FourBar.fmu, Drive.fmu and the other FMUs (make fmu)")
+    parser.add_argument("--out", default="build/hosts", help="output folder (the plot cosim_error.png)")
+    parser.add_argument("--quick", action="store_true", help="the SSPs at 1 ms only (what make test runs)")
     return parser
 
 

@@ -84,7 +84,7 @@ def write_equilibrium(scenario, results: list, out_dir) -> dict:
                         "max_couple_Nm": "N.m", "technological_work_per_cycle_J": "J"}
     summary["scenario"] = scenario.name
     summary["parameters"] = scenario.values
-    write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    written = []
     for r in results:
         m = r.moment
         columns = {"phi1_deg": np.degrees(m.phi1), "Me": m.total, "Me_static": m.static,
@@ -97,9 +97,12 @@ def write_equilibrium(scenario, results: list, out_dir) -> dict:
         with replacing(out / f"equilibrium_{r.key}.csv") as partial:
             np.savetxt(partial, np.column_stack(list(columns.values())),
                        delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
-    plot_moments(scenario, results, out)
-    plot_reactions(scenario, results[0], out / f"reactions_{results[0].key}.png",
-                   [math.degrees(b) for b in results[0].switches])
+        written.append(out / f"equilibrium_{r.key}.csv")
+    written += plot_moments(scenario, results, out)
+    written.append(plot_reactions(scenario, results[0], out / f"reactions_{results[0].key}.png",
+                                  [math.degrees(b) for b in results[0].switches]))
+    summary["files"] = [p.name for p in written]
+    write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary
 
 

@@ -20,3 +20,14 @@ def parse_sets(items: list[str]) -> dict[str, float]:
 
 def parse_points(text: str | None):
     return None if text is None else [p.strip() for p in text.split(",") if p.strip()]
+
+
+def described(docstring: str) -> str:
+    """A command's description from its module's docstring: the first paragraph, without the
+    usage line it may open with (``crankfmu validate [--fmu PATH ...]``: ...), which argparse
+    prints above it already."""
+    import re
+
+    first = " ".join(docstring.strip().split("\n\n")[0].split())
+    first = re.sub(r"^``[^`]+``:\s*", "", first)
+    return first[:1].upper() + first[1:]

@@ -106,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
                           "and without inertia, and the joint reactions (seed 001 Figs. 2-5)")
     p.add_argument("--omega", default=None, help="comma-separated crank speeds in rad/s (default: the "
                                                  "scenario's [equilibrium] omega1)")
-    p.add_argument("--angles", type=int, default=None, help="crank angles per cycle (default 360)")
+    p.add_argument("--angles", type=int, default=None, help="crank angles per crank turn, times cycle_turns over a "
+                                                          "machine cycle of several turns (default 360)")
 
     p = _scenario_command(sub, "flywheel", cmd_flywheel,
                           "flywheel for a target speed fluctuation: eqs. 16-17 and by simulation "
@@ -129,7 +130,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--omega", type=float, default=None, help="crank speed in rad/s for velocities and reactions "
                    "(default: the scenario's [drawing], [kinematics] or [equilibrium] speed, else omega1_start)")
     p.add_argument("--trace", default=None, metavar="P,Q", help="points whose path over a turn is drawn")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a scenario parameter (SI units), repeatable")
     p.set_defaults(func=cmd_draw)
 
     p = sub.add_parser("animate", help="the mechanism moving (GIF, or MP4 with ffmpeg): a crank turn at constant "
@@ -143,7 +145,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=int, default=120, help="frames, spread evenly over the motion (default 120)")
     p.add_argument("--fps", type=int, default=20, help="frames per second (default 20)")
     p.add_argument("--omega", type=float, default=None, help="constant crank speed in rad/s without --result")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a scenario parameter (SI units), repeatable")
     p.set_defaults(func=cmd_animate)
 
     p = sub.add_parser("check", help="check a scenario and its mechanism file before building anything: names, "
@@ -198,7 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "and FourBarDriveSpeed.ssp (the same in speed causality), for third-party masters")
     p.add_argument("--fmus", default=None, help="folder with the FMUs (make fmu; default build/fmus, or "
                                                 "build/fmus/native with --native)")
-    p.add_argument("--out", required=True)
+    p.add_argument("--out", required=True, help="output folder for the SSP files")
     p.add_argument("--native", action="store_true",
                    help="native FMUs only (no Python on the host): each must be built for the values the SSP sets")
     p.add_argument("--system", action="append", choices=("FourBarDrive", "FourBarDriveSpeed", "DriveShaftFourBar",
@@ -212,13 +215,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("well", help="a beam pumping well (wells/*.toml: rod string, pump, surface unit) run to "
                                      "steady state: cards.png, torque.png, summary.json, well.gif")
     p.add_argument("well", help="a packaged well (rp11l_guo) or a .toml well file")
-    p.add_argument("--out", required=True)
+    p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--max-strokes", type=int, default=40, help="give up on steady state after this many strokes")
     p.add_argument("--frames", type=int, default=60, help="frames of the animation")
-    p.add_argument("--no-animation", action="store_true")
+    p.add_argument("--no-animation", action="store_true", help="skip well.gif")
     p.add_argument("--reference-loop", action="store_true",
                    help="step the unit and the string in Python (crankfmu.well.CoupledWell.step), the reference the C "
-                        "loop is tested against: the same numbers, about five times slower")
+                        "loop is tested against: the same numbers, about three times slower end to end")
     p.set_defaults(func=cmd_well)
 
     p = sub.add_parser("page", help="the results page: FOLDER/index.html shows every figure and animation under "

@@ -208,7 +208,7 @@ def cmd_equilibrium(args) -> int:
     peaks = summary[f"{results[0].omega1:g}"]["joint_reaction_peaks"]
     print(f"  joint reaction peaks at {results[0].omega1:g} rad/s: "
           + ", ".join(f"{j} {v['max_force_N']:.0f} N" for j, v in peaks.items()))
-    print(f"  wrote {args.out}/summary.json, equilibrium_<omega>.csv, Me_omega<omega>.png, reactions_*.png")
+    print(f"  wrote {args.out}/summary.json, {', '.join(summary['files'])}")
     return 0
 
 
