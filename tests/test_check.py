@@ -68,6 +68,10 @@ BAD_FILES = {
     "TOML syntax": (None, ('[parameters]', '[parameters'), 2, "cannot be read.*line", "sixbar_scenario.toml, line"),
     "unknown parameter name in a mass": (('mass = "m4"', 'mass = "m44"'), None, 1,
                                          "link rod: unknown name\\(s\\) m44", "sixbar.toml, line"),
+    # the load's own line, not the [parameters] header its message's list of known names mentions
+    "unknown name in a load": (None, ('coefficient = "c_slider"\n', 'coefficient = "c_slider"\n[[loads]]\nkind = "force"\n'
+                                      'link = "rod"\npoint = "D"\nfx = "0"\nfy = "-kk*D_y"\n'), 1,
+                               "load 3: force fy = '-kk\\*D_y' uses unknown name\\(s\\) kk", "sixbar_scenario.toml, line 47"),
 }
 
 

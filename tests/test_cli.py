@@ -42,6 +42,7 @@ def test_simulate_with_the_paper_scheme_and_a_set(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["simulate", "seed999"], "unknown scenario 'seed999'"),
     (["simulate", "seed000", "--set", "nope=1"], "unknown parameter 'nope'"),
+    (["simulate", "seed000", "--set", "l11=1"], "unknown parameter 'l11' for scenario seed000 (did you mean l1?)"),
     (["simulate", "seed000", "--set", "l1=-1"], "l1 = -1.0 is out of range"),
     (["simulate", "seed000", "--set", "l1"], "--set expects NAME=VALUE"),
     (["simulate", "seed000", "--t-end", "0"], "duration must be > 0"),

@@ -73,6 +73,20 @@ def locate(path: str | None, message: str) -> str:
     m = re.search(r"line (\d+)", message)
     if m:                                        # tomllib's own position
         return f"{path}, line {m.group(1)}"
+    # a [[loads]] entry's key ("load 2: force fy = ..."), the n-th entry's header without one: before
+    # the sections, as such a message also lists what is known ("parameters, phi1, ...")
+    m = re.search(r"\bload (\d+)(?:: \w+ ([\w.]+)(?: =|:))?", message)
+    if m:
+        from .schema import line_of
+
+        text, number, key = "\n".join(lines), int(m.group(1)), m.group(2)
+        tables, _, key = (key or "").rpartition(".")
+        line = line_of(text, ("loads", number - 1, *filter(None, [tables])), key) if key else None
+        if line is None:
+            headers = [i for i, line in enumerate(lines, start=1) if re.match(r"\s*\[\[loads\]\]", line)]
+            line = headers[number - 1] if number <= len(headers) else None
+        if line is not None:
+            return f"{path}, line {line}"
     # an entry of a list ([[contours]], [[joints]]) by its name line, a table by its header, a key
     # (a point, an unknown, a parameter) by its own line
     for kind, how in (("contour", "entry"), ("joint", "entry"), ("output", "entry"), ("link", "table"), ("fixed point", "key"),

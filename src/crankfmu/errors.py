@@ -13,6 +13,15 @@ def format_value(value) -> str:
         return str(value)
 
 
+def did_you_mean(name: str, valid) -> str:
+    """" (did you mean X?)" with X the valid name closest to a misspelt ``name``, or "" when none
+    is close (difflib's ratio at least 0.6: ``rr`` finds ``r``, ``kk_g`` finds ``k_g``)."""
+    import difflib
+
+    close = difflib.get_close_matches(str(name), [str(v) for v in valid], n=1, cutoff=0.6)
+    return f" (did you mean {close[0]}?)" if close else ""
+
+
 class CrankfmuError(Exception):
     """Base class of every error crankfmu raises on purpose."""
 

@@ -24,7 +24,7 @@ from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation
 from .dynamics.equation import STATE_SIZE
 from .dynamics.user_entries import parse_user_load
 from .datafiles import packaged, read_toml
-from .errors import AssemblyError, CrankfmuError, DefinitionError, ParameterError, ScenarioNotFound
+from .errors import AssemblyError, CrankfmuError, DefinitionError, ParameterError, ScenarioNotFound, did_you_mean
 from .expressions import Expression, evaluate
 from .mechanisms import Mechanism, MechanismDefinition, load_mechanism
 from .parameters import Experiment, Parameter, parse_parameters  # noqa: F401 (Parameter: the scenario's API)
@@ -80,7 +80,8 @@ class Scenario:
     def _param(self, name: str) -> Parameter:
         if name not in self.parameters:
             raise ParameterError(
-                f"unknown parameter {name!r} for scenario {self.name}; valid names: "
+                f"unknown parameter {name!r} for scenario {self.name}{did_you_mean(name, self.parameters)}; "
+                "valid names: "
                 f"{', '.join(self.parameters)}", name)
         return self.parameters[name]
 

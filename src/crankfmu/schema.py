@@ -12,11 +12,10 @@ keywords it uses: ``type``, ``properties``, ``additionalProperties``, ``patternP
 
 from __future__ import annotations
 
-import difflib
 import json
 import re
 
-from .errors import DefinitionError
+from .errors import DefinitionError, did_you_mean
 
 NUMBER = {"type": "number"}
 INTEGER = {"type": "integer"}
@@ -273,8 +272,7 @@ def check_keys(data: dict, kind: str, text: str, where: str) -> None:
         return
     path, key, valid = found[0]
     line = line_of(text, path, key)
-    close = difflib.get_close_matches(key, valid, n=1, cutoff=0.6)
-    hint = f" (did you mean {close[0]}?)" if close else ""
+    hint = did_you_mean(key, valid)
     more = f"; {len(found) - 1} more unknown key(s) after it" if len(found) > 1 else ""
     raise DefinitionError(f"{where}{f', line {line}' if line else ''}: unknown key {key!r} in {_table_name(path)}"
                           f"{hint}; valid keys there: {', '.join(valid)}{more}")
