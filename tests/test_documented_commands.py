@@ -156,7 +156,9 @@ def quoted_refusals() -> list[tuple[str, float, str]]:
     return [(name, float(value), message) for name, value, message in rows]
 
 
-def test_the_refusals_docs_fmus_quotes_are_what_the_fmu_says(built):
+@pytest.mark.parametrize("build", ["python", "native"])
+def test_the_refusals_docs_fmus_quotes_are_what_the_fmu_says(built, build):
+    """One wording for both builds: the native FMU's C refusals say what the Python FMU says."""
     from crankfmu.validation.fmu_runner import simulate_logged
 
     rows = quoted_refusals()
@@ -164,7 +166,7 @@ def test_the_refusals_docs_fmus_quotes_are_what_the_fmu_says(built):
     for name, value, quoted in rows:
         log = []
         with pytest.raises(Exception):
-            simulate_logged(str(built["python"]), stop_time=0.01, start_values={name: value}, debug_logging=False,
+            simulate_logged(str(built[build]), stop_time=0.01, start_values={name: value}, debug_logging=False,
                             logger=lambda *args: log.append(args[-1].decode() if isinstance(args[-1], bytes)
                                                             else args[-1]))
         start = quoted.split("...")[0].strip()

@@ -162,8 +162,13 @@ def test_a_refusal_is_fmi3_error_with_the_message_with_logging_off(fmus, tmp_pat
     fmu.enterInitializationMode()
     with pytest.raises(Exception, match="fmi3SetFloat64 failed with status 3"):
         fmu.setFloat64([vr["J_flywheel"]], [-1.0])
-    assert re.search(r"parameter J_flywheel = -1\.0 is out of range: valid range \[0, inf\) kg\.m2$", messages[-1]), messages
-    fmu.setFloat64([vr["l1"]], [0.5])                # a geometry that cannot turn: refused where the FMU tabulates
+    # the Python FMU's words: the name first, the description last
+    assert re.search(r"^J_flywheel: parameter J_flywheel = -1\.0 is out of range: valid range \[0, inf\) kg\.m2 "
+                     r"\(.+\)$", messages[-1]), messages
+    with pytest.raises(Exception, match="fmi3ExitInitializationMode failed with status 3"):
+        fmu.exitInitializationMode()                 # the refused value not set anew: as the Python FMU
+    assert messages[-1].startswith("fmi3ExitInitializationMode: cannot initialise: J_flywheel: parameter"), messages
+    fmu.setFloat64([vr["J_flywheel"], vr["l1"]], [0.0, 0.5])   # a geometry that cannot turn: refused where the FMU tabulates
     with pytest.raises(Exception, match="fmi3ExitInitializationMode failed with status 3"):
         fmu.exitInitializationMode()
     # the CLI's message, word for word: the angle, the reason, the bound

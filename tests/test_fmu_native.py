@@ -163,6 +163,12 @@ def test_refusals_are_loud_with_logging_off(native, tmp_path):
     fmu.setReal([vr["l1"]], [0.2])                    # in its range: accepted
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
+    with pytest.raises(FMICallException):             # the refused J_flywheel and A not set anew: as the Python FMU
+        fmu.exitInitializationMode()
+    assert messages[-1].startswith("fmi2ExitInitializationMode: cannot initialise: "), messages[-1]
+    assert "J_flywheel: parameter J_flywheel = -1.0 is out of range" in messages[-1], messages[-1]
+    assert "A: parameter A = nan is out of range" in messages[-1], messages[-1]
+    fmu.setReal([vr["J_flywheel"], vr["A"]], [0.02, 5.0])
     fmu.exitInitializationMode()
     with pytest.raises(FMICallException):
         fmu.doStep(currentCommunicationPoint=0.5, communicationStepSize=1e-3)

@@ -40,7 +40,7 @@ ENTRY_POINTS = {
 READS = {"get_real", "get_integer", "get_boolean", "get_string", "_get_fmu_state"}
 
 #: the keys of an FMU state (SlaveCore.get_fmu_state): anything else is refused at fmi2SetFMUstate
-STATE_KEYS = {"values", "time", "errors", "pending", "phase", "model"}
+STATE_KEYS = {"values", "time", "errors", "failure", "pending", "phase", "model"}
 
 
 def all_finite(values: np.ndarray) -> bool:
@@ -91,6 +91,7 @@ class SlaveCore:
         self.values: dict[str, float] = {}           # parameters and inputs
         self.inputs: dict[str, Parameter] = {}
         self.errors: dict[str, str] = {}              # refused values by variable: they block stepping
+        self.failure = ""                             # why the model cannot go on ("fmi2DoStep: ..."), once it cannot
         self.phase = INSTANTIATED
         self.time = start_time
         self.t_limit = math.inf
@@ -209,11 +210,13 @@ class SlaveCore:
         self.errors[name] = f"{name}: {message}"
         self._error(self.errors[name])
 
-    def _fail(self, message: str):
+    def _fail(self, message: str, call: str):
         """The model can no longer go on (a refused design, a failed step): every later call that
-        needs it fails with this reason."""
+        needs it fails with this reason, prefixed with the call that failed (the native FMU's words,
+        crank_model.c's cm_stop)."""
         self.phase = REFUSED
-        self._refuse(message, "model")
+        self.failure = f"{call}: {message}"
+        self._error(self.failure)
 
     # ------------------------------------------------------------------ variables
     def _variable(self, vr, kind: str):
@@ -251,7 +254,7 @@ class SlaveCore:
             if var is None:
                 values.append(math.nan)
             elif vr in self.outputs and self.phase == REFUSED:
-                self._error(f"{var.name}: no valid model to read it from ({self.errors.get('model', 'refused')})")
+                self._error(f"{var.name}: no valid model to read it from ({self.failure or 'refused'})")
                 values.append(math.nan)
             else:
                 values.append(float(var.getter()))
@@ -372,19 +375,21 @@ class SlaveCore:
         for the same values); refuse a design that cannot work."""
         if self._out_of_order("fmi2ExitInitializationMode", (INITIALIZATION,)):
             return
+        call = "fmi2ExitInitializationMode"
         if self.errors:
-            self._fail("cannot initialise: " + "; ".join(self.errors.values()))
+            self._fail("cannot initialise: " + "; ".join(self.errors.values()), call)
             return
         try:
             if self._initialised_for != self._values_key():
                 self.initialise()
         except CrankfmuError as exc:
-            self._fail(str(exc))     # the message names the parameters involved
+            self._fail(str(exc), call)     # the message names the parameters involved
             return
         finally:
             self._initialised_for = None
         if not all_finite(self.outputs_now()):
-            self._fail(f"the initial state is not finite ({self.outputs_text()}): check the parameters")
+            self._fail(f"the initial state gives non-finite outputs ({self.outputs_text()}): check the parameters",
+                       call)
             return
         self.pending.clear()
         self.phase = STEPPING
@@ -393,6 +398,8 @@ class SlaveCore:
         reason = {INSTANTIATED: "the model is not initialised (call fmi2ExitInitializationMode first)",
                   INITIALIZATION: "the model is not initialised (call fmi2ExitInitializationMode first)",
                   TERMINATED: "the instance was terminated"}.get(self.phase)
+        if reason is None and self.phase == REFUSED:
+            reason = self.failure
         reason = reason or "; ".join(self.errors.values()) or "the model was refused"
         self._error(f"fmi2DoStep: cannot step: {reason}")
         return False
@@ -417,12 +424,13 @@ class SlaveCore:
         try:
             self.advance(target)
         except CrankfmuError as exc:
-            self._fail(f"step from t = {current_time:g} s failed: {exc}")
+            self._fail(f"step from t = {current_time:g} s failed: {exc}", "fmi2DoStep")
             return False
         if self.pending:
             self.pending.clear()
         if not all_finite(self.outputs_now()):
-            self._fail(f"step from t = {current_time:g} s gave non-finite values ({self.outputs_text()})")
+            self._fail(f"step from t = {current_time:g} s failed: non-finite outputs ({self.outputs_text()})",
+                       "fmi2DoStep")
             return False
         self.time = target
         return True
@@ -453,7 +461,7 @@ class SlaveCore:
     def get_fmu_state(self) -> dict:
         """Everything that determines the continuation, as plain floats, strings and lists (the
         keys are STATE_KEYS)."""
-        return {"values": dict(self.values), "time": self.time, "errors": dict(self.errors),
+        return {"values": dict(self.values), "time": self.time, "errors": dict(self.errors), "failure": self.failure,
                 "pending": sorted(self.pending), "phase": self.phase, "model": self.model_state()}
 
     def set_fmu_state(self, state: dict):
@@ -476,6 +484,7 @@ class SlaveCore:
         self.values = dict(state["values"])
         self.time = state["time"]
         self.errors = dict(state["errors"])
+        self.failure = state["failure"]
         self.pending = set(state["pending"])
         self.phase = state["phase"]
         if state["model"] is not None:

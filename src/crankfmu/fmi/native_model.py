@@ -168,7 +168,7 @@ class NativeModel:
             if p is None:
                 return (name, kind, start, 0, 1, 0, 1, 0.0, 0.0, "", unit, "")
             return (name, kind, p.value, int(p.min is not None), int(p.min_inclusive), int(p.max is not None),
-                    int(p.max_inclusive), p.min or 0.0, p.max or 0.0, p.range_text(), p.unit, "")
+                    int(p.max_inclusive), p.min or 0.0, p.max or 0.0, p.range_text(), p.unit, p.description)
 
         rows = [variable(v.name, "OUTPUT", unit=v.unit) for v in self.outputs]
         rows.append(variable(self.input.name, "INPUT", self.input_start, unit=self.input.unit))

@@ -264,8 +264,7 @@ int co_set(Component* c, const char* call, const unsigned* vr, size_t n, const d
                 status = co_fail(c, "input %s = %s must be finite (valid range %s)", v->name, shortest(x).text,
                                  v->range);
             else
-                status = co_fail(c, "parameter %s = %s is out of range: valid range %s (%s)", v->name,
-                                 shortest(x).text, v->range, v->description);
+                status = co_fail(c, "%s", out_of_range(v->name, x, v->range, v->description).text);
             continue;
         }
         c->now.refused[vr[k]] = 0;

@@ -26,3 +26,12 @@ Number shortest(double x)
     return n;
 }
 
+
+Refusal out_of_range(const char* name, double x, const char* range, const char* description)
+{
+    Refusal r;
+    int described = description && description[0];
+    snprintf(r.text, sizeof r.text, "%s: parameter %s = %s is out of range: valid range %s%s%s%s", name, name,
+             shortest(x).text, range, described ? " (" : "", described ? description : "", described ? ")" : "");
+    return r;
+}

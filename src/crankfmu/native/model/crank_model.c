@@ -40,6 +40,25 @@ int cm_fail(const Model* m, const char* format, ...)
     return CM_ERROR;
 }
 
+int cm_stop(Model* m, const char* format, ...)
+{
+    va_list args;
+    va_start(args, format);
+    vsnprintf(m->now.failure, sizeof m->now.failure, format, args);
+    va_end(args);
+    return cm_fail(m, "%s", m->now.failure);
+}
+
+const char* cm_cannot(const Model* m, const char* call, char* out, size_t n)
+{
+    if (m->now.failure[0]) return m->now.failure;
+    if (m->now.phase == CM_TERMINATED) return "the instance was terminated";
+    /* the FMI version's exit call, by the calling function's prefix (fmi2..., fmi3...) */
+    snprintf(out, n, "the model is not initialised (call %.4sExitInitializationMode first)",
+             strncmp(call, "fmi", 3) == 0 ? call : "fmi2");
+    return out;
+}
+
 void cm_reset(Model* m)
 {
     const ModelData* d = m->d;
@@ -137,7 +156,7 @@ int cm_ensure_tables(Model* m, const char* call)
         char text[2048];
         cm_design_refusal(m, call, status, values, text, sizeof text);
         cm_release(m);
-        return cm_fail(m, "%s", text);
+        return cm_stop(m, "%s", text);
     }
     memcpy(m->built_for, values, sizeof(double) * m->d->n_program_parameters);
     m->have_tables = 1;
@@ -281,7 +300,13 @@ int cm_exit_initialization(Model* m, const char* call)
 {
     if (m->now.phase != CM_INITIALIZATION) return cm_fail(m, "%s without entering initialisation mode", call);
     /* refused: the instance stays in initialisation, for other values or a reset */
-    if (cm_ensure_tables(m, call) != CM_OK) return CM_ERROR;
+    char refused[sizeof m->now.failure];
+    if (m->now.n_refused)
+        return cm_stop(m, "%s: cannot initialise: %s", call, cm_refusals(m, refused, sizeof refused));
+    if (cm_ensure_tables(m, call) != CM_OK) {
+        /* its message said already (with the call's name): kept for the calls that follow */
+        return CM_ERROR;
+    }
     int finite;
     if (m->model_exchange) {
         cm_me_start(m);
@@ -293,9 +318,10 @@ int cm_exit_initialization(Model* m, const char* call)
     if (!finite) {
         char judged[512];
         m->now.phase = CM_FAILED;
-        return cm_fail(m, "the initial state gives non-finite %s (%s): check the parameters",
+        return cm_stop(m, "%s: the initial state gives non-finite %s (%s): check the parameters", call,
                        m->model_exchange ? "derivatives or outputs" : "outputs", judged_row(m, judged, sizeof judged));
     }
+    m->now.failure[0] = 0;
     m->now.phase = CM_STEPPING;
     m->now.pending = 0;
     return CM_OK;
@@ -367,10 +393,14 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
     *stopped = 0;
     *t_end = m->now.time;
     if (m->model_exchange) return cm_fail(m, "%s: this instance is Model Exchange", call);
-    if (m->now.phase != CM_STEPPING)
-        return cm_fail(m, "%s: %s", call,
-                       m->now.phase == CM_FAILED ? "an earlier error stopped this instance: reset it or make a new instance"
-                                                 : "not allowed before the end of initialisation or after terminating");
+    if (m->now.phase != CM_STEPPING) {
+        char why[160];
+        return cm_fail(m, "%s: cannot step: %s", call, cm_cannot(m, call, why, sizeof why));
+    }
+    if (m->now.n_refused) {            /* a value refused while stepping: the host corrects it first */
+        char refused[sizeof m->now.failure];
+        return cm_fail(m, "%s: cannot step: %s", call, cm_refusals(m, refused, sizeof refused));
+    }
     if (!isfinite(t_host) || !isfinite(h) || !(h > 0.0))
         return cm_fail(m, "%s needs a finite current time and a finite step size > 0", call);
     if (cm_ensure_tables(m, call) != CM_OK) {                    /* an FMU state of another design */
@@ -396,7 +426,7 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
     }
     if (status != 0 || !outputs_finite(m)) {
         m->now.phase = CM_FAILED;
-        return cm_fail(m, "the integration failed near t = %.9g s (%s)", m->now.S[CK_T],
+        return cm_stop(m, "%s: step from t = %g s failed: %s at t = %.9g s", call, t_host,
                        status == CK_UNDERFLOW    ? "step size underflow"
                        : status == CK_TOO_MANY_STEPS
                            ? "over 1e7 integration steps in one communication step: the inputs, their derivatives "
@@ -404,7 +434,8 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
                              "they are meant"
                        : m->d->causality_speed         ? "non-finite values, or a step of over 1e9 degrees of crank angle"
                        : status == CK_BAD_STATE  ? "a corrupted state"
-                                                 : "non-finite outputs");
+                                                 : "non-finite outputs",
+                       m->now.S[CK_T]);
     }
     m->now.time = target;
     m->now.row_stale = 0;                /* the step wrote the row */

@@ -43,6 +43,13 @@ typedef struct {
                                       fmi2SetRealInputDerivatives; 0 (held) once the input is set */
     int rate_given[CM_MAX_INPUTS];    /* whether the host gave it since it last set the input (speed
                                       causality: else omega1's slope is a backward difference) */
+    unsigned char refused[CM_MAX_VARIABLES];   /* a value cm_set refused, not set anew since:
+                                                  initialisation refuses while one is */
+    double refused_value[CM_MAX_VARIABLES];
+    int n_refused;                 /* how many: a step refuses while any is (one test on its path) */
+    char failure[768];             /* why the model cannot go on, as it was said ("fmi2ExitInitialization
+                                      Mode: ..."), which each later call that needs it repeats (the Python
+                                      FMU's words, fmi/core.py); "" while nothing failed */
 } Snapshot;
 
 /* the tables the model builds (crank_mechanism.h's MM_TABLE_...) */
@@ -79,6 +86,11 @@ void cm_restore(Model* m, const Snapshot* state);
 void cm_reset(Model* m);
 /* a refusal: the message, formatted, to the logger as an error; returns CM_ERROR */
 int cm_fail(const Model* m, const char* format, ...);
+/* a refusal that stops the model (a design refused at initialisation, a failed step): as cm_fail,
+ * and kept in now.failure for the calls that follow */
+int cm_stop(Model* m, const char* format, ...);
+/* why a call that needs a stepping model cannot go on: the failure kept, else the phase's reason */
+const char* cm_cannot(const Model* m, const char* call, char* out, size_t n);
 
 int cm_setup(Model* m, const char* call, double start_time, int stop_defined, double stop_time);
 int cm_enter_initialization(Model* m, const char* call);

@@ -75,10 +75,10 @@ static int evaluate(void* model, const double* z, double* values, double* rates)
 /* the current point of a stepping model (its tables checked): z, the mode and time in p->base */
 static int point_of(Model* m, const char* call, Point* p)
 {
-    if (m->now.phase != CM_STEPPING)
-        return cm_fail(m, "%s: %s", call,
-                       m->now.phase == CM_FAILED ? "an earlier error stopped this instance: reset it or make a new instance"
-                                                 : "allowed after the end of initialisation only (and before terminating)");
+    if (m->now.phase != CM_STEPPING) {
+        char why[160];
+        return cm_fail(m, "%s: %s", call, cm_cannot(m, call, why, sizeof why));
+    }
     if (cm_ensure_tables(m, call) != CM_OK) return CM_ERROR;
     p->base = *m;
     const ModelData* d = m->d;

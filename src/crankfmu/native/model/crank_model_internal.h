@@ -4,6 +4,7 @@
 #define CRANK_MODEL_INTERNAL_H
 
 #include "crank_model.h"
+#include "crank_numbers.h"
 
 /* the tables of the values the model holds: built (again) where they are missing or stale, or the
  * design refused with the CLI's message (CM_ERROR) */
@@ -15,6 +16,11 @@ void cm_design_refusal(const Model* m, const char* call, int status, const doubl
 void cm_load_parameters(Model* m);
 /* whether setting this variable sets the initial state (phi1_start, omega1_start) */
 int cm_sets_initial_state(const Model* m, int vr);
+/* the refusal of value x of variable vr, in the Python FMU's words (a parameter out of its range,
+ * an input that is not finite): what cm_set says and initialisation repeats */
+Refusal cm_refusal_text(const Model* m, int vr, double x);
+/* every value refused and not set anew, each's refusal, "; " between them ("" for none) */
+const char* cm_refusals(const Model* m, char* out, size_t n);
 /* Model Exchange: the state and mode at the start; the derivatives and outputs there (1 when
  * finite) */
 void cm_me_start(Model* m);

@@ -12,9 +12,8 @@ int cm_me_ready(Model* m, const char* call, int initialization_too)
     if (!m->model_exchange) return cm_fail(m, "%s: this instance is Co-Simulation", call);
     if (m->now.phase == CM_STEPPING || (initialization_too && m->now.phase == CM_INITIALIZATION))
         return cm_ensure_tables(m, call);
-    return cm_fail(m, "%s: %s", call,
-                   m->now.phase == CM_FAILED ? "an earlier error stopped this instance: reset it or make a new instance"
-                                             : "not allowed before the end of initialisation or after terminating");
+    char why[160];
+    return cm_fail(m, "%s: %s", call, cm_cannot(m, call, why, sizeof why));
 }
 
 /* in initialisation, the values the start values give */
@@ -39,7 +38,7 @@ int cm_me_update(Model* m, const char* call, int* states_changed)
     int transitions = ck_me_update(S, S + CK_Y, &m->tables, m->now.P);
     if (transitions < 0 || !cm_me_evaluate(m)) {
         m->now.phase = CM_FAILED;
-        return cm_fail(m, "the event update failed at t = %.9g s (%s)", m->now.time,
+        return cm_stop(m, "%s: the event update failed at t = %.9g s (%s)", call, m->now.time,
                        transitions == CK_NO_FIXED_POINT ? "the mode transitions do not settle"
                        : transitions == CK_BAD_STATE    ? "a corrupted state"
                                                         : "non-finite derivatives or outputs");

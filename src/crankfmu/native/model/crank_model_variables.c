@@ -5,6 +5,7 @@
 #include "crank_model_internal.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "crank_numbers.h"
@@ -150,6 +151,27 @@ int cm_get(Model* m, const char* call, const unsigned* vr, size_t n, double* val
     return CM_OK;
 }
 
+Refusal cm_refusal_text(const Model* m, int vr, double x)
+{
+    const Variable* v = &m->d->variables[vr];
+    if (v->kind != KIND_INPUT) return out_of_range(v->name, x, v->range, v->description);
+    Refusal r;
+    snprintf(r.text, sizeof r.text, "%s: input %s = %s must be finite (valid range (-inf, inf) %s)", v->name, v->name,
+             shortest(x).text, v->unit);
+    return r;
+}
+
+const char* cm_refusals(const Model* m, char* out, size_t n)
+{
+    size_t used = 0;
+    out[0] = 0;
+    for (int vr = 0; vr < m->d->n_variables && used + 1 < n; vr++)
+        if (m->now.refused[vr])
+            used += (size_t)snprintf(out + used, n - used, "%s%s", used ? "; " : "",
+                                     cm_refusal_text(m, vr, m->now.refused_value[vr]).text);
+    return out;
+}
+
 int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const double* value)
 {
     if (n > 0 && (!vr || !value)) return cm_fail(m, "%s: null arrays", call);
@@ -163,11 +185,16 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
         if (fixed_variability && m->now.phase >= CM_STEPPING)
             return cm_fail(m, "%s is a fixed parameter: it can be set before the end of initialisation only (reset, "
                            "then set it)", v->name);
-        if (v->kind == KIND_INPUT && !isfinite(x))
-            return cm_fail(m, "input %s = %s: an input must be finite (%s)", v->name, shortest(x).text, v->unit);
         if (!isfinite(x) || (v->has_min && (v->min_inclusive ? x < v->min : x <= v->min)) ||
-            (v->has_max && (v->max_inclusive ? x > v->max : x >= v->max)))
-            return cm_fail(m, "parameter %s = %s is out of range: valid range %s", v->name, shortest(x).text, v->range);
+            (v->has_max && (v->max_inclusive ? x > v->max : x >= v->max))) {
+            /* kept: initialisation refuses while it is not set anew (as the Python FMU does) */
+            m->now.n_refused += !m->now.refused[vr[i]];
+            m->now.refused[vr[i]] = 1;
+            m->now.refused_value[vr[i]] = x;
+            return cm_fail(m, "%s", cm_refusal_text(m, (int)vr[i], x).text);
+        }
+        m->now.n_refused -= m->now.refused[vr[i]];
+        m->now.refused[vr[i]] = 0;
         if (v->kind == KIND_INPUT) m->now.rate_given[input_index(m, (int)vr[i])] = 0;
         /* the value it has (an input also held, no derivative given): nothing changes, no restart */
         if (x == m->now.values[vr[i]] && (v->kind != KIND_INPUT || m->now.input_rate[input_index(m, (int)vr[i])] == 0.0))
