@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .plots import (plot_cycles, plot_flywheel, plot_inertia, plot_moments, plot_movement, plot_reactions,
-                    plot_stability, plot_turning_moment)
+from .plots import plot_cycles, plot_moments, plot_reactions
 from .contract import COLUMNS
 from .pictures.contact import plot_contacts
+from .pictures.flywheel_study import plot_flywheel_study
 from .simulation import Result
 from .atomic import replacing, write_text
 
@@ -106,18 +106,23 @@ def write_equilibrium(scenario, results: list, out_dir) -> dict:
     return summary
 
 
+def finite_or_null(value):
+    """``value`` with every float that is not finite (inf, nan) replaced by None, at any depth."""
+    if isinstance(value, dict):
+        return {k: finite_or_null(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite_or_null(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
 def write_flywheel(study, out_dir) -> list[Path]:
     """flywheel.json and the flywheel study's figures (J_e, the movement, the flywheel, eq. 3)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    offset = study.angle_offset
-    plots = [
-        plot_inertia(study.scenario, offset, out / "J_e.png"),
-        plot_movement(study.reference, study.eq3, offset, out / "movement.png"),
-        plot_flywheel(study.design, offset, out / "flywheel.png", study.scenario.name),
-        plot_turning_moment(study.design, study.scenario.build(), out / "turning_moment.png", study.scenario.name),
-        plot_stability(study.stability, out / "eq3_stability.png", study.scenario.name),
-    ]
+    plots = plot_flywheel_study(study, out)
     summary = {**study.summary(), "plots": [p.name for p in plots]}
-    write_text(out / "flywheel.json", json.dumps(summary, indent=2) + "\n")
+    # strict JSON: a quantity that does not exist (no steady cycle, no linear estimate) is null
+    write_text(out / "flywheel.json", json.dumps(finite_or_null(summary), indent=2, allow_nan=False) + "\n")
     return plots

@@ -77,6 +77,19 @@ class Scenario:
         #: and delta, the flywheel, the steady cycle and the summaries' cycles are taken over it
         self.cycle_turns: int = turns
 
+    def load_words(self) -> list[str]:
+        """What each [[loads]] entry is, for a figure's words: its ``description``, else its kind and
+        where it acts ("the weights", "a force at B", "a couple on crank")."""
+        words = []
+        for spec in self.data.get("loads", []):
+            kind, at = spec.get("kind", "load"), spec.get("point") or spec.get("link")
+            words.append(str(spec.get("description") or {
+                "weights": "the weights", "slider_force": f"the slider force at {at}",
+                "viscous_force": f"the viscous force at {at}", "dead_point_moment": "the dead-point moment",
+                "spring_damper": f"the spring-damper {spec.get('a')}-{spec.get('b')}",
+            }.get(kind, f"a {kind.replace('_', ' ')} {'at' if spec.get('point') else 'on'} {at}")))
+        return words
+
     def _param(self, name: str) -> Parameter:
         if name not in self.parameters:
             raise ParameterError(
@@ -215,19 +228,22 @@ class Scenario:
                         f"{self.name}: the {what} of link {lname} ({ld.mass if what == 'mass' else ld.inertia}"
                         f" = {v:g}) must be >= 0", lname)
             links.append(LinkInertia(lname, ld.centre, mass, inertia))
-        loads = []
+        loads, entries = [], []
         for i, spec in enumerate(self.data.get("loads", [])):
             if spec.get("kind") in USER_LOADS:
                 made = parse_user_load(spec, mechanism, {l.name for l in links}, values, f"{self.where}: load {i + 1}")
                 _check_affine(made, mechanism, values, f"{self.where}: load {i + 1}")
                 _check_kinks(made, self.cycle_turns, f"{self.where}: load {i + 1}")
                 loads += made
+                entries += [i] * len(made)
             else:
                 loads.append(self._make_load(spec, mechanism, links, values, found.get(i)))
+                entries.append(i)
         from .dynamics.ports import parse_ports
         ports = parse_ports(self.data.get("ports", []), definition, self.where, values)
         reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads, ports, self.cycle_turns)
         reduced.source = (self, values)          # what the C model tabulates it from (table_of)
+        reduced.load_entries = entries           # each load's [[loads]] entry (load_words names it)
         if prepared is not None:
             from .dynamics.tabulated import keep_table
             reduced.c_model = prepared           # the output tables are built on it (fmi.slave)

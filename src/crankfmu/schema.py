@@ -75,6 +75,7 @@ LOAD = table({
     "axis": EXPRESSION, "band": array(NUMBER, "[lo, hi]: fractions of the stroke"),
     "forward": EXPRESSION, "backward": EXPRESSION, "coefficient": EXPRESSION, "amplitude": EXPRESSION,
     "fx": EXPRESSION, "fy": EXPRESSION, "moment": EXPRESSION,
+    "description": STRING,
     "direction_of": STRING, "increasing": FORCE_SIDE, "decreasing": FORCE_SIDE,
     "stiffness": EXPRESSION, "damping": EXPRESSION, "free_length": EXPRESSION,
 }, "a load (docs/mechanism-files.md lists each kind's keys)")
@@ -113,7 +114,8 @@ SCENARIO = table({
     "kinematics": KINEMATICS,
     "equilibrium": table({"omega1": array(NUMBER), "figures": array(STRING), "angles": INTEGER, "moment": STRING,
                           "rating": {**NUMBER, "description": "N.m: the gearbox rating drawn at plus and minus"}}),
-    "flywheel": table({"delta": NUMBER, "angle_offset": NUMBER, "eq3_steps_deg": array(NUMBER)}),
+    "flywheel": table({"delta": NUMBER, "angle_offset": NUMBER, "eq3_steps_deg": array(NUMBER),
+                       "paper_step_deg": NUMBER}),
     "drawing": table({"at_deg": NUMBER, "omega1": NUMBER, "caption": STRING, "show": array(STRING),
                       "trace": array(STRING)}),
 }, "a crankfmu scenario: a mechanism with its parameters, loads, motor and experiment")

@@ -231,22 +231,28 @@ def cmd_flywheel(args) -> int:
         bar.close()
     d, st = study.design, study.stability
     print(f"{scenario.name}: flywheel for delta = {d.delta_target:g}")
-    print(f"  J_e            {d.J_e_min:.4f} .. {d.J_e_max:.4f} kg.m2 (min at {d.J_e_min_at_deg:.1f} deg, "
-          f"max at {d.J_e_max_at_deg:.1f} deg)")
-    start = ("no flywheel" if d.baseline_J_flywheel == 0.0 else
-             f"the file's flywheel {d.baseline_J_flywheel:g} kg.m2, no steady cycle without one")
+    print(f"  J_e            {d.J_e_min:.6g} .. {d.J_e_max:.6g} kg.m2, the mechanism's own (min at "
+          f"{d.J_e_min_at_deg:.1f} deg, max at {d.J_e_max_at_deg:.1f} deg)")
+    start = "no flywheel" if d.baseline_J_flywheel == 0.0 else f"the file's flywheel {d.baseline_J_flywheel:g} kg.m2"
     print(f"  dW_max         {d.dW_max:.3f} J, omega_m {d.omega_m:.6f} rad/s (steady, {start}: "
           f"delta {d.without.delta:.5f})")
+    if d.baseline_reason:
+        print(f"                 ({d.baseline_reason})")
     print(f"  J_F eq. 17     {d.J_F_eq17:.3f} kg.m2 (gives delta {d.delta_with_J_F_eq17:.5f} when simulated)")
+    if abs(d.J_F_eq17 - d.J_F_simulated) > 0.1 * d.J_F_simulated:
+        print(f"                 {100 * (d.J_F_eq17 / d.J_F_simulated - 1):+.0f} % from the simulated: eq. 17 takes J "
+              "constant and the torques independent of the speed; here " + "; ".join(d.eq17_departures or ["no more"]))
     print(f"  J_F eq. 16     {d.J_F_eq16:.3f} kg.m2")
     print(f"  J_F simulated  {d.J_F_simulated:.3f} kg.m2: delta {d.delta_achieved:.6f}")
     print(f"  peaks with it  omega1 -{100 * d.omega_peak_reduction:.2f} %, |epsilon1| "
           f"-{100 * d.epsilon_peak_reduction:.2f} %")
+    estimate = (f"linear estimate {st.linear_estimate_deg:.3f} deg" if math.isfinite(st.linear_estimate_deg)
+                else "no linear estimate: the motor line has no slope, B = 0")
     if st.limit:
         print(f"  eq. 3 stable up to {st.limit['largest_stable_deg']:.3f} deg, unstable from "
-              f"{st.limit['smallest_unstable_deg']:.3f} deg (linear estimate {st.linear_estimate_deg:.3f} deg)")
+              f"{st.limit['smallest_unstable_deg']:.3f} deg ({estimate})")
     else:
-        print(f"  eq. 3: no stability limit within the steps tried (estimate {st.linear_estimate_deg:.3f} deg)")
+        print(f"  eq. 3: no stability limit within the steps tried ({estimate})")
     print(f"  wrote {args.out}/flywheel.json, " + ", ".join(p.name for p in plots))
     return 0
 

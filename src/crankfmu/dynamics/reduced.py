@@ -42,6 +42,8 @@ class ReducedModel:
         self.links = links
         self.J_flywheel = float(J_flywheel)        # kg.m^2
         self.loads = loads
+        #: each load's entry in the scenario's [[loads]] (one entry may make two: a spring-damper)
+        self.load_entries = list(range(len(loads)))
         self.ports = tuple(ports)                  # dynamics.ports: their inputs come from outside
         self.velocity_dependent = any(not load.position_only for load in loads)
         # switched loads: constant or tabulated between switch angles, by direction (slider forces,

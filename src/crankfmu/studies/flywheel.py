@@ -75,7 +75,8 @@ class FlywheelDesign:
     J_F_eq17: float                 # kg.m2
     J_F_simulated: float            # the J_F whose simulated steady cycle has delta_target
     delta_achieved: float           # by the fast kernel's steady cycle (batch)
-    delta_without_flywheel: float
+    delta_without_flywheel: float   # with J_F = 0: inf (null in flywheel.json) where the machine stalls
+    delta_baseline: float           # with the flywheel the design starts from (0, or the file's)
     delta_with_J_F_eq17: float
     steady_cycle_solves: int
     without: SteadyCycle = field(repr=False)     # the steady cycles in the crank angle (engine)
@@ -83,14 +84,19 @@ class FlywheelDesign:
     #: kg.m2: the flywheel of the cycle "without": 0, or the file's own where the machine has no
     #: steady cycle without one (an engine stalls in its compression stroke)
     baseline_J_flywheel: float = 0.0
+    #: why the design starts from the file's flywheel ("" when it starts from none)
+    baseline_reason: str = ""
+    #: what in this machine eq. 17 leaves out (it takes J constant and the torques independent of
+    #: the speed): why its flywheel differs from the simulated one
+    eq17_departures: list = field(default_factory=list)
 
     UNITS = {"J_*": "kg.m2", "dW_max": "J", "omega_*": "rad/s", "epsilon_*": "rad/s2", "delta*": "1",
              "steady_cycle_solves": "batch calls of the fast kernel (one or many flywheels each)",
              "*_reduction": "1 (fraction of the value without flywheel)", "*_at_deg": "deg (paper's phi)"}
     #: flywheel.json's keys, in order (fields and the figures derived from the two cycles)
-    SUMMARY = ("scenario", "delta_target", "baseline_J_flywheel", "J_e_min", "J_e_max", "J_e_mean", "J_e_min_at_deg",
+    SUMMARY = ("scenario", "delta_target", "baseline_J_flywheel", "baseline_reason", "eq17_departures", "J_e_min", "J_e_max", "J_e_mean", "J_e_min_at_deg",
                "J_e_max_at_deg", "dW_max", "omega_m", "J_F_eq17", "J_F_eq16", "J_F_simulated", "delta_achieved",
-               "delta_achieved_crank_angle", "delta_without_flywheel", "delta_without_flywheel_crank_angle",
+               "delta_achieved_crank_angle", "delta_without_flywheel", "delta_baseline", "delta_baseline_crank_angle",
                "delta_with_J_F_eq17", "steady_cycle_solves", "omega_peak_without", "omega_peak_with",
                "omega_peak_reduction", "epsilon_peak_without", "epsilon_peak_with", "epsilon_peak_reduction")
 
@@ -105,7 +111,8 @@ class FlywheelDesign:
         return self.with_flywheel.delta
 
     @property
-    def delta_without_flywheel_crank_angle(self) -> float:
+    def delta_baseline_crank_angle(self) -> float:
+        """delta of the crank-angle steady cycle the design starts from: delta_baseline's check."""
         return self.without.delta
 
     @property
@@ -293,7 +300,7 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
                              "(0, 1), e.g. 0.05", "delta")
     spec = scenario.data.get("flywheel", {})
     phi0 = float(spec.get("angle_offset", 0.0) if phi0 is None else phi0)
-    base, free = baseline(scenario, phi0, rtol)
+    base, free, reason = baseline(scenario, phi0, rtol)
     model = base.build()
     grid = np.linspace(0.0, TWO_PI, 3601)
     J_e = model.reduced.coefficients(grid)[0] - model.reduced.J_flywheel
@@ -323,9 +330,11 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
 
     # one call brackets the root: no flywheel, eq. 17's and a ladder of factors of 2 around it
     scale = J_eq17 if math.isfinite(J_eq17) and J_eq17 > 0.0 else 1.0
-    ladder = np.concatenate([[0.0, J_eq17 if math.isfinite(J_eq17) else 0.0], scale * 2.0 ** np.arange(-10, 4)])
+    J_base = float(base["J_flywheel"])
+    ladder = np.concatenate([[0.0, J_eq17 if math.isfinite(J_eq17) else 0.0, J_base],
+                             scale * 2.0 ** np.arange(-10, 4)])
     ladder_deltas = deltas(ladder)
-    delta_free, delta_eq17 = float(ladder_deltas[0]), float(ladder_deltas[1])
+    delta_free, delta_eq17, delta_base = (float(d) for d in ladder_deltas[:3])
     if delta_free <= delta:
         J_sim = 0.0
     else:
@@ -364,28 +373,61 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
         J_F_simulated=float(J_sim),
         delta_achieved=delta_achieved,
         delta_without_flywheel=delta_free,
+        delta_baseline=delta_base,
         delta_with_J_F_eq17=delta_eq17,
         steady_cycle_solves=calls[0],
         without=free,
         with_flywheel=fitted,
-        baseline_J_flywheel=float(base["J_flywheel"]),
+        baseline_J_flywheel=J_base,
+        baseline_reason=reason,
+        eq17_departures=eq17_departures(base, model, J_e, J_sim, omega_m),
     )
 
 
+def eq17_departures(scenario, model, J_e, J_F: float, omega_m: float) -> list[str]:
+    """What of this machine eq. 17 (J_F = dW_max / (omega_m^2 delta)) does not hold, in words from
+    its data: eq. 17 takes the reduced inertia as constant and the driving and resisting torques
+    as independent of the speed, so a varying J (its inertia torque 0.5 J' omega1^2 moves energy
+    too), a motor line with a slope and loads of the speed (both damp the fluctuation) each move
+    the flywheel the simulation finds away from eq. 17's."""
+    out = []
+    total = J_F + float(np.mean(J_e[:-1]))
+    swing = float(np.max(J_e) - np.min(J_e))
+    if total > 0 and swing > 0.01 * total:
+        out.append(f"the reduced inertia varies by {100 * swing / total:.0f} % over the turn with the flywheel found "
+                   "(its inertia torque 0.5 J' omega1^2 moves energy too)")
+    B = float(model.motor.B)
+    if B > 0.0:
+        out.append(f"the motor line's torque falls with the speed (B = {B:g} N.m.s/rad), which damps the fluctuation")
+    grid = np.linspace(0.0, model.reduced.period, 73)
+    kin = model.mechanism.kinematics(grid)
+    words = scenario.load_words()
+    for load, entry in zip(model.reduced.loads, model.reduced.load_entries):
+        if load.position_only:
+            continue
+        at = [np.asarray(load.torque(kin, np.full_like(grid, w)), dtype=float) for w in (omega_m, 1.1 * omega_m)]
+        if np.max(np.abs(at[1] - at[0])) > 1e-9 * max(float(np.max(np.abs(at[0]))), 1e-300):
+            out.append(f"{words[entry]} depends on the speed, which damps the fluctuation")
+    return out
+
+
 def baseline(scenario, phi0: float, rtol: float):
-    """(scenario, steady cycle) the flywheel is sized from: without a flywheel (the papers'
+    """(scenario, steady cycle, why not without a flywheel) the flywheel is sized from: without a flywheel (the papers'
     machines), or with the file's own where there is no steady cycle without one (a single-cylinder
     engine stalls in its compression stroke: its crank speed falls to 0)."""
     base = scenario.with_params(J_flywheel=0.0)
     try:
-        return base, steady_cycle(base.build(), phi0, rtol)
+        return base, steady_cycle(base.build(), phi0, rtol), ""
     except (SchemeError, CrankfmuError) as exc:
         J_own = float(scenario["J_flywheel"])
         if not J_own > 0.0:
             raise SchemeError(f"no steady cycle without a flywheel ({exc}); give the file a flywheel "
                               "(J_flywheel > 0) to start the design from") from None
         base = scenario.with_params(J_flywheel=J_own)
-        return base, steady_cycle(base.build(), phi0, rtol)
+        why = str(exc).split("; ")[0].removeprefix("steady cycle: ").rstrip(".")
+        reason = (f"with J_flywheel = 0 the search for a steady cycle fails ({why}): the design starts from the "
+                  f"file's {J_own:g} kg.m2")
+        return base, steady_cycle(base.build(), phi0, rtol), reason
 
 
 # ---------------------------------------------------------------------------------------------
@@ -473,7 +515,12 @@ def flywheel_study(scenario, delta: float, steps_deg=None, progress=None) -> Fly
         progress(4)
     # the movement from the start (Fig. 6): the reference and eq. 3 at 1 deg, three turns
     t_end = 3.2 * design.without.period
-    reference = simulate(base, t_end=t_end)
+    # output every half degree of crank or finer at the fastest the run turns, the steady cycle's peak
+    # or the start (an engine turns 21.6 deg in the file's 1 ms output step: its epsilon1 peaks would
+    # be sampled, not drawn); 10 % above it, as the start-up may overshoot the steady peak
+    fastest = 1.1 * max(float(design.without.omega1.max()), abs(float(base["omega1_start"])))
+    samples = int(math.ceil(t_end * fastest / math.radians(0.5))) + 1
+    reference = simulate(base, t_end=t_end, output_times=np.linspace(base.experiment.start_time, t_end, samples))
     eq3 = simulate(base, t_end=t_end, method="lv-eq3", angle_step=math.radians(1.0))
     if progress is not None:
         progress(5)
