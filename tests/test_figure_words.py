@@ -144,3 +144,31 @@ def test_the_baseline_delta_is_checked_by_the_crank_angle_cycle(study):
     assert summary["delta_baseline_crank_angle"] == pytest.approx(summary["delta_baseline"], rel=1e-6)
     if summary["baseline_J_flywheel"] > 0:
         assert summary["baseline_reason"] and summary["delta_without_flywheel"] is None
+
+
+def test_the_reactions_caption_names_the_loads_that_switch(tmp_path):
+    """The pump jack's reactions jump where its polished-rod load changes with the beam's direction:
+    the caption names that load from the file, never a friction the machine does not have."""
+    from PIL import Image
+
+    assert main(["equilibrium", "pumpjack", "--out", str(tmp_path)]) == 0
+    (figure,) = tmp_path.glob("reactions_*.png")
+    with Image.open(figure) as image:
+        caption = image.text["Description"]
+    assert "the polished-rod load (rods and fluid up, buoyant rods down)" in caption, caption
+    assert "friction" not in caption, caption
+
+
+def test_an_animation_of_a_run_says_the_run_not_its_folder(tmp_path):
+    from PIL import Image
+
+    run = tmp_path / "some" / "folder"
+    assert main(["simulate", "seed000", "--method", "fast", "--out", str(run)]) == 0
+    assert main(["animate", "seed000", "--result", str(run), "--frames", "4", "--out", str(tmp_path / "run.gif")]) == 0
+    with Image.open(tmp_path / "run.gif") as image:
+        about = json.loads(image.info["comment"])
+    summary = json.loads((run / "summary.json").read_text())
+    said = f"a run from omega1 = {summary['parameters']['omega1_start']:.4g} rad/s over "
+    for text in (about["title"], about["caption"]):
+        assert str(tmp_path) not in text and "folder" not in text, text
+        assert said in text and "s (fast)" in text, (said, text)

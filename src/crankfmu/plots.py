@@ -396,7 +396,7 @@ def plot_reactions(scenario, r, path: Path, switches_deg=()) -> Path:
     save_figure(fig, path, dpi=110, scenario=scenario.name,
                 caption=f"The magnitude of every joint's reaction force over one crank turn at {r.omega1:g} rad/s "
                         "(Newton-Euler, inertia included), a panel per joint."
-                        + (f" The jumps are at the angles where a switched load changes ({switches} deg): a "
-                           "slider's friction or technological force reverses with its velocity." if switches else ""))
+                        + (f" The jumps are at the angles where a switched load changes ({switches} deg): "
+                           f"{r.switched or 'a load switched by its direction'}." if switches else ""))
     plt.close(fig)
     return path

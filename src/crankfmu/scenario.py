@@ -90,6 +90,16 @@ class Scenario:
             }.get(kind, f"a {kind.replace('_', ' ')} {'at' if spec.get('point') else 'on'} {at}")))
         return words
 
+    def describe_loads(self, reduced, which=None) -> str:
+        """The loads ``which`` (indices into reduced.loads, all by default) in words, each entry
+        once, in the file's order: "the gas force on the piston and the generator"; "none"."""
+        words = self.load_words()
+        chosen = range(len(reduced.load_entries)) if which is None else which
+        named = list(dict.fromkeys(words[reduced.load_entries[i]] for i in chosen))
+        if not named:
+            return "none"
+        return named[0] if len(named) == 1 else ", ".join(named[:-1]) + " and " + named[-1]
+
     def _param(self, name: str) -> Parameter:
         if name not in self.parameters:
             raise ParameterError(

@@ -45,6 +45,20 @@ def read_run(result_dir) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return rows[:, 0], rows[:, 1], rows[:, 2]
 
 
+def run_words(result_dir) -> str:
+    """A run in words, its start, length and method (summary.json's, where it names one): "a run
+    from omega1 = 6 rad/s over 4 s (fast)", never its folder's path."""
+    import json
+
+    t, _, omega = read_run(result_dir)
+    try:
+        method = json.loads((Path(result_dir) / "summary.json").read_text(encoding="utf-8")).get("method")
+    except (OSError, ValueError, AttributeError):
+        method = None
+    how = f" ({method})" if isinstance(method, str) and method else ""
+    return f"a run from omega1 = {omega[0]:.4g} rad/s over {t[-1] - t[0]:.4g} s{how}"
+
+
 def animate(scenario, out, result_dir=None, trace=None, frames: int = 120, fps: int = 20,
             omega1: float | None = None, progress=None) -> Path:
     """Write the animation to ``out`` (.gif or .mp4) and return its path."""
@@ -63,9 +77,10 @@ def animate(scenario, out, result_dir=None, trace=None, frames: int = 120, fps: 
         with replacing(out) as partial:
             if out.suffix.lower() == ".gif":
                 # what the animation shows, in the GIF's comment (a page's caption: crankfmu page)
-                about = {"title": f"{scenario.title}: one crank turn" + (" of the run" if result_dir else ""),
-                         "caption": f"{scenario.title}, moving" + (f" as the run in {Path(result_dir).name or result_dir} "
-                                                                    "turns it" if result_dir else " at constant crank speed")
+                about = {"title": f"{scenario.title}: " + (run_words(result_dir) if result_dir
+                                                            else "one crank turn at constant speed"),
+                         "caption": f"{scenario.title}, moving" + (f" as {run_words(result_dir)} turns it" if result_dir
+                                                                   else " at constant crank speed")
                                     + ".", "scenario": scenario.name}
                 write_gif(fig, frame, count, partial, fps, progress, json.dumps(about))
             else:
@@ -125,7 +140,7 @@ def animation_figure(scenario, result_dir=None, trace=None, frames: int = 120, o
         what = f"one crank turn at constant omega1 = {w:g} rad/s"
     else:
         t_all, phi_all, omega_all = read_run(result_dir)
-        what = f"the run in {result_dir}"
+        what = run_words(result_dir)
     index = np.unique(np.linspace(0, t_all.size - 1, frames).round().astype(int))
     t, phi = t_all[index], phi_all[index]
     movie = sketch.frames(np.mod(phi, TWO_PI))

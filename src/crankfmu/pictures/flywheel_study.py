@@ -56,15 +56,7 @@ def paper_deg(phi, offset):
 
 
 def loads_text(scenario, model, which=None) -> str:
-    """The loads ``which`` (indices into model.reduced.loads; all by default) in words, each entry
-    once, in the file's order: "the gas force on the piston, the weights and the generator"."""
-    words = scenario.load_words()
-    entries = model.reduced.load_entries
-    chosen = range(len(entries)) if which is None else which
-    named = list(dict.fromkeys(words[entries[i]] for i in chosen))
-    if not named:
-        return "none"
-    return named[0] if len(named) == 1 else ", ".join(named[:-1]) + " and " + named[-1]
+    return scenario.describe_loads(model.reduced, which)
 
 
 def acting(model, omega1: float) -> list[int]:

@@ -35,6 +35,7 @@ class SpeedResult:
     located: dict                   # the extremes located on the exact functions (located_extremes)
     switches: tuple = ()            # rad: where a switched load changes over the cycle (cycle_breaks' inner ones)
     cycle_angle: float = TWO_PI     # rad: the machine's cycle
+    switched: str = ""              # the switched loads in words (their [[loads]] descriptions)
 
     @property
     def key(self) -> str:
@@ -171,7 +172,8 @@ def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> lis
             reactions=joint_reactions(model.reduced, phi1, w),
             reactions_static=joint_reactions(model.reduced, phi1, w, inertia=False),
             mean=mean, tech_work=tech_work, located=located_extremes(model, w, breaks),
-            switches=tuple(breaks[1:-1]), cycle_angle=period))
+            switches=tuple(breaks[1:-1]), cycle_angle=period,
+            switched=scenario.describe_loads(model.reduced, [model.reduced.loads.index(s) for s in model.reduced.sliders])))
     return results
 
 
