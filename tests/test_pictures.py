@@ -4,6 +4,8 @@ matplotlib's rendered extents), and the geometry it shows is checked against a s
 
 from __future__ import annotations
 
+import html
+
 import math
 import zipfile
 from pathlib import Path
@@ -282,9 +284,19 @@ def test_every_fmu_carries_its_documentation(fmu_path):
         for src in __import__("re").findall(r'src="([^"]+)"', page):
             assert f"documentation/{src}" in names, (fmu.name, src)
         assert "Default experiment" in page and "Equations" in page
-        if built_from(fmu).get("kind") == "scenario":      # a mechanism, not a component (a drive, a shaft, ...)
+        assert "dynamics." not in page, fmu.name                  # no module names: the reader has the page
+        source = built_from(fmu)
+        if source.get("kind") == "scenario":      # a mechanism, not a component (a drive, a shaft, ...)
             # the movement equation as MathML (its annotation keeps the text it was written as)
             assert "documentation/mechanism.png" in names and "J(phi1)*der(omega1)" in page and "<math" in page
+            # J's derivative with primed symbols, never a word set upright ("tt_j" as text)
+            assert 'mathvariant="normal">tt_j' not in page and "<mo>′</mo>" in page, fmu.name
+            # what drives it and its loads, from its own file (an engine has no motor, a gas force, a generator)
+            from crankfmu.fmi.documentation import machine_words
+
+            scenario = load_scenario(source.get("file") or source["name"])
+            said = machine_words(scenario, source.get("causality") == "speed")
+            assert html.escape(said) in page, (fmu.name, said)
 
 
 def test_an_animation_fits_a_page_at_most_one_megabyte_with_readable_text(tmp_path):

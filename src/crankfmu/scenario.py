@@ -281,7 +281,7 @@ class Scenario:
             if spec.get("kind") == "weights":
                 names.add("g")
             for key, value in spec.items():
-                if key in ("kind", "link", "links", "point", "a", "b", "axis", "band", "direction_of"):
+                if key in ("kind", "link", "links", "point", "a", "b", "axis", "band", "direction_of", "description"):
                     continue
                 for text in (value.values() if isinstance(value, dict) else [value]):
                     if isinstance(text, str):

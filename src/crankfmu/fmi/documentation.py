@@ -27,8 +27,8 @@ MECHANISM_EQUATIONS = (
     ("J(phi1) == J_flywheel + sum(m_j*(t_j**2 + p_j**2) + I_j*q_j**2)",
      "the reduced moment of inertia at the crank: each link's mass m_j and central inertia I_j through its mass "
      "centre's transfer functions t_j = dx_j/dphi1, p_j = dy_j/dphi1 and its angle's q_j = dphi_j/dphi1"),
-    ("0.5*J_prime(phi1) == sum(m_j*(t_j*tt_j + p_j*pp_j) + I_j*q_j*qq_j)",
-     "half its derivative, from the second transfer functions tt_j, pp_j, qq_j"),
+    ("0.5*J_prime(phi1) == sum(m_j*(t_j*t_j_prime + p_j*p_j_prime) + I_j*q_j*q_j_prime)",
+     "half its derivative, from the second transfer functions t_j' = dt_j/dphi1, p_j' and q_j'"),
     ("Q(phi1, omega1) == sum(F_jx*t_j + F_jy*p_j + M_j*q_j)",
      "the loads reduced to the crank by virtual power: weights, viscous and slider forces, the data file's "
      "loads (F_j, M_j on link j)"),
@@ -42,12 +42,12 @@ MECHANISM_EQUATIONS = (
 )
 MOTOR_EQUATIONS = (
     ("M_motor == A - B*omega1", "the motor's working line, for omega1 > omega_switch"),
-    ("M_motor == A_low - B_low*omega1", "its start-up line, for omega1 <= omega_switch (dynamics.motor)"),
+    ("M_motor == A_low - B_low*omega1", "its start-up line, for omega1 <= omega_switch"),
 )
 SPEED_EQUATIONS = (
     ("tau_drive == J(phi1)*der(omega1) + 0.5*J_prime(phi1)*omega1**2 - Q(phi1, omega1) - tau_e",
      "speed causality: the crank speed omega1 is an input; the FMU returns the torque the drive must give "
-     "(inverse dynamics, dynamics.inverse)"),
+     "(inverse dynamics)"),
     ("der(phi1) == omega1", "the crank angle, integrated from the input"),
 )
 DRIVE_EQUATIONS = (
@@ -273,6 +273,30 @@ fmi2Error with one message naming the parameter and its valid range, whatever th
 the instance stays usable (set a good value, or reset it).</p>"""
 
 
+def has_motor(scenario) -> bool:
+    """Whether the scenario's motor line gives a torque (an engine's is zero: its gas drives it)."""
+    return any(scenario.values.get(k, 0.0) != 0.0 for k in ("A", "B", "A_low", "B_low"))
+
+
+def machine_words(scenario, speed: bool = False) -> str:
+    """What the machine is, from its file: what drives the crank, its flywheel, its loads (their
+    [[loads]] descriptions) and a machine cycle of several turns."""
+    if speed:
+        drive = "a planar mechanism whose crank speed is the input"
+    else:
+        drive = ("a planar mechanism driven by its crank's motor line" if has_motor(scenario)
+                 else "a planar mechanism with no motor on its crank (its motor line is zero: the loads drive it)")
+    J = scenario.values.get("J_flywheel", 0.0)
+    flywheel = f"{J:g} kg.m2 of flywheel on the crank" if J else "no flywheel"
+    weightless = scenario.values.get("g", 9.81) == 0.0           # an engine's file: its weights are nothing
+    words = list(dict.fromkeys(w for w, spec in zip(scenario.load_words(), scenario.data.get("loads", []))
+                               if not (weightless and spec.get("kind") == "weights")))
+    loads = (", ".join(words[:-1]) + " and " + words[-1]) if len(words) > 1 else (words[0] if words else "no loads")
+    cycle = (f"; the loads repeat over a machine cycle of {scenario.cycle_turns} turns "
+             f"({360 * scenario.cycle_turns} deg)" if scenario.cycle_turns > 1 else "")
+    return f"{drive}, {flywheel}, the loads: {loads}{cycle}"
+
+
 def scenario_documentation(name: str, scenario, model_description: bytes, parameters: dict,
                            reference_csv, speed: bool = False, **about) -> dict[str, bytes]:
     """documentation/ files of a mechanism FMU: index.html, mechanism.png, default_experiment.png.
@@ -301,8 +325,7 @@ def scenario_documentation(name: str, scenario, model_description: bytes, parame
               "tabulated model, computed when the FMU initialises), locating every switch inside a step; the joint "
               "reactions come from Newton-Euler at the step's state.")
     body = f"""<h1>{html.escape(name)}.fmu</h1>
-<p>{html.escape(scenario.title)}: a planar mechanism driven by its crank, with its motor, flywheel and
-loads, as a Functional Mock-up Unit. Built by crankfmu from the scenario file <code>{html.escape(scenario.name)}</code>
+<p>{html.escape(scenario.title)}: {html.escape(machine_words(scenario, speed))}, as a Functional Mock-up Unit. Built by crankfmu from the scenario file <code>{html.escape(scenario.name)}</code>
 and the mechanism file <code>{html.escape(definition.name)}</code> ({html.escape(definition.title)}); every value in SI units.
 Source: {html.escape(citation)}.</p>
 {what_it_is(model_description, about)}
@@ -315,7 +338,7 @@ contours (closed vector chains, u(a) = (cos a, sin a)), solved on the assembly b
 {contours}
 <p>The reduced model, one coordinate (the crank angle):</p>
 {_equations(MECHANISM_EQUATIONS if not speed else MECHANISM_EQUATIONS[:3] + SPEED_EQUATIONS)}
-{"" if speed else "<p>The motor:</p>" + _equations(MOTOR_EQUATIONS)}
+{"" if speed or not has_motor(scenario) else "<p>The motor:</p>" + _equations(MOTOR_EQUATIONS)}
 <p>{html.escape(solver)}</p>
 
 <h2>Parameters</h2>
