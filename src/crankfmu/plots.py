@@ -244,10 +244,10 @@ def plot_families(result, scenario, units: dict, out: Path) -> list[Path]:
                 ax.plot([], [], lw=0, label=f"{axis.name} = {v:g}{unit_of(axis.name)}: cannot be assembled")
         fixed = ", ".join(f"{k} = {v:g}{unit_of(k)}" for k, v in base.items() if k != axis.name)
         cite = scenario.data.get("kinematics", {}).get("figures", {}).get(f"{quantity}_vs_{axis.name}")
-        ax.set_title(f"{quantity} over a cycle, {axis.name} swept ({fixed})" + (f" (the paper's {cite})" if cite else ""))
-        ax.set_xlabel("crank angle phi1 [deg]")
+        ax.set_title(f"{quantity} over a cycle, {axis.name} swept" + (f" ({fixed})" if fixed else "")
+                     + (f" (the paper's {cite})" if cite else ""))
+        turn_axis(ax)              # ticks every 45 deg, as every other figure over a turn
         ax.set_ylabel(f"{quantity} [{units.get(quantity, '')}]")
-        ax.grid(True, alpha=0.3)
         legend_outside(ax)
         paths.append(out / f"{quantity}_vs_{axis.name}.png")
         save_figure(fig, paths[-1], dpi=110, scenario=scenario.name,
