@@ -51,7 +51,7 @@ def reference_run(scenario, times, method: str = "reference", rtol: float | None
                  output_times=times, progress=progress)
     wall = time.perf_counter() - started
     values = {c: np.asarray(getattr(r, c)) for c in COLUMNS if c != "time"}
-    return _with_outputs(ReferenceRun(method, times, values, wall, dict(r.settings), r), r.model, scenario)
+    return with_outputs(ReferenceRun(method, times, values, wall, dict(r.settings), r), r.model, scenario)
 
 
 def _run_key(scenario, times: np.ndarray) -> tuple:
@@ -100,7 +100,7 @@ def second_method_gap(scenario, times) -> float:
     return _GAPS[key]
 
 
-def _with_outputs(run: ReferenceRun, model, scenario) -> ReferenceRun:
+def with_outputs(run: ReferenceRun, model, scenario) -> ReferenceRun:
     """The run with every other output a mechanism FMU declares, at the reference's states: the
     scenario's [[outputs]] and the ports' s, v, a (the analytic kinematics), and the joint
     reactions (Newton-Euler, the ports' inputs zero as the harness leaves them)."""
@@ -166,5 +166,5 @@ def periodic_reference(scenario, times, settle_time: float = 12.0, progress=None
     settings = {"method": "reference, periodic extension", "settle_time": settle_time, "period": period,
                 "cycles_extended": cycles,
                 "phase_uncertainty": cycles * period_error * float(np.max(np.abs(y[OMEGA])))}
-    return _with_outputs(ReferenceRun("reference (periodic)", times, values, time.perf_counter() - started,
+    return with_outputs(ReferenceRun("reference (periodic)", times, values, time.perf_counter() - started,
                                       settings, r), r.model, scenario)

@@ -22,7 +22,7 @@ from crankfmu.errors import CrankfmuError
 from .compare import max_abs_error, relative_error
 from .fmu_runner import input_signal
 from .mechanism import OUTPUT_TOLERANCE
-from .reference import ReferenceRun, _with_outputs, cached_reference
+from .reference import ReferenceRun, with_outputs, cached_reference
 from .figures import plot_outputs
 
 #: the tables are checked to 1e-11; tau_drive sums J epsilon1, 0.5 J' omega1^2 and Q: 1e-8 of its scale
@@ -44,7 +44,7 @@ def constant_speed_reference(scenario, times, omega1: float) -> ReferenceRun:
               "tau_drive": me.total, "M_load": -(me.weights + me.technological), "J_red": J,
               "E_kin": 0.5 * J * omega1 ** 2}
     run = ReferenceRun("inverse dynamics at constant omega1", np.asarray(times), values, 0.0)
-    return _with_outputs(run, model, scenario)
+    return with_outputs(run, model, scenario)
 
 
 def check_speed_fmu(fmu, scenario, checks, out, quick: bool) -> dict:
