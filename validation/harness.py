@@ -295,8 +295,10 @@ class StatusLine:
         if not force and now - self.last < (1.0 if self.tty else 15.0):
             return
         self.last = now
-        running = "; ".join(f"{label} {100 * fraction:3.0f}%" for label, fraction in list(status.values())[:4]
-                            if label)
+        # a run at 100 % is over: what its worker does next (the checks on it) has no fraction, so it
+        # reads as that, not as a bar stuck at 100 % while the next work goes on
+        running = "; ".join((f"{label} {100 * fraction:3.0f}%" if fraction < 1.0 else f"{label} done, checking")
+                            for label, fraction in list(status.values())[:4] if label)
         filled = int(round(30 * done / max(self.total, 1)))
         line = (f"validate [{'#' * filled}{'.' * (30 - filled)}] {done}/{self.total} groups, "
                 f"{now - self.t0:5.0f} s" + (f" | {running}" if running and done < self.total else ""))
