@@ -108,6 +108,19 @@ def test_every_figure_is_on_the_page_with_its_caption(results):
     assert "Malcoci" in page and "Classical and Modern Kinematic Analysis" in page
 
 
+def test_each_data_files_figures_are_folded_but_the_firsts(results):
+    """The page reads at a glance: a section's numbers in the open, its figures behind a summary a
+    reader opens (the first section's open), each summary naming how many and what they show."""
+    import re
+
+    page = (results / "index.html").read_text()
+    folds = re.findall(r"<details( open)?><summary>(\d+) figures? \(click to open\): ([^<]+)</summary>", page)
+    sections = page.count("<h2 id=")
+    assert len(folds) >= sections - 1 >= 3, (len(folds), sections)       # the validation's section has no figures
+    assert [bool(opened) for opened, _, _ in folds] == [True] + [False] * (len(folds) - 1)
+    assert sum(int(n) for _, n, _ in folds) == 17
+
+
 def test_the_papers_numbers_stand_beside_ours(results):
     checks = json.loads((results / "validation" / "checks.json").read_text())
     published = [c for c in checks["checks"] if c["verdict"]]

@@ -213,7 +213,9 @@ def _g(x) -> str:
     return f"{x:.6g}" if isinstance(x, (int, float)) else html.escape(str(x))
 
 
-def _group_html(g: Group, checks: dict) -> str:
+def _group_html(g: Group, checks: dict, unfolded: bool = False) -> str:
+    """A data file's section: its numbers beside the paper's in the open, its figures folded (a
+    summary a reader opens; ``unfolded`` for the first section), so the page reads at a glance."""
     parts = [f'<h2 id="{html.escape(g.name)}">{html.escape(g.title or g.name)}</h2>']
     if g.citation:
         parts.append(f'<p class="note">Source: {html.escape(g.citation)}. Data file: <code>{html.escape(g.name)}</code>.</p>')
@@ -253,6 +255,10 @@ def _group_html(g: Group, checks: dict) -> str:
                          f"<td>{100 * c.get('share_of_cycle_min', float('nan')):.0f} %, "
                          f"{100 * c.get('share_of_cycle_mean', float('nan')):.0f} %</td></tr>")
         parts.append("</table>")
+    if g.figures:
+        shown = ", ".join(html.escape(f.title or f.path.name) for f in g.figures[:3]) + (", ..." if len(g.figures) > 3 else "")
+        parts.append(f"<details{' open' if unfolded else ''}><summary>{len(g.figures)} figure"
+                     f"{'s' if len(g.figures) > 1 else ''} (click to open): {shown}</summary>")
     for f in g.figures:
         src = html.escape(f.path.as_posix())
         alt = html.escape(f.title or f.path.name)
@@ -263,6 +269,8 @@ def _group_html(g: Group, checks: dict) -> str:
                        for c, compared in cites)
         parts.append(f'<figure><a href="{src}"><img src="{src}" alt="{alt}"></a>'
                      f"<figcaption><code>{src}</code>: {caption}{more}</figcaption></figure>")
+    if g.figures:
+        parts.append("</details>")
     return "\n".join(parts)
 
 
@@ -297,7 +305,7 @@ def write_page(root, validation=None, out=None) -> Path:
     body.append("<nav><ul>" + "".join(f'<li><a href="#{html.escape(n)}">{html.escape(groups[n].title or n)}</a> '
                                         f"({len(groups[n].figures)})</li>" for n in order)
                 + ('<li><a href="#validation">Validation</a></li>' if checks else "") + "</ul></nav>")
-    body += [_group_html(groups[n], checks) for n in order]
+    body += [_group_html(groups[n], checks, unfolded=(i == 0)) for i, n in enumerate(order)]
     if checks:
         body.append('<h2 id="validation">Validation</h2><table><tr><th>FMU</th><th>build</th><th>kind</th>'
                     "<th>interfaces</th><th>data file</th><th>passed</th><th>failed</th><th>disagree</th><th>fitted</th>"
