@@ -36,6 +36,14 @@ def ink(path: Path) -> float:
     return float(np.mean(img < 250))
 
 
+def test_a_point_on_another_all_the_turn_shares_its_label():
+    """engine1's slider-crank keeps the rod's point C at A (l_AC = 0): one label "A = C", not C on top
+    of A; B, apart from A, keeps its own."""
+    fig = draw_figure(load_scenario("engine1"), 30.0)
+    texts = [t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text")) if t.get_text()]
+    assert "A = C" in texts and "C" not in texts and "A" not in texts and "B" in texts, texts
+
+
 @pytest.mark.parametrize("which", MECHANISMS)
 def test_drawing_with_every_overlay_is_drawn_and_its_labels_do_not_overlap(which, tmp_path):
     fig = draw_figure(load_scenario(MECHANISMS[which]), 40.0, OVERLAYS, trace=None)

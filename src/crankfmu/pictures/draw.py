@@ -136,9 +136,17 @@ class MechanismPicture:
         self.others = ax.plot([], [], "o", ms=3.5, color="black", zorder=7)[0]
         self.traces = {p: ax.plot([], [], "--", lw=1.0, color="0.35", zorder=1, label=f"path of {p}")[0]
                        for p in self.trace}
-        # labels: joints and named points in black, mass centres in grey (once per position)
+        # labels: joints and named points in black, mass centres in grey (once per position); a point
+        # that sits on a labelled one all the turn (a slider-crank's C at A where l_AC = 0) joins its
+        # label, "A = C", rather than a second label over it
         self.label_points = []
+        tiny = 1e-9 * max(self.size, 1e-300)
         for p in [*joint_points, *self.other_points]:
+            same = next((k for k, q in enumerate(self.label_points)
+                         if np.max(np.abs(self.turn.xy[p] - self.turn.xy[q])) <= tiny), None)
+            if same is not None:
+                self.labels[same].set_text(f"{self.labels[same].get_text()} = {p}")
+                continue
             self.label_points.append(p)
             self.labels.append(label(ax, p, (0, 0), fontsize=10, fontweight="bold", zorder=9))
         for link, c in sk.centres.items():
