@@ -172,3 +172,17 @@ def test_an_animation_of_a_run_says_the_run_not_its_folder(tmp_path):
     for text in (about["title"], about["caption"]):
         assert str(tmp_path) not in text and "folder" not in text, text
         assert said in text and "s (fast)" in text, (said, text)
+
+
+def test_the_wells_figures_name_its_unit_as_the_well_scales_it(tmp_path):
+    """rp11l_guo scales C-114D-133-54's geometry to an 86 in stroke: its animation says so (its
+    [unit] title), not the packaged pump jack's own name alone."""
+    from PIL import Image
+
+    from crankfmu.dynamics.well import load_well
+
+    assert main(["well", "rp11l_guo", "--frames", "4", "--out", str(tmp_path)]) == 0
+    with Image.open(tmp_path / "well.gif") as image:
+        about = json.loads(image.info["comment"])
+    assert about["title"].startswith(load_well("rp11l_guo").unit["title"]), about["title"]
+    assert "86 in stroke" in about["title"]

@@ -154,7 +154,7 @@ WELL = table({
     "name": STRING, "title": STRING, "source": STRING, "citation": STRING, "fmu": STRING,
     "parameters": mapping(PARAMETER), "experiment": _COMPONENT_EXPERIMENT,
     "tapers": array(table({k: PARAMETER for k in ("length", "diameter", "mass_per_length", "E")})),
-    "unit": table({"scenario": STRING, "strokes_per_minute": NUMBER, "counterbalance": EXPRESSION,
+    "unit": table({"scenario": STRING, "title": STRING, "strokes_per_minute": NUMBER, "counterbalance": EXPRESSION,
                    "motor": table({"rated_power": NUMBER, "rated_slip": NUMBER}),
                    "parameters": mapping(EXPRESSION),
                    "reference": mapping(NUMBER),

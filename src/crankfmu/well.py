@@ -134,7 +134,10 @@ def unit_scenario(well: WellFile, design: StringDesign | None = None, m_cw: floa
             m_cw = balanced_counterweight(well, scenario, design, progress=progress, in_c=in_c)
         else:
             m_cw = counterweight_mass(scenario, rp11l_counterbalance(design) if spec == "rp11l" else spec)
-    return scenario.with_params(m_cw=m_cw)
+    scenario = scenario.with_params(m_cw=m_cw)
+    if unit.get("title"):          # the unit as the well changes it (a scaled geometry), for its figures' words
+        scenario.title = str(unit["title"])
+    return scenario
 
 
 def target_speed(well: WellFile) -> float:

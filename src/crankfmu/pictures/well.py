@@ -85,11 +85,15 @@ def animation_gif(cw, stroke, out: Path, frames: int = 60, fps: int = 15, progre
     v = cw.scenario.values
     surface, _ = _positions(stroke)
     fig, (ax, card) = plt.subplots(1, 2, figsize=(10, 5.2), dpi=96, gridspec_kw={"width_ratios": [1.2, 1]})
-    xs = np.concatenate([xy[p][0] for p in definition_points])
-    ys = np.concatenate([xy[p][1] for p in definition_points])
+    # the horsehead's arc (0.35 rad either side of the beam's line, radius arm_A about S) at every
+    # frame, within the limits: it reaches above the beam's points (it was clipped at the top)
+    theta = np.arctan2(xy["H"][1] - xy["S"][1], xy["H"][0] - xy["S"][0])
+    arcs = theta[:, None] + np.linspace(-0.35, 0.35, 20)[None, :]
+    xs = np.concatenate([*(xy[p][0] for p in definition_points), (xy["S"][0][:, None] + v["arm_A"] * np.cos(arcs)).ravel()])
+    ys = np.concatenate([*(xy[p][1] for p in definition_points), (xy["S"][1][:, None] + v["arm_A"] * np.sin(arcs)).ravel()])
     rod_x = v["I_dist"] + v["arm_A"]
     ax.set_xlim(min(xs.min(), -v["crank_R"]) - 0.5, max(xs.max(), rod_x) + 0.8)
-    ax.set_ylim(-v["G_crank"] - 0.3, ys.max() + 0.8)
+    ax.set_ylim(-v["G_crank"] - 0.3, ys.max() + 0.3)
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
