@@ -74,7 +74,8 @@ def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str,
     lines = [
         "# crankfmu validation report",
         "",
-        f"**{checks.summary()}**: {len(sections)} FMU builds validated, {len(not_validated)} not validated "
+        f"**{checks.summary()}**: {len(sections)} FMU{'s' if len(sections) != 1 else ''} validated (each build of "
+        f"each data file apart), {len(not_validated)} not validated "
         f"({'the --quick subset' if quick else 'the full harness'}, {elapsed:.0f} s, "
         f"{time.strftime('%Y-%m-%d %H:%M')} on {platform.node()}, {platform.machine()}, {os.cpu_count()} cores).",
         "",
