@@ -205,14 +205,15 @@ def _defaults(secs) -> list[str]:
         lines += ["| output | " + " | ".join(label for label, _, _ in runs) + " | bar |",
                   "|---|" + "---|" * len(runs) + "---|"]
         for out_name in outputs:
-            cells, unit, bars = [], "", set()
-            for _, _, d in runs:
-                row = next((r for r in d["rows"] if r["output"] == out_name), None)
-                cells.append("" if row is None else f"{row['rel']:.2g}")
-                if row is not None:
-                    unit = row["unit"]
-                    bars.add(f"{row['tol']:g}")
-            lines.append(f"| {out_name} [{unit}] | " + " | ".join(cells) + f" | {', '.join(sorted(bars))} |")
+            found = [next((r for r in d["rows"] if r["output"] == out_name), None) for _, _, d in runs]
+            unit = next((r["unit"] for r in found if r is not None), "")
+            bars = {f"{r['tol']:g}" for r in found if r is not None}
+            # one bar for the row, or where the runs' bars differ (Model Exchange's CVode against
+            # Co-Simulation, say) each cell's own, beside its error: no list of bars left unexplained
+            cells = ["" if r is None else f"{r['rel']:.2g}" + (f" (bar {r['tol']:g})" if len(bars) > 1 else "")
+                     for r in found]
+            bar = bars.pop() if len(bars) == 1 else "each cell's own"
+            lines.append(f"| {out_name} [{unit}] | " + " | ".join(cells) + f" | {bar} |")
         walls = "; ".join(f"{label} {d['fmu_wall']:.2f} s" for label, _, d in runs)
         lines += ["", f"Wall time of each run through fmpy: {walls}.", "",
                   "<details>", "<summary>Plots: every output over the reference, and its error against the bar</summary>",
