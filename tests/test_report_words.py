@@ -19,3 +19,18 @@ def test_one_bar_per_row_or_each_cells_own():
     phi = next(line for line in lines if line.startswith("| phi1 "))
     assert "2.5e-09 (bar 1e-06)" in omega and "2.5e-09 (bar 1e-05)" in omega and omega.endswith("| each cell's own |")
     assert "(bar" not in phi and phi.endswith("| 1e-06 |")
+
+
+def test_a_published_number_on_the_results_page_says_where_and_in_what_unit():
+    """seed000's settled_in_cycle_4, as the harness records it: the page gives the [[paper]] entry's
+    source beside it and its tolerance as a ratio (unit 1)."""
+    from crankfmu import load_scenario
+    from crankfmu.pages.results import Group, _group_html
+
+    entry = next(e for e in load_scenario("seed000").data["paper"] if e["name"] == "settled_in_cycle_4")
+    checks = {"fmus": [{"name": "FourBar", "data": "src/crankfmu/scenarios/seed000.toml"}],
+              "checks": [{"name": "FourBar.python.paper.settled_in_cycle_4", "verdict": "passed", "measured": 5.8e-10,
+                          "published": "0", "tolerance": entry["tolerance"], "unit": "1", "note": ""}]}
+    page = _group_html(Group("seed000"), checks)
+    assert f"<td>{entry['source']}</td>" in page.replace("&#x27;", "'"), page
+    assert f"<td>{entry['tolerance']} (a ratio)</td>" in page, page

@@ -209,6 +209,18 @@ def _paper_rows(checks: dict, group: str) -> list[dict]:
     return list(rows.values())
 
 
+def paper_sources(name: str) -> dict[str, str]:
+    """Each published number's ``source`` in the data file's [[paper]] (where the paper gives it),
+    by the number's name; {} for a data file that is not a packaged scenario."""
+    from ..scenario import load_scenario
+
+    try:
+        entries = load_scenario(name).data.get("paper", [])
+    except CrankfmuError:
+        return {}
+    return {str(e.get("name")): str(e.get("source", "")) for e in entries if isinstance(e, dict)}
+
+
 def _g(x) -> str:
     return f"{x:.6g}" if isinstance(x, (int, float)) else html.escape(str(x))
 
@@ -224,13 +236,18 @@ def _group_html(g: Group, checks: dict, unfolded: bool = False) -> str:
         parts.append("<h3>The paper's numbers beside ours</h3><table><tr><th>number</th><th>verdict</th>"
                      "<th>crankfmu</th><th>published</th><th>tolerance</th><th>where in the paper, and why</th>"
                      "<th>checked on</th></tr>")
+        sources = paper_sources(g.name)
         for r in rows:
             unit = "" if r.get("unit") in ("", "1", None) else f" {r['unit']}"
             ours = "-" if r.get("skipped") else f"{_g(r['measured'])}{html.escape(unit)}"
             verdict = str(r["verdict"]).split()[0]
+            # the tolerance in the number's unit ("1": a ratio), and where the paper gives it in words
+            # beside the harness's note (a name such as settled_in_cycle_4 says little alone)
+            tolerance = f"{r['tolerance']}{unit or (' (a ratio)' if r.get('unit') == '1' else '')}"
+            where = "; ".join(t for t in (sources.get(r["number"], ""), r.get("note", "")) if t)
             parts.append(f'<tr><td>{html.escape(r["number"])}</td><td class="verdict-{html.escape(verdict)}">'
                          f'{html.escape(r["verdict"])}</td><td>{ours}</td><td>{html.escape(r["published"])}</td>'
-                         f'<td>{html.escape(str(r["tolerance"]))}</td><td>{html.escape(r.get("note", ""))}</td>'
+                         f'<td>{html.escape(tolerance)}</td><td>{html.escape(where)}</td>'
                          f'<td>{html.escape(", ".join(r["builds"]))}</td></tr>')
         parts.append("</table>")
     for folder, table in g.references:
