@@ -342,7 +342,9 @@ def _arrows(ax, origins, vectors, colour, unit: str, size: float, name: str, pat
     longest = max(float(np.max(np.hypot(vectors[:, 0], vectors[:, 1]))), 1e-300)
     scale = 0.25 * size / longest          # m of drawing per unit of the quantity
     style = dict(angles="xy", scale_units="xy", scale=1.0 / scale, color=colour, width=0.004, zorder=8)
-    ax.quiver(origins[:, 0], origins[:, 1], vectors[:, 0], vectors[:, 1], label=name, **style)
+    # a white rim: an arrow that lies along a link or over a slider's block stays visible on it
+    ax.quiver(origins[:, 0], origins[:, 1], vectors[:, 0], vectors[:, 1], label=name, edgecolor="white",
+              linewidth=0.8, **style)
     keys.append((nice(longest), unit, style))
     tips = origins + vectors * scale
     paths += [np.array([a, b]) for a, b in zip(origins, tips)]
