@@ -309,22 +309,32 @@ def test_the_shafts_linear_system_and_its_step_on_input_lines(built, variant, tm
         fmu.freeInstance()
 
 
-def test_directional_derivatives_match_central_differences_in_model_exchange(built, tmp_path):
+FAN = HERE / "data" / "user" / "engine4s_fan_scenario.toml"
+
+
+@pytest.mark.parametrize("which", ["FourBar", "Engine4SFan"])
+def test_directional_derivatives_match_central_differences_in_model_exchange(built, which, tmp_path):
     """FourBar in Model Exchange: d(der(phi1), der(omega1), der(W_...), epsilon1, M_motor, M_load,
     J_red, E_kin)/d(each state and tau_ext) from the FMU against central differences of the same
     values with the states set (fmi2SetContinuousStates) to 1e-6 relative, in the middle of a turn
-    (the motor on its upper line, away from its kink)."""
+    (the motor on its upper line, away from its kink). The engine driving a fan (-c omega1 |omega1|,
+    a load of degree 2 whose omega1**2 column the kernel weighs by omega1's power) likewise: its
+    d der(omega1)/d omega1 carries the fan's -2 c |omega1|."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Model
 
-    path = built["FourBar", "native"]
+    if which == "FourBar":
+        path = built["FourBar", "native"]
+    else:
+        assert main(["fmu", str(FAN), "--native", "--out", str(tmp_path / "fan")]) == 0
+        path = tmp_path / "fan" / "Engine4SFan.fmu"
     md = read_model_description(str(path))
     fmu = FMU2Model(guid=md.guid, unzipDirectory=extract(str(path), str(tmp_path)),
                     modelIdentifier=md.modelExchange.modelIdentifier)
     vr = {v.name: v.valueReference for v in md.modelVariables}
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
-    put(fmu, [vr["phi1_start"], vr["omega1_start"]], [1.3, 18.0])
+    put(fmu, [vr["phi1_start"], vr["omega1_start"]], [1.3, 18.0] if which == "FourBar" else [2.1, 240.0])
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
     fmu.newDiscreteStates()
@@ -338,7 +348,7 @@ def test_directional_derivatives_match_central_differences_in_model_exchange(bui
         def set_states(y):
             fmu.setContinuousStates((c_double * len(y))(*y), len(y))
 
-        x0 = np.array([1.3, 18.0, 10.0, -5.0, 0.0])
+        x0 = np.array([1.3, 18.0, 10.0, -5.0, 0.0]) if which == "FourBar" else np.array([2.1, 240.0, 10.0, -5.0, 0.0])
         set_states(x0)
         u_vrs = [vr[n] for n in unknowns]
         for k, known in enumerate(knowns):
@@ -354,11 +364,17 @@ def test_directional_derivatives_match_central_differences_in_model_exchange(bui
                 return get(fmu, u_vrs)
 
             centre = 0.0 if known == "tau_ext" else x0[k]
-            numeric = central_difference(values, centre, 1e-4 * max(1.0, abs(centre)))
-            values(centre)
+            h = 1e-4 * max(1.0, abs(centre))
+            numeric = central_difference(values, centre, h)
+            at = values(centre)
+            # the differences' own rounding, eps |value| / h each, is no error of the FMU's: a derivative
+            # near zero (the engine's d der(W_load)/d phi1, der(W_load) = M_load omega1 = -737 W) is
+            # met to it (1e-9 W/rad at h = 2e-4), the others to 1e-6 of themselves
+            noise = 100 * np.finfo(float).eps * np.abs(at) / h
             scale = np.maximum(np.abs(numeric), 1e-9 * np.max(np.abs(numeric)) + 1e-12)
-            worst = np.max(np.abs(analytic - numeric) / scale)
-            print(f"FourBar (ME) d/d{known}: largest relative difference {worst:.1e}")
+            worst = np.max(np.maximum(np.abs(analytic - numeric) - noise, 0.0) / scale)
+            raw = np.max(np.abs(analytic - numeric) / scale)
+            print(f"{which} (ME) d/d{known}: largest relative difference {raw:.1e}, {worst:.1e} past the rounding")
             assert worst < 1e-6, f"d/d{known}: relative {worst:.2e} ({analytic} against {numeric})"
     finally:
         fmu.terminate()
