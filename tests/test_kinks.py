@@ -10,7 +10,8 @@ workpiece, on every path.
   Lagrange equation from its closed-form kinematics, differentiated by hand here, integrated by
   DOP853 at rtol 1e-13 and restarted at each contact so that no step straddles the kink. Model
   Exchange (CVode at 1e-10) within 1e-6. A native FMU with x_w and k_w set before initialisation
-  relocates its contact angles (the same reference at those values, 1e-8).
+  relocates its contact angles (the same reference at those values, 1e-8), its win64 DLL too, under
+  wine (1e-12 of the linux64 binary).
 - A load with more kinks than it may have is refused by name.
 - Jansen's leg (the packaged scenario jansen, written from the guide: seven bodies, three contours,
   its plates' angles constants that follow their sides) walking on the ground through
@@ -196,6 +197,25 @@ def test_a_native_fmu_relocates_its_contact_when_the_workpiece_moves(fmus, value
                           start_values=moved)
     expected = reference({**values, **moved}, result["time"])
     assert np.max(np.abs(result["omega1"] - expected)) / np.max(np.abs(expected)) < 1e-8
+
+
+def test_the_win64_dll_relocates_the_contact_under_wine(fmus, values, tmp_path):
+    """The native FMU's win64 DLL (the prebuilt runtime's ZEROS search in MinGW's build), the
+    workpiece moved, under wine through fmpy's remoting: the reference at those values to 1e-8 and
+    the linux64 binary to 1e-12."""
+    from fmpy import simulate_fmu
+
+    from wine import run_win64_under_wine
+
+    moved = {"x_w": 0.70, "k_w": 5e4}
+    remote = run_win64_under_wine(fmus["native"], tmp_path, ("omega1",), moved)
+    local = simulate_fmu(str(fmus["native"]), stop_time=STOP, output_interval=1e-3, output=["omega1"],
+                         start_values=moved)
+    expected = reference({**values, **moved}, remote[0])
+    scale = np.max(np.abs(expected))
+    assert np.max(np.abs(remote[1] - expected)) < 1e-8 * scale
+    assert remote[1].shape == local["omega1"].shape
+    assert np.max(np.abs(remote[1] - local["omega1"])) <= 1e-12 * scale
 
 
 def test_too_many_kinks_in_one_load_are_refused(scenario):
