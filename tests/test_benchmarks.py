@@ -54,12 +54,13 @@ def test_speed_benchmark_prints_the_table_and_every_target_with_its_measure(fmu_
     # issue 40, where `make fmu` built the FMI 3.0 FourBar.fmu: its step against FMI 2.0's, judged
     fmi3 = (native.parent.parent / "native3" / "FourBar.fmu").exists()
     judged = out.count("| MET |") + out.count("| NOT MET |")
-    # issues 58 and 68: the four-stroke engine's FMU step with its brake as a couple of omega1 and
-    # as a fan against the motor line's, native and Python, each judged
+    # issues 58 and 68: the four-stroke engine's FMU step with its brake as a couple of omega1, as a
+    # fan and as a general law against the motor line's, native and Python, each judged
     assert "## Targets (issues 58 and 68: loads of the speed)" in out
     assert "brake as a couple of omega1 (affine) <= 1.3x" in out
     assert "brake as a fan, -c omega1 |omega1| (degree 2) <= 1.3x" in out
-    assert judged == 5 + speed_fmus + 2 + fmi3 + 4 and out.count("| not measured |") == 2
+    assert "brake as a general law, tanh(omega1/240) <= 3x" in out
+    assert judged == 5 + speed_fmus + 2 + fmi3 + 6 and out.count("| not measured |") == 2
     if fmi3:
         assert re.search(r"FMI 3.0 against FMI 2.0 \(issue 40: at most 1.1x\) \| [\d.]+ vs [\d.]+ us/step, ratio [\d.]+ \|",
                          out)

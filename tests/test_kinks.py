@@ -42,6 +42,13 @@ SCENARIO = Path(__file__).resolve().parent / "data" / "user" / "press_contact_sc
 STOP = 2.0
 
 
+def ram_rate(phi, p):
+    """dxB/dphi1 of the in-line slider-crank, by hand (as lagrange_terms)."""
+    lam = p["l1"] / p["l2"]
+    s2 = -lam * math.sin(phi)
+    return -p["l1"] * math.sin(phi) + p["l2"] * s2 * lam * math.cos(phi) / math.sqrt(1.0 - s2 * s2)
+
+
 def lagrange_terms(phi, p):
     """(J, J'/2, Q, xB) of the in-line slider-crank with the contact, by hand from sin(phi2) =
     -l1 sin(phi1) / l2: bars of mass q l with centres at mid-length, a slider of m3 at B."""
@@ -67,15 +74,19 @@ def lagrange_terms(phi, p):
     return J, half_dJ, Q, xB
 
 
-def reference(p, times, speed_torque=lambda w: 0.0):
+def reference(p, times, speed_torque=lambda w: 0.0, ram_force=None):
     """omega1 at ``times``: DOP853 restarted at every contact; ``speed_torque(omega1)``: a load of
-    the speed on the crank (N.m) beside the motor (tests/test_speed_loads.py's fan)."""
+    the speed on the crank (N.m) beside the motor (tests/test_speed_loads.py's fan);
+    ``ram_force(xB, omega1)``: a force on the ram along x (N), its torque that times dxB/dphi1
+    (tests/test_speed_laws.py)."""
     def motor(w):
         line = p["A"] - p["B"] * w if w > p["omega_switch"] else p["A_low"] - p["B_low"] * w
         return line + speed_torque(w)
 
     def rhs(t, y):
-        J, half_dJ, Q, _ = lagrange_terms(y[0], p)
+        J, half_dJ, Q, xB = lagrange_terms(y[0], p)
+        if ram_force is not None:
+            Q += ram_force(xB, y[1]) * ram_rate(y[0], p)
         return [y[1], (motor(y[1]) + Q - half_dJ * y[1] ** 2) / J]
 
     def contact(t, y):

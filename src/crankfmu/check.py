@@ -274,6 +274,7 @@ def check_scenario(source) -> Report:
     if not loads_finite(report, model, path):
         return report
     kinks_located(report, model)
+    laws_held(report, model)
     fmu_declarations(report, source, scenario, path)
     native_tables_check(report, scenario, path)
     steady_cycle_check(report, scenario, path)
@@ -320,6 +321,17 @@ def kinks_located(report: Report, model):
                      else "keep one side over the whole turn")
             report.add("OK", f"the load on {load.link} has {len(load.arguments)} kink(s), {', '.join(load.calls)}; "
                        f"they {where}: every path steps onto those angles and tabulates each side smooth")
+
+
+def laws_held(report: Report, model):
+    """Each general law of the speed (speed_laws.SpeedLawLoad) and how every path holds it."""
+    from .dynamics.speed_laws import SpeedLawLoad, law_column_name
+
+    for load in model.reduced.loads:
+        if isinstance(load, SpeedLawLoad):
+            name = law_column_name(load.link, load.law.source).split(" law ", 1)[1]
+            report.add("OK", f"the load on {load.link} has a law of the speed, {name}: the tables hold its factor "
+                       "of the position, and every path multiplies it by the law at each step's omega1")
 
 
 def loads_finite(report: Report, model, path) -> bool:

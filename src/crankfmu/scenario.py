@@ -415,10 +415,13 @@ def _check_kinks(loads, cycle_turns: int, where: str) -> None:
 def _check_affine(loads, mechanism, values, where: str) -> None:
     """A user's load of the speeds must be affine in omega1 (user_loads.SpeedLoad): checked at 48
     angles over (-w, 3 w), w the start speed (at least 10 rad/s), to 1e-9 of its size."""
+    from .dynamics.speed_laws import SpeedLawLoad
     from .dynamics.speed_loads import PolynomialSpeedLoad
     from .dynamics.user_loads import SpeedLoad
 
     for load in loads:
+        if isinstance(load, SpeedLawLoad):     # held as written: a(phi1) g(omega1), nothing fitted
+            continue
         if isinstance(load, PolynomialSpeedLoad):
             kin = mechanism.kinematics((np.arange(48) + 0.5) * (2.0 * math.pi / 48))
             gap = load.polynomial_gap(kin)
@@ -427,7 +430,7 @@ def _check_affine(loads, mechanism, values, where: str) -> None:
                 raise DefinitionError(
                     f"{where}: {written} is no polynomial of degree <= 2 in omega1 on each side of omega1 = 0: its "
                     f"torque departs from the quadratic through its values at 1, 2 and 3 times {load.scale:g} rad/s by "
-                    f"{gap:.2g} of its size; a general law of the speeds (T0*(1 - exp(-omega1/w0))) is not supported yet")
+                    f"{gap:.2g} of its size")
         elif isinstance(load, SpeedLoad):
             kin = mechanism.kinematics((np.arange(48) + 0.5) * (2.0 * math.pi / 48))
             gap = load.affine_gap(kin, max(abs(values["omega1_start"]), 10.0))

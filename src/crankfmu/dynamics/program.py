@@ -31,10 +31,11 @@ from ..mechanisms.assembly import MIN_CONDITIONING
 #: the evaluator's operations, in crank_mechanism.h's order (enum mm_op)
 OPS = ("literal", "copy", "add", "sub", "mul", "div", "pow", "neg",
        "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sqrt", "hypot", "exp", "log",
-       "abs", "sign", "min", "max", "radians", "degrees", "if_positive", "if_negative", "not_above")
+       "abs", "sign", "min", "max", "radians", "degrees", "if_positive", "if_negative", "not_above",
+       "tanh", "sinh", "cosh")
 OP = {name: i for i, name in enumerate(OPS)}
 _BINARY = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div", ast.Pow: "pow"}
-SETUP, CLOSED, ROWS, VALUES, OUTPUTS, REACTIONS, FIRST_SEARCH = range(7)
+SETUP, CLOSED, ROWS, VALUES, OUTPUTS, REACTIONS, LAWS, FIRST_SEARCH = range(8)
 ROCKER, REVERSALS, BAND, ZEROS = range(4)
 
 
@@ -97,6 +98,11 @@ class Program:
     #: (n_columns,) the power of omega1 each switched column's value is multiplied by (a load of the
     #: speeds' parts in omega1 and omega1^2; 0 for the slider forces, kinks, directions)
     column_powers: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    #: the general laws of the speed (dynamics/speed_laws.py): LAWS reads omega1 from register
+    #: law_speed and leaves each column's law in laws[column] (-1: none); column_laws their texts
+    law_speed: int = -1
+    laws: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    column_laws: tuple = ()
 
 
 class _Code:
@@ -192,7 +198,7 @@ class _Code:
 _ARITY = {OP[name]: n for names, n in (
     (("literal",), 0),
     (("copy", "neg", "sin", "cos", "tan", "asin", "acos", "atan", "sqrt", "exp", "log", "abs", "sign",
-      "radians", "degrees"), 1),
+      "radians", "degrees", "tanh", "sinh", "cosh"), 1),
     (("add", "sub", "mul", "div", "pow", "atan2", "hypot", "min", "max", "not_above"), 2),
     (("if_positive", "if_negative"), 3)) for name in names}
 

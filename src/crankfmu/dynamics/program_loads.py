@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from ..expressions import Expression
 from .program import BAND, REVERSALS, ROCKER, ZEROS, Unsupported
+from .speed_laws import LAW, law_column_name, split_laws
 from .speed_loads import SPEED_COLUMNS, quadratic_parts, speed_class, speed_scale
 from .user_loads import kinked
 
@@ -91,7 +92,7 @@ class LoadClauses:
             elif kind == "slider_force":
                 out.append(self._slider_force(spec, {"x": 0, "y": 1}[spec["axis"]], at))
             elif kind in ("force", "couple"):
-                out.append(self._user_force(spec, kind, at))
+                out += self._user_force(spec, kind, at)
             elif kind == "spring_damper":
                 out += self._spring_damper(spec, at)
             else:
@@ -199,7 +200,39 @@ class LoadClauses:
             parts += [c.mul(regs[k], x[2 + i]) for i, k in enumerate(("fx", "fy")) if k in regs]
         return c.add(*parts)
 
-    def _user_force(self, spec, kind, at):
+    def _user_force(self, spec, kind, at) -> list[dict]:
+        """A force or couple: its terms of general laws of the speed (speed_laws.split_laws) each a
+        column, the rest as one load (_user_force_rest)."""
+        keys = [k for k in ("fx", "fy", "moment") if k in spec]
+        if spec.get("direction_of") is not None:
+            return [self._user_force_rest(spec, kind, at)]
+        expressions = {k: Expression(str(spec[k]), f"{at} {k}") for k in keys}
+        polynomial, laws = split_laws(expressions, set(self.speed_names(at_rest=True)), set(self.env), at)
+        if not laws:
+            return [self._user_force_rest(spec, kind, at)]
+        link, point = spec["link"], spec.get("point") if kind == "force" else None
+        out = [self._speed_law(link, point, law, coefficients, at) for law, coefficients in laws]
+        if polynomial:
+            rest = {k: v for k, v in spec.items() if k not in keys} | {k: e.source for k, e in polynomial.items()}
+            out.insert(0, self._user_force_rest(rest, kind, at))
+        return out
+
+    def _speed_law(self, link, point, law, coefficients, at) -> dict:
+        """speed_laws.SpeedLawLoad: its coefficients' torque a column of power LAW, its value 1 in
+        either direction, its law g(omega1) in the LAWS section (read at each step)."""
+        c = self.c
+        sources = {k: e.source for k, e in coefficients.items()}
+
+        def record():
+            regs = self._user_components(sources, at)
+            return [(link, point, regs.get("fx"), regs.get("fy"), regs.get("moment"))]
+        return {"columns": lambda: [self._user_torque(link, point, self._user_components(sources, at))],
+                "values": lambda: [self.one], "powers": (LAW,),
+                "laws": lambda: [c.expression(law.source, {**self.env, "omega1": self.law_speed}, law.where)],
+                "law_sources": (law.source,), "column_names": (law_column_name(link, law.source),),
+                "applied": {("column", 0): record}}
+
+    def _user_force_rest(self, spec, kind, at) -> dict:
         c = self.c
         link, point = spec["link"], spec.get("point") if kind == "force" else None
 

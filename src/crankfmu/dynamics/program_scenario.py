@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .program import (CLOSED, FIRST_SEARCH, OUTPUTS, REACTIONS, REVERSALS, ROCKER, ROWS, SETUP, VALUES, Program,
-                      Unsupported, _Code, optimise)
+from .program import (CLOSED, FIRST_SEARCH, LAWS, OUTPUTS, REACTIONS, REVERSALS, ROCKER, ROWS, SETUP, VALUES,
+                      Program, Unsupported, _Code, optimise)
 from .program_loads import LoadClauses
 
 
@@ -104,6 +104,7 @@ class _Compiler(LoadClauses):
         self.kin = c.block(3 * len(self.unknowns) + 6 * len(self.points))
         self.kin_end = c.n                   # one past the block, just allocated
         self.omega1 = c.register()
+        self.law_speed = c.register()         # the crank speed the LAWS section reads (at each step)
         loads = self._loads_setup()
         c.end()
 
@@ -129,6 +130,10 @@ class _Compiler(LoadClauses):
         c.begin(REACTIONS)
         reactions = self._reactions(loads) if d.joints else {}
         c.end()
+        c.begin(LAWS)
+        laws = [r for load in loads
+                for r in (load["laws"]() if "laws" in load else [-1] * len(load.get("column_names", ())))]
+        c.end()
         searches = []
         for load in loads:
             for search in load.get("searches", ()):
@@ -145,7 +150,7 @@ class _Compiler(LoadClauses):
         distinct = sorted({t[3:5] for t in terms})
         # the registers the C model writes itself: per angle phi1, the kinematics and the crank's
         # direction; after binding what the rocker and reversal searches find
-        runtime = set(range(self.phi1, self.kin_end)) | {self.omega1}
+        runtime = set(range(self.phi1, self.kin_end)) | {self.omega1, self.law_speed}
         runtime |= {r for search in searches if search[0] in (ROCKER, REVERSALS) for r in search[3:5] if r >= 0}
         code, placed = optimise(c.code, c.sections, runtime, c.literals) if optimised else (c.code, c.sections)
         n_sections = max(placed) + 1
@@ -169,6 +174,9 @@ class _Compiler(LoadClauses):
             column_powers=np.array([p for load in loads
                                     for p in load.get("powers", (0,) * len(load.get("column_names", ())))],
                                    dtype=np.int32),
+            law_speed=self.law_speed, laws=np.array(laws, dtype=np.int32),
+            column_laws=tuple(s for load in loads
+                              for s in load.get("law_sources", (None,) * len(load.get("column_names", ())))),
             table_parameters=tuple(sorted(c.used)), found=tuple(self.found),
             coordinates=np.array(coordinates, dtype=np.int32).reshape(-1, 4), coordinate_names=tuple(coordinate_names),
             cycle_turns=self.scenario.cycle_turns, **reactions,

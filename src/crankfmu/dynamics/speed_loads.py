@@ -16,8 +16,9 @@ exactly at (phi1, omega1).
 
 The parts come from the expressions at six speeds, +-w0, +-2 w0, +-3 w0 (w0 the scale of the
 start speed): a quadratic through three points on each side, exact for such a load; Scenario.build
-checks the fit at two more speeds on each side and refuses a load that is no such polynomial
-(``T0*(1 - exp(-omega1/w0))``) by name. The same rule is the C model's (program_loads._speed_polynomial).
+checks the fit at two more speeds on each side. A term that is no such polynomial
+(``T0*(1 - exp(-omega1/w0))``) never reaches this module: it is a law of the speed, held as
+written (speed_laws.py). The same rule is the C model's (program_loads._speed_polynomial).
 """
 
 from __future__ import annotations
@@ -184,7 +185,7 @@ def speed_class(expressions: dict, speeds: set[str], where: str) -> bool | None:
                 + ("no polynomial" if degree is None else f"of degree {degree}")
                 + " in the speeds (omega1, P_vx, P_vy, U_dot): crankfmu holds a load of the speeds as a polynomial of "
                 "degree <= 2 in them on each side of omega1 = 0 (a brake -c*omega1, a fan -c*omega1*abs(omega1), "
-                "drag -c*P_vx*abs(P_vx)); a general law (T0*(1 - exp(-omega1/w0))) is not supported yet")
+                "drag -c*P_vx*abs(P_vx)); its other terms are laws of the speed (dynamics/speed_laws.py)")
     degree = max(d for d, _ in degrees.values())
     signed = any(k for _, k in degrees.values())
     return None if degree <= 1 and not signed else signed

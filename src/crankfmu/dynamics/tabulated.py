@@ -38,6 +38,7 @@ from ..errors import DefinitionError
 from . import modes
 from .cubics import build_cubics, evaluate_cubics
 from .reduced import ReducedModel
+from .speed_laws import LAW, ColumnLaws, column_laws
 
 TWO_PI = 2.0 * math.pi
 #: the table's functions, in order; slider transfer functions dx/dphi1 follow
@@ -73,11 +74,13 @@ class ReducedTable:
     #: (n_sliders,) the power of omega1 each switched column's value is multiplied by (0; a load of
     #: the speeds' parts 1 and 2: a fan's -c omega1 |omega1|); None: every column 0
     powers: np.ndarray | None = None
+    #: the laws g(omega1) of the columns of power LAW (speed_laws.ColumnLaws), None where none has one
+    laws: object = None
 
     def arrays(self) -> tuple:
-        """(coefficients, switch_angles, forces, n_ports, period, powers): the table as the C kernel
-        takes it (native.Tables)."""
-        return self.coefficients, self.switch_angles, self.forces, self.n_ports, self.period, self.powers
+        """(coefficients, switch_angles, forces, n_ports, period, powers, laws): the table as the C
+        kernel takes it (native.Tables)."""
+        return self.coefficients, self.switch_angles, self.forces, self.n_ports, self.period, self.powers, self.laws
 
     @property
     def n_intervals(self) -> int:
@@ -106,8 +109,11 @@ class ReducedTable:
             k = self.interval_of(phi1)
             direction = modes.direction_imposed(omega1)
             for s in range(self.forces.shape[2]):
-                force = np.where(direction > 0, self.forces[k, 0, s], np.where(direction < 0, self.forces[k, 1, s], 0.0))
                 power = 0 if self.powers is None else int(self.powers[s])
+                if power == LAW:          # a law of the speed acts in either direction and at rest
+                    Q = Q + self.laws(s, omega1) * values[FIRST_SLIDER + s]
+                    continue
+                force = np.where(direction > 0, self.forces[k, 0, s], np.where(direction < 0, self.forces[k, 1, s], 0.0))
                 Q = Q + force * omega1 ** power * values[FIRST_SLIDER + s]
         return J, values[HALF_DJ], Q
 
@@ -164,7 +170,7 @@ def tabulate(reduced: ReducedModel, tolerance: float = 1e-11, n_start: int = 256
                       dtype=np.int32)
     return ReducedTable(coefficients, switch, forces, error, tolerance, time.perf_counter() - started,
                         tuple(name for load in sliders for name in load.column_names), construction,
-                        len(reduced.ports), reduced.period, powers)
+                        len(reduced.ports), reduced.period, powers, column_laws(sliders, reduced.mechanism))
 
 
 @dataclass
@@ -282,9 +288,15 @@ def c_table(scenario, values: dict, tolerance: float = 1e-11, model=None) -> Red
         coefficients, switches, forces, error, construction = model.table(tolerance)
     except MechanismError:
         return None
+    laws = None
+    if any(law is not None for law in model.program.column_laws):
+        constants = scenario.mechanism_definition().constant_values(values)
+        laws = ColumnLaws(tuple(model.program.column_laws),
+                          {k: float(v) for k, v in {**values, **constants}.items() if isinstance(v, (int, float, np.floating))})
     return ReducedTable(coefficients, switches, forces, error, tolerance, time.perf_counter() - started,
                         model.program.column_names, construction, model.program.n_ports,
-                        TWO_PI * model.program.cycle_turns, np.asarray(model.program.column_powers, dtype=np.int32))
+                        TWO_PI * model.program.cycle_turns, np.asarray(model.program.column_powers, dtype=np.int32),
+                        laws)
 
 
 def c_output_tables(scenario, values: dict, quantities, tolerance: float, reaction_tolerance: float, reactions: bool,

@@ -13,8 +13,9 @@ import numpy as np
 from ..errors import DefinitionError
 from ..expressions import Expression
 from ..mechanisms import Mechanism
+from .speed_laws import SpeedLawLoad, split_laws
 from .speed_loads import speed_load
-from .user_loads import Damper, ExpressionLoad, KinkedLoad, Spring, kinked, known_names, speed_names
+from .user_loads import Damper, ExpressionLoad, KinkedLoad, Spring, fixed_names, kinked, known_names, speed_names
 
 
 def parse_user_load(spec, mechanism: Mechanism, links: set[str], values: dict, where: str) -> list:
@@ -60,14 +61,17 @@ def parse_user_load(spec, mechanism: Mechanism, links: set[str], values: dict, w
             if not any(k in spec for k in keys):
                 raise DefinitionError(f"{where}: {kind} needs {' or '.join(keys)} (expressions)")
             expressions = {k: expression(spec[k], k, may_read_speeds=True) for k in keys if k in spec}
-            reads_speed = any(e.names & speeds for e in expressions.values())
-            if reads_speed:
-                return [speed_load(link, point, expressions, mechanism, speeds, values, f"{where}: {kind}")]
-            kinks = kinked(expressions, f"{where}: {kind}")
+            polynomial, laws = split_laws(expressions, speeds, fixed_names(mechanism), f"{where}: {kind}")
+            out = [SpeedLawLoad(link, point, coefficients, mechanism=mechanism, law=law) for law, coefficients in laws]
+            if not polynomial:
+                return out
+            if any(e.names & speeds for e in polynomial.values()):
+                return [speed_load(link, point, polynomial, mechanism, speeds, values, f"{where}: {kind}")] + out
+            kinks = kinked(polynomial, f"{where}: {kind}")
             if kinks:
-                return [KinkedLoad(link, point, expressions, mechanism=mechanism, arguments=kinks[0],
-                                   branches=kinks[1], calls=kinks[2])]
-            return [ExpressionLoad(link, point, expressions, mechanism=mechanism)]
+                return [KinkedLoad(link, point, polynomial, mechanism=mechanism, arguments=kinks[0],
+                                   branches=kinks[1], calls=kinks[2])] + out
+            return [ExpressionLoad(link, point, polynomial, mechanism=mechanism)] + out
         if "." in str(direction):
             p, _, axis = str(direction).partition(".")
             if p not in mechanism.point_names or axis not in ("x", "y"):

@@ -65,8 +65,13 @@ def speed_names(mechanism: Mechanism) -> set[str]:
             | {f"{u}_dot" for u in mechanism.unknown_names})
 
 
+def fixed_names(mechanism: Mechanism) -> set[str]:
+    """The names a load reads that do not change with the motion: the parameters and constants."""
+    return {*mechanism.parameters, *mechanism.definition.constants}
+
+
 def known_names(mechanism: Mechanism) -> set[str]:
-    return ({*mechanism.parameters, *mechanism.definition.constants, "phi1", *mechanism.unknown_names}
+    return (fixed_names(mechanism) | {"phi1", *mechanism.unknown_names}
             | {f"{p}_{a}" for p in mechanism.point_names for a in "xy"})
 
 

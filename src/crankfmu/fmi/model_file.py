@@ -20,7 +20,7 @@ import numpy as np
 NAME = "crankfmu-model.bin"
 MAGIC = b"crankfmu model\0\0"
 #: the layout's version; a runtime reads only its own (crank_variables.h's CM_MODEL_FORMAT)
-FORMAT = 3
+FORMAT = 4
 #: what the file's model is (crank_variables.h's CM_MODEL_...): a mechanism, or a component by its
 #: (data file kind, causality)
 MECHANISM = 1
@@ -30,9 +30,10 @@ COMPONENTS = {("drive", "torque"): 2, ("drive", "speed"): 3, ("cushion", "torque
 KINDS = {"OUTPUT": 0, "INPUT": 1, "TUNABLE": 2, "FIXED": 3, "QUANTITY": 4, "DERIVATIVE": 5, "REACTION": 6}
 #: the program's int arrays and scalars, in the order md_parse reads them (mm_program's fields)
 PROGRAM_ARRAYS = ("code", "sections", "terms", "angles", "chain_constants", "angle_column", "rows", "columns",
-                  "searches", "checks", "coordinates", "links", "joints", "term_inertia", "applied", "column_powers")
+                  "searches", "checks", "coordinates", "links", "joints", "term_inertia", "applied", "column_powers",
+                  "laws")
 PROGRAM_SCALARS = ("n_q", "n_contours", "n_chains", "closed_form", "guess", "phi1", "kinematics", "n_points",
-                   "omega1", "crank", "cycle_turns")
+                   "omega1", "crank", "cycle_turns", "law_speed")
 
 
 class _Writer:

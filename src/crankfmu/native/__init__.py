@@ -134,6 +134,7 @@ def _load() -> ctypes.CDLL:
         "mm_table_turns": (ctypes.c_int, [T, ctypes.c_int]),
         "mm_tabulate": (ctypes.c_int, [T, ctypes.c_int, ctypes.c_double, T, T, T, T]),
         "mm_free": (None, [T]),
+        "mm_law": (ctypes.c_double, [T, ctypes.c_int, ctypes.c_double]),
         "mm_release": (None, [T]),
     }
     for name, (restype, argtypes) in signatures.items():
@@ -146,7 +147,24 @@ class _Tables(ctypes.Structure):
     _fields_ = [("coefficients", ctypes.c_void_p), ("n_functions", ctypes.c_int),
                 ("n", ctypes.c_int), ("switch_angles", ctypes.c_void_p), ("m", ctypes.c_int),
                 ("forces", ctypes.c_void_p), ("n_sliders", ctypes.c_int), ("n_ports", ctypes.c_int),
-                ("period", ctypes.c_double), ("powers", ctypes.c_void_p)]
+                ("period", ctypes.c_double), ("powers", ctypes.c_void_p), ("law", ctypes.c_void_p),
+                ("law_context", ctypes.c_void_p)]
+
+
+#: crank_kernel.h's CkLaw: g(omega1) of a column of power LAW
+_LAW = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_int, ctypes.c_double)
+
+
+def _law_callback(laws):
+    """A C function the kernel calls for a column's law: ``laws(column, omega1)`` (speed_laws.ColumnLaws),
+    NaN where it raises (the kernel then refuses the step as not finite, and no exception is lost
+    inside ctypes)."""
+    def law(_context, column, omega):
+        try:
+            return float(laws(column, omega))
+        except Exception:          # noqa: BLE001 - reported as the step's non-finite value
+            return math.nan
+    return _LAW(law)
 
 
 LIBRARY = _load()
@@ -238,7 +256,7 @@ class Tables:
     """A design's tables as the C kernel takes them; keeps the arrays alive while in use."""
 
     def __init__(self, coefficients, switch_angles, forces, n_ports: int = 0, period: float = 2.0 * math.pi,
-                 powers=None):
+                 powers=None, laws=None):
         forces = np.ascontiguousarray(forces, dtype=float)
         columns = forces.shape[2] if forces.ndim == 3 else 0
         self.arrays = (np.ascontiguousarray(coefficients, dtype=float),
@@ -250,8 +268,20 @@ class Tables:
                                 f"(4, one per slider force and one per port), got {C.shape[0]}")
         if n_ports > MAX_PORTS:
             raise CrankfmuError(f"the C kernel takes at most {MAX_PORTS} ports, got {n_ports}")
+        # the laws of the speed: evaluated in C by the C model's rule (mechanism.LawEvaluator), or where
+        # a law does not compile to it, through a callback; either lives as long as the tables
+        self.law, function, context = None, None, None
+        if laws:
+            from .mechanism import LawEvaluator
+            try:
+                self.law = LawEvaluator(laws.sources, laws.env)
+                function, context = self.law.function, self.law.context
+            except Exception:       # noqa: BLE001 - the expression itself then, through a callback
+                self.law = _law_callback(laws)
+                function = ctypes.cast(self.law, ctypes.c_void_p).value
         self.struct = _Tables(_d(C), C.shape[0], C.shape[1], _d(sw), sw.shape[0], _d(fo),
-                              fo.shape[2] if fo.ndim == 3 else 0, n_ports, period, pw.ctypes.data)
+                              fo.shape[2] if fo.ndim == 3 else 0, n_ports, period, pw.ctypes.data,
+                              function, context)
         self.pointer = ctypes.addressof(self.struct)
 
 

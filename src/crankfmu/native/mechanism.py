@@ -56,7 +56,7 @@ class MMProgram(ctypes.Structure):
                 ("min_conditioning", ctypes.c_double), ("n_coordinates", ctypes.c_int), ("coordinates", I),
                 ("n_links", ctypes.c_int), ("links", I), ("crank", ctypes.c_int), ("n_joints", ctypes.c_int),
                 ("joints", I), ("n_terms_reaction", ctypes.c_int), ("term_inertia", I), ("n_applied", ctypes.c_int),
-                ("applied", I), ("cycle_turns", ctypes.c_int)]
+                ("applied", I), ("cycle_turns", ctypes.c_int), ("law_speed", ctypes.c_int), ("laws", I)]
 
 
 class MMModel(ctypes.Structure):
@@ -116,6 +116,7 @@ def _struct(program) -> tuple:
     s.n_terms_reaction, s.term_inertia = len(program.term_inertia), ints(program.term_inertia)
     s.n_applied, s.applied = len(program.applied), ints(program.applied)
     s.cycle_turns = program.cycle_turns
+    s.law_speed, s.laws = program.law_speed, ints(program.laws)
     program._c_struct = (s, keep)
     return program._c_struct
 
@@ -217,3 +218,59 @@ class CModel:
             return coefficients, error.value, f"cubic spline of {m.value} samples{over}, in C"
         return (coefficients, error.value,
                 f"Fourier series of {n.value} samples, Hermite cubics on {m.value} intervals{over}, in C")
+
+
+class LawEvaluator:
+    """The laws of the speed of a table's columns (dynamics/speed_laws.py) evaluated in C by the
+    C model's own rule (crank_mechanism.c's mm_law on a LAWS section): what the Python paths give
+    the kernel (native.Tables), so that a law costs them what it costs the native FMU, not a Python
+    call per evaluation. ``sources[s]`` column s's law (None: none), ``env`` the values it reads;
+    the registers hold those values, the section computes each law from the speed's register."""
+
+    def __init__(self, sources, env: dict):
+        from ..dynamics.program import LAWS, _Code
+
+        code = _Code(0)
+        registers: dict[int, float] = {}
+        names = {}
+        for source in sources:
+            if source is None:
+                continue
+            from ..expressions import Expression
+            for name in Expression(source, "a law of the speed").names - {"omega1"}:
+                if name not in names:
+                    names[name] = code.register()
+                    registers[names[name]] = float(env[name])
+        speed = code.register()
+        code.begin(LAWS)
+        laws = [-1 if s is None else code.expression(s, {**names, "omega1": speed}, "a law of the speed")
+                for s in sources]
+        code.end()
+        sections = np.array([code.sections.get(i, (0, 0)) for i in range(LAWS + 1)], dtype=np.int32)
+        keep = []
+
+        def ints(a):
+            arr, ptr = _ints(a)
+            keep.append(arr)
+            return ptr
+        literals = np.ascontiguousarray(code.literals or [0.0], dtype=float)
+        self.registers = np.zeros(code.n)
+        for r, v in registers.items():
+            self.registers[r] = v
+        program = MMProgram()
+        program.n_registers, program.n_code = code.n, len(code.code)
+        program.code = ints(np.array(code.code, dtype=np.int32).reshape(-1, 5))
+        program.literals = literals.ctypes.data_as(D)
+        program.n_sections, program.sections = len(sections), ints(sections)
+        program.n_columns, program.law_speed, program.laws = len(sources), speed, ints(laws)
+        model = MMModel()
+        model.program = ctypes.addressof(program)
+        model.registers = self.registers.ctypes.data_as(D)
+        self._keep = (keep, literals, program)
+        self.model = model
+        #: (the C function, its context) for crank_kernel.h's CkTables.law and law_context
+        self.function = ctypes.cast(LIBRARY.mm_law, ctypes.c_void_p).value
+        self.context = ctypes.addressof(model)
+
+    def __call__(self, column: int, omega: float) -> float:
+        return LIBRARY.mm_law(self.context, column, omega)

@@ -73,7 +73,11 @@ enum { CK_MAX_FUNCTIONS = 64 };
  * dangle/dphi1 of a couple's link): a port's input times its transfer function is a torque on the
  * crank, whose power is accounted in W_ext. A switched column may be a load's part in omega1 or
  * omega1^2 (a fan's -c omega1 |omega1|: columns per power, the direction's sign its value): powers[s]
- * is the power of omega1 its value is multiplied by (0, 1 or 2; NULL: every column 0). */
+ * is the power of omega1 its value is multiplied by (0, 1 or 2; NULL: every column 0), or CK_LAW: a
+ * general law of the speed (dynamics/speed_laws.py), the column times law(law_context, s, omega1),
+ * in either direction and at rest (the forces are not read). */
+enum { CK_LAW = 3 };
+typedef double (*CkLaw)(const void* context, int column, double omega);
 typedef struct {
     const double* coefficients;
     int n_functions, n;
@@ -84,12 +88,22 @@ typedef struct {
     int n_ports;
     double period;
     const int* powers;
+    CkLaw law;                       /* g(omega1) of the columns of power CK_LAW (NULL: none has one) */
+    const void* law_context;
 } CkTables;
 
-/* omega1 to column s's power (1 where it has none) */
+/* whether column s is a law of the speed */
+static inline int ck_column_law(const CkTables* T, int s)
+{
+    return T->powers && T->powers[s] == CK_LAW;
+}
+
+/* omega1 to column s's power (1 where it has none), or its law at omega1 (NaN without one: the
+ * step is then refused as not finite) */
 static inline double ck_column_speed(const CkTables* T, int s, double omega)
 {
     int p = T->powers ? T->powers[s] : 0;
+    if (p == CK_LAW) return T->law ? T->law(T->law_context, s, omega) : (double)NAN;
     return p == 0 ? 1.0 : (p == 1 ? omega : omega * omega);
 }
 

@@ -20,8 +20,9 @@ int ck_reaction_weights(const double* S, double t, double omega, double epsilon,
     double direction = within ? S[CK_STEP_DIRECTION] : S[CK_DIRECTION];
     int d = direction > 0.0 ? 0 : 1, k = (int)(within ? S[CK_STEP_INTERVAL] : S[CK_INTERVAL]);
     for (int s = 0; s < T->n_sliders; s++)
-        out[n++] = direction != 0.0 ? T->forces[((size_t)k * 2 + d) * T->n_sliders + s] * ck_column_speed(T, s, omega)
-                                    : 0.0;
+        out[n++] = ck_column_law(T, s) ? ck_column_speed(T, s, omega)     /* a law acts at rest too */
+                   : direction != 0.0 ? T->forces[((size_t)k * 2 + d) * T->n_sliders + s] * ck_column_speed(T, s, omega)
+                                      : 0.0;
     double dt = t - P[CK_T_INPUT];
     for (int i = 0; i < T->n_ports; i++) out[n++] = P[CK_PORT_INPUT + i] + P[CK_PORT_RATE + i] * dt;
     return n;

@@ -47,10 +47,23 @@ void mm_run(const mm_program *p, double *r, int section)
         case MM_IF_POSITIVE: v = (a > 0.0) ? b : r[code[4]]; break;
         case MM_IF_NEGATIVE: v = (a < 0.0) ? b : r[code[4]]; break;
         case MM_NOT_ABOVE: v = (a <= b) ? 1.0 : 0.0; break;
+        case MM_TANH: v = tanh(a); break;
+        case MM_SINH: v = sinh(a); break;
+        case MM_COSH: v = cosh(a); break;
         default: v = NAN;
         }
         r[code[1]] = v;
     }
+}
+
+double mm_law(const void *context, int column, double omega)
+{
+    mm_model *m = (mm_model *)context;       /* the laws' registers are scratch: nothing else reads them */
+    const mm_program *p = m->program;
+    if (!p->laws || column < 0 || column >= p->n_columns || p->laws[column] < 0 || p->law_speed < 0) return NAN;
+    m->registers[p->law_speed] = omega;
+    mm_run(p, m->registers, MM_LAWS);
+    return m->registers[p->laws[column]];
 }
 
 /* --------------------------------------------------------------------------- linear algebra */

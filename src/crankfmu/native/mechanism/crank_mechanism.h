@@ -25,13 +25,15 @@ enum mm_op {
     MM_IF_POSITIVE,   /* a > 0 ? b : c */
     MM_IF_NEGATIVE,   /* a < 0 ? b : c */
     MM_NOT_ABOVE,     /* a <= b ? 1 : 0 */
+    MM_TANH, MM_SINH, MM_COSH,
     MM_N_OPS
 };
 
 /* the program's sections: code ranges run at binding (SETUP), per crank angle (CLOSED: the
  * closed-form positions; ROWS: the table's functions; VALUES: the switched loads' values for a
- * direction of the crank), and the searches' quantities after them */
-enum { MM_SETUP, MM_CLOSED, MM_ROWS, MM_VALUES, MM_OUTPUTS, MM_REACTIONS, MM_FIRST_SEARCH };
+ * direction of the crank), per crank speed at each step (LAWS: the general laws of the speed,
+ * dynamics/speed_laws.py), and the searches' quantities after them */
+enum { MM_SETUP, MM_CLOSED, MM_ROWS, MM_VALUES, MM_OUTPUTS, MM_REACTIONS, MM_LAWS, MM_FIRST_SEARCH };
 /* the tables a model gives: the reduced model's (J, 0.5 J', the loads, the ports' transfer
  * functions), the [[outputs]] and ports' coordinates (q - winding phi1, q', q'' each), the joint
  * reactions' terms (component-major, dynamics.tabulated.REACTION_TERMS then the columns and ports) */
@@ -127,6 +129,10 @@ typedef struct {
     /* crank turns of the machine's cycle: the reduced model's and the reactions' tables are
      * periodic over it (the loads repeat over it), the [[outputs]]' over one turn */
     int cycle_turns;
+    /* the general laws of the speed: LAWS reads the crank speed from register law_speed and leaves
+     * each switched column's law in laws[column] (-1: the column has none) */
+    int law_speed;
+    const int *laws;                 /* n_columns */
 } mm_program;
 
 #define MM_TURN_POINTS 720
@@ -187,5 +193,9 @@ int mm_tabulate(mm_model *model, int table, double tolerance, double **cubics, i
 
 /* free the cubics mm_tabulate gave */
 void mm_release(double *cubics);
+
+/* the law of the speed of switched column ``column`` at omega (the kernel's CkLaw, its context a
+ * bound mm_model): the LAWS section run at that speed; NaN where the column has none */
+double mm_law(const void *model, int column, double omega);
 
 #endif

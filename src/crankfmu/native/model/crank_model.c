@@ -169,6 +169,8 @@ int cm_ensure_tables(Model* m, const char* call)
     m->tables.forces = m->mechanism.forces;
     m->tables.n_sliders = m->d->table_sliders;
     m->tables.powers = m->d->column_powers;
+    m->tables.law = mm_law;                    /* the program's LAWS section on the bound registers */
+    m->tables.law_context = &m->mechanism;
     m->tables.n_ports = m->d->n_ports;
     m->tables.period = m->d->cycle_turns * 6.283185307179586;     /* the machine's cycle (a four-stroke: 2 turns) */
     return CM_OK;

@@ -242,6 +242,8 @@ static void check_program(Reader* r, int n_literals)
         if (p->sections[2 * s] > p->sections[2 * s + 1]) refuse(r, "is damaged: section %d ends before it starts", s);
     within(r, "the table's rows", p->rows, p->n_rows, 0, regs);
     within(r, "the table's columns", p->columns, p->n_columns, 0, regs);
+    within(r, "the laws of the speed", p->laws, p->n_columns, -1, regs);
+    within(r, "the law's speed", &p->law_speed, 1, -1, regs);
     within(r, "the checks", p->checks, p->n_checks, 0, regs);
     int q = p->n_q;
     int registers_per_angle = p->kinematics + 3 * (q - 1) + 6 * p->n_points;
@@ -325,10 +327,11 @@ static void read_mechanism(Reader* r)
     p->joints = read_ints(r, "the program's joints", &p->n_joints);
     p->term_inertia = read_ints(r, "the program's reaction terms", &p->n_terms_reaction);
     p->applied = read_ints(r, "the program's applied loads", &p->n_applied);
-    int n_powers;
+    int n_powers, n_laws;
     d->column_powers = read_ints(r, "the program's column powers", &n_powers);
+    p->laws = read_ints(r, "the program's laws of the speed", &n_laws);
     int* scalars[] = {&p->n_q, &p->n_contours, &p->n_chains, &p->closed_form, &p->guess, &p->phi1, &p->kinematics,
-                      &p->n_points, &p->omega1, &p->crank, &p->cycle_turns};
+                      &p->n_points, &p->omega1, &p->crank, &p->cycle_turns, &p->law_speed};
     for (size_t k = 0; k < sizeof scalars / sizeof scalars[0]; k++) *scalars[k] = read_int(r, "the program");
     p->min_conditioning = read_double(r, "the program");
     int n_vr, n_value, n_name;
@@ -362,7 +365,8 @@ static void read_mechanism(Reader* r)
     expect_count(r, "table rows", p->n_rows, d->table_functions);
     expect_count(r, "table columns", p->n_columns, d->table_sliders);
     expect_count(r, "column powers", n_powers, p->n_columns);
-    within(r, "the column powers", d->column_powers, n_powers, 0, 3);
+    within(r, "the column powers", d->column_powers, n_powers, 0, CK_LAW + 1);
+    expect_count(r, "laws of the speed", n_laws, p->n_columns);
     expect_count(r, "chain constants", n_chain_constants, 2 * p->n_chains);
     expect_count(r, "angle columns", n_angle_column, p->n_q);
     expect_count(r, "parameter values", n_value, d->n_program_parameters);

@@ -20,7 +20,7 @@
 
 #define CM_MODEL_FILE "crankfmu-model.bin"      /* its name in resources/ */
 #define CM_MODEL_MAGIC "crankfmu model\0\0"
-#define CM_MODEL_FORMAT 3
+#define CM_MODEL_FORMAT 4
 /* what the file's model is: a mechanism (crank_model.c), or a component (component_model.c): the
  * drive (torque out, speed in), the drive in speed causality (it carries the rotor), the die
  * cushion, the rod string, the elastic shaft */
