@@ -359,3 +359,29 @@ def test_jansens_leg_walks_in_every_fmu(jansen, fmu):
                           fmi_type="ModelExchange", relative_tolerance=1e-10)
         at = reference(me["time"])
         assert np.max(np.abs(me["omega1"] - at)) / np.max(np.abs(at)) < 1e-6
+
+
+def test_a_press_held_still_on_its_workpiece_feels_the_contact(values, tmp_path):
+    """Speed causality with omega1 = 0 exactly (a drive holding the press still, the ram on its
+    workpiece): the drive takes the contact's torque, -Q of the closed form, on the fast stepper and
+    in the native speed-causal FMU. A kink's columns are the same in either direction, so they act at
+    rest (modes.column_factor); a Coulomb force's would not."""
+    from fmpy import simulate_fmu
+
+    from crankfmu.integrators.fast import SpeedStepper
+
+    phi = 0.1                                         # rad: the ram 1.4 mm into the workpiece
+    _, _, Q, xB = lagrange_terms(phi, values)
+    assert xB > values["x_w"]
+    path = tmp_path / "press_speed.toml"
+    path.write_text(SCENARIO.read_text().replace("[experiment]", '[crank]\ncausality = "speed"\n\n[experiment]')
+                    .replace('fmu = "PressContact"', 'fmu = "PressSpeed"'))
+    scenario = crankfmu.load_scenario(str(path))
+    model = scenario.build()
+    row = SpeedStepper(table_of(model.reduced), values["J_flywheel"]).start(0.0, phi, 0.0)
+    assert row[6] == pytest.approx(-Q, rel=1e-9)          # tau_drive
+    assert main(["fmu", str(path), "--native", "--out", str(tmp_path / "native")]) == 0
+    result = simulate_fmu(str(tmp_path / "native" / "PressSpeed.fmu"), stop_time=0.01, output_interval=1e-3,
+                          start_values={"phi1_start": phi, "omega1": 0.0}, output=["tau_drive", "phi1"])
+    assert np.allclose(result["phi1"], phi, rtol=0, atol=1e-15)
+    assert np.allclose(result["tau_drive"], -Q, rtol=1e-9, atol=0)

@@ -93,7 +93,8 @@ def c_rule(number, *args):
 C_RULES = {"line_torque": 0, "acceleration": 1, "equivalent_torque": 2, "kinetic_energy": 3, "motor_of_speed": 4,
            "direction_of_speed": 5, "motor_on_switch": 6, "direction_at_rest": 7, "motor_at_rest": 8,
            "motor_after_sliding": 9, "turns_forces": 10, "event_active": 11, "event_value": 12,
-           "event_rising": 13, "crosses": 14, "drive_torque": 15, "direction_imposed": 16}
+           "event_rising": 13, "crosses": 14, "drive_torque": 15, "direction_imposed": 16,
+           "column_factor": 17}
 
 
 def same(a, b):
@@ -113,6 +114,7 @@ def test_the_c_kernels_rules_give_the_engines_answers_mode_by_mode():
             "equivalent_torque": (a, b, c, d), "kinetic_energy": (abs(a), b), "drive_torque": (a, b, c, d, e, f),
             "motor_of_speed": (pick(), pick()), "direction_of_speed": (pick(),), "direction_imposed": (pick(),),
             "motor_on_switch": (pick(), pick(), pick()), "direction_at_rest": (pick(), pick()),
+            "column_factor": (pick(), rng.choice([pick(), a]), rng.choice([1.0, -1.0, 0.0, -0.0])),
         }
         for name, args in cases.items():
             assert same(getattr(rules, name)(*args), c_rule(C_RULES[name], *args)), (name, args)

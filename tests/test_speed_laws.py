@@ -116,14 +116,12 @@ def press(tmp_path_factory):
 
 def test_a_law_acts_in_either_direction_and_at_rest(tmp_path):
     """The table's Q against the loads' exact torque at omega1 = 0 and -+ 7 rad/s, for a law whose
-    value at rest is T_d (not zero): a column held only while the crank turns would lose it. (The
-    workpiece is taken away: a kink's columns, like a slider force's, are held while the crank
-    turns, and at rest the kernel's mode decides.)"""
+    value at rest is T_d (not zero): a column held only while the crank turns would lose it. The
+    angles include the ram on its workpiece: a kink's columns, the same in either direction, act at
+    rest too (modes.column_factor)."""
     from crankfmu.dynamics.tabulated import table_of
 
-    path = press_file(tmp_path, "-T_d*cos(omega1/w_d)")
-    path.write_text(path.read_text().replace("k_w = { value = 2.0e5,", "k_w = { value = 0.0,"))
-    scenario = crankfmu.load_scenario(str(path))
+    scenario = crankfmu.load_scenario(str(press_file(tmp_path, "-T_d*cos(omega1/w_d)")))
     model = scenario.build()
     table = table_of(model.reduced)
     phi1 = np.linspace(0.1, 6.2, 23)
@@ -192,3 +190,72 @@ def test_check_passes_and_names_the_laws(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "the load on crank has a law of the speed, tanh(omega1 / w_d)" in out
     assert "the load on slider has a law of the speed, (1 - exp(-omega1 / w_d))" in out
+
+
+def test_the_fmi3_binaries_agree_under_qemu(press, tmp_path):
+    """The FMI 3.0 FMU (the contact's kink and both laws) in the project's C host
+    (tests/c_host/fmu3_driver.c): its x86_64-linux binary and its aarch64-linux binary under
+    qemu-aarch64 agree to 1e-12, and both with the reference to 1e-8."""
+    import os
+    import shutil
+    import subprocess
+    import zipfile
+
+    from fmpy import read_model_description
+
+    from test_fmi3 import _rows, headers
+
+    _, values, fmus = press
+    if not (shutil.which("aarch64-linux-gnu-gcc") and shutil.which("qemu-aarch64")):
+        if os.environ.get("CI"):
+            pytest.fail("aarch64-linux-gnu-gcc or qemu-aarch64 is missing: `make` installs them")
+        pytest.skip("no aarch64 cross compiler or qemu here")
+    md = read_model_description(str(fmus["native3"]))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    unzipped = tmp_path / "fmu"
+    with zipfile.ZipFile(fmus["native3"]) as z:
+        z.extractall(unzipped)
+    driver = Path(__file__).resolve().parent / "c_host" / "fmu3_driver.c"
+    args = [str(unzipped), "PressLaw", md.guid, str(int(round(STOP / 1e-3))), "0.001", str(vr["omega1"])]
+    runs = {}
+    for name, cc, prefix in (("x86_64-linux", "gcc", []),
+                             ("aarch64-linux", "aarch64-linux-gnu-gcc", ["qemu-aarch64", "-L", "/usr/aarch64-linux-gnu"])):
+        subprocess.run([cc, "-std=c99", "-O2", f"-I{headers()}", "-o", str(tmp_path / name), str(driver), "-ldl"],
+                       check=True, capture_output=True)
+        done = subprocess.run([*prefix, str(tmp_path / name), *args], capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stdout[-2000:]
+        runs[name] = _rows(done.stdout)
+    linux, arm = runs["x86_64-linux"], runs["aarch64-linux"]
+    expected = reference(values, linux[:, 0])
+    scale = np.max(np.abs(expected))
+    assert np.max(np.abs(linux[:, 1] - expected)) <= 1e-8 * scale
+    assert arm.shape == linux.shape and np.max(np.abs(arm[:, 1] - linux[:, 1])) <= 1e-12 * scale
+
+
+def test_the_native_fmus_reactions_carry_the_laws(press):
+    """The native FMU's joint reactions over the run are Newton-Euler's at its (phi1, omega1,
+    epsilon1) with every load applied exactly (the laws at the FMU's omega1: SpeedLawLoad.applied),
+    to the tables' bound, away from the contact's switch angles; and the laws are in them (the same
+    solve without the two laws differs)."""
+    from fmpy import simulate_fmu
+
+    from crankfmu.dynamics.reactions import joint_reactions, reaction_arrays, reaction_outputs
+    from crankfmu.fmi.slave import REACTION_TOLERANCE
+    from switches import away_from_switches
+
+    scenario, _, fmus = press
+    model = scenario.build()
+    names = [name for name, _, _ in reaction_outputs(scenario.mechanism_definition())]
+    run = simulate_fmu(str(fmus["native"]), stop_time=STOP, output_interval=1e-3,
+                       output=["phi1", "omega1", "epsilon1", *names])
+    expected = reaction_arrays(joint_reactions(model.reduced, run["phi1"], run["omega1"], run["epsilon1"]))
+    scale = max(np.max(np.abs(expected[name])) for name in names)
+    away = away_from_switches(model.reduced, run["phi1"])
+    for name in names:
+        assert np.max(np.abs(run[name] - expected[name])[away]) <= REACTION_TOLERANCE * scale, name
+    laws = [load for load in model.reduced.loads if type(load).__name__ == "SpeedLawLoad"]
+    assert len(laws) == 2
+    others = [load for load in model.reduced.loads if load not in laws]
+    without = reaction_arrays(joint_reactions(model.reduced, run["phi1"], run["omega1"], run["epsilon1"],
+                                              loads=others))
+    assert max(np.max(np.abs(without[name] - expected[name])) for name in names) > 1e3 * REACTION_TOLERANCE * scale

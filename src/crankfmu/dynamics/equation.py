@@ -116,11 +116,11 @@ class MovementEquation:
         q = Q[0]
         for load in self._smooth_velocity_loads:
             q += float(load.torque(kin, omega1)[0])
-        if self.sliders and mode.direction != 0:
+        if self.sliders:
             _, forces = self.reduced.slider_schedule()
-            side = 0 if mode.direction > 0 else 1
             for load, s in self._slider_offsets:
-                factors = forces[mode.interval, side, s:s + len(load.column_names)]
+                block = forces[mode.interval, :, s:s + len(load.column_names)]
+                factors = rules.column_factor(block[0], block[1], mode.direction)
                 # a direction-dependent load has one column switched on per interval: the other
                 # direction's expressions are not evaluated on this hot path
                 for factor, column in zip(factors, load.columns(kin, factors != 0.0)):

@@ -99,6 +99,15 @@ def direction_imposed(omega):
     return np.where(omega > 0.0, 1.0, np.where(omega < 0.0, -1.0, 0.0))
 
 
+def column_factor(forward, backward, direction):
+    """A switched column's factor on the side ``direction`` from its values forward and backward on
+    the interval: at rest (0) the value where the two agree (a load that does not depend on the
+    direction: a contact, a kink of the position, a law of the speed), else none (a Coulomb force or
+    a working stroke's, whose value at rest the mode decides). Arrays too."""
+    at_rest = np.where(np.equal(forward, backward), forward, 0.0)
+    return np.where(direction > 0.0, forward, np.where(direction < 0.0, backward, at_rest))
+
+
 def motor_on_switch(m_low, m_high, rest):
     """Branch to continue in from omega1 = omega_switch, by Filippov's rule.
 

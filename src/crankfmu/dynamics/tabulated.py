@@ -113,7 +113,7 @@ class ReducedTable:
                 if power == LAW:          # a law of the speed acts in either direction and at rest
                     Q = Q + self.laws(s, omega1) * values[FIRST_SLIDER + s]
                     continue
-                force = np.where(direction > 0, self.forces[k, 0, s], np.where(direction < 0, self.forces[k, 1, s], 0.0))
+                force = modes.column_factor(self.forces[k, 0, s], self.forces[k, 1, s], direction)
                 Q = Q + force * omega1 ** power * values[FIRST_SLIDER + s]
         return J, values[HALF_DJ], Q
 

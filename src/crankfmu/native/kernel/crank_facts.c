@@ -46,6 +46,7 @@ double ck_rule(int rule, const double* a)
     case 14: return ck_crosses(a[0], a[1], (int)a[2]);
     case 15: return ck_drive_torque(a[0], a[1], a[2], a[3], a[4], a[5]);
     case 16: return ck_direction_imposed(a[0]);
+    case 17: return ck_column_factor(a[0], a[1], a[2]);
     default: return NAN;
     }
 }

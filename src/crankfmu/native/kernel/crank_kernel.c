@@ -64,12 +64,13 @@ void kernel_coefficients(double t, double phi, double omega, double direction, d
     table_values(T, phi, work);
     *J = work[0] + P[CK_J_FLYWHEEL];
     double q = work[2] + work[3] * omega;
-    int d = direction > 0.0 ? 0 : 1, k = (int)interval;
+    const double* forces = T->forces + (size_t)interval * 2 * T->n_sliders;
     for (int s = 0; s < T->n_sliders; s++) {
         if (ck_column_law(T, s))                    /* a law of the speed: either direction, and at rest */
             q += ck_column_speed(T, s, omega) * work[4 + s];
-        else if (direction != 0.0)
-            q += T->forces[((size_t)k * 2 + d) * T->n_sliders + s] * ck_column_speed(T, s, omega) * work[4 + s];
+        else
+            q += ck_column_factor(forces[s], forces[T->n_sliders + s], direction) * ck_column_speed(T, s, omega)
+                 * work[4 + s];
     }
     *half_dJ = work[1];
     *Q = q;

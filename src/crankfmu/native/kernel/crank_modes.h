@@ -60,6 +60,17 @@ static inline double ck_direction_of_speed(double omega) { return omega < 0.0 ? 
  * rest (the crank held still by the drive feels no Coulomb force) */
 static inline double ck_direction_imposed(double omega) { return omega > 0.0 ? 1.0 : (omega < 0.0 ? -1.0 : 0.0); }
 
+/* a switched column's factor on the side ``direction``, from its values forward and backward on
+ * the interval: at rest (0) the value where the two agree (a load that does not depend on the
+ * direction: a contact, a kink of the position, a law of the speed), else none (a Coulomb force or a
+ * working stroke's, whose value at rest the mode decides) */
+static inline double ck_column_factor(double forward, double backward, double direction)
+{
+    if (direction > 0.0) return forward;
+    if (direction < 0.0) return backward;
+    return forward == backward ? forward : 0.0;
+}
+
 /* Filippov's rule on omega1 = omega_switch: m_low, m_high the lines' torques there, rest the
  * acceleration term without the motor. A line that jumps down traps the speed: SLIDE. */
 static inline double ck_motor_on_switch(double m_low, double m_high, double rest)
