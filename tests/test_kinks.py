@@ -77,8 +77,8 @@ def lagrange_terms(phi, p):
 def reference(p, times, speed_torque=lambda w: 0.0, ram_force=None):
     """omega1 at ``times``: DOP853 restarted at every contact; ``speed_torque(omega1)``: a load of
     the speed on the crank (N.m) beside the motor (tests/test_speed_loads.py's fan);
-    ``ram_force(xB, omega1)``: a force on the ram along x (N), its torque that times dxB/dphi1
-    (tests/test_speed_laws.py)."""
+    ``ram_force(phi1, xB, omega1)``: a force on the ram along x (N), its torque that times dxB/dphi1
+    (tests/test_speed_laws.py, the damped contact here)."""
     def motor(w):
         line = p["A"] - p["B"] * w if w > p["omega_switch"] else p["A_low"] - p["B_low"] * w
         return line + speed_torque(w)
@@ -86,7 +86,7 @@ def reference(p, times, speed_torque=lambda w: 0.0, ram_force=None):
     def rhs(t, y):
         J, half_dJ, Q, xB = lagrange_terms(y[0], p)
         if ram_force is not None:
-            Q += ram_force(xB, y[1]) * ram_rate(y[0], p)
+            Q += ram_force(y[0], xB, y[1]) * ram_rate(y[0], p)
         return [y[1], (motor(y[1]) + Q - half_dJ * y[1] ** 2) / J]
 
     def contact(t, y):
@@ -102,6 +102,20 @@ def reference(p, times, speed_torque=lambda w: 0.0, ram_force=None):
         pieces.append((t, end, run.sol))
         t, y = end, run.sol(end)
     return np.array([next(sol(x)[1] for a, b, sol in pieces if a <= x <= b) for x in times])
+
+
+def fmu_follows(fmu, stop: float, expected, kind: str) -> None:
+    """omega1 of ``fmu`` (fmpy, Co-Simulation at 1 ms) within 1e-8 of ``expected(times)``; a native
+    one's Model Exchange (CVode at 1e-10, its event indicators on the switch angles) within 1e-6."""
+    from fmpy import simulate_fmu
+
+    result = simulate_fmu(str(fmu), stop_time=stop, output_interval=1e-3, output=["omega1"])
+    want = expected(result["time"])
+    assert np.max(np.abs(result["omega1"] - want)) / np.max(np.abs(want)) < 1e-8
+    if kind != "python":
+        me = simulate_fmu(str(fmu), stop_time=stop, output_interval=1e-3, output=["omega1"],
+                          fmi_type="ModelExchange", relative_tolerance=1e-10)
+        assert np.max(np.abs(me["omega1"] - expected(me["time"]))) / np.max(np.abs(want)) < 1e-6
 
 
 @pytest.fixture(scope="module")
@@ -189,15 +203,61 @@ def test_the_engine_follows_the_contact(scenario, values, method):
 
 @pytest.mark.parametrize("fmu", ["python", "native", "native3"])
 def test_the_fmus_follow_the_contact(fmus, values, fmu):
-    from fmpy import simulate_fmu
+    fmu_follows(fmus[fmu], STOP, lambda times: reference(values, times), fmu)
 
-    result = simulate_fmu(str(fmus[fmu]), stop_time=STOP, output_interval=1e-3, output=["omega1"])
-    expected = reference(values, result["time"])
-    assert np.max(np.abs(result["omega1"] - expected)) / np.max(np.abs(expected)) < 1e-8
-    if fmu != "python":         # Model Exchange: CVode, its event indicators on the contact angles
-        me = simulate_fmu(str(fmus[fmu]), stop_time=STOP, output_interval=1e-3, output=["omega1"],
-                          fmi_type="ModelExchange", relative_tolerance=1e-10)
-        assert np.max(np.abs(me["omega1"] - reference(values, me["time"]))) / np.max(np.abs(expected)) < 1e-6
+
+DAMPED = '[[loads]]\nkind = "force"\nlink = "slider"\npoint = "B"\nfx = "-lam_w*max(0, xB - x_w)*B_vx"\n\n'
+
+
+@pytest.fixture(scope="module")
+def damped(tmp_path_factory):
+    """The press with Hunt and Crossley's damping of the workpiece beside its stiffness: a load of
+    the speeds with a kink of the position (speed_loads.KinkedSpeedLoad), and its three FMUs."""
+    out = tmp_path_factory.mktemp("damped")
+    path = out / "press_damped.toml"
+    path.write_text(SCENARIO.read_text().replace("J_flywheel = {", (
+        'lam_w = { value = 3.0e4, unit = "N.s/m2", min = 0, description = "Hunt-Crossley damping of the '
+        'workpiece" }\nJ_flywheel = {')).replace("[experiment]", DAMPED + "[experiment]")
+        .replace('fmu = "PressContact"', 'fmu = "PressDamped"'))
+    for folder, extra in (("python", []), ("native", ["--native"]), ("native3", ["--native", "--fmi-version", "3"])):
+        assert main(["fmu", str(path), *extra, "--out", str(out / folder)]) == 0
+    scenario = crankfmu.load_scenario(str(path))
+    p = {k: scenario[k] for k in scenario.parameters}
+
+    def expected(times):
+        return reference(p, times, ram_force=lambda phi, xB, w: -p["lam_w"] * max(0.0, xB - p["x_w"])
+                         * ram_rate(phi, p) * w)
+    return scenario, expected, {folder: out / folder / "PressDamped.fmu" for folder in ("python", "native", "native3")}
+
+
+@pytest.mark.parametrize("method", ["fast", "reference"])
+def test_the_damped_contact_on_the_engine(damped, values, method):
+    """-lam_w max(0, xB - x_w) B_vx: its parts per power of omega1 on each side of the contact are
+    columns (each valued by the side's indicator), the contact angles located as before; within
+    1e-8 of the hand-written reference with the damping's force, which moves omega1 by ~8 rad/s."""
+    scenario, expected, _ = damped
+    times = np.linspace(0.0, STOP, 401)
+    result = crankfmu.simulate(scenario, t_end=STOP, method=method, rtol=None, output_times=times)
+    want = expected(times)
+    assert np.max(np.abs(result.omega1 - want)) / np.max(np.abs(want)) < 1e-8
+    assert np.max(np.abs(want - reference(values, times))) > 1.0
+
+
+@pytest.mark.parametrize("fmu", ["python", "native", "native3"])
+def test_the_damped_contact_in_the_fmus(damped, fmu):
+    _, expected, fmus = damped
+    fmu_follows(fmus[fmu], STOP, expected, fmu)
+
+
+def test_kinks_of_the_position_and_of_a_speed_in_one_load_are_refused(scenario):
+    from crankfmu.scenario import Scenario
+
+    data = {**scenario.data, "loads": [*scenario.data["loads"],
+                                       {"kind": "force", "link": "slider", "point": "B",
+                                        "fx": "-k_w*max(0, xB - x_w)*sign(B_vx)"}]}
+    with pytest.raises(DefinitionError, match=r"kinks of the position \(max\(0, xB - x_w\)\) and of the speeds "
+                                              r"\(sign\(B_vx\)\) in one load.*write them as two loads"):
+        Scenario(data, scenario.where, scenario.path).build()
 
 
 def test_a_native_fmu_relocates_its_contact_when_the_workpiece_moves(fmus, values):
@@ -348,17 +408,8 @@ def test_jansens_leg_walks_on_the_fast_path(jansen):
 
 @pytest.mark.parametrize("fmu", ["python", "native", "native3"])
 def test_jansens_leg_walks_in_every_fmu(jansen, fmu):
-    from fmpy import simulate_fmu
-
     _, fmus, reference = jansen
-    result = simulate_fmu(str(fmus[fmu]), stop_time=JANSEN_STOP, output_interval=1e-3, output=["omega1"])
-    expected = reference(result["time"])
-    assert np.max(np.abs(result["omega1"] - expected)) / np.max(np.abs(expected)) < 1e-8
-    if fmu != "python":
-        me = simulate_fmu(str(fmus[fmu]), stop_time=JANSEN_STOP, output_interval=1e-3, output=["omega1"],
-                          fmi_type="ModelExchange", relative_tolerance=1e-10)
-        at = reference(me["time"])
-        assert np.max(np.abs(me["omega1"] - at)) / np.max(np.abs(at)) < 1e-6
+    fmu_follows(fmus[fmu], JANSEN_STOP, reference, fmu)
 
 
 def test_a_press_held_still_on_its_workpiece_feels_the_contact(values, tmp_path):

@@ -32,7 +32,7 @@ from crankfmu.dynamics.speed_laws import split_laws
 from crankfmu.errors import DefinitionError
 from crankfmu.expressions import Expression
 
-from test_kinks import STOP
+from test_kinks import STOP, fmu_follows
 from test_kinks import reference as press_reference
 
 USER = Path(__file__).resolve().parent / "data" / "user"
@@ -44,8 +44,8 @@ VALUES = {"T_d": 40.0, "w_d": 5.0, "F_d": 300.0}
 
 @pytest.mark.parametrize("source, laws", [
     ("-T0*tanh(omega1/w0)", {"tanh(omega1 / w0)"}),
-    ("-c*omega1 - T0*(1 - exp(-omega1/w0))*cos(phi1)", {"(1.0 - exp(-omega1 / w0))"}),
-    ("-c*omega1**3 + k*B_vx*abs(B_vx) - T0", {"(omega1 ** 3.0)"}),
+    ("-c*omega1 - T0*(1 - exp(-omega1/w0))*cos(phi1)", {"1.0 - exp(-omega1 / w0)"}),
+    ("-c*omega1**3 + k*B_vx*abs(B_vx) - T0", {"omega1 ** 3.0"}),
     ("T0*exp(-omega1/w0)/(1 + omega1**2/w0**2) + T0*tanh(omega1/w0)*B_x",
      {"exp(-omega1 / w0) / (1.0 + omega1 ** 2.0 / w0 ** 2.0)", "tanh(omega1 / w0)"}),
 ])
@@ -98,7 +98,7 @@ def reference(p, times):
     """omega1 at ``times``: the press's Lagrange equation by hand (test_kinks.reference, restarted at
     each contact) with the clutch on the crank and the force on the ram."""
     return press_reference(p, times, lambda w: -p["T_d"] * math.tanh(w / p["w_d"]),
-                           lambda xB, w: -p["F_d"] * xB / p["l2"] * (1.0 - math.exp(-w / p["w_d"])))
+                           lambda phi, xB, w: -p["F_d"] * xB / p["l2"] * (1.0 - math.exp(-w / p["w_d"])))
 
 
 @pytest.fixture(scope="module")
@@ -160,17 +160,8 @@ def test_the_press_with_its_laws(press, method):
 
 @pytest.mark.parametrize("fmu", ["python", "native", "native3"])
 def test_the_fmus_with_the_laws(press, fmu):
-    from fmpy import simulate_fmu
-
     _, values, fmus = press
-    result = simulate_fmu(str(fmus[fmu]), stop_time=STOP, output_interval=1e-3, output=["omega1"])
-    expected = reference(values, result["time"])
-    assert np.max(np.abs(result["omega1"] - expected)) / np.max(np.abs(expected)) < 1e-8
-    if fmu != "python":
-        me = simulate_fmu(str(fmus[fmu]), stop_time=STOP, output_interval=1e-3, output=["omega1"],
-                          fmi_type="ModelExchange", relative_tolerance=1e-10)
-        at = reference(values, me["time"])
-        assert np.max(np.abs(me["omega1"] - at)) / np.max(np.abs(at)) < 1e-6
+    fmu_follows(fmus[fmu], STOP, lambda times: reference(values, times), fmu)
 
 
 def test_the_native_fmu_follows_a_law_parameter(press):
@@ -189,7 +180,7 @@ def test_check_passes_and_names_the_laws(tmp_path, capsys):
     assert main(["check", str(press_file(tmp_path))]) == 0
     out = capsys.readouterr().out
     assert "the load on crank has a law of the speed, tanh(omega1 / w_d)" in out
-    assert "the load on slider has a law of the speed, (1 - exp(-omega1 / w_d))" in out
+    assert "the load on slider has a law of the speed, 1 - exp(-omega1 / w_d)" in out
 
 
 def test_the_fmi3_binaries_agree_under_qemu(press, tmp_path):

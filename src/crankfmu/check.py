@@ -319,8 +319,10 @@ def kinks_located(report: Report, model):
             angles = sorted({round(a % (2 * math.pi), 13) for a in load.switch_angles(model.mechanism)})
             where = (f"switch at phi1 = {', '.join(f'{math.degrees(a):.2f}' for a in angles)} deg" if angles
                      else "keep one side over the whole turn")
+            parts = (f" (each side a polynomial of degree {load.degree} in omega1, held by its parts)"
+                     if hasattr(load, "degree") else "")
             report.add("OK", f"the load on {load.link} has {len(load.arguments)} kink(s), {', '.join(load.calls)}; "
-                       f"they {where}: every path steps onto those angles and tabulates each side smooth")
+                       f"they {where}: every path steps onto those angles and tabulates each side smooth{parts}")
 
 
 def laws_held(report: Report, model):

@@ -22,7 +22,7 @@ from __future__ import annotations
 from ..expressions import Expression
 from .program import BAND, REVERSALS, ROCKER, ZEROS, Unsupported
 from .speed_laws import LAW, law_column_name, split_laws
-from .speed_loads import SPEED_COLUMNS, quadratic_parts, speed_class, speed_scale
+from .speed_loads import SPEED_COLUMNS, kinked_speed_load, quadratic_parts, speed_class, speed_scale
 from .user_loads import kinked
 
 
@@ -244,8 +244,11 @@ class LoadClauses:
         reads_speed = direction is None and any(Expression(str(spec[k]), at).names & speeds
                                                 for k in ("fx", "fy", "moment") if k in spec)
         if reads_speed:
-            signed = speed_class({k: Expression(str(spec[k]), f"{at} {k}") for k in ("fx", "fy", "moment")
-                                  if k in spec}, speeds, at)
+            expressions = {k: Expression(str(spec[k]), f"{at} {k}") for k in ("fx", "fy", "moment") if k in spec}
+            signed = speed_class(expressions, speeds, at)
+            with_kinks = kinked_speed_load(link, point, expressions, None, speeds, self.scenario.values, at)
+            if with_kinks is not None:
+                return self._kinked_speed_force(link, point, with_kinks, at)
             if signed is not None:
                 return self._speed_polynomial(spec, link, point, signed, at)
         if reads_speed:
@@ -334,6 +337,30 @@ class LoadClauses:
                 "column_names": tuple(f"{link} {name}" for name, _ in SPEED_COLUMNS[:n]),
                 "applied": {"1": record(0, 0), "omega1": record(0, 1),
                             **{("column", j): record(part, index) for j, (part, index) in enumerate(chosen)}}}
+
+    def _kinked_speed_force(self, link, point, load, at):
+        """speed_loads.KinkedSpeedLoad: per pattern of the kinks' sides, its branch's parts per power
+        of omega1 (fitted at six speeds as _speed_polynomial's) as columns, each valued by the
+        pattern's indicator and multiplied by omega1's power; the arguments' zeros the switch angles."""
+        c = self.c
+        scale, n_powers = load.scale, load.degree + 1
+        kinks = self._kinked_force(link, point, (load.arguments, load.branches, load.calls), at)
+
+        def parts(branch):                    # [power] -> {key: register}
+            keys = list(branch)
+
+            def at_speed(w):
+                names = {**self.position_names(), **self.speed_names_at(w)}
+                return _Registers(c, [c.expression(branch[k].source, names, branch[k].where) for k in keys])
+            sym, _ = quadratic_parts(at_speed, scale)
+            return [dict(zip(keys, v.regs)) for v in sym[:n_powers]]
+
+        def record(pattern, power):
+            return lambda: [(link, point, *(parts(load.branches[pattern])[power].get(k) for k in ("fx", "fy", "moment")))]
+        return {"columns": lambda: [self._user_torque(link, point, part) for b in load.branches for part in parts(b)],
+                "values": lambda: [v for v in kinks["values"]() for _ in range(n_powers)],
+                "powers": load.column_powers, "searches": kinks["searches"], "column_names": load.column_names,
+                "applied": {("column", j): record(*divmod(j, n_powers)) for j in range(len(load.column_names))}}
 
     def _kinked_force(self, link, point, kinks, at):
         """user_loads.KinkedLoad: a column per pattern of its kinks' sides (the expressions on that

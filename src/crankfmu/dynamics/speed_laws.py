@@ -71,6 +71,8 @@ def _operand(node) -> str:
 
 def _product(factors) -> str:
     """The text of a product of (factor, divides) pairs ("1" when empty)."""
+    if len(factors) == 1 and not factors[0][1]:
+        return ast.unparse(factors[0][0])
     up = [_operand(f) for f, divides in factors if not divides]
     down = [_operand(f) for f, divides in factors if divides]
     return (" * ".join(up) or "1") + "".join(f" / {t}" for t in down)
@@ -116,7 +118,10 @@ def split_laws(expressions: dict, speeds: set[str], fixed: set[str], where: str)
             a = ("-" if sign2 < 0 else "") + (f"({t})" if " " in (t := _product(coefficient)) else t)
             laws.setdefault(g, {}).setdefault(key, []).append(a)
     where_of = {key: e.where for key, e in expressions.items()}
-    poly = {key: Expression(" + ".join(parts), where_of[key]) for key, parts in polynomial.items()}
+    # a key without a law keeps its expression as written (the messages quote the file's text)
+    with_laws = {key for coefficients in laws.values() for key in coefficients}
+    poly = {key: expressions[key] if key not in with_laws else Expression(" + ".join(parts), where_of[key])
+            for key, parts in polynomial.items()}
     out = [(Expression(g, f"{where} speed law"),
             {key: Expression(" + ".join(parts), where_of[key]) for key, parts in coefficients.items()})
            for g, coefficients in laws.items()]

@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import DefinitionError
 from ..expressions import KINKS, parse
 from .loads import AppliedLoad
-from .user_loads import SpeedLoad
+from .user_loads import KinkedLoad, SpeedLoad, kinked
 
 #: the columns of a load with kinks of the speeds: (name, power of omega1); without kinks, the first
 SPEED_COLUMNS = (("omega1^2", 2), ("sign", 0), ("sign omega1", 1), ("sign omega1^2", 2))
@@ -168,6 +168,79 @@ class PolynomialSpeedLoad(SpeedLoad):
         return gap / size
 
 
+@dataclass
+class KinkedSpeedLoad(KinkedLoad):
+    """A load of the speeds with kinks of the position: a contact with damping (Hunt and Crossley's
+    ``-max(0, x - x_w)*(k + lam*B_vx)``), a stop that damps. Each pattern of the kinks' sides has
+    its branch, a polynomial of degree ``degree`` <= 2 in the speeds (no kink of a speed): its parts
+    per power of omega1 are columns (pattern-major, powers 0 .. degree), each with the pattern's
+    indicator as value and its power of omega1, so the kernel steps onto the switch angles as for a
+    KinkedLoad and multiplies each part by omega1's power. Exact where evaluated (``torque``)."""
+
+    degree: int = 1
+    scale: float = 10.0               # rad/s: the speeds the parts are fitted at (speed_scale)
+    has_speed_columns = True          # the reference evaluates it exactly, on the kinks' intervals
+
+    def torque(self, kin, omega1=None):
+        return self._torque_of(kin, self.increasing, 0.0 if omega1 is None else omega1)
+
+    def applied(self, kin, omega1=None):
+        return [AppliedLoad(self.link, self.point,
+                            *self._components(kin, self.increasing, 0.0 if omega1 is None else omega1))]
+
+    @property
+    def column_names(self) -> tuple[str, ...]:
+        n = len(self.arguments)
+        return tuple(f"{self.link} kink pattern {pattern:0{n}b} omega1^{k}"
+                     for pattern in range(len(self.branches)) for k in range(self.degree + 1))
+
+    @property
+    def column_powers(self) -> tuple[int, ...]:
+        return tuple(range(self.degree + 1)) * len(self.branches)
+
+    def _parts(self, at):
+        return quadratic_parts(at, self.scale)[0][:self.degree + 1]
+
+    def columns(self, kin, needed=None) -> list:
+        out = []
+        for branch in self.branches:
+            parts = self._parts(lambda w, b=branch: self._torque_of(kin, b, w))
+            out += [np.broadcast_to(np.asarray(part, dtype=float), kin.phi1.shape) for part in parts]
+        return out
+
+    def values(self, kin, omega1) -> list:
+        """The pattern's indicator (KinkedLoad.values) for each of its powers."""
+        return [v for v in super().values(kin, omega1) for _ in range(self.degree + 1)]
+
+    def column_applied(self, kin, column: int) -> list[AppliedLoad]:
+        pattern, power = divmod(column, self.degree + 1)
+        branch = self.branches[pattern]
+        components = [self._parts(lambda w, k=k: self._components(kin, branch, w)[k])[power] for k in range(3)]
+        return [AppliedLoad(self.link, self.point, *components)]
+
+
+def kinked_speed_load(link, point, expressions, mechanism, speeds, values, where):
+    """A KinkedSpeedLoad of a force or couple whose expressions read the speeds and have kinks of the
+    position only; None without kinks. Kinks of both the position and a speed in one load are
+    refused by name (write them as two loads)."""
+    kinks = kinked(expressions, where)
+    if kinks is None:
+        return None
+    arguments, branches, calls = kinks
+    of_speed = [call for a, call in zip(arguments, calls) if a.names & speeds]
+    if not of_speed:
+        degrees = [speed_degree(e.source, speeds, e.where)[0] for b in branches for e in b.values()]
+        return KinkedSpeedLoad(link, point, expressions, mechanism=mechanism, arguments=arguments, branches=branches,
+                               calls=calls, degree=max(1, max(d for d in degrees if d is not None)),
+                               scale=speed_scale(values))
+    if len(of_speed) < len(calls):
+        raise DefinitionError(
+            f"{where}: kinks of the position ({', '.join(c for c in calls if c not in of_speed)}) and of the speeds "
+            f"({', '.join(of_speed)}) in one load: crankfmu locates the first as angles and holds the second by the "
+            "crank's direction; write them as two loads")
+    return None
+
+
 def speed_scale(values) -> float:
     """w0 (rad/s): the start speed's size, at least 10 rad/s (speed causality has no start speed)."""
     return max(abs(float(values.get("omega1_start", 10.0))), 10.0)
@@ -194,6 +267,9 @@ def speed_class(expressions: dict, speeds: set[str], where: str) -> bool | None:
 def speed_load(link, point, expressions, mechanism, speeds, values, where):
     """The load object of a force or couple whose expressions read the speeds."""
     signed = speed_class(expressions, speeds, where)
+    with_kinks = kinked_speed_load(link, point, expressions, mechanism, speeds, values, where)
+    if with_kinks is not None:
+        return with_kinks
     if signed is None:
         return SpeedLoad(link, point, expressions, mechanism=mechanism)
     return PolynomialSpeedLoad(link, point, expressions, mechanism=mechanism, signed=signed,

@@ -9,7 +9,8 @@ unknown's rate ``U_dot`` (rad/s or m/s: ``phi2_dot``, ``xB_dot``), all omega1 ti
 function of phi1. A torque affine in the speeds, Q0(phi1) + omega1 Q1(phi1), the fast path,
 the kernel and both FMUs hold exactly at every step (Q0 with the position's loads, Q1 as the
 viscous coefficient; nothing is tabulated in omega1); one of degree 2 (a fan) by its parts per
-power of omega1 (speed_loads.py); beyond that a load is refused by name. Each states its power, so the energy balance and the
+power of omega1 (speed_loads.py); any other law of omega1 as a function of the position times the law
+(speed_laws.py). Each states its power, so the energy balance and the
 Newton-Euler reactions hold for it:
 
 - ``force`` at a point of a link, components ``fx``, ``fy`` (N): power F . v_P, reduced to the
