@@ -41,6 +41,13 @@ MAX_CYCLE_TURNS = 8
 #: the load kinds a user writes as expressions (dynamics.user_loads)
 USER_LOADS = ("force", "couple", "spring_damper")
 
+
+def in_words(named: list[str], empty: str = "none") -> str:
+    """A list as a sentence says it: "a", "a and b", "a, b and c"; ``empty`` where it is empty."""
+    if not named:
+        return empty
+    return named[0] if len(named) == 1 else ", ".join(named[:-1]) + " and " + named[-1]
+
 class Scenario:
     """A scenario file, with parameter overrides."""
 
@@ -95,10 +102,7 @@ class Scenario:
         once, in the file's order: "the gas force on the piston and the generator"; "none"."""
         words = self.load_words()
         chosen = range(len(reduced.load_entries)) if which is None else which
-        named = list(dict.fromkeys(words[reduced.load_entries[i]] for i in chosen))
-        if not named:
-            return "none"
-        return named[0] if len(named) == 1 else ", ".join(named[:-1]) + " and " + named[-1]
+        return in_words(list(dict.fromkeys(words[reduced.load_entries[i]] for i in chosen)))
 
     def _param(self, name: str) -> Parameter:
         if name not in self.parameters:

@@ -20,6 +20,7 @@ from dataclasses import fields
 from xml.etree import ElementTree as ET
 
 from ..pages.markup import page
+from ..scenario import in_words
 from ..pages.mathml import math
 
 #: the reduced model and the movement equation (dynamics.reduced, dynamics.equation): text, what it says
@@ -291,7 +292,7 @@ def machine_words(scenario, speed: bool = False) -> str:
     weightless = scenario.values.get("g", 9.81) == 0.0           # an engine's file: its weights are nothing
     words = list(dict.fromkeys(w for w, spec in zip(scenario.load_words(), scenario.data.get("loads", []))
                                if not (weightless and spec.get("kind") == "weights")))
-    loads = (", ".join(words[:-1]) + " and " + words[-1]) if len(words) > 1 else (words[0] if words else "no loads")
+    loads = in_words(words, "no loads")
     cycle = (f"; the loads repeat over a machine cycle of {scenario.cycle_turns} turns "
              f"({360 * scenario.cycle_turns} deg)" if scenario.cycle_turns > 1 else "")
     return f"{drive}, {flywheel}, the loads: {loads}{cycle}"

@@ -55,10 +55,6 @@ def paper_deg(phi, offset):
     return np.degrees(np.asarray(phi) - offset)
 
 
-def loads_text(scenario, model, which=None) -> str:
-    return scenario.describe_loads(model.reduced, which)
-
-
 def acting(model, omega1: float) -> list[int]:
     """The loads (indices into model.reduced.loads) with a torque on the crank somewhere over the
     cycle at ``omega1``: the weights of a machine without gravity (g = 0) are not named."""
@@ -75,8 +71,7 @@ def plot_inertia(study, path: Path) -> Path:
     """J_e(phi): the mechanism's own reduced inertia over a turn, the flywheel not included (it
     only shifts the curve), with the paper's tabulation step marked where the file gives it."""
     plt = pyplot()
-    scenario, offset = study.scenario, study.angle_offset
-    model = scenario.build()
+    scenario, offset, model = study.scenario, study.angle_offset, study.model
     phi = offset + np.linspace(0.0, TWO_PI, 721)
     J_e = model.reduced.coefficients(phi)[0] - model.reduced.J_flywheel
     d = study.design
@@ -117,7 +112,7 @@ def plot_movement(study, path: Path) -> Path:
     a2.set_ylabel("epsilon1 [rad/s2]")
     a3.plot(deg, reference.M_motor + reference.M_load, lw=1.2, label="M_motor + M_load")
     a3.plot(deg, reference.M_load, lw=0.8,
-            label=f"M_load: {loads_text(scenario, model, acting(model, study.design.omega_m))}")
+            label=f"M_load: {scenario.describe_loads(model.reduced, acting(model, study.design.omega_m))}")
     a3.set_ylabel("torque on the crank [N.m]")
     a3.set_xlabel(angle_label(offset))
     for ax in (a1, a2, a3):
@@ -171,8 +166,7 @@ def plot_turning_moment(study, path: Path) -> Path:
     from ..studies.flywheel import energy_swing
 
     plt = pyplot()
-    design, scenario = study.design, study.scenario
-    model = scenario.build()
+    design, scenario, model = study.design, study.scenario, study.model
     omega = design.omega_m
     dW, grid, swing = energy_swing(model, omega1=omega)
     kin = model.mechanism.kinematics(grid)
@@ -191,7 +185,7 @@ def plot_turning_moment(study, path: Path) -> Path:
     share = float(np.trapezoid(resisting - driving, grid) / span)
     driving = driving + share
     deg = np.degrees(grid)
-    giving = loads_text(scenario, model, [i for i in givers if np.any(torques[i])])
+    giving = scenario.describe_loads(model.reduced, [i for i in givers if np.any(torques[i])])
     motor = model.motor
     has_motor = any(getattr(motor, k) != 0.0 for k in ("A", "B", "A_low", "B_low"))
     significant = abs(share) > 1e-3 * max(float(np.max(np.abs(resisting))), 1e-300)
@@ -203,7 +197,7 @@ def plot_turning_moment(study, path: Path) -> Path:
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), constrained_layout=True, sharex=True)
     a1.plot(deg, driving, color="black", lw=1.2, label="driving: " + "\nand ".join(what_drives or ["none"]))
     a1.plot(deg, resisting, color="tab:blue", lw=1.2, ls="--",
-            label=f"resisting: {loads_text(scenario, model, takers)}\n(mean {engineering(float(np.mean(resisting)), 'N.m')})")
+            label=f"resisting: {scenario.describe_loads(model.reduced, takers)}\n(mean {engineering(float(np.mean(resisting)), 'N.m')})")
     a1.fill_between(deg, driving, resisting, where=driving >= resisting, color="tab:green", alpha=0.35,
                     interpolate=True, label="energy to the flywheel")
     a1.fill_between(deg, driving, resisting, where=driving < resisting, color="tab:red", alpha=0.35,
@@ -222,7 +216,7 @@ def plot_turning_moment(study, path: Path) -> Path:
     save_figure(fig, path, dpi=120, scenario=scenario.name,
                 caption=f"The torques on the crank over the machine's cycle at its mean speed: driving "
                         f"({' and '.join(what_drives or ['none'])}) against resisting "
-                        f"({loads_text(scenario, model, takers)}). The green areas store energy in the flywheel, "
+                        f"({scenario.describe_loads(model.reduced, takers)}). The green areas store energy in the flywheel, "
                         f"the red give it back; the largest swing, dW_max = {engineering(dW, 'J')}, is what the "
                         "flywheel is sized from (eq. 17).")
     plt.close(fig)

@@ -170,6 +170,15 @@ class FlywheelStudy:
     angle_offset: float = 0.0                  # rad, the paper's phi = 0
     reference: object = field(default=None, repr=False)
     eq3: object = field(default=None, repr=False)
+    _model: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def model(self):
+        """The scenario's model (without flywheel), built once for every figure that reads it: an
+        engine's build tabulates its loads."""
+        if self._model is None:
+            self._model = self.scenario.build()
+        return self._model
 
     def summary(self) -> dict:
         """What flywheel.json holds."""
