@@ -169,6 +169,9 @@ def test_refusals_are_loud_with_logging_off(native, tmp_path):
     assert "J_flywheel: parameter J_flywheel = -1.0 is out of range" in messages[-1], messages[-1]
     assert "A: parameter A = nan is out of range" in messages[-1], messages[-1]
     fmu.setReal([vr["J_flywheel"], vr["A"]], [0.02, 5.0])
+    with pytest.raises(FMICallException):             # mended, not yet initialised: says so, not the old reason
+        fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+    assert "the model is not initialised (call fmi2ExitInitializationMode first)" in messages[-1], messages[-1]
     fmu.exitInitializationMode()
     with pytest.raises(FMICallException):
         fmu.doStep(currentCommunicationPoint=0.5, communicationStepSize=1e-3)

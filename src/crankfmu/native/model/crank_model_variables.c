@@ -209,6 +209,9 @@ int cm_set(Model* m, const char* call, const unsigned* vr, size_t n, const doubl
          * re-derives the mode at the next event update, as a Co-Simulation restart does */
         if (!m->model_exchange || v->kind == KIND_TUNABLE) m->now.pending = 1;
     }
+    /* before the end of initialisation a refused exit's reason no longer describes the values: a
+     * step now is refused as "not initialised" (cm_cannot), not with a reason the host has mended */
+    if (n > 0 && m->now.phase < CM_STEPPING) m->now.failure[0] = 0;
     if (changed && m->model_exchange) {           /* Model Exchange: the values hold from now on */
         cm_load_parameters(m);
         cm_me_evaluate(m);
