@@ -312,22 +312,30 @@ def test_the_shafts_linear_system_and_its_step_on_input_lines(built, variant, tm
 FAN = HERE / "data" / "user" / "engine4s_fan_scenario.toml"
 
 
-@pytest.mark.parametrize("which", ["FourBar", "Engine4SFan"])
+@pytest.mark.parametrize("which", ["FourBar", "Engine4SFan", "Engine4SLaw"])
 def test_directional_derivatives_match_central_differences_in_model_exchange(built, which, tmp_path):
     """FourBar in Model Exchange: d(der(phi1), der(omega1), der(W_...), epsilon1, M_motor, M_load,
     J_red, E_kin)/d(each state and tau_ext) from the FMU against central differences of the same
     values with the states set (fmi2SetContinuousStates) to 1e-6 relative, in the middle of a turn
     (the motor on its upper line, away from its kink). The engine driving a fan (-c omega1 |omega1|,
     a load of degree 2 whose omega1**2 column the kernel weighs by omega1's power) likewise: its
-    d der(omega1)/d omega1 carries the fan's -2 c |omega1|."""
+    d der(omega1)/d omega1 carries the fan's -2 c |omega1|; and the engine with its fan as a general
+    law of the speed, -c_fan*240**2*tanh(omega1/240) (dynamics/speed_laws.py: its column weighed by
+    the law the program evaluates), its d der(omega1)/d omega1 carrying the law's slope."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Model
 
     if which == "FourBar":
         path = built["FourBar", "native"]
     else:
-        assert main(["fmu", str(FAN), "--native", "--out", str(tmp_path / "fan")]) == 0
-        path = tmp_path / "fan" / "Engine4SFan.fmu"
+        source = FAN
+        if which == "Engine4SLaw":
+            source = tmp_path / "law.toml"
+            source.write_text(FAN.read_text().replace('moment = "-c_fan*omega1*abs(omega1)"',
+                                                      'moment = "-c_fan*240**2*tanh(omega1/240)"')
+                              .replace('fmu = "Engine4SFan"', 'fmu = "Engine4SLaw"'))
+        assert main(["fmu", str(source), "--native", "--out", str(tmp_path / "fan")]) == 0
+        path = tmp_path / "fan" / f"{which}.fmu"
     md = read_model_description(str(path))
     fmu = FMU2Model(guid=md.guid, unzipDirectory=extract(str(path), str(tmp_path)),
                     modelIdentifier=md.modelExchange.modelIdentifier)
