@@ -413,3 +413,25 @@ def test_a_refused_state_says_what_it_judged(tmp_path):
             instance.deserializeFMUState(b"x" * 10)
         assert messages and re.search(said, messages[-1]), messages
         instance.freeInstance()
+
+
+@pytest.mark.parametrize("variant", ["python", "native"])
+def test_a_failed_step_says_the_kernels_words(variant, native, scratch, tmp_path):
+    """A = 1e300 set while stepping: the next step's size underflows, and the Python and the native
+    FMU say it in the same words (the kernel's ck_status_text), loggingOn false."""
+    from fmpy.fmi1 import FMICallException
+
+    from fuzz_host import quiet_slave
+
+    path = native if variant == "native" else _built("FourBar", False, scratch)
+    fmu, vr, messages, keep = quiet_slave(path, tmp_path / variant, "FourBar")
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.02)
+    fmu.setReal([vr["A"]], [1e300])
+    with pytest.raises(FMICallException):
+        fmu.doStep(currentCommunicationPoint=0.02, communicationStepSize=0.02)
+    assert re.fullmatch(r"fmi2DoStep: step from t = 0\.02 s failed: step size underflow at t = [\d.e-]+ s",
+                        messages[-1]), messages[-1]
+    fmu.freeInstance()

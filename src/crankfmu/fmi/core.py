@@ -424,7 +424,8 @@ class SlaveCore:
         try:
             self.advance(target)
         except CrankfmuError as exc:
-            self._fail(f"step from t = {current_time:g} s failed: {exc}", "fmi2DoStep")
+            # the kernel's words, as the native FMU's ("fast: " names the method in a run's message)
+            self._fail(f"step from t = {current_time:g} s failed: {str(exc).removeprefix('fast: ')}", "fmi2DoStep")
             return False
         if self.pending:
             self.pending.clear()

@@ -111,14 +111,10 @@ class FastIntegrator(Integrator):
 
 
 def refused(status: int, state) -> None:
-    """The kernel's refusal as an error: a step size underflow, or a state it cannot have written."""
-    if status == kernel.UNDERFLOW:
-        raise SchemeError(f"fast: step size underflow at t = {state[kernel.T]:.9g} s")
-    if status == kernel.TOO_MANY_STEPS:
-        raise SchemeError(f"fast: over 1e7 integration steps in one communication step near t = "
-                          f"{state[kernel.T]:.9g} s: the inputs, their derivatives or the parameters spin the crank "
-                          "beyond any use; take smaller communication steps if they are meant")
-    raise SchemeError("fast: the kernel's state holds no mode it can have written (a corrupted FMU state)")
+    """The kernel's refusal as an error, in the kernel's words (ck_status_text, as the native FMU says
+    it): a step size underflow, too many steps, or a state it cannot have written. "fast: " names the
+    method where a run fails; an FMU's message leaves it out (fmi.core), as the native FMU's does."""
+    raise SchemeError(f"fast: {kernel.status_text(status)} at t = {state[kernel.T]:.9g} s")
 
 
 def _mode_name(values, row: bool = False) -> str:

@@ -100,6 +100,7 @@ def _load() -> ctypes.CDLL:
         "ck_dense_many": (None, [D, ctypes.c_int, D, ctypes.c_int, D]),
         "ck_steady_batch": (None, [D, ctypes.c_int, ctypes.c_double, D, ctypes.c_double, ctypes.c_int, T, D]),
         "ck_tableau": (ctypes.c_int, [D, ctypes.c_int]),
+        "ck_status_text": (ctypes.c_char_p, [ctypes.c_int]),
         "ck_rule": (ctypes.c_double, [ctypes.c_int, D]),
         "cc_drive_voltage": (ctypes.c_double, [D, ctypes.c_double, ctypes.c_double, ctypes.c_double]),
         "cc_drive_torque": (ctypes.c_double, [D, ctypes.c_double]),
@@ -231,6 +232,11 @@ def set_port_inputs(P: np.ndarray, values, rates=None, t_input: float = 0.0):
     P[PORT_INPUT:PORT_INPUT + n] = values
     P[PORT_RATE:PORT_RATE + n] = 0.0 if rates is None else rates
     P[T_INPUT] = t_input
+
+
+def status_text(status: int) -> str:
+    """What a stepping function's refusal says (crank_kernel.h's ck_status_text)."""
+    return LIBRARY.ck_status_text(status).decode()
 
 
 def tableau() -> dict[str, np.ndarray]:

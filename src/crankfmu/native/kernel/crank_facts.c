@@ -26,6 +26,18 @@ int ck_tableau(double* out, int n)
     return k;
 }
 
+const char* ck_status_text(int status)
+{
+    switch (status) {
+    case CK_UNDERFLOW: return "step size underflow";
+    case CK_TOO_MANY_STEPS:
+        return "over 1e7 integration steps in one communication step: the inputs, their derivatives or the "
+               "parameters spin the crank beyond any use; take smaller communication steps if they are meant";
+    case CK_BAD_STATE: return "a corrupted state: the kernel's state holds no mode it can have written";
+    default: return "an unknown refusal";
+    }
+}
+
 double ck_rule(int rule, const double* a)
 {
     switch (rule) {

@@ -107,6 +107,10 @@ static inline double ck_column_speed(const CkTables* T, int s, double omega)
     return p == 0 ? 1.0 : (p == 1 ? omega : omega * omega);
 }
 
+/* what a stepping function's refusal (CK_UNDERFLOW, CK_TOO_MANY_STEPS, CK_BAD_STATE) says, as every
+ * FMU and the fast path word it: one home for the wording ("%s at t = ... s") */
+CK_API const char* ck_status_text(int status);
+
 /* the hash of the sources this library was compiled from (sources.py computes the same) */
 CK_API const char* ck_source_digest(void);
 

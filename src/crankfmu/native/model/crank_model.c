@@ -429,14 +429,9 @@ int cm_do_step(Model* m, const char* call, double t_host, double h, int switches
     if (status != 0 || !outputs_finite(m)) {
         m->now.phase = CM_FAILED;
         return cm_stop(m, "%s: step from t = %g s failed: %s at t = %.9g s", call, t_host,
-                       status == CK_UNDERFLOW    ? "step size underflow"
-                       : status == CK_TOO_MANY_STEPS
-                           ? "over 1e7 integration steps in one communication step: the inputs, their derivatives "
-                             "or the parameters spin the crank beyond any use; take smaller communication steps if "
-                             "they are meant"
-                       : m->d->causality_speed         ? "non-finite values, or a step of over 1e9 degrees of crank angle"
-                       : status == CK_BAD_STATE  ? "a corrupted state"
-                                                 : "non-finite outputs",
+                       m->d->causality_speed ? "non-finite values, or a step of over 1e9 degrees of crank angle"
+                       : status == 0         ? "non-finite outputs"
+                                             : ck_status_text(status),
                        m->now.S[CK_T]);
     }
     m->now.time = target;
