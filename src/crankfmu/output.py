@@ -16,6 +16,7 @@ import numpy as np
 
 from .plots import plot_cycles, plot_moments, plot_reactions
 from .contract import COLUMNS
+from .dynamics.friction import friction_outputs
 from .pictures.contact import plot_contacts
 from .pictures.flywheel_study import plot_flywheel_study
 from .simulation import Result
@@ -34,6 +35,9 @@ def extra_columns(result: Result) -> dict[str, tuple[np.ndarray, str]]:
         kin = model.mechanism.kinematics(np.asarray(result.phi1))
         values = evaluate_all(scenario.quantities, kin, np.asarray(result.omega1), np.asarray(result.epsilon1))
         out.update({q.name: (values[q.name], q.unit(definition)) for q in scenario.quantities})
+    if result.W_friction is not None:
+        values = {**result.friction, "W_friction": result.W_friction}
+        out.update({name: (values[name], unit) for name, unit, _ in friction_outputs(model.reduced.friction.frictions)})
     for port in model.equation.ports:
         out[port.input_name] = (result.ports[port.input_name], port.input_unit)
         out.update({q.name: (result.ports[q.name], q.unit(model.mechanism.definition)) for q in port.quantities})

@@ -345,6 +345,9 @@ def plot_moments(scenario, results: list, out: Path) -> list[Path]:
         fig, ax = plt.subplots(figsize=(9.5, 4.5), constrained_layout=True)
         ax.plot(deg, close(m.total), lw=1.6, label="1: with inertia forces\nand moments [N.m]")
         ax.plot(deg, close(m.static), lw=1.2, ls="--", label="2: inertia neglected [N.m]")
+        if r.with_friction is not None:
+            ax.plot(deg, close(r.with_friction), lw=1.2, color="C3",
+                    label=f"3: with inertia and joint\nfriction [N.m] (mean {r.mean_with_friction:.2f})")
         ax.axhline(r.mean, color="0.5", lw=0.8, ls=":", label=f"cycle mean {r.mean:.2f} N.m")
         if "rating" in spec:
             rating = float(spec["rating"])
@@ -355,13 +358,16 @@ def plot_moments(scenario, results: list, out: Path) -> list[Path]:
         ax.set_ylabel(f"{label} [N.m]")
         s = r.summary()
         cite = f" ({figures[r.omega1]})" if r.omega1 in figures else ""
-        ax.set_title(f"{scenario.name}{f' with {changed}' if changed else ''}: {label} at omega1 = {r.omega1:g} "
+        friction = "" if r.with_friction is None else " (3: with joint friction)"
+        ax.set_title(f"{scenario.name}{f' with {changed}' if changed else ''}{friction}: {label} at omega1 = {r.omega1:g} "
                      f"rad/s{cite}; inertia ratio {s['inertia_ratio']:.3f}", fontsize=10)
         legend_outside(ax)
         p = out / f"Me_omega{r.key}.png"
         save_figure(fig, p, dpi=120, scenario=scenario.name,
                     caption=f"The {label} over one crank turn at the constant crank speed {r.omega1:g} rad/s: with the "
-                            "links' inertia forces and moments (curve 1) and without them (curve 2).")
+                            "links' inertia forces and moments (curve 1) and without them (curve 2)"
+                            + ("; curve 3 adds the joints' friction (Newton-Euler)." if r.with_friction is not None
+                               else "."))
         plt.close(fig)
         paths.append(p)
     return paths

@@ -21,12 +21,13 @@ import numpy as np
 from .contract import CONTRACT_PARAMETERS
 from .dynamics import (DeadPointMoment, LinkInertia, MotorLine, MovementEquation, ReducedModel,
                        SliderForce, ViscousForce, Weights)
-from .dynamics.equation import STATE_SIZE
+from .dynamics.friction import JointFrictions, joint_frictions
 from .dynamics.user_entries import parse_user_load
 from .datafiles import packaged, read_toml
 from .errors import AssemblyError, CrankfmuError, DefinitionError, ParameterError, ScenarioNotFound, did_you_mean
 from .expressions import Expression, evaluate
 from .mechanisms import Mechanism, MechanismDefinition, load_mechanism
+from .mechanisms.definition import parse_friction_entry
 from .parameters import Experiment, Parameter, parse_parameters  # noqa: F401 (Parameter: the scenario's API)
 
 _SCENARIOS = resources.files(__package__) / "scenarios"
@@ -139,6 +140,31 @@ class Scenario:
             copy.overrides[k] = copy._param(k).check(v)
         return copy
 
+    def with_joint_friction(self, mu: float, radius: float) -> "Scenario":
+        """A copy with Coulomb friction in every joint of its mechanism: coefficient ``mu`` in each
+        pin and slide, ``radius`` (m) for each pin, as the new parameters ``mu_joints`` and
+        ``r_pins`` (range-checked as any parameter: ``--set`` changes them); the file's own
+        ``[friction]`` entries, if any, give way to these."""
+        joints = self.mechanism_definition().joints
+        if not joints:
+            raise DefinitionError(f"{self.where}: mechanism {self.mechanism_name!r} declares no [[joints]]: "
+                                  "joint friction needs them")
+        taken = [name for name in ("mu_joints", "r_pins") if name in self.parameters]
+        if taken:
+            raise DefinitionError(f"{self.where}: joint friction would add the parameter(s) {', '.join(taken)}, "
+                                  "which the scenario has already")
+        data = dict(self.data)
+        data["parameters"] = {**self.data["parameters"],
+                              "mu_joints": {"value": float(mu), "unit": "1", "min": 0.0, "max": 1.0,
+                                            "description": "friction coefficient of every joint (--friction)"},
+                              "r_pins": {"value": float(radius), "unit": "m", "min": 0.0, "min_inclusive": False,
+                                         "description": "radius of every pin (--friction)"}}
+        data["friction"] = {j.name: ({"mu": "mu_joints", "radius": "r_pins"} if j.kind == "revolute"
+                                     else {"mu": "mu_joints"}) for j in joints}
+        copy = Scenario(data, self.where, self.path)
+        copy._kept = self._kept
+        return copy.with_params(**self.overrides)
+
     def __repr__(self) -> str:
         extra = f", overrides={self.overrides}" if self.overrides else ""
         return f"Scenario({self.name!r}{extra})"
@@ -219,7 +245,14 @@ class Scenario:
         ``table`` (and says why it cannot)."""
         values = self.values
         definition = self.mechanism_definition()
+        friction_entries = self.friction_entries(definition)
+        frictions = joint_frictions(definition, friction_entries, values, self.where) if friction_entries else []
         prepared = table_built = None
+        if table is not None and frictions:
+            raise DefinitionError(
+                f"{self.where}: joint friction ({in_words([f.name for f in frictions])}) is held by the reference, "
+                "radau and dopri5 methods and the joint reactions so far: the fast path, the tables and the FMUs "
+                "do not take it yet (issue 69); simulate with method='reference', or set its mu to 0")
         if table is not None:
             from .dynamics.tabulated import c_model, c_table
             prepared = c_model(self, values)
@@ -258,6 +291,8 @@ class Scenario:
         reduced = ReducedModel(mechanism, links, values["J_flywheel"], loads, ports, self.cycle_turns)
         reduced.source = (self, values)          # what the C model tabulates it from (table_of)
         reduced.load_entries = entries           # each load's [[loads]] entry (load_words names it)
+        if frictions:
+            reduced.friction = JointFrictions(mechanism, links, frictions)
         if prepared is not None:
             from .dynamics.tabulated import keep_table
             reduced.c_model = prepared           # the output tables are built on it (fmi.slave)
@@ -274,9 +309,27 @@ class Scenario:
                 "kg.m2): give the links mass or add a flywheel (J_flywheel > 0)", "J_flywheel")
         motor = MotorLine(values["A"], values["B"], values["A_low"], values["B_low"], values["omega_switch"])
         equation = MovementEquation(reduced, motor)
-        y0 = np.zeros(STATE_SIZE)
+        y0 = np.zeros(equation.state_size)
         y0[0], y0[1] = values["phi1_start"], values["omega1_start"]
         return Model(self, mechanism, reduced, motor, equation, y0, worst, at)
+
+    def friction_entries(self, definition: MechanismDefinition | None = None) -> dict:
+        """Joint name -> its friction's expressions {"mu": ..., "radius": ...}: the mechanism file's
+        ``friction`` on each ``[[joints]]`` entry, replaced joint by joint by the scenario's
+        ``[friction]`` table (``O = { mu = "mu_pin", radius = "r_pin" }``), which gives friction
+        to a packaged mechanism without copying its file."""
+        definition = definition or self.mechanism_definition()
+        entries = {joint.name: joint.friction for joint in definition.joints if joint.friction}
+        table = self.data.get("friction", {})
+        if not isinstance(table, dict):
+            raise DefinitionError(f"{self.where}: [friction] must be a table of joints, got {table!r}")
+        kinds = {joint.name: joint.kind for joint in definition.joints}
+        for name, entry in table.items():
+            if name not in kinds:
+                raise DefinitionError(f"{self.where}: [friction] {name!r} is not a joint of mechanism "
+                                      f"{definition.name!r}{did_you_mean(name, kinds)} (joints: {', '.join(kinds)})")
+            entries[name] = parse_friction_entry(entry, name, kinds[name], f"{self.where}: [friction]")
+        return entries
 
     def load_parameters(self) -> list[str]:
         """Parameters the loads depend on (g for weights, the amplitudes' names)."""

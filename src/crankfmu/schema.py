@@ -97,6 +97,11 @@ KINEMATICS = table({
                            "quantities": array(STRING)})),
 }, "the kinematic study (crankfmu kinematics, sweep)")
 
+#: a joint's Coulomb friction (dynamics.friction): a pin's mu and radius, a slide's mu
+FRICTION = table({"mu": {**EXPRESSION, "description": "friction coefficient (1), an expression of the parameters"},
+                  "radius": {**EXPRESSION, "description": "a pin's radius (m): the friction moment is mu radius |R|"}},
+                 "Coulomb friction of a joint: a pin's moment mu radius |R|, a slide's force mu |N|")
+
 SCENARIO = table({
     "name": STRING, "title": STRING, "source": STRING, "citation": STRING,
     "mechanism": {**STRING, "description": "a packaged mechanism's name or a .toml path beside this file"},
@@ -118,6 +123,8 @@ SCENARIO = table({
                        "paper_step_deg": NUMBER}),
     "drawing": table({"at_deg": NUMBER, "omega1": NUMBER, "caption": STRING, "show": array(STRING),
                       "trace": array(STRING)}),
+    "friction": {**mapping(FRICTION), "description": "joint name -> its friction, beside or instead of the "
+                                                     "mechanism file's"},
 }, "a crankfmu scenario: a mechanism with its parameters, loads, motor and experiment")
 
 MECHANISM = table({
@@ -129,7 +136,7 @@ MECHANISM = table({
     "links": mapping(table({"number": INTEGER, "angle": STRING, "centre": STRING, "mass": EXPRESSION,
                             "inertia": EXPRESSION})),
     "joints": array(table({"name": STRING, "kind": {"enum": ["revolute", "prismatic"]}, "point": STRING,
-                           "links": array(STRING), "axis": EXPRESSION})),
+                           "links": array(STRING), "axis": EXPRESSION, "friction": FRICTION})),
     "assembly": table({"branch": STRING, "closed_form": array(STRING), "constants": mapping(EXPRESSION),
                        "guess": mapping(EXPRESSION)}),
 }, "a crankfmu mechanism: its unknowns, contours, points, links and joints")

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from .dynamics.equation import OMEGA, PHI, W_EXT, W_LOAD, W_MOTOR
+from .dynamics.equation import OMEGA, PHI, W_EXT, W_FRICTION, W_LOAD, W_MOTOR
 from .errors import CrankfmuError, ParameterError
 from .integrators import Trajectory, make_integrator
 from .scenario import Model, Scenario, load_scenario
@@ -32,6 +32,10 @@ class Result:
                        external inputs (tau_ext and the ports)
     ports     dict     each port's input and outputs by FMU variable name (ram_F, ram_s, ram_v,
                        ram_a; arm_M, arm_angle, ...), in SI units
+    W_friction J       with joint friction (dynamics.friction): the friction's work since the start
+                       (<= 0); None without
+    friction  dict     with joint friction: M_friction (N.m, its generalised force on the crank),
+                       each joint's <joint>_Mf (N.m) or <joint>_Ff (N) and <joint>_Pf (W)
     """
 
     scenario: Scenario
@@ -52,10 +56,13 @@ class Result:
     wall_time: float = 0.0            # s spent integrating
     settings: dict = field(default_factory=dict)
     ports: dict = field(default_factory=dict)
+    W_friction: np.ndarray | None = None
+    friction: dict = field(default_factory=dict)
 
     # ------------------------------------------------------------------ state anywhere
     def state(self, times) -> np.ndarray:
-        """State rows (phi1, omega1, W_motor, W_load, W_ext) at any times within the run."""
+        """State rows (phi1, omega1, W_motor, W_load, W_ext, and W_friction with joint friction) at any
+        times within the run."""
         return self.trajectory.sample(times)
 
     def time_at_angle(self, phi1) -> np.ndarray:
@@ -126,9 +133,11 @@ class Result:
                 "delta": (w_max - w_min) / mean}
 
     def energy_balance(self, t=None) -> dict:
-        """Work of motor, loads and tau_ext against the change of kinetic energy, from the start to t.
+        """Work of motor, loads and tau_ext (and the joints' friction, where there is any) against
+        the change of kinetic energy, from the start to t.
 
-        ``residual`` = (W_motor + W_load + W_ext - dE_kin) / (|W_motor| + |W_load| + |W_ext|).
+        ``residual`` = (W_motor + W_load + W_ext + W_friction - dE_kin) / (|W_motor| + |W_load| +
+        |W_ext| + |W_friction|).
         """
         t_end = self.time[-1] if t is None else float(t)
         y0 = self.state([self.time[0]])[:, 0]
@@ -137,10 +146,37 @@ class Result:
         J0 = eq.reduced.coefficients(y0[PHI])[0][0]
         J1 = eq.reduced.coefficients(y1[PHI])[0][0]
         dE = 0.5 * J1 * y1[OMEGA] ** 2 - 0.5 * J0 * y0[OMEGA] ** 2
-        works = y1[[W_MOTOR, W_LOAD, W_EXT]] - y0[[W_MOTOR, W_LOAD, W_EXT]]
+        rows = [W_MOTOR, W_LOAD, W_EXT] + ([W_FRICTION] if y1.size > W_FRICTION else [])
+        works = y1[rows] - y0[rows]
         scale = float(np.sum(np.abs(works)))
-        return {"t": t_end, "W_motor": float(works[0]), "W_load": float(works[1]), "W_ext": float(works[2]),
-                "dE_kin": float(dE), "residual": float((np.sum(works) - dE) / scale) if scale else 0.0}
+        out = {"t": t_end, "W_motor": float(works[0]), "W_load": float(works[1]), "W_ext": float(works[2])}
+        if len(rows) > 3:
+            out["W_friction"] = float(works[3])
+        return {**out, "dE_kin": float(dE), "residual": float((np.sum(works) - dE) / scale) if scale else 0.0}
+
+    def friction_summary(self, k: int) -> dict:
+        """Joint friction over cycle k: the works (J), the efficiency (the work the loads take
+        over the motor's, -W_load / W_motor, with the change of kinetic energy beside it: 0 in a
+        steady cycle), each joint's largest friction and its mean power (W)."""
+        t0, t1 = self.cycle_bounds(k)
+        y0, y1 = self.state([t0])[:, 0], self.state([t1])[:, 0]
+        works = {name: float(y1[row] - y0[row]) for name, row in
+                 (("W_motor", W_MOTOR), ("W_load", W_LOAD), ("W_ext", W_EXT), ("W_friction", W_FRICTION))}
+        inside = (self.time >= t0) & (self.time <= t1)
+        joints = {}
+        for name, value in self.friction.items():
+            joint, _, what = name.rpartition("_")
+            if what in ("Mf", "Ff"):
+                joints[joint] = {f"max_abs_{what}": float(np.max(np.abs(value[inside]))),
+                                 # from the output samples (the joints' sum is W_friction, integrated)
+                                 "mean_power_W_sampled": float(np.trapezoid(self.friction[f"{joint}_Pf"][inside],
+                                                                            self.time[inside]) / (t1 - t0))}
+        J = self.model.reduced.coefficients(np.array([y0[PHI], y1[PHI]]))[0]
+        dE = 0.5 * J[1] * y1[OMEGA] ** 2 - 0.5 * J[0] * y0[OMEGA] ** 2
+        motor = works["W_motor"] + max(works["W_ext"], 0.0)
+        return {"cycle": k, **works, "dE_kin": float(dE),
+                "efficiency": -works["W_load"] / motor if motor > 0.0 else None,
+                "friction_share": -works["W_friction"] / motor if motor > 0.0 else None, "joints": joints}
 
     def summary(self, cycle: int | None = None) -> dict:
         """What summary.json holds: the cycle's speed statistics, J_red range, energy residual."""
@@ -171,6 +207,7 @@ class Result:
             "J_red_max_at_deg": float(np.degrees(grid[np.argmax(J)])),
             "energy_balance": {**energy, "over": energy_over},
             "energy_residual": energy["residual"],
+            **({"friction": self.friction_summary(k)} if self.W_friction is not None else {}),
             "n_rhs": self.trajectory.n_rhs,
             "n_steps": self.trajectory.n_steps,
             "events": [{"t": t, "what": w} for t, w in self.trajectory.events],
@@ -257,6 +294,8 @@ def simulate(scenario, t_end: float | None = None, method: str = "reference", rt
         M_load=out["M_load"], J_red=out["J_red"], E_kin=out["E_kin"], W_motor=y[W_MOTOR],
         W_load=y[W_LOAD], W_ext=y[W_EXT], wall_time=wall, settings=settings,
         ports=_port_outputs(model, times, y[PHI], y[OMEGA], out["epsilon1"]),
+        W_friction=y[W_FRICTION] if y.shape[0] > W_FRICTION else None,
+        friction={name: out[name] for name in model.equation.friction_names if name in out},
     )
 
 

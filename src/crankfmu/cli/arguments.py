@@ -18,6 +18,20 @@ def parse_sets(items: list[str]) -> dict[str, float]:
     return values
 
 
+def with_friction(scenario, text: str | None):
+    """``--friction MU,RADIUS``: the scenario with Coulomb friction in every joint (MU in each pin
+    and slide, pins of RADIUS m; Scenario.with_joint_friction); the scenario itself without it."""
+    if text is None:
+        return scenario
+    parts = text.split(",")
+    try:
+        mu, radius = (float(p) for p in parts)
+    except ValueError:
+        raise CrankfmuError(f"--friction expects MU,RADIUS (a coefficient in [0, 1] and a pin radius in m, "
+                            f"e.g. 0.1,0.01), got {text!r}") from None
+    return scenario.with_joint_friction(mu, radius)
+
+
 def parse_points(text: str | None):
     return None if text is None else [p.strip() for p in text.split(",") if p.strip()]
 

@@ -20,6 +20,12 @@ def _parser_class():
     return Parser
 
 
+def _friction_option(p):
+    p.add_argument("--friction", default=None, metavar="MU,RADIUS",
+                   help="Coulomb friction in every joint: coefficient MU in each pin and slide, pins of RADIUS m "
+                        "(docs/friction.md); then --set mu_joints=... and r_pins=... change them")
+
+
 def _scenario_command(sub, name: str, func, help: str):
     """A subcommand on one scenario: SCENARIO, --out DIR and --set NAME=VALUE (repeatable)."""
     p = sub.add_parser(name, help=help, description=help[0].upper() + help[1:] + ".")
@@ -75,6 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "own: reference 1e-12, fast, radau and dopri5 1e-11)")
     p.add_argument("--angle-step-deg", type=float, default=None,
                    help="angle step of the crank-angle schemes in deg (default 0.1)")
+    _friction_option(p)
     p.set_defaults(func=cmd_simulate)
 
     p = _scenario_command(sub, "schemes", cmd_schemes,
@@ -108,6 +115,7 @@ def build_parser() -> argparse.ArgumentParser:
                                                  "scenario's [equilibrium] omega1)")
     p.add_argument("--angles", type=int, default=None, help="crank angles per crank turn, times cycle_turns over a "
                                                           "machine cycle of several turns (default 360)")
+    _friction_option(p)
 
     p = _scenario_command(sub, "flywheel", cmd_flywheel,
                           "flywheel for a target speed fluctuation: eqs. 16-17 and by simulation "

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..atomic import write_text
 from ..errors import CrankfmuError
-from .arguments import parse_sets
+from .arguments import parse_sets, with_friction
 
 
 def settings_text(settings: dict) -> str:
@@ -32,7 +32,7 @@ def cmd_simulate(args) -> int:
     from ..scenario import load_scenario
     from ..simulation import simulate
 
-    scenario = load_scenario(args.scenario).with_params(**parse_sets(args.set))
+    scenario = with_friction(load_scenario(args.scenario), args.friction).with_params(**parse_sets(args.set))
     t_end = args.t_end if args.t_end is not None else scenario.experiment.stop_time
     bar = ProgressBar(t_end, label=f"{scenario.name} {args.method}", start=scenario.experiment.start_time)
     try:
@@ -54,6 +54,11 @@ def cmd_simulate(args) -> int:
     print(f"  J_red       {summary['J_red_min']:.6f} .. {summary['J_red_max']:.6f} kg.m2")
     print(f"  energy      W_motor {e['W_motor']:.4f} J, W_load {e['W_load']:.4f} J, dE_kin {e['dE_kin']:.4f} J "
           f"over {e['over']}: residual {e['residual']:.2e}")
+    if "friction" in summary:
+        f = summary["friction"]
+        efficiency = "" if f["efficiency"] is None else f", efficiency {f['efficiency']:.4f} (-W_load/W_motor)"
+        print(f"  friction    W_friction {e['W_friction']:.4f} J over {e['over']}; cycle {k}: "
+              f"{100 * (f['friction_share'] or 0.0):.2f} % of the motor's work{efficiency}, dE_kin {f['dE_kin']:.4f} J")
     print(f"  wrote {args.out}/timeseries.csv, summary.json, {', '.join(summary['figures'])}")
     return 0
 
@@ -191,7 +196,7 @@ def cmd_equilibrium(args) -> int:
     from ..studies.equilibrium import equilibrium_study
     from ..scenario import load_scenario
 
-    scenario = load_scenario(args.scenario).with_params(**parse_sets(args.set))
+    scenario = with_friction(load_scenario(args.scenario), args.friction).with_params(**parse_sets(args.set))
     results = equilibrium_study(scenario, args.omega, args.angles)
     summary = write_equilibrium(scenario, results, args.out)
     print(f"{scenario.name}: equilibrium moment at constant crank speed ({results[0].moment.phi1.size} angles)")
@@ -201,6 +206,14 @@ def cmd_equilibrium(args) -> int:
         s = summary[f"{r.omega1:g}"]
         print(f"  {r.omega1:6g} {s['Me_min']:9.3f} {s['Me_max']:9.3f} {s['Me_mean']:9.4f} {s['Me_min_static']:9.3f} "
               f"{s['Me_max_static']:9.3f} {s['inertia_ratio']:8.4f}")
+    if results[0].with_friction is not None:
+        print("  with the joints' friction (Newton-Euler) [N.m]:")
+        print(f"  {'omega1':>6s} {'Me_min':>9s} {'Me_max':>9s} {'Me_mean':>9s} {'efficiency':>10s}")
+        for r in results:
+            s = summary[f"{r.omega1:g}"]
+            eff = "" if s["efficiency"] is None else f"{s['efficiency']:10.4f}"
+            print(f"  {r.omega1:6g} {s['Me_min_with_friction']:9.3f} {s['Me_max_with_friction']:9.3f} "
+                  f"{s['Me_mean_with_friction']:9.4f} {eff}")
     tech, angle = results[0].tech_work, results[0].cycle_angle
     per = "turn" if scenario.cycle_turns == 1 else f"machine cycle ({scenario.cycle_turns} turns)"
     print(f"  technological work per {per} {tech:.4f} J: over its {math.degrees(angle):.0f} deg {-tech / angle:.4f} N.m "

@@ -28,12 +28,16 @@ import numpy as np
 from . import modes
 from .modes import HIGH, SLIDE, SLIDING, STUCK
 from .motor import MotorLine
+from .friction import friction_outputs
+from .loads import AppliedLoad
+from .reactions import NewtonEuler
 from .reduced import ReducedModel
 
 rules = modes
 
-# state layout: the work integrals ride along so the energy balance is exact to the tolerance
-PHI, OMEGA, W_MOTOR, W_LOAD, W_EXT = range(5)
+# state layout: the work integrals ride along so the energy balance is exact to the tolerance;
+# a model with joint friction has a sixth, the friction's work (dynamics.friction)
+PHI, OMEGA, W_MOTOR, W_LOAD, W_EXT, W_FRICTION = range(6)
 STATE_SIZE = 5
 
 
@@ -87,6 +91,20 @@ class MovementEquation:
         self._slider_offsets = [(load, offsets[id(load)]) for load in self.sliders]
         self._smooth_velocity_loads = [load for load in reduced.loads
                                        if not load.position_only and load not in self.sliders]
+        #: the joints' friction (dynamics.friction.JointFrictions) or None
+        self.friction = reduced.friction
+        #: something switches at angles or at rest: the slider forces, or the joints' friction
+        self.switched = bool(self.sliders) or self.friction is not None
+
+    @property
+    def friction_names(self) -> list[str]:
+        """The outputs joint friction adds (dynamics.friction.friction_outputs): none without it."""
+        return [] if self.friction is None else [name for name, _, _ in friction_outputs(self.friction.frictions)]
+
+    @property
+    def state_size(self) -> int:
+        """The state's length: 5, and the friction's work with joint friction."""
+        return STATE_SIZE + (self.friction is not None)
 
     def port_values(self, t):
         """The ports' inputs at time t (s): each a float, or an array where t is one."""
@@ -110,7 +128,15 @@ class MovementEquation:
     # -------------------------------------------------------------- scalar hot path
     def coefficients(self, phi1, omega1, mode: Mode, t: float = 0.0):
         """(J kg.m^2, 0.5 J' kg.m^2/rad, Q N.m, tau_e N.m) at one state, the slider forces those of
-        ``mode``, the external torque at time t."""
+        ``mode``, the external torque at time t; with joint friction, Q holds the friction's
+        generalised force at the speed held (epsilon1 = 0: what the motor's switch weighs)."""
+        J, half_dJ, Q, tau, kin = self._coefficients(phi1, omega1, mode, t)
+        if self.friction is not None:
+            Q = Q + self._friction(kin, t, omega1, mode, J, 0.0, held=True)[3]
+        return J, half_dJ, Q, tau
+
+    def _coefficients(self, phi1, omega1, mode: Mode, t: float = 0.0):
+        """``coefficients`` without the friction, and the kinematics at phi1."""
         J, half_dJ, Q, kin = self.reduced.coefficients(phi1)
         tau = float(np.asarray(self.external_torque(t, kin)).ravel()[0]) if self.ports else self.tau_ext
         q = Q[0]
@@ -126,14 +152,47 @@ class MovementEquation:
                 for factor, column in zip(factors, load.columns(kin, factors != 0.0)):
                     if factor != 0.0:
                         q += factor * column[0]
-        return J[0], half_dJ[0], q, tau
+        return J[0], half_dJ[0], q, tau, kin
+
+    def _applied_in_mode(self, kin, t, omega1, mode: Mode):
+        """Every load as the joints see it (loads.AppliedLoad) at one state, the switched loads'
+        values those of ``mode`` (as ``coefficients`` takes them), the ports' inputs at time t."""
+        out = []
+        switched = {id(load): s for load, s in self._slider_offsets}
+        _, forces = self.reduced.slider_schedule() if self.sliders else (None, None)
+        for load in self.reduced.loads:
+            if id(load) not in switched:
+                out += load.applied(kin, np.array([omega1]))
+                continue
+            s = switched[id(load)]
+            block = forces[mode.interval, :, s:s + len(load.column_names)]
+            for j, factor in enumerate(rules.column_factor(block[0], block[1], mode.direction)):
+                if factor != 0.0:
+                    out += [AppliedLoad(f.link, f.point, factor * f.fx, factor * f.fy, factor * f.moment)
+                            for f in load.column_applied(kin, j)]
+        for port, value in zip(self.ports, self.port_values(t)):
+            out += port.applied(kin, value)
+        return out
+
+    def _friction(self, kin, t, omega1, mode: Mode, J, epsilon1, held: bool = False):
+        """(eps_friction rad/s2, f, x, generalised N.m) at one state (dynamics.friction.forward):
+        the acceleration the joints' friction adds to the frictionless ``epsilon1``, the
+        frictions, the Newton-Euler unknowns and the friction's generalised force on the crank."""
+        ne = NewtonEuler(self.reduced, kin)
+        b = ne.rhs()
+        ne.inertia(b, omega1, epsilon1)
+        ne.applied(b, self._applied_in_mode(kin, t, omega1, mode))
+        signs = self.reduced.friction_signs()[mode.interval] * mode.direction
+        return self.friction.forward(ne, b, np.atleast_1d(J), signs[None, :], held)
 
     def rhs(self, t, y, mode: Mode):
         """d/dt of (phi1 rad, omega1 rad/s, W_motor J, W_load J, W_ext J) in ``mode``."""
         self.n_rhs += 1
         omega1 = y[OMEGA]
         if mode.direction == 0:            # stuck: at rest (no power) until a restart changes the balance
-            return np.zeros(STATE_SIZE)
+            return np.zeros(self.state_size)
+        if self.friction is not None:
+            return self._rhs_with_friction(t, y, mode)
         J, half_dJ, Q, tau = self.coefficients(y[PHI], omega1, mode, t)
         if mode.motor == SLIDE:
             M = rules.equivalent_torque(half_dJ, Q, tau, omega1)     # holds domega1/dt = 0
@@ -142,6 +201,23 @@ class MovementEquation:
             M = self.motor.torque(omega1, mode.motor == HIGH)
             eps = rules.acceleration(J, half_dJ, Q, M, tau, omega1)
         return np.array([omega1, eps, M * omega1, Q * omega1, tau * omega1])
+
+    def _rhs_with_friction(self, t, y, mode: Mode):
+        """``rhs`` with the joints' friction: the frictionless acceleration, then the friction's
+        part of it, solved with the reactions (dynamics.friction); its power is the sixth rate."""
+        omega1 = y[OMEGA]
+        J, half_dJ, Q, tau, kin = self._coefficients(y[PHI], omega1, mode, t)
+        held = mode.motor == SLIDE
+        if held:
+            eps = 0.0
+        else:
+            M = self.motor.torque(omega1, mode.motor == HIGH)
+            eps = rules.acceleration(J, half_dJ, Q, M, tau, omega1)
+        extra, _, _, generalised = self._friction(kin, t, omega1, mode, J, eps, held)
+        eps, friction = eps + float(extra[0]), float(generalised[0])
+        if held:
+            M = rules.equivalent_torque(half_dJ, Q + friction, tau, omega1)
+        return np.array([omega1, eps, M * omega1, Q * omega1, tau * omega1, friction * omega1])
 
     def _switch_torques(self):
         """The low and the high line's torques at omega_switch (N.m)."""
@@ -156,12 +232,13 @@ class MovementEquation:
 
     def _direction_at_rest(self, phi1, mode: Mode, t: float = 0.0) -> float:
         """Side of the slider forces from rest (modes.direction_at_rest)."""
-        y = np.array([phi1, 0.0, 0.0, 0.0, 0.0])
+        y = np.zeros(self.state_size)
+        y[PHI] = phi1
         return rules.direction_at_rest(self.rhs(t, y, mode._replace(direction=1.0))[OMEGA],
                                        self.rhs(t, y, mode._replace(direction=-1.0))[OMEGA])
 
     def _in_interval(self, mode: Mode, phi1, direction: float) -> Mode:
-        if not self.sliders:
+        if not self.switched:
             return mode._replace(direction=direction)
         switch, _ = self.reduced.slider_schedule()
         k, lo, hi = rules.interval_of(switch, phi1, direction if direction != 0 else 1.0)
@@ -180,7 +257,7 @@ class MovementEquation:
         mode = self.mode_of_state(y)
         if w == ws:
             mode = mode._replace(motor=self._motor_on_switch(phi1, mode, t))
-        if w == 0.0 and self.sliders:
+        if w == 0.0 and self.switched:
             mode = self._in_interval(mode, phi1, self._direction_at_rest(phi1, mode, t))
         return mode
 
@@ -200,7 +277,7 @@ class MovementEquation:
             return Surface(g, 1.0 if rules.event_rising(slot, mode.motor, mode.direction) else -1.0, slot,
                            modes.event_name(slot, mode.motor))
         return [surface(slot) for slot in range(modes.N_SLOTS)
-                if rules.event_active(slot, mode.motor, mode.direction, mode.phi_hi, bool(self.sliders), ws)]
+                if rules.event_active(slot, mode.motor, mode.direction, mode.phi_hi, self.switched, ws)]
 
     def transition(self, mode: Mode, slot: int, t, y) -> Mode:
         """Mode after surface ``slot`` was reached at (t, y); y is put on the surface."""
@@ -214,7 +291,7 @@ class MovementEquation:
         y[OMEGA] = 0.0 if slot == modes.REST else ws
         if slot == modes.REST:
             mode = mode._replace(motor=rules.motor_at_rest(mode.motor, ws))
-        if rules.turns_forces(slot, ws, bool(self.sliders)):
+        if rules.turns_forces(slot, ws, self.switched):
             mode = mode._replace(direction=self._direction_at_rest(y[PHI], mode, t))
         if slot == modes.REST:
             return mode
@@ -241,12 +318,50 @@ class MovementEquation:
         if modes is not None:
             M = np.where(modes == SLIDING, rules.equivalent_torque(half_dJ, Q, tau, omega1), M)
         eps = rules.acceleration(J, half_dJ, Q, M, tau, omega1)
+        friction = {}
+        if self.friction is not None:
+            sliding = np.zeros(phi1.shape, bool) if modes is None else modes == SLIDING
+            extra, friction = self.friction_outputs(kin, phi1, omega1, eps, J, sliding, t)
+            eps = eps + extra
+            M = np.where(sliding, M - friction["M_friction"], M)
         if modes is not None:
             eps = np.where(modes == STUCK, 0.0, eps)
+            for name in friction:
+                friction[name] = np.where(modes == STUCK, 0.0, friction[name])
         return {
             "epsilon1": eps,          # rad/s^2
             "M_motor": M,             # N.m
             "M_load": Q,              # N.m
             "J_red": J,               # kg.m^2
             "E_kin": rules.kinetic_energy(J, omega1),   # J
+            **friction,
         }
+
+    def friction_outputs(self, kin, phi1, omega1, epsilon1, J, sliding, t=None):
+        """(the acceleration the joints' friction adds, rad/s2; its outputs) at arrays of states
+        whose frictionless acceleration is ``epsilon1``: ``M_friction`` (N.m, the friction's
+        generalised force on the crank), each joint's ``<joint>_Mf`` (N.m) or ``<joint>_Ff`` (N)
+        and its power ``<joint>_Pf`` (W, <= 0). Where ``sliding`` the speed is held (eps = 0)."""
+        ne = NewtonEuler(self.reduced, kin)
+        b = ne.rhs()
+        eps_free = np.where(sliding, 0.0, epsilon1)
+        ne.inertia(b, omega1, eps_free)
+        loads = [f for load in self.reduced.loads for f in load.applied(kin, omega1)]
+        times = np.zeros_like(phi1) if t is None else np.asarray(t, dtype=float)
+        for port, value in zip(self.ports, self.port_values(times)):
+            loads += port.applied(kin, value)
+        ne.applied(b, loads)
+        signs = self.friction.signs(kin, omega1)
+        extra, f, _, generalised = self.friction.forward(ne, b, J + np.zeros_like(phi1), signs)
+        # where the speed is held, the motion is prescribed: the frictions of eps = 0
+        if np.any(sliding):
+            _, f_held, _, g_held = self.friction.forward(ne, b, J + np.zeros_like(phi1), signs, held=True)
+            f, generalised = np.where(sliding[:, None], f_held, f), np.where(sliding, g_held, generalised)
+            extra = np.where(sliding, 0.0, extra)
+        rates = self.friction.rates(kin)
+        names = iter(name for name, _, _ in friction_outputs(self.friction.frictions)[2:])
+        out = {"M_friction": generalised}
+        for i in range(len(self.friction)):
+            out[next(names)] = f[:, i]
+            out[next(names)] = f[:, i] * rates[i] * omega1
+        return extra, out

@@ -190,7 +190,15 @@ class SliderForce:
         return [AppliedLoad(self.link, self.point, *((one, 0.0) if self.axis == 0 else (0.0, one)))]
 
 
-def slider_schedule(mechanism: Mechanism, sliders: list[SliderForce]):
+def interval_mids(switch: np.ndarray) -> np.ndarray:
+    """The middle of each interval between consecutive switch angles round the turn (rad); the
+    middle of the turn where there is no switch (one interval, the whole turn)."""
+    if not len(switch):
+        return np.array([0.5 * TWO_PI])
+    return 0.5 * (switch + np.append(switch[1:], switch[0] + TWO_PI))
+
+
+def slider_schedule(mechanism: Mechanism, sliders: list[SliderForce], extra_angles=()):
     """Where slider forces switch and their constant values in between, for integrators that hold
     the switch interval and the direction of motion as discrete state instead of reading them from
     (phi1, omega1) at every evaluation (which would put a jump inside an error-controlled step).
@@ -201,17 +209,18 @@ def slider_schedule(mechanism: Mechanism, sliders: list[SliderForce]):
     turn) while omega1 > 0 (index 0) and omega1 < 0 (index 1). Reduced to the crank, slider s
     gives forces[k, d, s] * dx_s/dphi1.
     Slider s here is column s of the switched loads (a SliderForce has one, a SwitchedLoad two).
+    ``extra_angles``: more switch angles (rad), where something else switches (a joint's friction).
     """
     # a band level is met once per direction, so angles closer than 1e-13 rad are one switch
-    angles = sorted({round(a % TWO_PI, 13) for load in sliders for a in load.switch_angles(mechanism)})
+    angles = sorted({round(a % TWO_PI, 13) for load in sliders for a in load.switch_angles(mechanism)}
+                    | {round(a % TWO_PI, 13) for a in extra_angles})
     switch = np.array(angles, dtype=float)
     n_columns = sum(len(load.column_names) for load in sliders)
     forces = np.zeros((max(len(switch), 1), 2, n_columns))
     if n_columns:
         # no switch: one interval, the whole turn, its values those anywhere on it (a kink whose
         # argument keeps its sign; crank_assembly.c's searches do the same)
-        mids = 0.5 * (switch + np.append(switch[1:], switch[0] + TWO_PI)) if len(switch) else np.array([0.5 * TWO_PI])
-        kin = mechanism.kinematics(mids % TWO_PI)
+        kin = mechanism.kinematics(interval_mids(switch) % TWO_PI)
         s = 0
         for load in sliders:
             forward, backward = load.values(kin, 1.0), load.values(kin, -1.0)

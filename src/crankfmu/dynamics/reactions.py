@@ -56,6 +56,115 @@ class JointReactions:
         return out
 
 
+class NewtonEuler:
+    """The Newton-Euler equations of every moving link at the kinematics ``kin``: the matrix of
+    the unknowns (each joint's two reaction components, then the driving moment M_e on the crank)
+    and the right-hand sides of what acts (inertia, applied loads), so that a caller may solve
+    several right-hand sides on one factorisation (dynamics.friction: the reactions' parts per
+    unit acceleration and per unit friction)."""
+
+    def __init__(self, reduced: ReducedModel, kin):
+        mechanism = reduced.mechanism
+        definition = mechanism.definition
+        self.joints = definition.joints
+        if not self.joints:
+            raise DefinitionError(f"mechanism {definition.name!r} declares no [[joints]]: the reactions "
+                                  "need them")
+        self.reduced, self.kin = reduced, kin
+        n = kin.phi1.size
+        links = [link.name for link in reduced.links]
+        self.row = {name: 3 * i for i, name in enumerate(links)}
+        self.size = size = 3 * len(links)
+        A = np.zeros((n, size, size))
+        self.centre = {link.name: kin.point(link.centre)[:2] for link in reduced.links}
+        self.axis = {j.name: mechanism.angle_of(j.axis, kin) for j in self.joints if j.kind == "prismatic"}
+        for k, joint in enumerate(self.joints):
+            first, second = joint.links
+            px, py = kin.point(joint.point)[:2]
+            c = 2 * k
+            if joint.kind == "revolute":
+                for col, (ux, uy) in ((c, (1.0, 0.0)), (c + 1, (0.0, 1.0))):
+                    self._force(A, second, col, px, py, ux, uy)
+                    self._force(A, first, col, px, py, -ux, -uy)
+            else:
+                nx, ny = -np.sin(self.axis[joint.name]), np.cos(self.axis[joint.name])
+                self._force(A, second, c, px, py, nx, ny)
+                self._force(A, first, c, px, py, -nx, -ny)
+                for link, sign in ((second, 1.0), (first, -1.0)):
+                    if link != "ground":
+                        A[:, self.row[link] + 2, c + 1] += sign
+        crank = [name for name, ld in definition.links.items() if ld.angle == "phi1"]
+        if len(crank) != 1:
+            raise DefinitionError(f"mechanism {definition.name!r}: exactly one link must turn with phi1 (the crank)")
+        self.crank = crank[0]
+        self.driver = size - 1
+        A[:, self.row[self.crank] + 2, self.driver] = 1.0
+        self.A = A
+
+    def _force(self, A, link, col, px, py, fx, fy):
+        """Unknown (col) times the force (fx, fy) at (px, py), acting on ``link``."""
+        if link == "ground":
+            return
+        r = self.row[link]
+        cx, cy = self.centre[link]
+        A[:, r, col] += fx
+        A[:, r + 1, col] += fy
+        A[:, r + 2, col] += (px - cx) * fy - (py - cy) * fx
+
+    def inertia(self, b, omega1, epsilon1):
+        """Add m a and I eps (the flywheel's J eps1 on the crank) to the right-hand side ``b``."""
+        kin, w2 = self.kin, omega1 * omega1
+        for link in self.reduced.links:
+            r = self.row[link.name]
+            _, _, t, p, tt, pp = kin.point(link.centre)
+            _, q, qq = kin.link_angle(link.name)
+            b[:, r] += link.mass * (epsilon1 * t + w2 * tt)
+            b[:, r + 1] += link.mass * (epsilon1 * p + w2 * pp)
+            b[:, r + 2] += link.inertia * (epsilon1 * q + w2 * qq)
+        b[:, self.row[self.crank] + 2] += self.reduced.J_flywheel * epsilon1
+
+    def applied(self, b, forces):
+        """Subtract the applied loads ``forces`` (loads.AppliedLoad) from the right-hand side ``b``."""
+        for f in forces:
+            if f.link == "ground":          # a spring anchored on the frame: the frame carries that end
+                continue
+            r = self.row[f.link]
+            cx, cy = self.centre[f.link]
+            b[:, r] -= f.fx
+            b[:, r + 1] -= f.fy
+            b[:, r + 2] -= f.moment
+            if f.point is not None:
+                px, py = self.kin.point(f.point)[:2]
+                b[:, r + 2] -= (px - cx) * f.fy - (py - cy) * f.fx
+
+    def rhs(self):
+        """A zero right-hand side."""
+        return np.zeros((self.kin.phi1.size, self.size))
+
+    def solve(self, b):
+        """The unknowns for the right-hand side(s) ``b``: (n, size) or (n, size, k) columns."""
+        if b.ndim == 2:
+            return np.linalg.solve(self.A, b[..., None])[..., 0]
+        return np.linalg.solve(self.A, b)
+
+    def package(self, x) -> JointReactions:
+        """The solved unknowns ``x`` (n, size) as reactions."""
+        n = x.shape[0]
+        force, couple, kind, normal = {}, {}, {}, {}
+        for k, joint in enumerate(self.joints):
+            kind[joint.name] = joint.kind
+            if joint.kind == "revolute":
+                force[joint.name] = (x[:, 2 * k], x[:, 2 * k + 1])
+                couple[joint.name] = normal[joint.name] = np.zeros(n)
+            else:
+                axis = self.axis[joint.name]
+                normal[joint.name] = x[:, 2 * k]
+                force[joint.name] = (-np.sin(axis) * normal[joint.name], np.cos(axis) * normal[joint.name])
+                couple[joint.name] = x[:, 2 * k + 1]
+        return JointReactions(phi1=self.kin.phi1, force=force, couple=couple, kind=kind,
+                              driving_moment=x[:, self.driver], normal=normal)
+
+
 def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: bool = True,
                     extra=None, kin=None, loads=None) -> JointReactions:
     """Solve every joint's reaction and the driving moment at a prescribed crank motion.
@@ -65,94 +174,24 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
     own: the ports' inputs (dynamics.ports). ``kin``: the kinematics at phi1, where the caller has
     them already. ``loads``: the model's loads that act (default all; the reactions are linear in
     the loads, and their tables, dynamics.tabulated.tabulate_reactions, take them part by part).
+    With joint friction (dynamics.friction) the reactions and M_e are those with the friction
+    moments and forces of the prescribed motion (its direction: omega1's sign).
     """
-    mechanism = reduced.mechanism
-    definition = mechanism.definition
-    joints = definition.joints
-    if not joints:
-        raise DefinitionError(f"mechanism {definition.name!r} declares no [[joints]]: the reactions "
-                              "need them")
     phi1, omega1, epsilon1 = prescribed_motion(phi1, omega1, epsilon1, forward=False)
     if kin is None:
-        kin = mechanism.kinematics(phi1)
-    n = phi1.size
-    links = [link.name for link in reduced.links]
-    row = {name: 3 * i for i, name in enumerate(links)}
-    size = 3 * len(links)
-    A = np.zeros((n, size, size))
-    b = np.zeros((n, size))
-    centre = {link.name: kin.point(link.centre)[:2] for link in reduced.links}
-
-    def add_force(link, col, px, py, fx, fy):
-        """Unknown (col) times the force (fx, fy) at (px, py), acting on ``link``."""
-        if link == "ground":
-            return
-        r = row[link]
-        cx, cy = centre[link]
-        A[:, r, col] += fx
-        A[:, r + 1, col] += fy
-        A[:, r + 2, col] += (px - cx) * fy - (py - cy) * fx
-
-    axis = {j.name: mechanism.angle_of(j.axis, kin) for j in joints if j.kind == "prismatic"}
-    for k, joint in enumerate(joints):
-        first, second = joint.links
-        px, py = kin.point(joint.point)[:2]
-        c = 2 * k
-        if joint.kind == "revolute":
-            for col, (ux, uy) in ((c, (1.0, 0.0)), (c + 1, (0.0, 1.0))):
-                add_force(second, col, px, py, ux, uy)
-                add_force(first, col, px, py, -ux, -uy)
-        else:
-            nx, ny = -np.sin(axis[joint.name]), np.cos(axis[joint.name])
-            add_force(second, c, px, py, nx, ny)
-            add_force(first, c, px, py, -nx, -ny)
-            for link, sign in ((second, 1.0), (first, -1.0)):
-                if link != "ground":
-                    A[:, row[link] + 2, c + 1] += sign
-    crank = [name for name, ld in definition.links.items() if ld.angle == "phi1"]
-    if len(crank) != 1:
-        raise DefinitionError(f"mechanism {definition.name!r}: exactly one link must turn with phi1 (the crank)")
-    driver = size - 1
-    A[:, row[crank[0]] + 2, driver] = 1.0
-
+        kin = reduced.mechanism.kinematics(phi1)
+    ne = NewtonEuler(reduced, kin)
     # right-hand side: m a - applied forces; I eps - applied moments
-    w2 = omega1 * omega1
-    for link in reduced.links:
-        r = row[link.name]
-        if inertia:
-            _, _, t, p, tt, pp = kin.point(link.centre)
-            _, q, qq = kin.link_angle(link.name)
-            b[:, r] += link.mass * (epsilon1 * t + w2 * tt)
-            b[:, r + 1] += link.mass * (epsilon1 * p + w2 * pp)
-            b[:, r + 2] += link.inertia * (epsilon1 * q + w2 * qq)
+    b = ne.rhs()
     if inertia:
-        b[:, row[crank[0]] + 2] += reduced.J_flywheel * epsilon1
-    applied = [f for load in (reduced.loads if loads is None else loads) for f in load.applied(kin, omega1)]
-    for f in [*applied, *(extra(kin) if extra else ())]:
-        if f.link == "ground":          # a spring anchored on the frame: the frame carries that end
-            continue
-        r = row[f.link]
-        cx, cy = centre[f.link]
-        b[:, r] -= f.fx
-        b[:, r + 1] -= f.fy
-        b[:, r + 2] -= f.moment
-        if f.point is not None:
-            px, py = kin.point(f.point)[:2]
-            b[:, r + 2] -= (px - cx) * f.fy - (py - cy) * f.fx
-    x = np.linalg.solve(A, b[..., None])[..., 0]
-    force, couple, kind, normal = {}, {}, {}, {}
-    for k, joint in enumerate(joints):
-        kind[joint.name] = joint.kind
-        if joint.kind == "revolute":
-            force[joint.name] = (x[:, 2 * k], x[:, 2 * k + 1])
-            couple[joint.name] = normal[joint.name] = np.zeros(n)
-        else:
-            normal[joint.name] = x[:, 2 * k]
-            force[joint.name] = (-np.sin(axis[joint.name]) * normal[joint.name],
-                                 np.cos(axis[joint.name]) * normal[joint.name])
-            couple[joint.name] = x[:, 2 * k + 1]
-    return JointReactions(phi1=phi1, force=force, couple=couple, kind=kind, driving_moment=x[:, driver],
-                          normal=normal)
+        ne.inertia(b, omega1, epsilon1)
+    ne.applied(b, [f for load in (reduced.loads if loads is None else loads) for f in load.applied(kin, omega1)])
+    ne.applied(b, extra(kin) if extra else ())
+    x = ne.solve(b)
+    friction = getattr(reduced, "friction", None)
+    if friction is not None and loads is None:
+        x = friction.prescribed(ne, x, epsilon1 if inertia else np.zeros_like(phi1), omega1)
+    return ne.package(x)
 
 
 #: the FMU outputs of a joint's reaction, by joint kind: (suffix, unit, what)

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mechanisms import Kinematics, Mechanism
-from .loads import slider_schedule
+from .loads import interval_mids, slider_schedule
 
 
 @dataclass
@@ -52,12 +52,25 @@ class ReducedModel:
         self.sliders = [load for load in loads if hasattr(load, "switch_angles") and not load.position_only
                         and (not getattr(load, "linear_in_omega1", False) or getattr(load, "has_speed_columns", False))]
         self._slider_schedule = None
+        #: the joints' friction (dynamics.friction.JointFrictions), None without any
+        self.friction = None
+        self._friction_signs = None
 
     def slider_schedule(self):
         """(switch_angles rad, forces N) of the slider forces (see loads.slider_schedule), built once."""
         if self._slider_schedule is None:
-            self._slider_schedule = slider_schedule(self.mechanism, self.sliders)
+            extra = self.friction.switch_angles() if self.friction is not None else ()
+            self._slider_schedule = slider_schedule(self.mechanism, self.sliders, extra)
         return self._slider_schedule
+
+    def friction_signs(self) -> np.ndarray:
+        """s_i (intervals, n_f) of the joints' frictions on each interval of the slider schedule
+        while the crank turns forward (dynamics.friction; backward: the opposite), built once."""
+        if self._friction_signs is None:
+            switch, _ = self.slider_schedule()
+            kin = self.mechanism.kinematics(interval_mids(switch) % (2.0 * math.pi))
+            self._friction_signs = self.friction.signs(kin, 1.0)
+        return self._friction_signs
 
     def coefficients(self, phi1, kin: Kinematics | None = None):
         """(J, half_dJ, Q_position) at each crank angle, and the kinematics used.

@@ -56,6 +56,9 @@ class CrankAngleScheme(Integrator):
         if any(callable(u) or u != 0.0 for u in equation.port_inputs):
             raise SchemeError(f"{self.name}: the crank-angle schemes take no port inputs (the paper's eq. 17 "
                               "has none); use method 'fast' or 'reference'")
+        if equation.friction is not None:
+            raise SchemeError(f"{self.name}: the crank-angle schemes take no joint friction (the paper's eq. 17 "
+                              "has none); use method 'reference'")
         h = self.angle_step
         phi0, omega = float(y0[0]), float(y0[1])
         t = float(t0)

@@ -147,6 +147,9 @@ class JointDefinition:
     point: str
     links: tuple[str, str]
     axis: str = "0"       # prismatic only: angle of the slide direction (rad)
+    #: Coulomb friction (dynamics.friction): {"mu": expr, "radius": expr} for a pin, {"mu": expr}
+    #: for a slide, expressions of the scenario's parameters; None: frictionless
+    friction: dict | None = None
 
 
 @dataclass
@@ -359,7 +362,10 @@ def _parse_joints(entries, where, variables, points, links) -> list[JointDefinit
             Expression(axis, f"{where}: joint {name} axis")
         elif variables[axis] != "angle":
             raise DefinitionError(f"{where}: joint {name!r}: axis {axis!r} is not an angle")
-        joints.append(JointDefinition(name, kind, jd["point"], pair, axis))
+        friction = None
+        if "friction" in jd:
+            friction = parse_friction_entry(jd["friction"], name, kind, where)
+        joints.append(JointDefinition(name, kind, jd["point"], pair, axis, friction))
     if joints and 2 * len(joints) + 1 != 3 * len(links):
         raise DefinitionError(
             f"{where}: {len(joints)} joints give {2 * len(joints)} reaction unknowns plus the driving "
@@ -367,3 +373,28 @@ def _parse_joints(entries, where, variables, points, links) -> list[JointDefinit
     return joints
 
 
+def parse_friction_entry(entry, joint_name: str, kind: str, where: str) -> dict:
+    """Check one joint's ``friction = { mu = "...", radius = "..." }`` (a slide takes no radius)
+    and return it with its expressions as text."""
+    if not isinstance(entry, dict):
+        form = '{ mu = "...", radius = "..." }' if kind == "revolute" else '{ mu = "..." }'
+        raise DefinitionError(f"{where}: joint {joint_name!r}: friction must be a table {form}, got {entry!r}")
+    wanted = {"mu", "radius"} if kind == "revolute" else {"mu"}
+    unknown = set(entry) - wanted
+    if unknown:
+        extra = " (a slide's friction is mu |N|: it has no radius)" if "radius" in unknown else ""
+        raise DefinitionError(f"{where}: joint {joint_name!r}: friction takes {' and '.join(sorted(wanted))}, "
+                              f"not {', '.join(sorted(unknown))}{extra}")
+    missing = wanted - set(entry)
+    if missing:
+        raise DefinitionError(f"{where}: joint {joint_name!r}: friction needs {' and '.join(sorted(missing))} "
+                              f"({'the friction coefficient' if 'mu' in missing else 'the pin radius, m'})")
+    out = {}
+    for key in sorted(wanted):
+        text = entry[key]
+        if isinstance(text, bool) or not isinstance(text, (str, int, float)):
+            raise DefinitionError(f"{where}: joint {joint_name!r}: friction {key} must be an expression of "
+                                  f"the parameters, got {text!r}")
+        Expression(str(text), f"{where}: joint {joint_name} friction {key}")
+        out[key] = str(text)
+    return out

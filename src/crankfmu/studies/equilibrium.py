@@ -36,6 +36,10 @@ class SpeedResult:
     switches: tuple = ()            # rad: where a switched load changes over the cycle (cycle_breaks' inner ones)
     cycle_angle: float = TWO_PI     # rad: the machine's cycle
     switched: str = ""              # the switched loads in words (their [[loads]] descriptions)
+    #: with joint friction (dynamics.friction): M_e with it (N.m, Newton-Euler with the frictions,
+    #: inertia included) at the study's angles, and its exact cycle mean; None without friction
+    with_friction: np.ndarray | None = None
+    mean_with_friction: float | None = None
 
     @property
     def key(self) -> str:
@@ -58,6 +62,12 @@ class SpeedResult:
             "technological_work_over_cycle_angle": -self.tech_work / self.cycle_angle,
             "joint_reaction_peaks": e["joint_reaction_peaks"],
             "joint_reaction_peaks_static": e["joint_reaction_peaks_static"],
+            **({} if self.with_friction is None else {
+                "Me_min_with_friction": float(np.min(self.with_friction)),
+                "Me_max_with_friction": float(np.max(self.with_friction)),
+                "Me_mean_with_friction": self.mean_with_friction,
+                # the drive's mean power that reaches the loads, where the drive gives work
+                "efficiency": self.mean / self.mean_with_friction if self.mean_with_friction > 0.0 else None}),
         }
 
 
@@ -119,9 +129,12 @@ def cycle_breaks(model) -> list[float]:
     velocity's sign): it comes back every turn of the cycle."""
     period, turns = model.reduced.period, model.reduced.cycle_turns
     breaks = {0.0, period}
-    for load in model.reduced.sliders:        # every switched load: slider forces, direction-dependent loads
-        for angle in load.switch_angles(model.mechanism):
-            breaks |= {angle % TWO_PI + TWO_PI * n for n in range(turns)}
+    angles = [angle for load in model.reduced.sliders       # every switched load: slider forces,
+              for angle in load.switch_angles(model.mechanism)]  # direction-dependent loads
+    if model.reduced.friction is not None:   # a joint's friction turns round where its joint reverses
+        angles += model.reduced.friction.switch_angles()
+    for angle in angles:
+        breaks |= {angle % TWO_PI + TWO_PI * n for n in range(turns)}
     return sorted(breaks)
 
 
@@ -167,13 +180,21 @@ def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> lis
         tech_work = period * cycle_mean(lambda p: technological_torque(model, p, w), breaks)
         moment = equilibrium_moment(model.reduced, phi1, w)
         mean = cycle_mean(lambda p: equilibrium_moment(model.reduced, p, w).total, breaks)
+        reactions = joint_reactions(model.reduced, phi1, w)
+        friction = {}
+        if model.reduced.friction is not None:
+            # the power balance (equilibrium_moment) is the papers' frictionless M_e; Newton-Euler
+            # with the frictions gives the drive's moment with them
+            friction = {"with_friction": reactions.driving_moment, "mean_with_friction": cycle_mean(
+                lambda p: joint_reactions(model.reduced, p, w).driving_moment, breaks)}
         results.append(SpeedResult(
             omega1=w, moment=moment,
-            reactions=joint_reactions(model.reduced, phi1, w),
+            reactions=reactions,
             reactions_static=joint_reactions(model.reduced, phi1, w, inertia=False),
             mean=mean, tech_work=tech_work, located=located_extremes(model, w, breaks),
             switches=tuple(breaks[1:-1]), cycle_angle=period,
-            switched=scenario.describe_loads(model.reduced, [model.reduced.loads.index(s) for s in model.reduced.sliders])))
+            switched=scenario.describe_loads(model.reduced, [model.reduced.loads.index(s) for s in model.reduced.sliders]),
+            **friction))
     return results
 
 

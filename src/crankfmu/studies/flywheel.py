@@ -185,24 +185,49 @@ class FlywheelStudy:
         return {**self.design.summary(), "eq3_stability": asdict(self.stability), "movement": self.movement}
 
 
-def _crank_angle_rhs(model):
+#: the torques whose work over the cycle ``_one_cycle(works=True)`` integrates (dW/dphi1 = torque)
+WORK_TORQUES = ("M_motor", "M_load", "M_friction")
+
+
+def _crank_angle_rhs(model, works: bool = False):
     """d(omega1, t)/dphi1 = (epsilon1 / omega1, 1 / omega1), the motor branch by omega1. Each piece
-    lies between two switches, so the loads' side and band follow from (phi1, omega1)."""
+    lies between two switches, so the loads' side and band follow from (phi1, omega1). ``works``:
+    also the works of WORK_TORQUES (J), dW/dphi1 = the torque (M_friction with joint friction)."""
     outputs = model.equation.outputs
+    torques = WORK_TORQUES if model.reduced.friction is not None else WORK_TORQUES[:2]
 
     def rhs(phi, y):
         omega = y[0]
         if not omega > 0.0:
             raise SchemeError(f"the crank stops (omega1 = {omega:.4g} rad/s at phi1 = {math.degrees(phi):.2f} deg): "
                               "no steady forward cycle for this design")
-        eps = float(outputs(np.array([phi]), np.array([omega]))["epsilon1"][0])
-        return np.array([eps / omega, 1.0 / omega])
+        out = outputs(np.array([phi]), np.array([omega]))
+        eps = float(out["epsilon1"][0])
+        if not works:
+            return np.array([eps / omega, 1.0 / omega])
+        return np.array([eps / omega, 1.0 / omega, *(float(out[name][0]) for name in torques)])
     return rhs
 
 
-def _one_cycle(model, phi0, omega0, pieces, rtol, samples=None):
-    rhs = _crank_angle_rhs(model)
-    y = np.array([omega0, 0.0])
+def cycle_works(model, cycle: "SteadyCycle", rtol: float = 1e-11) -> dict:
+    """The works (J) over the steady ``cycle`` of WORK_TORQUES: W_motor, W_load and, with joint
+    friction, W_friction; and the mechanism's efficiency, the work the loads take over the motor's
+    (-W_load / W_motor: the weights' work is zero over a cycle)."""
+    breaks = np.array(cycle_breaks(model))
+    phi0 = float(cycle.phi1[0])
+    rel = np.unique(np.concatenate([[0.0, cycle.angle], (breaks - phi0) % cycle.angle]))
+    pieces = [(phi0 + a, phi0 + b) for a, b in zip(rel[:-1], rel[1:]) if b - a > 1e-12]
+    y, _ = _one_cycle(model, phi0, float(cycle.omega1[0]), pieces, rtol, works=True)
+    names = ["W_motor", "W_load", "W_friction"][:y.size - 2]
+    out = {name: float(value) for name, value in zip(names, y[2:])}
+    out["efficiency"] = -out["W_load"] / out["W_motor"] if out["W_motor"] > 0.0 else float("nan")
+    return out
+
+
+def _one_cycle(model, phi0, omega0, pieces, rtol, samples=None, works: bool = False):
+    rhs = _crank_angle_rhs(model, works)
+    y = np.zeros(2 + (len(WORK_TORQUES) - (model.reduced.friction is None) if works else 0))
+    y[0] = omega0
     dense = []
     for a, b in pieces:
         sol = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=rtol, atol=rtol * 1e-2, dense_output=samples is not None)
