@@ -118,7 +118,8 @@ class SliderCrankWithFriction:
         x = np.linalg.solve(K, rhs)
         return x[8], x, f, speeds
 
-    def signs_on(self, phi):
+    @staticmethod
+    def signs_on(phi):
         """The frictions' and the working force's signs between dead centres, turning forward:
         omega1 > 0; omega2 - omega1 < 0 (|omega2| < omega1 for l1 < l2); omega2 has the sign of
         -cos phi, so the slider's -omega2 that of cos phi; v_B that of -sin phi."""

@@ -167,3 +167,65 @@ def test_paths_without_friction_refuse_it_by_name(scenario):
         simulate(scenario, t_end=0.1, method="fast")
     with pytest.raises(CrankfmuError, match="joint friction"):
         simulate(scenario.with_params(omega1_start=10.0), t_end=0.1, method="badoiu-eq17")
+
+
+def test_the_startup_torque_against_static_friction_matches_the_reference(scenario):
+    """The drive torque that starts the crank forward from rest: the reference's motor torque at
+    which the start's acceleration is zero (its frictions opposing a forward start), found by
+    the secant method, against the study's static M_e with friction."""
+    from crankfmu.studies.equilibrium import startup_torque
+
+    startup = startup_torque(scenario.build(), n_angles=720)
+    for deg in (60.0, 240.0):
+        phi = math.radians(deg)
+        k = int(round(deg * 2))
+        assert startup.phi1[k] == pytest.approx(phi, abs=1e-12)
+        start = lambda A: SliderCrankWithFriction(A=A, B=0.0).solve(phi, 0.0, {    # noqa: E731
+            **SliderCrankWithFriction.signs_on(phi), "O": 1.0})[0]
+        a, b = 0.0, 50.0
+        fa, fb = start(a), start(b)
+        for _ in range(50):
+            a, fa, b = b, fb, b - fb * (b - a) / (fb - fa)
+            fb = start(b)
+            if abs(b - a) < 1e-12 * abs(b):
+                break
+        assert startup.with_friction[k] == pytest.approx(b, abs=1e-9 * max(1.0, abs(b)))
+        # friction raises it: the frictionless start is below
+        assert startup.without[k] < startup.with_friction[k]
+
+
+def test_the_cli_studies_friction_on_a_packaged_machine(tmp_path, capsys):
+    """`crankfmu equilibrium seed001 --friction MU,RADIUS`: the papers' M_e beside the drive's moment
+    with friction, their ratio, the start from rest and the friction figures."""
+    import json
+
+    from crankfmu.cli import main
+
+    out = tmp_path / "eq"
+    assert main(["equilibrium", "seed001", "--friction", "0.1,0.01", "--omega", "15", "--angles", "90",
+                 "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "with the joints' friction" in printed and "start from rest" in printed
+    summary = json.loads((out / "summary.json").read_text())
+    at15 = summary["15"]
+    # friction costs the drive work: its mean moment is larger, the efficiency below 1
+    assert at15["Me_mean_with_friction"] > at15["Me_mean"] > 0.0
+    assert 0.9 < at15["efficiency"] < 1.0
+    assert at15["efficiency"] == pytest.approx(at15["Me_mean"] / at15["Me_mean_with_friction"])
+    assert summary["startup"]["startup_torque"] > summary["startup"]["startup_torque_without_friction"]
+    assert summary["parameters"]["mu_joints"] == 0.1 and summary["parameters"]["r_pins"] == 0.01
+    for name in ("friction_15.png", "startup.png", "Me_omega15.png"):
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--friction", "0.1"], "--friction expects MU,RADIUS"),
+    (["--friction", "2,0.01"], "mu_joints = 2.0 is out of range"),
+    (["--friction", "0.1,-1"], "r_pins = -1.0 is out of range"),
+])
+def test_bad_friction_options_exit_with_one_line(tmp_path, capsys, args, message):
+    from crankfmu.cli import main
+
+    assert main(["equilibrium", "seed001", "--out", str(tmp_path / "x"), *args]) == 1
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err

@@ -18,6 +18,7 @@ from .plots import plot_cycles, plot_moments, plot_reactions
 from .contract import COLUMNS
 from .dynamics.friction import friction_outputs
 from .pictures.contact import plot_contacts
+from .pictures.friction import plot_friction_power, plot_startup
 from .pictures.flywheel_study import plot_flywheel_study
 from .simulation import Result
 from .atomic import replacing, write_text
@@ -79,8 +80,9 @@ def write_run(result: Result, out_dir: str | Path) -> dict:
     return summary
 
 
-def write_equilibrium(scenario, results: list, out_dir) -> dict:
-    """summary.json (keyed by speed), equilibrium_<w>.csv and the figures; returns the summary."""
+def write_equilibrium(scenario, results: list, out_dir, startup=None) -> dict:
+    """summary.json (keyed by speed), equilibrium_<w>.csv and the figures; returns the summary.
+    With joint friction, ``startup`` (equilibrium.StartupTorque) and the friction's figures."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     summary = {r.key: r.summary() for r in results}
@@ -98,6 +100,10 @@ def write_equilibrium(scenario, results: list, out_dir) -> dict:
             columns[f"{joint}_Fx"], columns[f"{joint}_Fy"] = fx, fy
             if r.reactions.kind[joint] == "prismatic":
                 columns[f"{joint}_couple"] = r.reactions.couple[joint]
+        if r.with_friction is not None:
+            columns["Me_with_friction"] = r.with_friction
+            for joint, power in r.reactions.friction_power.items():
+                columns[f"{joint}_friction"], columns[f"{joint}_Pf"] = r.reactions.friction[joint], power
         with replacing(out / f"equilibrium_{r.key}.csv") as partial:
             np.savetxt(partial, np.column_stack(list(columns.values())),
                        delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
@@ -105,6 +111,11 @@ def write_equilibrium(scenario, results: list, out_dir) -> dict:
     written += plot_moments(scenario, results, out)
     written.append(plot_reactions(scenario, results[0], out / f"reactions_{results[0].key}.png",
                                   [math.degrees(b) for b in results[0].switches]))
+    if startup is not None:
+        summary["startup"] = startup.summary()
+        summary["units"]["startup_torque"] = "N.m"
+        written.append(plot_friction_power(scenario, results[0], out / f"friction_{results[0].key}.png"))
+        written.append(plot_startup(scenario, startup, out / "startup.png"))
     summary["files"] = [p.name for p in written]
     write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     return summary

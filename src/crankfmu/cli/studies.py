@@ -193,12 +193,13 @@ def cmd_sweep(args) -> int:
 
 def cmd_equilibrium(args) -> int:
     from ..output import write_equilibrium
-    from ..studies.equilibrium import equilibrium_study
+    from ..studies.equilibrium import equilibrium_study, startup_torque
     from ..scenario import load_scenario
 
     scenario = with_friction(load_scenario(args.scenario), args.friction).with_params(**parse_sets(args.set))
     results = equilibrium_study(scenario, args.omega, args.angles)
-    summary = write_equilibrium(scenario, results, args.out)
+    startup = startup_torque(scenario.build()) if results[0].with_friction is not None else None
+    summary = write_equilibrium(scenario, results, args.out, startup)
     print(f"{scenario.name}: equilibrium moment at constant crank speed ({results[0].moment.phi1.size} angles)")
     print(f"  {'omega1':>6s} {'Me_min':>9s} {'Me_max':>9s} {'Me_mean':>9s} {'min stat':>9s} {'max stat':>9s} "
           f"{'inertia':>8s}  [N.m; inertia ratio = max|Me - Me_static| / max|Me|]")
@@ -214,6 +215,9 @@ def cmd_equilibrium(args) -> int:
             eff = "" if s["efficiency"] is None else f"{s['efficiency']:10.4f}"
             print(f"  {r.omega1:6g} {s['Me_min_with_friction']:9.3f} {s['Me_max_with_friction']:9.3f} "
                   f"{s['Me_mean_with_friction']:9.4f} {eff}")
+        up = summary["startup"]
+        print(f"  start from rest: {up['startup_torque']:.3f} N.m at {up['at_deg']:.1f} deg with friction, "
+              f"{up['startup_torque_without_friction']:.3f} N.m at {up['without_friction_at_deg']:.1f} deg without")
     tech, angle = results[0].tech_work, results[0].cycle_angle
     per = "turn" if scenario.cycle_turns == 1 else f"machine cycle ({scenario.cycle_turns} turns)"
     print(f"  technological work per {per} {tech:.4f} J: over its {math.degrees(angle):.0f} deg {-tech / angle:.4f} N.m "

@@ -232,12 +232,13 @@ class JointFrictions:
         """s_i (n, n_f) where the crank turns in ``direction`` (its sign, an array or a number)."""
         return (np.sign(self.rates(kin)) * np.sign(direction)).T
 
-    def prescribed(self, ne, x, epsilon1, omega1):
-        """The unknowns x (n, size) of a prescribed motion (reactions.joint_reactions), the
-        frictions added: the motion fixed, each friction moves the reactions and M_e alone."""
+    def prescribed(self, ne, x, direction):
+        """(x, f): the unknowns x (n, size) of a prescribed motion (reactions.joint_reactions)
+        with the frictions f (n, n_f) added, the crank turning in ``direction`` (n,): the motion
+        fixed, each friction moves the reactions and M_e alone."""
         H = ne.solve(self._unit_rhs(ne))
-        signs = self.signs(ne.kin, omega1 + np.zeros_like(ne.kin.phi1))
-        return self.solve(x, H, signs)[1]
+        f, x = self.solve(x, H, self.signs(ne.kin, direction))
+        return x, f
 
     def _unit_rhs(self, ne, first: int = 0):
         """Right-hand sides (n, size, first + n_f): the frictions at value 1 in the last n_f."""

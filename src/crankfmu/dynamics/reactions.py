@@ -14,7 +14,7 @@ joint's first link on its second (``ground`` is the frame).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -39,6 +39,10 @@ class JointReactions:
     kind: dict[str, str]
     driving_moment: np.ndarray
     normal: dict[str, np.ndarray]
+    #: with joint friction (dynamics.friction): each friction joint's friction (N.m for a pin, N
+    #: for a slide, on its second link) and its power (W) in the prescribed motion
+    friction: dict[str, np.ndarray] = field(default_factory=dict)
+    friction_power: dict[str, np.ndarray] = field(default_factory=dict)
 
     def magnitude(self, joint: str) -> np.ndarray:
         """|F| at the joint, N."""
@@ -166,7 +170,7 @@ class NewtonEuler:
 
 
 def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: bool = True,
-                    extra=None, kin=None, loads=None) -> JointReactions:
+                    extra=None, kin=None, loads=None, direction: float = 1.0) -> JointReactions:
     """Solve every joint's reaction and the driving moment at a prescribed crank motion.
 
     ``inertia=False`` neglects the inertia forces and moments (the static equilibrium moment).
@@ -175,7 +179,8 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
     them already. ``loads``: the model's loads that act (default all; the reactions are linear in
     the loads, and their tables, dynamics.tabulated.tabulate_reactions, take them part by part).
     With joint friction (dynamics.friction) the reactions and M_e are those with the friction
-    moments and forces of the prescribed motion (its direction: omega1's sign).
+    moments and forces of the prescribed motion, turning the way omega1's sign says, or
+    ``direction`` where omega1 is 0 (the static friction a start from rest meets).
     """
     phi1, omega1, epsilon1 = prescribed_motion(phi1, omega1, epsilon1, forward=False)
     if kin is None:
@@ -189,9 +194,16 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
     ne.applied(b, extra(kin) if extra else ())
     x = ne.solve(b)
     friction = getattr(reduced, "friction", None)
-    if friction is not None and loads is None:
-        x = friction.prescribed(ne, x, epsilon1 if inertia else np.zeros_like(phi1), omega1)
-    return ne.package(x)
+    if friction is None or loads is not None:
+        return ne.package(x)
+    moving = np.where(omega1 != 0.0, np.sign(omega1), np.sign(direction)) + np.zeros_like(phi1)
+    x, f = friction.prescribed(ne, x, moving)
+    out = ne.package(x)
+    rates = friction.rates(kin)
+    for i, joint in enumerate(friction.frictions):
+        out.friction[joint.name] = f[:, i]
+        out.friction_power[joint.name] = f[:, i] * rates[i] * omega1
+    return out
 
 
 #: the FMU outputs of a joint's reaction, by joint kind: (suffix, unit, what)

@@ -198,6 +198,37 @@ def equilibrium_study(scenario, speeds=None, n_angles: int | None = None) -> lis
     return results
 
 
+#: the crank speed of a start from rest (rad/s): the limit omega1 -> 0+, in which a slider force
+#: has its forward value, a damper none, and the inertia forces vanish
+START_SPEED = float(np.finfo(float).tiny)
+
+
+@dataclass
+class StartupTorque:
+    """The drive torque that starts the crank forward from rest at each crank angle (N.m): the
+    static M_e (omega1 -> 0+, no inertia) with the joints' static friction opposing the start,
+    and without friction. Its largest value is what the drive must give at rest to start the
+    machine from any angle."""
+
+    phi1: np.ndarray            # rad
+    with_friction: np.ndarray   # N.m
+    without: np.ndarray         # N.m
+
+    def summary(self) -> dict:
+        i, j = int(np.argmax(self.with_friction)), int(np.argmax(self.without))
+        return {"startup_torque": float(self.with_friction[i]), "at_deg": float(np.degrees(self.phi1[i])),
+                "startup_torque_without_friction": float(self.without[j]),
+                "without_friction_at_deg": float(np.degrees(self.phi1[j])),
+                "grid_deg": float(np.degrees(self.phi1[1] - self.phi1[0]))}
+
+
+def startup_torque(model, n_angles: int = 720) -> StartupTorque:
+    """The start-up torque (StartupTorque) on ``n_angles`` crank angles per turn over the cycle."""
+    phi1 = np.linspace(0.0, model.reduced.period, n_angles * model.reduced.cycle_turns, endpoint=False)
+    with_friction = joint_reactions(model.reduced, phi1, START_SPEED, inertia=False).driving_moment
+    return StartupTorque(phi1, with_friction, equilibrium_moment(model.reduced, phi1, START_SPEED).static)
+
+
 def speed_key(w: float) -> str:
     return f"{w:g}"
 
