@@ -109,12 +109,12 @@ class ReducedTable:
             k = self.interval_of(phi1)
             direction = modes.direction_imposed(omega1)
             for s in range(self.forces.shape[2]):
+                # a law of the speed's column has the value 1 both ways: it acts in either direction
+                # and at rest (modes.column_factor), its law in place of a power of omega1
                 power = 0 if self.powers is None else int(self.powers[s])
-                if power == LAW:          # a law of the speed acts in either direction and at rest
-                    Q = Q + self.laws(s, omega1) * values[FIRST_SLIDER + s]
-                    continue
+                speed = self.laws(s, omega1) if power == LAW else omega1 ** power
                 force = modes.column_factor(self.forces[k, 0, s], self.forces[k, 1, s], direction)
-                Q = Q + force * omega1 ** power * values[FIRST_SLIDER + s]
+                Q = Q + force * speed * values[FIRST_SLIDER + s]
         return J, values[HALF_DJ], Q
 
 

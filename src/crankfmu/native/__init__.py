@@ -278,11 +278,12 @@ class Tables:
         # a law does not compile to it, through a callback; either lives as long as the tables
         self.law, function, context = None, None, None
         if laws:
+            from ..dynamics.program import Unsupported
             from .mechanism import LawEvaluator
             try:
                 self.law = LawEvaluator(laws.sources, laws.env)
                 function, context = self.law.function, self.law.context
-            except Exception:       # noqa: BLE001 - the expression itself then, through a callback
+            except Unsupported:     # a law the C model's instructions do not hold: through a callback
                 self.law = _law_callback(laws)
                 function = ctypes.cast(self.law, ctypes.c_void_p).value
         self.struct = _Tables(_d(C), C.shape[0], C.shape[1], _d(sw), sw.shape[0], _d(fo),

@@ -66,7 +66,8 @@ class MMModel(ctypes.Structure):
                 ("n_switches", ctypes.c_int), ("switches", ctypes.c_double * 64), ("forces", D),
                 ("worst_conditioning", ctypes.c_double), ("worst_angle", ctypes.c_double), ("scan", D),
                 ("coordinate_winding", D), ("reaction_kept", I), ("have_quantity_winding", ctypes.c_int),
-                ("have_reaction_mask", ctypes.c_int), ("error_step", ctypes.c_double), ("error_jumps", ctypes.c_int)]
+                ("have_reaction_mask", ctypes.c_int), ("error_step", ctypes.c_double), ("error_jumps", ctypes.c_int),
+                ("law_ready", ctypes.c_int)]
 
 
 class MechanismError(Exception):

@@ -65,13 +65,11 @@ void kernel_coefficients(double t, double phi, double omega, double direction, d
     *J = work[0] + P[CK_J_FLYWHEEL];
     double q = work[2] + work[3] * omega;
     const double* forces = T->forces + (size_t)interval * 2 * T->n_sliders;
-    for (int s = 0; s < T->n_sliders; s++) {
-        if (ck_column_law(T, s))                    /* a law of the speed: either direction, and at rest */
-            q += ck_column_speed(T, s, omega) * work[4 + s];
-        else
-            q += ck_column_factor(forces[s], forces[T->n_sliders + s], direction) * ck_column_speed(T, s, omega)
-                 * work[4 + s];
-    }
+    /* a law of the speed's column has the value 1 both ways, so that it acts in either direction and
+     * at rest (ck_column_factor); ck_column_speed applies its law */
+    for (int s = 0; s < T->n_sliders; s++)
+        q += ck_column_factor(forces[s], forces[T->n_sliders + s], direction) * ck_column_speed(T, s, omega)
+             * work[4 + s];
     *half_dJ = work[1];
     *Q = q;
     *tau = external_torque(t, T, P, work);

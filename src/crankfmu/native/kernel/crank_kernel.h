@@ -92,12 +92,6 @@ typedef struct {
     const void* law_context;
 } CkTables;
 
-/* whether column s is a law of the speed */
-static inline int ck_column_law(const CkTables* T, int s)
-{
-    return T->powers && T->powers[s] == CK_LAW;
-}
-
 /* omega1 to column s's power (1 where it has none), or its law at omega1 (NaN without one: the
  * step is then refused as not finite) */
 static inline double ck_column_speed(const CkTables* T, int s, double omega)

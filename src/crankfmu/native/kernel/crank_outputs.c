@@ -20,9 +20,8 @@ int ck_reaction_weights(const double* S, double t, double omega, double epsilon,
     double direction = within ? S[CK_STEP_DIRECTION] : S[CK_DIRECTION];
     int k = (int)(within ? S[CK_STEP_INTERVAL] : S[CK_INTERVAL]);
     const double* forces = T->forces + (size_t)k * 2 * T->n_sliders;
-    for (int s = 0; s < T->n_sliders; s++)
-        out[n++] = ck_column_law(T, s) ? ck_column_speed(T, s, omega)     /* a law acts at rest too */
-                   : ck_column_factor(forces[s], forces[T->n_sliders + s], direction) * ck_column_speed(T, s, omega);
+    for (int s = 0; s < T->n_sliders; s++)      /* (a law's column: 1 both ways, at rest too) */
+        out[n++] = ck_column_factor(forces[s], forces[T->n_sliders + s], direction) * ck_column_speed(T, s, omega);
     double dt = t - P[CK_T_INPUT];
     for (int i = 0; i < T->n_ports; i++) out[n++] = P[CK_PORT_INPUT + i] + P[CK_PORT_RATE + i] * dt;
     return n;

@@ -61,8 +61,13 @@ double mm_law(const void *context, int column, double omega)
     mm_model *m = (mm_model *)context;       /* the laws' registers are scratch: nothing else reads them */
     const mm_program *p = m->program;
     if (!p->laws || column < 0 || column >= p->n_columns || p->laws[column] < 0 || p->law_speed < 0) return NAN;
-    m->registers[p->law_speed] = omega;
-    mm_run(p, m->registers, MM_LAWS);
+    double *speed = &m->registers[p->law_speed];
+    /* every column's law at once: a step asks for each at the same speed (a NaN speed runs again) */
+    if (!(m->law_ready && *speed == omega && signbit(*speed) == signbit(omega))) {
+        *speed = omega;
+        mm_run(p, m->registers, MM_LAWS);
+        m->law_ready = 1;
+    }
     return m->registers[p->laws[column]];
 }
 

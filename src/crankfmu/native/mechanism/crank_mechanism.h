@@ -167,6 +167,9 @@ typedef struct {
      * (a discontinuity in phi1, not a dead point) */
     double error_step;
     int error_jumps;
+    /* the LAWS section ran at the speed in its register (mm_law runs it once per speed, not once
+     * per column: its registers are its own, and binding clears this) */
+    int law_ready;
 } mm_model;
 
 /* a model of the program at the parameter values (its first registers): SETUP run, the checks,
