@@ -13,7 +13,7 @@ from setuptools.command.bdist_wheel import bdist_wheel
 from setuptools.command.build_ext import build_ext
 
 native = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "native" / "sources.py"))
-shim = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "fmi" / "shim" / "prebuilt.py"))
+shim = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "fmi" / "python" / "shim" / "prebuilt.py"))
 results = runpy.run_path(str(Path(__file__).resolve().parent / "src" / "crankfmu" / "fmi" / "prebuilt_results.py"))
 
 
@@ -47,7 +47,7 @@ class PlainLibrary(build_ext):
                   + ", ".join(f"FMI {version} {platform}" for version, platform in runtimes))
         # the Python FMUs' linux64 shim, so that crankfmu fmu needs no compiler
         if sys.platform.startswith("linux"):
-            into = Path(self.get_ext_fullpath("crankfmu.native.crank_kernel")).parent.parent / "fmi" / "shim"
+            into = Path(self.get_ext_fullpath("crankfmu.native.crank_kernel")).parent.parent / "fmi" / "python" / "shim"
             try:
                 shim["prebuild"](into)
             except (OSError, ImportError, RuntimeError) as error:

@@ -10,7 +10,7 @@ and the native FourBar.fmu, measured in one run.
   wall time, process start included).
 
 The Python FMU reads its [[outputs]] and joint reactions from the design's tables through the C
-kernel (fmi.slave.lazy_outputs), as the native FMU does; before, each step's first read of a
+kernel (fmi.python.slave.lazy_outputs), as the native FMU does; before, each step's first read of a
 reaction cost a Newton-Euler solve in Python.
 """
 

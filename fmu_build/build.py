@@ -1,8 +1,8 @@
-"""Build the packaged FMUs into build/fmus (``make fmu``): see crankfmu.fmi.build."""
+"""Build the packaged FMUs into build/fmus (``make fmu``): see crankfmu.fmi.python.build."""
 
 import sys
 
-from crankfmu.fmi.build import main
+from crankfmu.fmi.python.build import main
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -268,8 +268,8 @@ def test_wild_parameter_values_give_a_table_or_a_refusal_never_a_crash(name):
 def test_the_c_outputs_and_reaction_tables_equal_the_python_ones(name, changed, guide):
     """The [[outputs]] and ports' table (q - winding phi1, q', q'': a fully turning link's whole
     turns counted) and the joint reactions' table (a Newton-Euler solve per term), as the FMUs
-    build them (fmi.slave.build_design): the same intervals, cubics equal to rounding."""
-    from crankfmu.fmi.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
+    build them (fmi.python.slave.build_design): the same intervals, cubics equal to rounding."""
+    from crankfmu.fmi.python.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
     from crankfmu.native.mechanism import QUANTITIES, REACTIONS
 
     scenario = _scenario(name, guide)

@@ -1,4 +1,4 @@
-"""The crank in speed causality (fmi.speed): the FMU takes omega1 and answers with tau_drive, the
+"""The crank in speed causality (fmi.python.speed): the FMU takes omega1 and answers with tau_drive, the
 torque the drive must apply (inverse dynamics from the tables). Checked against the equilibrium
 moment of the power balance (dynamics.inverse on the contour engine: another method and another
 code path), against the torque-causal reference run backwards (its motor torque), and by the

@@ -11,7 +11,8 @@ import pytest
 
 from crankfmu.cli import main
 from crankfmu.contract import COLUMNS
-from crankfmu.fmi import build as fmu_build, documentation, source
+from crankfmu.fmi import documentation, source
+from crankfmu.fmi.python import build as fmu_build
 
 # a stage: (where the build calls it, what the error line names)
 STAGES = {

@@ -164,11 +164,11 @@ def test_the_fmu_ships_only_what_runs_inside_it(fmu_path):
     with zipfile.ZipFile(fmu_path) as z, zipfile.ZipFile(io.BytesIO(z.read("resources/crankfmu_FourBar.zip"))) as package:
         shipped = set(package.namelist())
         assert not any("/crankfmu_FourBar/" in n for n in z.namelist())      # only as the one archive
-    for study in ("cli/__init__.py", "simulation.py", "output.py", "plots.py", "check.py", "fmi/build.py", "fmi/documentation.py",
+    for study in ("cli/__init__.py", "simulation.py", "output.py", "plots.py", "check.py", "fmi/python/build.py", "fmi/documentation.py",
                   "integrators/time_domain.py", "integrators/crank_angle.py", "pictures/draw.py"):
         assert study not in shipped
     assert not any(n.startswith(("studies/", "pictures/")) for n in shipped)    # no study, no drawing
-    assert {"fmi/slave.py", "native/crank_kernel.so", "native/kernel/crank_kernel.c", "dynamics/modes.py", "contract.py", "scenarios/seed000.toml"} <= shipped
+    assert {"fmi/python/slave.py", "native/crank_kernel.so", "native/kernel/crank_kernel.c", "dynamics/modes.py", "contract.py", "scenarios/seed000.toml"} <= shipped
     assert not any("__pycache__" in n for n in shipped)
 
 

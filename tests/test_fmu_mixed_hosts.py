@@ -9,7 +9,7 @@ destructor always runs at exit; when that block sits in a malloc bin, the decrem
 bin's list and a later free aborts ("corrupted double-linked list"): 44 of 50 fmpy processes
 that ran the stock FMU and then FourBar.fmu (with numba, which brought scipy's libgfortran whose
 exit frees into that bin). Our shim now empties the state of every pythonfmu copy loaded before
-it, from an exit handler that runs before their statics are destroyed (fmi/shim/fmu_shim.c). A
+it, from an exit handler that runs before their statics are destroyed (fmi/python/shim/fmu_shim.c). A
 stock FMU loaded after ours is unloaded by fmpy before exit, in the safe order.
 
 Whether the corruption aborts depends on the heap's shape, so the processes' exit codes alone

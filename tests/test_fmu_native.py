@@ -306,7 +306,7 @@ def test_a_native_build_compiles_nothing_and_ships_the_installations_runtimes(tm
     and make test's set-up once MinGW and the aarch64 compiler are installed): a native build on an
     empty per-user cache runs no compiler, and each binary it ships is the installation's runtime,
     byte for byte (FMI 2.0 and 3.0)."""
-    from crankfmu.fmi import native_build
+    from crankfmu.fmi.native import build as native_build
     from crankfmu.native.sources import PLATFORMS, RUNTIMES
 
     monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path / "cache"))
@@ -384,7 +384,7 @@ def test_a_missing_compiler_is_named():
     """A runtime the installation lacks is compiled into the per-user cache: a compiler that is not
     installed is named as missing, in one line."""
     from crankfmu.errors import CrankfmuError
-    from crankfmu.fmi.native_build import _run
+    from crankfmu.fmi.native.build import _run
 
     with pytest.raises(CrankfmuError, match="no-such-cc not found; it compiles the native FMUs' runtime"):
         _run(["no-such-cc", "-c", "x.c"], "no-such-cc")

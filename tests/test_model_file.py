@@ -1,4 +1,4 @@
-"""The native mechanism FMU's model file (resources/crankfmu-model.bin, fmi/model_file.py) read by the
+"""The native mechanism FMU's model file (resources/crankfmu-model.bin, fmi/native/model_file.py) read by the
 prebuilt runtime (native/model/crank_model_file.c): both sides state the same layout, the runtime
 gives back what the build wrote (every variable's name, start and range), and a missing,
 truncated, altered or other-format file is refused at instantiation with fmi2Error/fmi3Error and a
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from crankfmu.fmi import model_file
+from crankfmu.fmi.native import model_file
 from crankfmu.native.sources import HERE as NATIVE
 
 HEADER = (NATIVE / "model" / "crank_variables.h").read_text()
@@ -43,7 +43,7 @@ def test_the_layout_is_stated_alike_on_both_sides():
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     """seed000's native FMUs, FMI 2.0 and 3.0, and engine4's (the largest program: four cylinders)."""
-    from crankfmu.fmi.native_build import build_native
+    from crankfmu.fmi.native.build import build_native
 
     out = tmp_path_factory.mktemp("model_file")
     return {(name, version): build_native(name, out / f"{name}{version}", fmi_version=version)
@@ -180,7 +180,7 @@ def test_a_component_file_its_model_cannot_run_is_refused_by_name(tmp_path, vers
     """A component's model finds the variables it uses by their names: a file (its digest right)
     that lacks one, or names a kind no runtime has, is refused at instantiation with the file and
     what was wrong, logging off; the file as built instantiates."""
-    from crankfmu.fmi.native_components import ComponentModel, build_native_component
+    from crankfmu.fmi.native.components import ComponentModel, build_native_component
     from crankfmu.fmi.source import preflight
 
     fmu = build_native_component("drive", "dc_pi", tmp_path / "built", fmi_version=version)

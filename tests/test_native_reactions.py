@@ -21,7 +21,7 @@ from switches import away_from_switches
 HERE = Path(__file__).resolve().parent
 PRESS = HERE / "data" / "user" / "togglepress_scenario.toml"
 #: the reactions' terms are tabulated to 1e-8 of each term's largest magnitude
-#: (fmi.slave.REACTION_TOLERANCE); a reaction sums a few terms times the state's weights,
+#: (fmi.python.slave.REACTION_TOLERANCE); a reaction sums a few terms times the state's weights,
 #: so 1e-8 of the mechanism's largest reaction bounds it with margin (measured 1.3e-10 on seed 001)
 BOUND = 1e-8
 

@@ -6,7 +6,7 @@ the joint reactions from Newton-Euler (dynamics.reactions) with the ports' input
 
 Tolerances: the quantities' tables are checked to 1e-11 of each function's scale, and an output
 combines at most two of them with omega1 and epsilon1 (1e-9 of the output's scale leaves room);
-the reactions' terms to 1e-8 (fmi.slave.REACTION_TOLERANCE), a reaction sums a few terms times
+the reactions' terms to 1e-8 (fmi.python.slave.REACTION_TOLERANCE), a reaction sums a few terms times
 the state's weights (1e-8 of the mechanism's largest reaction, as for the native FMU). Samples
 within 1e-6 rad of a slider force's switch angle are left out: there the force is set-valued."""
 
@@ -21,7 +21,7 @@ import pytest
 from crankfmu.contract import MOTOR_PARAMETERS
 from crankfmu.dynamics import MotorLine
 from crankfmu.dynamics.reactions import joint_reactions, reaction_arrays
-from crankfmu.fmi.slave import REACTION_TOLERANCE, build_design, output_quantities, output_reads, reaction_variables
+from crankfmu.fmi.python.slave import REACTION_TOLERANCE, build_design, output_quantities, output_reads, reaction_variables
 from crankfmu.integrators.fast import FastStepper
 from crankfmu.mechanisms.quantities import evaluate_all
 from crankfmu.native import QuantityReads

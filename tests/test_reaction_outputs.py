@@ -19,7 +19,7 @@ import pytest
 
 from crankfmu.cli import main
 from crankfmu.dynamics.reactions import joint_reactions, reaction_arrays, reaction_outputs
-from crankfmu.fmi.slave import REACTION_TOLERANCE
+from crankfmu.fmi.python.slave import REACTION_TOLERANCE
 from switches import away_from_switches
 from crankfmu.scenario import Scenario, load_scenario
 

@@ -231,7 +231,7 @@ def test_the_native_fmus_reactions_carry_the_laws(press):
     from fmpy import simulate_fmu
 
     from crankfmu.dynamics.reactions import joint_reactions, reaction_arrays, reaction_outputs
-    from crankfmu.fmi.slave import REACTION_TOLERANCE
+    from crankfmu.fmi.python.slave import REACTION_TOLERANCE
     from switches import away_from_switches
 
     scenario, _, fmus = press

@@ -156,7 +156,7 @@ def test_the_native_build_initialises_its_fmu_before_it_reports_success(tmp_path
     import shutil
 
     from crankfmu.errors import CrankfmuError
-    from crankfmu.fmi.native_build import initialises
+    from crankfmu.fmi.native.build import initialises
 
     broken = tmp_path / "Broken.fmu"
     broken.write_bytes(b"not a zip")

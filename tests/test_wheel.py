@@ -46,7 +46,7 @@ def _platforms_here() -> dict:
 
 
 def test_the_wheel_carries_the_kernel_the_runtimes_and_the_shim(wheel):
-    from crankfmu.fmi.shim import prebuilt
+    from crankfmu.fmi.python.shim import prebuilt
 
     with zipfile.ZipFile(wheel) as z:
         names = set(z.namelist())
@@ -55,8 +55,8 @@ def test_the_wheel_carries_the_kernel_the_runtimes_and_the_shim(wheel):
                 assert any(n.startswith(f"crankfmu/native/runtimes/fmi{version[0]}/{folder}/crankfmu-") for n in names), \
                     (version, folder)
         assert "crankfmu/native/crank_kernel.so" in names
-        assert "crankfmu/fmi/shim/fmu_shim.so" in names
-        assert z.read("crankfmu/fmi/shim/fmu_shim.digest").decode().strip() == prebuilt.digest()
+        assert "crankfmu/fmi/python/shim/fmu_shim.so" in names
+        assert z.read("crankfmu/fmi/python/shim/fmu_shim.digest").decode().strip() == prebuilt.digest()
         assert "crankfmu/scenarios/engine1.toml" in names and "crankfmu/mechanisms/files/inline4.toml" in names
         # one reference run, one mechanism drawing and one default-experiment plot per packaged scenario
         scenarios = len(list((ROOT / "src" / "crankfmu" / "scenarios").glob("*.toml")))
@@ -69,8 +69,8 @@ def test_a_python_fmu_is_built_with_no_compiler_from_the_shim_installed(tmp_path
     """The shim compiled at installation is copied into the FMU where its digest is the sources'; with
     no gcc on PATH the build then succeeds, and an edited source (another digest) asks for gcc."""
     from crankfmu.errors import CrankfmuError
-    from crankfmu.fmi.build import compile_shim
-    from crankfmu.fmi.shim import prebuilt
+    from crankfmu.fmi.python.build import compile_shim
+    from crankfmu.fmi.python.shim import prebuilt
 
     installed = tmp_path / "installed"
     prebuilt.prebuild(installed)

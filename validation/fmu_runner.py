@@ -179,7 +179,7 @@ class FmuUnderTest:
             if not path.is_file():
                 raise CrankfmuError(f"{self.path.name} names its scenario file {inside} but does not carry it")
             return str(path)
-        # a pythonfmu FMU carries its package as one archive (fmi.build.pack): its user/ files, unpacked
+        # a pythonfmu FMU carries its package as one archive (fmi.python.build.pack): its user/ files, unpacked
         package = Path(self.unzipdir) / "resources" / f"crankfmu_{self.name}"
         with zipfile.ZipFile(package.with_suffix(".zip")) as packed:
             names = packed.namelist()

@@ -38,7 +38,7 @@ ME_ENERGY_TOLERANCE = 1e-7
 ME_ALGEBRAIC_TOLERANCE = 1e-5
 #: the native FMU against the Python one of the same file, both in Co-Simulation: one C kernel
 #: steps both, and both read their [[outputs]] and reactions from the same tables (checked to 1e-11
-#: and 1e-8, fmi.slave.REACTION_TOLERANCE, of each term's scale) by the same C rules; the bars
+#: and 1e-8, fmi.python.slave.REACTION_TOLERANCE, of each term's scale) by the same C rules; the bars
 #: leave room for the native tables' decimal text
 NATIVE_PYTHON_TOLERANCE = {"contract": 1e-9, "quantity": 1e-9, "reaction": 1e-7}
 LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
@@ -114,9 +114,9 @@ def compare_outputs(prefix, fmu, run, ref, checks, bars: dict, note="") -> list[
 
 #: the FMU's outputs as functions of its own states, against the in-process model at those states:
 #: no integration error enters, only the model. One C rule set tabulates the native model (its
-#: tables checked to 1e-11 of each term's scale, fmi.slave); a sum of terms of opposite signs can
+#: tables checked to 1e-11 of each term's scale, fmi.python.slave); a sum of terms of opposite signs can
 #: lose up to three digits against its own peak, so 1e-8 of the output's largest value. The joint
-#: reactions come from tables checked to 1e-8 (fmi.slave.REACTION_TOLERANCE): 1e-7.
+#: reactions come from tables checked to 1e-8 (fmi.python.slave.REACTION_TOLERANCE): 1e-7.
 AT_STATE_TOLERANCE = {"model": 1e-8, "quantity": 1e-8, "reaction": 1e-7}
 
 
@@ -124,7 +124,7 @@ def expected_units(scenario) -> dict[str, str]:
     """The unit each output of a mechanism FMU of ``scenario`` must declare: the contract's, the
     [[outputs]]' and the ports' (from their coordinates), the joint reactions'."""
     from crankfmu.contract import OUTPUTS, SPEED_OUTPUTS
-    from crankfmu.fmi.slave import output_quantities, reaction_variables
+    from crankfmu.fmi.python.slave import output_quantities, reaction_variables
 
     definition = scenario.mechanism_definition()
     units = {v.name: v.unit for v in (*SPEED_OUTPUTS, *OUTPUTS)}
@@ -150,7 +150,7 @@ def model_at_states(scenario, model, phi1, omega1, epsilon1) -> tuple[dict, dict
     M_load, J_red, E_kin and epsilon1 ("model"), the [[outputs]] and ports ("quantity") and the
     joint reactions ("reaction"). epsilon1 is the free motion's (a crank held on the motor's switch
     or stuck at rest has another)."""
-    from crankfmu.fmi.slave import output_quantities, reaction_variables
+    from crankfmu.fmi.python.slave import output_quantities, reaction_variables
     from crankfmu.mechanisms.quantities import evaluate_all
 
     values = {k: v for k, v in model.equation.outputs(phi1, omega1).items()
@@ -338,7 +338,7 @@ def check_native_against_python(native, python, scenario, checks, native_run, py
     """The two builds of one scenario file (either causality), both in Co-Simulation on the same
     run: every output they share, to NATIVE_PYTHON_TOLERANCE of its scale by kind of output (the
     kinds from the scenario file: its joint reactions, its [[outputs]] and ports)."""
-    from crankfmu.fmi.slave import output_quantities, reaction_variables
+    from crankfmu.fmi.python.slave import output_quantities, reaction_variables
 
     reactions = {v.name for v in reaction_variables(scenario)}
     quantities = {q.name for q in output_quantities(scenario)}

@@ -8,7 +8,7 @@ imported anything of the package it carries.
   native_<digest>/   the C kernel compiled from sources of that hash, where the installed
                      library does not match them (crankfmu.native)
   fmu_<digest>/      the package an FMU carries, unpacked from the archive in its resources
-                     (fmi/slave_script.py.in)
+                     (fmi/python/slave_script.py.in)
   references/        each design's reference run (fmi.reference.reference_result)
   figures/           an FMU's documentation figures, by what they are drawn from (fmi.documentation)
   runtimes/          native FMUs' runtimes the installation did not compile (native/sources.py's

@@ -374,8 +374,8 @@ def loads_finite(report: Report, model, path) -> bool:
 
 def native_tables_check(report: Report, scenario, path):
     """What ``crankfmu fmu --native`` would refuse: its program and tables, built and checked by the
-    same function (fmi.native_model.native_program), so check refuses exactly what the build would."""
-    from .fmi.native_model import native_program
+    same function (fmi.native.model.native_program), so check refuses exactly what the build would."""
+    from .fmi.native.model import native_program
     from .native.mechanism import TABLE_NAMES
 
     try:

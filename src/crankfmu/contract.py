@@ -2,7 +2,7 @@
 each output's and input's name, SI unit, description, causality and initial dependencies.
 
 Read by ``simulation.Result`` and timeseries.csv (the columns), the FMU's variable registration
-(``fmi.slave``), the modelDescription writer (``fmi.build``: units, UnitDefinitions,
+(``fmi.python.slave``), the modelDescription writer (``fmi.python.build``: units, UnitDefinitions,
 InitialUnknowns) and the harness. A scenario's own parameters and ``[[outputs]]`` carry their units
 in the scenario and mechanism files.
 """

@@ -33,7 +33,7 @@ from .parameters import Experiment, Parameter, parse_parameters  # noqa: F401 (P
 _SCENARIOS = resources.files(__package__) / "scenarios"
 
 #: what a mechanism FMU takes at its crank: a torque (it integrates the movement equation) or the
-#: speed (it answers with the drive torque, fmi.speed)
+#: speed (it answers with the drive torque, fmi.python.speed)
 CAUSALITIES = ("torque", "speed")
 
 #: the longest machine cycle a scenario may declare, in crank turns (cycle_turns)
@@ -295,7 +295,7 @@ class Scenario:
             reduced.friction = JointFrictions(mechanism, links, frictions)
         if prepared is not None:
             from .dynamics.tabulated import keep_table
-            reduced.c_model = prepared           # the output tables are built on it (fmi.slave)
+            reduced.c_model = prepared           # the output tables are built on it (fmi.python.slave)
             keep_table(reduced, table_built)
         # J = J_flywheel + the links' kinetic energy per omega1^2 / 2, a sum of terms >= 0 (masses
         # and inertias were checked >= 0): a flywheel makes it positive at every angle; without

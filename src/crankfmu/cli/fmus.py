@@ -62,17 +62,17 @@ def _platforms(path: Path) -> str:
 def _build_fmu(args, kind: str, values: dict) -> Path:
     """The FMU cmd_fmu asked for: native or Python, a mechanism's or a component's."""
     if args.native and kind != "scenario":
-        from ..fmi.native_components import build_native_component
+        from ..fmi.native.components import build_native_component
 
         path = build_native_component(kind, args.source, Path(args.out), args.name, args.causality,
                                       fmi_version=f"{args.fmi_version}.0")
     elif args.native:
-        from ..fmi.native_build import build_native
+        from ..fmi.native.build import build_native
 
         path = build_native(args.source, Path(args.out), args.name, causality=args.causality, values=values,
                             fmi_version=f"{args.fmi_version}.0")
     else:
-        from ..fmi.build import build
+        from ..fmi.python.build import build
 
         path = build(kind, args.source, Path(args.out), args.name, args.causality)
     return path

@@ -1,6 +1,9 @@
-"""The FMI shell: crankfmu's model as FMI 2.0 co-simulation FMUs (pythonfmu).
+"""The FMI shells: crankfmu's models as FMUs.
 
-``slave``: the FMU's variables and life cycle, run inside the FMU; ``slave_script.py.in``: the
-one slave script template; ``shim/fmu_shim.c``: the linux64 binary in front of pythonfmu's;
-``build``: the build step (run in crankfmu's own environment, not shipped).
+``python/``: the Python FMUs (pythonfmu, FMI 2.0 Co-Simulation), what runs inside them and their
+build; ``native/``: the native FMUs (the prebuilt C runtime, FMI 2.0 and 3.0, Co-Simulation and
+Model Exchange), their model file, model descriptions and packaging; here, what both builds share:
+the data file resolved and checked (``source``), the reference run beside a build (``reference``,
+``background``), the stages, the archives, the documentation, the SSPs and the wheel's prebuilt
+results.
 """

@@ -5,7 +5,7 @@ single task of a build on an empty cache: about 3.2 s of CPU for the Shaper's an
 It is Python under the GIL, so a thread would not run it beside the build's own Python work (the
 C model's tables, the generated sources, pythonfmu's packing, the drawing of the mechanism); a
 forked process does, from the moment the build starts until the documentation plots its result
-(fmi.native_build, fmi.build). Where the
+(fmi.native.build, fmi.python.build). Where the
 platform cannot fork (Windows), or the child fails, the run is made in process when the build
 needs it, and says why it cannot as it always did.
 """

@@ -4,7 +4,7 @@ platforms, what the host needs), the mechanism's drawing, the equations it solve
 by the browser), its parameters grouped (geometry, masses, loads, motor, start, solver) with when
 each may change, its inputs and outputs, the default experiment with the reference result's plot.
 
-Built with the FMU (``fmi.build``, ``fmi.native_build``) from what the FMU is made of: the
+Built with the FMU (``fmi.python.build``, ``fmi.native.build``) from what the FMU is made of: the
 completed modelDescription (variables, units, ranges, variability, interfaces, the build), the
 data file (title, citation, contours, branch) and the reference result the FMU carries. The
 equations are stated once here, in the expression syntax of the data files (``pages.mathml``

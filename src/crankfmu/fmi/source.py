@@ -1,5 +1,5 @@
-"""What an FMU is built from, whichever build makes it (the Python FMU: fmi.build; the native
-ones: fmi.native_build, fmi.native_components): the data file resolved to a Source (its model
+"""What an FMU is built from, whichever build makes it (the Python FMU: fmi.python.build; the native
+ones: fmi.native.build, fmi.native.components): the data file resolved to a Source (its model
 identifier, the slave core that runs it, its declared variables, its documentation and reference
 run), checked before anything is built (``preflight``, which ``crankfmu check`` runs too), and the
 annotations by which the harness finds the file an FMU implements.
@@ -15,12 +15,12 @@ from xml.etree import ElementTree as ET
 from .. import units as si
 from ..contract import OUTPUTS, SPEED_OUTPUTS
 from ..errors import CrankfmuError
-from . import cushion as cushion_core
-from . import shaft as shaft_core
+from .python import cushion as cushion_core
+from .python import shaft as shaft_core
 from . import documentation
-from . import drive as drive_core
-from . import rodstring as rodstring_core
-from . import slave, speed
+from .python import drive as drive_core
+from .python import rodstring as rodstring_core
+from .python import slave, speed
 from .reference import reference_result, speed_reference
 
 
@@ -43,7 +43,7 @@ class Source:
     groups: dict                    # "*geometry", "*loads" -> parameter names
     reference: object = None        # () -> the default experiment's outputs as CSV text, or None
     documentation: object = None    # (modelDescription, parameters, reference CSV) -> {path in FMU: bytes}
-    variables: object = None        # () -> fmi.core.Declared: what the core registers
+    variables: object = None        # () -> fmi.python.core.Declared: what the core registers
     load: str = ""                  # what the core loads: the packaged name, or "user/<file>.toml" in the FMU
     files: dict = field(default_factory=dict)   # a user's data files: path in the package -> text
     data: tuple = ()                # the packaged data files it reads: paths in the package
@@ -74,9 +74,9 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
                   "*loads": sorted(scenario.load_parameters())}
         fmu = _fmu_name(fmu_name or scenario.data.get("fmu"), scenario.where)
         title, core, outputs, reference, core_module = (
-            (scenario.title + " (speed causality)", "fmi.speed:SpeedCore", SPEED_OUTPUTS, speed_reference, speed)
+            (scenario.title + " (speed causality)", "fmi.python.speed:SpeedCore", SPEED_OUTPUTS, speed_reference, speed)
             if causality == "speed" else
-            (scenario.title, "fmi.slave:FmuCore", OUTPUTS, reference_result, slave))
+            (scenario.title, "fmi.python.slave:FmuCore", OUTPUTS, reference_result, slave))
         if causality == "speed" and not fmu_name and own != "speed":
             fmu += "Speed"
         source = Source(kind, scenario.name, fmu, title, scenario.experiment, core,
@@ -104,13 +104,13 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
                                     "(J_drive, omega_start and the input tau_load)")
             return Source(kind, drive.name, _fmu_name(fmu_name or drive.speed_fmu or drive.fmu + "Speed", drive.where),
                           drive.title + " (speed causality: it carries the rotor and flywheel)", drive.experiment,
-                          "fmi.drive:DriveSpeedCore", {}, {}, documentation=docs,
+                          "fmi.python.drive:DriveSpeedCore", {}, {}, documentation=docs,
                           variables=lambda: drive_core.declared_speed(drive), load=drive.name,
                           data=(f"drives/{drive.name}.toml",), causality="speed")
         if causality not in (None, "torque"):
             raise CrankfmuError(f"--causality must be torque or speed, got {causality!r}")
         return Source(kind, drive.name, _fmu_name(fmu_name or drive.fmu, drive.where),
-                      drive.title, drive.experiment, "fmi.drive:DriveCore", {}, {},
+                      drive.title, drive.experiment, "fmi.python.drive:DriveCore", {}, {},
                       documentation=docs,
                       variables=lambda: drive_core.declared(drive), load=drive.name, data=(f"drives/{drive.name}.toml",))
     if kind in COMPONENTS:
@@ -129,21 +129,21 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
 def _cushion():
     from ..dynamics.cushion import load_cushion
 
-    return (load_cushion, "elements", "fmi.cushion:CushionCore", cushion_core.declared,
+    return (load_cushion, "elements", "fmi.python.cushion:CushionCore", cushion_core.declared,
             documentation.cushion_documentation, "a cushion takes the ram's motion")
 
 
 def _shaft():
     from ..dynamics.shaft import load_shaft
 
-    return (load_shaft, "shafts", "fmi.shaft:ShaftCore", shaft_core.declared, documentation.shaft_documentation,
+    return (load_shaft, "shafts", "fmi.python.shaft:ShaftCore", shaft_core.declared, documentation.shaft_documentation,
             "a shaft takes both sides' speeds")
 
 
 def _well():
     from ..dynamics.well import load_well
 
-    return (load_well, "wells", "fmi.rodstring:RodStringCore", rodstring_core.declared,
+    return (load_well, "wells", "fmi.python.rodstring:RodStringCore", rodstring_core.declared,
             documentation.rodstring_documentation, "a rod string takes the polished rod's motion")
 
 

@@ -113,7 +113,7 @@ class FastIntegrator(Integrator):
 def refused(status: int, state) -> None:
     """The kernel's refusal as an error, in the kernel's words (ck_status_text, as the native FMU says
     it): a step size underflow, too many steps, or a state it cannot have written. "fast: " names the
-    method where a run fails; an FMU's message leaves it out (fmi.core), as the native FMU's does."""
+    method where a run fails; an FMU's message leaves it out (fmi.python.core), as the native FMU's does."""
     raise SchemeError(f"fast: {kernel.status_text(status)} at t = {state[kernel.T]:.9g} s")
 
 

@@ -10,5 +10,5 @@ figures):
   sweep         a grid of designs, in parallel chunks, resumable
   paper_models  the papers' own approximate formulas, for comparison
 
-None of this ships in an FMU (fmi.build.RUNTIME).
+None of this ships in an FMU (fmi.python.build.RUNTIME).
 """

@@ -154,7 +154,7 @@ int co_exit_initialization(Component* c, const char* call)
 
 void co_terminate(Component* c) { c->now.phase = CM_TERMINATED; }
 
-/* a host's communication point is the FMU's own time up to the host's rounding (fmi/core.py's
+/* a host's communication point is the FMU's own time up to the host's rounding (fmi/python/core.py's
  * time_matches) */
 static int time_matches(double t_host, double t_own, double step)
 {

@@ -3,7 +3,7 @@
  * values, initialisation, Co-Simulation steps, and the FMU state with the model's state array.
  * What a component adds is data: its model file (crank_variables.h) gives its kind and variables.
  *
- * The life cycle and the refusals are the Python FMU's (fmi/core.py): a value out of its range,
+ * The life cycle and the refusals are the Python FMU's (fmi/python/core.py): a value out of its range,
  * not finite, or a fixed parameter set after initialisation is refused with the parameter, the
  * value and its valid range; a step at a time that is not the FMU's own is refused; a model that
  * failed refuses further steps until it is reset. Outputs read in initialisation mode are those of

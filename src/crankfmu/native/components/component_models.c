@@ -155,7 +155,7 @@ static void shaft_outputs(const Component* c, double* v, const double* s)
 
 /* ------------------------------------------------------------------------------ the rod string */
 
-/* The rod string (fmi/rodstring.py is the Python FMU of the same file): the state is the grid
+/* The rod string (fmi/python/rodstring.py is the Python FMU of the same file): the state is the grid
  * (node masses and weights, segment stiffnesses), Gibbs' c, the pump, dt_max, whether the string
  * was hung at the first step, then the positions, velocities, the last positions, the scalars
  * and a scratch row. The string hangs at rest from the polished rod's position at the first step

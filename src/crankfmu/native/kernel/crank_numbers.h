@@ -11,7 +11,7 @@ typedef struct { char text[48]; } Number;
 Number shortest(double x);
 
 /* The refusal of a parameter's value outside its valid range, in the Python FMU's words
- * (parameters.Parameter.check, prefixed with the name by fmi/core.py): "J_flywheel: parameter
+ * (parameters.Parameter.check, prefixed with the name by fmi/python/core.py): "J_flywheel: parameter
  * J_flywheel = -1.0 is out of range: valid range [0, inf) kg.m2 (flywheel inertia ...)"; the
  * description in parentheses where there is one. */
 typedef struct { char text[1024]; } Refusal;

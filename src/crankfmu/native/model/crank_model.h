@@ -49,7 +49,7 @@ typedef struct {
     int n_refused;                 /* how many: a step refuses while any is (one test on its path) */
     char failure[768];             /* why the model cannot go on, as it was said ("fmi2ExitInitialization
                                       Mode: ..."), which each later call that needs it repeats (the Python
-                                      FMU's words, fmi/core.py); "" while nothing failed */
+                                      FMU's words, fmi/python/core.py); "" while nothing failed */
 } Snapshot;
 
 /* the tables the model builds (crank_mechanism.h's MM_TABLE_...) */

@@ -291,7 +291,7 @@ static void read_variables(Reader* r)
         refuse(r, "has %d variables; this binary takes at most %d", d->n_variables, CM_MAX_VARIABLES);
 }
 
-/* a mechanism's payload after the variables, in fmi/model_file.py's order */
+/* a mechanism's payload after the variables, in fmi/native/model_file.py's order */
 static void read_mechanism(Reader* r)
 {
     ModelData* d = r->d;
@@ -426,7 +426,7 @@ ModelData* md_parse(const unsigned char* bytes, size_t size, const char* file, c
                 refuse(r, "was altered: its SHA-256 is not the one its header records (rebuild the FMU)");
         }
     }
-    /* the payload, in fmi/model_file.py's order: every kind's, then the kind's own */
+    /* the payload, in fmi/native/model_file.py's order: every kind's, then the kind's own */
     d->identifier = read_string(r, "the identifier");
     d->guid = read_string(r, "the GUID");
     d->default_start_time = read_double(r, "the start time");

@@ -1,13 +1,13 @@
 /* A native FMU's model file and its variables. One runtime binary serves every native FMU, a
  * mechanism's or a component's: what an FMU adds is data, written by `crankfmu fmu --native` into
- * its resources/ (fmi/model_file.py) and read here when an instance is made (crank_model_file.c):
+ * its resources/ (fmi/native/model_file.py) and read here when an instance is made (crank_model_file.c):
  * its kind, identifier, GUID, start time and the table of every variable (name, kind, start, range,
  * unit, description); a mechanism's counts, causality and compiled program
  * (dynamics/program_scenario.py) besides.
  *
  * The file: 16 bytes of magic ("crankfmu model\0\0"), the format version (uint32, little-endian),
  * its kind (uint32: CM_MODEL_...), the payload's size (uint64), the payload's SHA-256 (32 bytes),
- * then the payload (fmi/model_file.py writes it, in the order crank_model_file.c reads it). A
+ * then the payload (fmi/native/model_file.py writes it, in the order crank_model_file.c reads it). A
  * missing, truncated or altered file, or one of another format version, is refused at
  * instantiation with a message naming the file. */
 #ifndef CRANK_VARIABLES_H
@@ -52,7 +52,7 @@ enum { ROW_PHI1, ROW_OMEGA1, ROW_W_MOTOR, ROW_W_LOAD, ROW_W_EXT, ROW_EPSILON1, R
 /* A model as the file gives it. A component's variables are its data file's, in the Python FMU's
  * order (its model finds those it needs by name: component_models.c). A mechanism's value
  * references, in the order of the variables' table: the outputs first (n_outputs), then the crank's input (vr_crank_input: tau_ext, or omega1 in
- * speed causality), the tunables (native_model.TUNABLE's order, or SPEED_TUNABLE's), the fixed
+ * speed causality), the tunables (fmi/native/model.py TUNABLE's order, or SPEED_TUNABLE's), the fixed
  * parameters (n_fixed), the scenario's [[outputs]] and its ports' outputs (n_quantities), the
  * derivatives of the Model Exchange states (phi1, omega1, W_motor, W_load, W_ext: the kernel's y;
  * none in speed causality), the ports' inputs (n_ports) and the joint reactions (n_reactions).

@@ -1,5 +1,5 @@
 /* SHA-256 (FIPS 180-4): the digest a model file's header records of its payload (crank_model_file.c
- * checks it; fmi/model_file.py writes it with hashlib). */
+ * checks it; fmi/native/model_file.py writes it with hashlib). */
 #include "sha256.h"
 
 #include <stdint.h>

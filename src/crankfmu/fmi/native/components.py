@@ -5,8 +5,8 @@ with ``--causality speed``), ``crankfmu fmu die_cushion --cushion --native`` (Di
 
 The same data files, variables (names, order, units, ranges, starts, descriptions), DefaultExperiment
 and documentation as the Python FMU of the file (fmi.source's Source and Declared), but C: the
-native mechanism FMUs' runtime (fmi.native_build: one prebuilt binary per FMI version and
-platform, nothing compiled), which reads the component's model file (fmi.model_file: its kind and
+native mechanism FMUs' runtime (fmi.native.build: one prebuilt binary per FMI version and
+platform, nothing compiled), which reads the component's model file (fmi.native.model_file: its kind and
 its variables) and runs its model (native/components/component_model.c, component_models.c) on the
 components' physics (native/components/crank_components.c, which the Python FMUs call too). Co-Simulation;
 FMI 2.0 for linux64 and win64, FMI 3.0 (``--fmi-version 3``) for x86_64 Linux and Windows and
@@ -22,14 +22,14 @@ from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
-from .. import units as si
-from ..contract import DRIVE_SPEED_STATE_DEPENDS, DRIVE_STATE_DEPENDS, SHAFT_STATE_DEPENDS, direct_dependencies
-from ..errors import CrankfmuError
+from ... import units as si
+from ...contract import DRIVE_SPEED_STATE_DEPENDS, DRIVE_STATE_DEPENDS, SHAFT_STATE_DEPENDS, direct_dependencies
+from ...errors import CrankfmuError
 from . import model_file
-from .native_build import native_runtimes, package_native
-from .native_model import (MAX_OUTPUT_DERIVATIVE_ORDER, PER_SECOND, default_experiment, unit_definitions,
+from .build import native_runtimes, package_native
+from .model import (MAX_OUTPUT_DERIVATIVE_ORDER, PER_SECOND, default_experiment, unit_definitions,
                            variables_and_structure)
-from .source import preflight, vendor_annotations
+from ..source import preflight, vendor_annotations
 
 
 class ComponentModel:
@@ -88,7 +88,7 @@ class ComponentModel:
 
     def variables(self) -> list:
         """The variables in value-reference order, as FMI 3.0's description takes them (NativeVariable)."""
-        from .native_model import NativeVariable
+        from .model import NativeVariable
 
         table = []
         depends = self.dependencies()
@@ -151,9 +151,9 @@ def build_native_component(kind: str, data_name: str, dest: Path, name: str | No
     model = ComponentModel(source)
     describe = model.model_description
     if fmi_version == "3.0":
-        from . import native_fmi3
+        from . import fmi3
 
-        describe = lambda sources: native_fmi3.describe(source, model.guid, source.title, source.experiment,  # noqa: E731
+        describe = lambda sources: fmi3.describe(source, model.guid, source.title, source.experiment,  # noqa: E731
                                                         model.variables(), model_exchange=False, events=False,
                                                         indicators=0, derivatives=model.derivatives)
     runtimes = native_runtimes(fmi_version, win64)

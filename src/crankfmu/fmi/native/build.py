@@ -3,7 +3,7 @@ machine, no Python and no numpy, and whose build compiles nothing.
 
 The FMU's binary is a runtime compiled when crankfmu was installed (native/sources.py: the C kernel,
 the C mechanism model and the model behind one FMI shell, one binary per FMI version and platform),
-and the scenario is data: the model file in ``resources/`` (fmi.native_model, fmi.model_file), which
+and the scenario is data: the model file in ``resources/`` (fmi.native.model, fmi.native.model_file), which
 the runtime reads and checks when a host makes an instance. The FMU builds its tables when
 initialisation ends, at the values the host set; the build checks that the file's values give
 them. It carries every platform the installation has a runtime for (FMI 2.0: linux64, win64; FMI
@@ -14,7 +14,7 @@ runtime's C sources (``sources/``, with the modelDescription's SourceFiles, a
 ``buildDescription.xml`` and a ``CMakeLists.txt``) so that ``fmpy compile`` or CMake on another
 platform builds the same runtime, which reads the same model file.
 
-The native component FMUs (fmi.native_components) are the same runtime with a component's model file.
+The native component FMUs (fmi.native.components) are the same runtime with a component's model file.
 """
 
 from __future__ import annotations
@@ -26,16 +26,16 @@ import zipfile
 from contextlib import ExitStack
 from pathlib import Path
 
-from ..atomic import replacing
-from ..errors import CrankfmuError
-from .archive import add_bytes, add_file
-from ..native.sources import FMU_COMPILERS, PLATFORMS, RUNTIMES, compile_runtime, runtime, runtime_files, runtime_name
-from .background import reference_beside
-from .reference import LS_REF, LS_REF_MANIFEST, cross_check_options
-from .source import NATIVE_USER_FILES, preflight
-from .stages import stage
+from ...atomic import replacing
+from ...errors import CrankfmuError
+from ..archive import add_bytes, add_file
+from ...native.sources import FMU_COMPILERS, PLATFORMS, RUNTIMES, compile_runtime, runtime, runtime_files, runtime_name
+from ..background import reference_beside
+from ..reference import LS_REF, LS_REF_MANIFEST, cross_check_options
+from ..source import NATIVE_USER_FILES, preflight
+from ..stages import stage
 from .model_file import NAME as MODEL_FILE
-from .native_model import NativeModel
+from .model import NativeModel
 
 FMI_VERSIONS = tuple(PLATFORMS)
 
@@ -182,7 +182,7 @@ def native_runtimes(fmi_version: str, win64: bool | None) -> dict:
     runtime the installation has (native/runtimes) or the per-user cache has, else compiled into
     the cache where its compiler is installed. Linux x86_64 always (refused, saying why, where it
     can be had neither way); Windows unless ``win64`` is False (and required where it is True)."""
-    from ..cache import cache_root
+    from ...cache import cache_root
 
     roots = [RUNTIMES, cache_root() / "runtimes"]
     found = {}
@@ -209,7 +209,7 @@ def build_native(data_name: str, dest: Path, name: str | None = None, win64: boo
     the Windows binary (default: where x86_64-w64-mingw32-gcc is installed). ``causality``:
     "torque" or "speed" (default: the file's [crank] causality), as for the Python FMU. ``values``:
     parameters to build it for other than the file's (``crankfmu fmu --native --set``).
-    ``fmi_version``: "2.0" or "3.0" (the same model behind the other shell: native_fmi3)."""
+    ``fmi_version``: "2.0" or "3.0" (the same model behind the other shell: fmi3)."""
     if fmi_version not in FMI_VERSIONS:
         raise CrankfmuError(f"--fmi-version must be one of {', '.join(v.removesuffix('.0') for v in FMI_VERSIONS)}, "
                             f"got {fmi_version!r}")
@@ -234,12 +234,12 @@ def _build_native(source, data_name, dest: Path, win64, fmi_version: str, refere
              f"{LS_REF}/fmi-ls-manifest.xml": LS_REF_MANIFEST.format(name=fmu)}
     describe = model.model_description
     if fmi_version == "3.0":
-        from . import native_fmi3
-        from .documentation import mechanism_png
+        from . import fmi3
+        from ..documentation import mechanism_png
 
-        describe = lambda sources: native_fmi3.model_description(model, sources)  # noqa: E731
+        describe = lambda sources: fmi3.model_description(model, sources)  # noqa: E731
         with stage(fmu, "the terminals and icon"):
-            extra["terminalsAndIcons/terminalsAndIcons.xml"] = native_fmi3.terminals_and_icons(model)
+            extra["terminalsAndIcons/terminalsAndIcons.xml"] = fmi3.terminals_and_icons(model)
             extra["terminalsAndIcons/icon.png"] = mechanism_png(model.scenario)
     with stage(fmu, "the runtimes"):
         runtimes = native_runtimes(fmi_version, win64)

@@ -35,18 +35,18 @@ from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
-from .. import units as si
-from ..contract import direct_dependencies
-from ..atomic import replacing
-from ..errors import CrankfmuError
-from .archive import add_bytes, add_file
-from .background import reference_beside
-from .reference import LS_REF, LS_REF_MANIFEST, cross_check_options
-from .source import Source, preflight, vendor_annotations
-from .stages import stage
+from ... import units as si
+from ...contract import direct_dependencies
+from ...atomic import replacing
+from ...errors import CrankfmuError
+from ..archive import add_bytes, add_file
+from ..background import reference_beside
+from ..reference import LS_REF, LS_REF_MANIFEST, cross_check_options
+from ..source import Source, preflight, vendor_annotations
+from ..stages import stage
 
 HERE = Path(__file__).resolve().parent
-PACKAGE = HERE.parent           # the crankfmu package, shipped in every FMU's resources
+PACKAGE = HERE.parents[1]       # the crankfmu package, shipped in every FMU's resources
 
 #: what runs inside an FMU, relative to the package: the core on numpy alone and the FMI shell's
 #: slave. Studies, plots, sweeps, the CLI, the harness, the build step and the scipy-based
@@ -55,8 +55,9 @@ RUNTIME = ("__init__.py", "cache.py", "contract.py", "errors.py", "expressions.p
            "units.py",
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "native",
-           "fmi/__init__.py", "fmi/core.py", "fmi/slave.py", "fmi/speed.py", "fmi/drive.py", "fmi/cushion.py",
-           "fmi/shaft.py", "fmi/rodstring.py", "parameters.py", "datafiles.py", "schema.py", "drives", "elements",
+           "fmi/__init__.py", "fmi/python/__init__.py", "fmi/python/core.py", "fmi/python/slave.py",
+           "fmi/python/speed.py", "fmi/python/drive.py", "fmi/python/cushion.py", "fmi/python/shaft.py",
+           "fmi/python/rodstring.py", "parameters.py", "datafiles.py", "schema.py", "drives", "elements",
            "shafts", "wells")
 
 
@@ -73,8 +74,8 @@ def copy_runtime(dest: Path, files: dict | None = None, data=()):
     import json
     import tomllib
 
-    from .. import native
-    from ..native.sources import RUNTIMES
+    from ... import native
+    from ...native.sources import RUNTIMES
 
     # the C kernel travels compiled for linux64 (and its sources): the library this process loaded;
     # not the native FMUs' runtimes
@@ -128,11 +129,11 @@ def pack(folder: Path) -> Path:
 #: names its FMU (``fmu = "FourBar"``); the FMU's model identifier lives in the file
 def packaged_sources() -> list[tuple[str, str]]:
     """(kind, name) of every packaged data file with an ``fmu`` key, in file order."""
-    from ..dynamics.cushion import available_cushions, load_cushion
-    from ..dynamics.drive import available_drives, load_drive
-    from ..dynamics.shaft import available_shafts, load_shaft
-    from ..dynamics.well import available_wells, load_well
-    from ..scenario import available_scenarios, load_scenario
+    from ...dynamics.cushion import available_cushions, load_cushion
+    from ...dynamics.drive import available_drives, load_drive
+    from ...dynamics.shaft import available_shafts, load_shaft
+    from ...dynamics.well import available_wells, load_well
+    from ...scenario import available_scenarios, load_scenario
 
     return ([("scenario", n) for n in available_scenarios() if load_scenario(n).data.get("fmu")]
             + [("drive", n) for n in available_drives() if load_drive(n).fmu]
@@ -144,7 +145,7 @@ def packaged_sources() -> list[tuple[str, str]]:
 def complete_model_description(xml_bytes: bytes, declared, source: Source) -> bytes:
     """pythonfmu's modelDescription with units, parameter ranges (min/max where a bound exists),
     UnitDefinitions, DefaultExperiment, the data file's name, the outputs' dependencies and
-    InitialUnknowns, from what the core declares (``declared``: fmi.core.Declared)."""
+    InitialUnknowns, from what the core declares (``declared``: fmi.python.core.Declared)."""
     units, parameters = declared.units, {p.name: p for p in declared.parameters}
     root = ET.fromstring(xml_bytes)
     variables = root.find("ModelVariables")

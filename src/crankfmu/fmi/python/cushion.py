@@ -4,26 +4,24 @@ Inputs: the ram's coordinate ``s`` and velocity ``v`` along its axis (a press's 
 output: the force ``F`` on the ram along that axis (to the press's ram_F). No state: after each
 step F is the cushion's law at the inputs as the host had set them for it, and in initialisation
 mode at the inputs as set now (a master sets s and v from the press and reads F there, before the
-first step: fmi.core.SlaveCore._initial_outputs), by
+first step: fmi.python.core.SlaveCore._initial_outputs), by
 the components' C (crank_components.c, which the native DieCushion.fmu compiles in);
 dynamics.cushion states the same law in Python, the reference the tests compare with.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from ..contract import CUSHION_OUTPUTS
-from ..dynamics.cushion import load_cushion
-from ..native.physics import cushion_force
-from .core import Declared, SlaveCore
+from ...contract import CUSHION_OUTPUTS
+from ...dynamics.cushion import load_cushion
+from ...native.physics import cushion_force
+from .core import ComponentCore, Declared
 
 
 def declared(cushion_file) -> Declared:
     return Declared.of_file(CUSHION_OUTPUTS, cushion_file)
 
 
-class CushionCore(SlaveCore):
+class CushionCore(ComponentCore):
     def __init__(self, slave, cushion_name: str):
         self.file = load_cushion(cushion_name)
         super().__init__(slave, self.file.experiment.start_time)
@@ -40,12 +38,6 @@ class CushionCore(SlaveCore):
 
     def advance(self, target: float):
         self._update_outputs()
-
-    def inputs_set(self):
-        self._update_outputs()
-
-    def outputs_now(self) -> np.ndarray:
-        return self.out
 
     def model_state(self):
         return []

@@ -31,14 +31,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS, QUANTITY_DEPENDS, REACTION_DEPENDS, Variable
-from ..dynamics import MotorLine
-from ..dynamics import modes
-from ..dynamics.tabulated import c_output_tables, table_of, tabulate_quantities, tabulate_reactions
-from ..integrators.fast import TABLE_TOLERANCE, FastStepper
-from ..native import ROW_FIELDS, QuantityReads, ReactionReads
-from ..parameters import Parameter
-from ..scenario import load_scenario
+from ...contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS, QUANTITY_DEPENDS, REACTION_DEPENDS, Variable
+from ...dynamics import MotorLine
+from ...dynamics import modes
+from ...dynamics.tabulated import c_output_tables, table_of, tabulate_quantities, tabulate_reactions
+from ...integrators.fast import TABLE_TOLERANCE, FastStepper
+from ...native import ROW_FIELDS, QuantityReads, ReactionReads
+from ...parameters import Parameter
+from ...scenario import load_scenario
 from .core import Declared, SlaveCore
 
 (TAU_EXT,) = INPUTS
@@ -121,7 +121,7 @@ def quantity_variables(scenario) -> list:
 def reaction_variables(scenario) -> list:
     """The joint reactions' outputs (dynamics.reactions.reaction_outputs) of a mechanism file that
     declares its [[joints]]; none otherwise."""
-    from ..dynamics.reactions import reaction_outputs
+    from ...dynamics.reactions import reaction_outputs
 
     definition = scenario.mechanism_definition()
     return ([Variable(*v, depends=REACTION_DEPENDS) for v in reaction_outputs(definition)]
@@ -157,7 +157,7 @@ def fmu_scenario(scenario_name: str):
     """The scenario an FMU's core runs: a packaged name, or a user's file the build put in the
     FMU's package (``user/<file>.toml``)."""
     if scenario_name.endswith(".toml"):
-        scenario_name = str(Path(__file__).resolve().parents[1] / scenario_name)
+        scenario_name = str(Path(__file__).resolve().parents[2] / scenario_name)
     return load_scenario(scenario_name)
 
 
@@ -196,7 +196,7 @@ def initialises(scenario) -> str:
     experiment, as a host's first step would: the words for a build's summary and check. Raises
     CrankfmuError (the message the FMU would give at fmi2ExitInitializationMode or its first
     fmi2DoStep) where a host could not run it."""
-    from ..errors import CrankfmuError
+    from ...errors import CrankfmuError
 
     experiment = scenario.experiment
     _, stepper, warning = start_design(scenario, start_values(scenario), experiment.start_time)

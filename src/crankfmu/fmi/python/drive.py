@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contract import DRIVE_OUTPUTS as OUTPUTS, DRIVE_SPEED_OUTPUTS
-from ..dynamics.drive import DRIVE_CONSTANTS, load_drive
-from ..native.physics import DriveSteps
-from .core import Declared, SlaveCore
+from ...contract import DRIVE_OUTPUTS as OUTPUTS, DRIVE_SPEED_OUTPUTS
+from ...dynamics.drive import DRIVE_CONSTANTS, load_drive
+from ...native.physics import DriveSteps
+from .core import ComponentCore, Declared
 
 
 def declared(drive_file) -> Declared:
@@ -29,7 +29,7 @@ def declared(drive_file) -> Declared:
     return Declared.of_file(OUTPUTS, drive_file)
 
 
-class DriveCore(SlaveCore):
+class DriveCore(ComponentCore):
     """Drive.fmu: the speed is an input; the state is (i, x)."""
 
     state_size = 2                           # i A, x rad
@@ -77,12 +77,6 @@ class DriveCore(SlaveCore):
             self.drive = self._drive()
         self.state[:] = self.step(target - self.time)
         self._update_outputs()
-
-    def inputs_set(self):
-        self._update_outputs()
-
-    def outputs_now(self) -> np.ndarray:
-        return self.out
 
     def model_state(self):
         return None if self.drive is None else self.state.tolist()

@@ -21,9 +21,9 @@ from __future__ import annotations
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
-from .. import units as si
-from .source import fmi3_annotations
-from .native_model import (MAX_OUTPUT_DERIVATIVE_ORDER, N_EVENT_INDICATORS, NativeModel, default_experiment,
+from ... import units as si
+from ..source import fmi3_annotations
+from .model import (MAX_OUTPUT_DERIVATIVE_ORDER, N_EVENT_INDICATORS, NativeModel, default_experiment,
                            dependency_attributes, unit_definitions)
 
 #: a unit's quantity, the name of its Float64Type (a unit not listed gets a type named after it)

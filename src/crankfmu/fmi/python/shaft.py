@@ -10,19 +10,17 @@ native ElasticShaft.fmu compiles in); dynamics.shaft states them in Python, the 
 
 from __future__ import annotations
 
-import numpy as np
-
-from ..contract import SHAFT_OUTPUTS
-from ..dynamics.shaft import load_shaft
-from ..native.physics import shaft_energy, shaft_torque, shaft_twist
-from .core import Declared, SlaveCore
+from ...contract import SHAFT_OUTPUTS
+from ...dynamics.shaft import load_shaft
+from ...native.physics import shaft_energy, shaft_torque, shaft_twist
+from .core import ComponentCore, Declared
 
 
 def declared(shaft_file) -> Declared:
     return Declared.of_file(SHAFT_OUTPUTS, shaft_file)
 
 
-class ShaftCore(SlaveCore):
+class ShaftCore(ComponentCore):
     def __init__(self, slave, shaft_name: str):
         self.file = load_shaft(shaft_name)
         super().__init__(slave, self.file.experiment.start_time)
@@ -47,9 +45,6 @@ class ShaftCore(SlaveCore):
     def inputs_set(self):
         if self.twist is not None:
             self._update_outputs()
-
-    def outputs_now(self) -> np.ndarray:
-        return self.out
 
     def model_state(self):
         return None if self.twist is None else [self.twist]

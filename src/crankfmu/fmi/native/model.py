@@ -1,9 +1,9 @@
 """The native mechanism FMU's model, as its build writes it: the variables (in the runtime's
 value-reference order), the model file the prebuilt runtime reads (``resources/crankfmu-model.bin``,
-fmi.model_file: identifier, GUID, counts, causality, the scenario compiled into the C model's
+fmi.native.model_file: identifier, GUID, counts, causality, the scenario compiled into the C model's
 program, dynamics/program_scenario.py, and the table of variables), and the FMI 2.0
-modelDescription. fmi.native_fmi3 describes the same
-variables in FMI 3.0; fmi.native_build compiles and packages them.
+modelDescription. fmi.native.fmi3 describes the same
+variables in FMI 3.0; fmi.native.build compiles and packages them.
 
 The geometry, masses, loads and gravity are fixed parameters: a host sets them before the end of
 initialisation (and again after a reset), each in its range; a design that does not assemble over
@@ -13,7 +13,7 @@ set the initial state.
 
 In speed causality (``--causality speed``, or the file's ``[crank] causality``) the same runtime
 reads causality_speed from the model file: the input is omega1 (its derivative taken where the host gives
-one), the outputs are fmi.speed's (tau_drive, W_drive, ...), J_flywheel is tunable and
+one), the outputs are fmi.python.speed's (tau_drive, W_drive, ...), J_flywheel is tunable and
 phi1_start sets the initial state; Co-Simulation only.
 """
 
@@ -24,13 +24,13 @@ from dataclasses import dataclass, replace
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
-from .. import units as si
-from ..contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS, STATE_DERIVATIVE_DEPENDS, direct_dependencies
-from ..errors import CrankfmuError
-from ..native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
-from .source import vendor_annotations
+from ... import units as si
+from ...contract import INPUTS, OUTPUTS, SPEED_INPUTS, SPEED_OUTPUTS, STATE_DERIVATIVE_DEPENDS, direct_dependencies
+from ...errors import CrankfmuError
+from ...native import N_Y, ROW_FIELDS, SPEED_ROW_FIELDS, layout
+from ..source import vendor_annotations
 from . import model_file
-from .speed import NOT_DECLARED
+from ..python.speed import NOT_DECLARED
 
 #: the parameters the tables do not depend on, in the shell's value-reference order
 TUNABLE = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel", "phi1_start", "omega1_start", "rtol")
@@ -50,10 +50,10 @@ def native_program(scenario):
     ``scenario`` carries, and its tables built by the C model at the file's values, as the FMU
     builds them when it initialises. ``crankfmu check`` builds them too, so it refuses exactly what
     the build would; a refusal is the engine's message (the Python build names the cause)."""
-    from ..dynamics.program import parameter_values
-    from ..dynamics.program_scenario import compile_scenario
-    from ..native.mechanism import QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
-    from .slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
+    from ...dynamics.program import parameter_values
+    from ...dynamics.program_scenario import compile_scenario
+    from ...native.mechanism import QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
+    from ..python.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
 
     program = compile_scenario(scenario)
     if program is None:
@@ -117,8 +117,8 @@ class NativeModel:
     """What a native FMU is generated from: the scenario, its tables and its variables."""
 
     def __init__(self, source, scenario_name, causality: str = "torque"):
-        from .slave import output_quantities, reaction_variables, rtol_parameter
-        from ..scenario import load_scenario
+        from ..python.slave import output_quantities, reaction_variables, rtol_parameter
+        from ...scenario import load_scenario
 
         self.source = source
         self.speed = causality == "speed"
@@ -143,7 +143,7 @@ class NativeModel:
         # the speed's start is the scenario's start speed, as the Python FMU's
         self.input_start = float(params["omega1_start"].value) if self.speed else 0.0
         self.tunable = [params[n] for n in tunable]
-        # a speed-causal FMU declares what the Python one does (fmi.speed.NOT_DECLARED), and no rtol:
+        # a speed-causal FMU declares what the Python one does (fmi.python.speed.NOT_DECLARED), and no rtol:
         # its step has no error control to tune (the line's integral is exact, the works quadratures)
         undeclared = (*NOT_DECLARED, "rtol") if self.speed else ()
         self.fixed = [p for n, p in params.items() if n not in (*tunable, *undeclared)]
@@ -160,9 +160,9 @@ class NativeModel:
                 if p in self.program.parameters]
 
     def model_file(self) -> bytes:
-        """resources/crankfmu-model.bin (fmi.model_file): the scenario as the prebuilt runtime reads it,
+        """resources/crankfmu-model.bin (fmi.native.model_file): the scenario as the prebuilt runtime reads it,
         its identifier, GUID, counts, compiled program and every variable's start, range and unit."""
-        from .slave import REACTION_TOLERANCE, TABLE_TOLERANCE
+        from ..python.slave import REACTION_TOLERANCE, TABLE_TOLERANCE
 
         def variable(name, kind, start=0.0, p=None, unit=""):
             if p is None:
@@ -209,7 +209,7 @@ class NativeModel:
         """Each output's and state derivative's direct dependencies: names of the continuous states
         (Model Exchange's, declared with their derivatives in both interfaces; none in speed
         causality) and of the inputs."""
-        from .slave import quantity_variables
+        from ..python.slave import quantity_variables
 
         inputs = [self.input.name, *(p.input_name for p in self.ports)]
         states = [name for name, _ in self.derivatives()]

@@ -20,8 +20,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import CrankfmuError, ParameterError
-from ..parameters import Parameter
+from ...errors import CrankfmuError, ParameterError
+from ...parameters import Parameter
 
 # life-cycle phases (FMI 2.0 co-simulation state machine, as far as a model needs it)
 INSTANTIATED, INITIALIZATION, STEPPING, REFUSED, TERMINATED = (
@@ -501,3 +501,18 @@ class SlaveCore:
 
     def restore_model_state(self, state):
         raise NotImplementedError
+
+
+class ComponentCore(SlaveCore):
+    """A component's core (drive, cushion, shaft, rod string): its outputs are the array ``out``,
+    which ``_update_outputs`` computes from the state and the inputs, again whenever an input is
+    set (the outputs that depend on an input at once follow it)."""
+
+    def _update_outputs(self):
+        raise NotImplementedError
+
+    def inputs_set(self):
+        self._update_outputs()
+
+    def outputs_now(self) -> np.ndarray:
+        return self.out

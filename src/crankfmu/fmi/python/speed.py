@@ -19,10 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contract import MOTOR_PARAMETERS, SPEED_INPUTS, SPEED_OUTPUTS
-from ..integrators.fast import SpeedStepper
-from ..native import SPEED_ROW_FIELDS
-from ..parameters import Parameter
+from ...contract import MOTOR_PARAMETERS, SPEED_INPUTS, SPEED_OUTPUTS
+from ...integrators.fast import SpeedStepper
+from ...native import SPEED_ROW_FIELDS
+from ...parameters import Parameter
 from .core import Declared, SlaveCore
 from .slave import (RowOutputs, build_design, fmu_scenario, lazy_outputs, output_quantities, output_reads,
                     quantity_variables, reaction_variables)

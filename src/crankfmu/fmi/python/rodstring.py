@@ -17,17 +17,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contract import ROD_STRING_OUTPUTS
-from ..dynamics.rodstring import RodString
-from ..dynamics.well import load_well
-from .core import Declared, SlaveCore
+from ...contract import ROD_STRING_OUTPUTS
+from ...dynamics.rodstring import RodString
+from ...dynamics.well import load_well
+from .core import ComponentCore, Declared
 
 
 def declared(well_file) -> Declared:
     return Declared.of_file(ROD_STRING_OUTPUTS, well_file)
 
 
-class RodStringCore(SlaveCore):
+class RodStringCore(ComponentCore):
     def __init__(self, slave, well_name: str):
         self.file = load_well(well_name)
         super().__init__(slave, self.file.experiment.start_time)
@@ -56,12 +56,6 @@ class RodStringCore(SlaveCore):
             self.hung = True
         self.string.advance(self.values["s"] + self.values["v"] * h, h)
         self._update_outputs()
-
-    def inputs_set(self):
-        self._update_outputs()
-
-    def outputs_now(self) -> np.ndarray:
-        return self.out
 
     def model_state(self):
         """The string's state as plain numbers and lists: the host may serialize it (canSerializeFMUstate)."""
