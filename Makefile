@@ -196,7 +196,7 @@ bench: $(DEV_STAMP) fmu
 # the drop-in check: fmpy, the ecos C++ command, ecospy and libcosim on FourBar.fmu and
 # FourBarDrive.ssp (co-simulation error at 10, 1 and 0.1 ms against the coupled model in process)
 hosts: $(DEV_STAMP) fmu
-	$(BIN)/crankfmu fmu tests/data/user/togglepress_scenario.toml --out build/fmus
+	$(BIN)/crankfmu fmu validation/data/togglepress_scenario.toml --out build/fmus
 	$(BIN)/crankfmu hosts --out build/hosts
 
 # 1,800 short host processes (300 per FMU: fmpy and the C driver, logging on and off, a refused

@@ -39,7 +39,8 @@ def _guide_scenario(tmp_path_factory):
     return str(folder / "press_scenario.toml")
 
 
-SCENARIOS = [*available_scenarios(), *sorted(str(p) for p in USER.glob("*_scenario.toml")), "guide"]
+PRESS = Path(__file__).resolve().parents[1] / "validation" / "data" / "togglepress_scenario.toml"
+SCENARIOS = [*available_scenarios(), *sorted(str(p) for p in USER.glob("*_scenario.toml")), str(PRESS), "guide"]
 
 
 @pytest.fixture(scope="module")

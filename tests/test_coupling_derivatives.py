@@ -19,7 +19,7 @@ import pytest
 from crankfmu.cli import main
 
 HERE = Path(__file__).resolve().parent
-PRESS = HERE / "data" / "user" / "togglepress_scenario.toml"
+PRESS = HERE.parent / "validation" / "data" / "togglepress_scenario.toml"
 
 #: what each build is made from (crankfmu fmu's arguments) and the input steps a dependency test sets
 BUILDS = {

@@ -21,7 +21,7 @@ from wine import run_win64_under_wine
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 FIELDS = ("phi1", "omega1", "epsilon1", "M_motor", "M_load", "J_red", "E_kin", "W_motor", "W_load")
-PRESS = HERE / "data" / "user" / "togglepress_scenario.toml"
+PRESS = HERE.parent / "validation" / "data" / "togglepress_scenario.toml"
 #: the six packaged scenarios and the guide's press (a user's file), by FMU name
 SCENARIOS = {"FourBar": "seed000", "ThreeLoop": "seed001", "SliderCrank": "seed002", "Shaper": "seed003",
              "QuickReturn": "seed004", "PumpJack": "pumpjack", "TogglePress": str(PRESS)}

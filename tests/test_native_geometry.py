@@ -30,7 +30,7 @@ ROOT = HERE.parent
 USER = HERE / "data" / "user"
 SCENARIOS = {"FourBar": "seed000", "ThreeLoop": "seed001", "SliderCrank": "seed002", "Shaper": "seed003",
              "QuickReturn": "seed004", "PumpJack": "pumpjack", "Whitworth": str(USER / "whitworth_scenario.toml"),
-             "SixBar": str(USER / "sixbar_loads_scenario.toml"), "TogglePress": str(USER / "togglepress_scenario.toml")}
+             "SixBar": str(USER / "sixbar_loads_scenario.toml"), "TogglePress": str(HERE.parent / "validation" / "data" / "togglepress_scenario.toml")}
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ from crankfmu.dynamics.reactions import joint_reactions, reaction_arrays, reacti
 from switches import away_from_switches
 
 HERE = Path(__file__).resolve().parent
-PRESS = HERE / "data" / "user" / "togglepress_scenario.toml"
+PRESS = HERE.parent / "validation" / "data" / "togglepress_scenario.toml"
 #: the reactions' terms are tabulated to 1e-8 of each term's largest magnitude
 #: (fmi.python.slave.REACTION_TOLERANCE); a reaction sums a few terms times the state's weights,
 #: so 1e-8 of the mechanism's largest reaction bounds it with margin (measured 1.3e-10 on seed 001)

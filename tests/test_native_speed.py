@@ -25,7 +25,7 @@ from test_causality import Host
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-PRESS = HERE / "data" / "user" / "togglepress_scenario.toml"
+PRESS = HERE.parent / "validation" / "data" / "togglepress_scenario.toml"
 #: the contract outputs of the speed-causal FMU the kernel's row gives
 CONTRACT = ("phi1", "epsilon1", "tau_drive", "M_load", "J_red", "E_kin", "W_drive", "W_load", "W_ext")
 

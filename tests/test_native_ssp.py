@@ -26,7 +26,7 @@ from crankfmu.cli import main
 from crankfmu.fmi.ssp import SYSTEMS, built_values, write_ssp
 
 ROOT = Path(__file__).resolve().parents[1]
-PRESS = ROOT / "tests" / "data" / "user" / "togglepress_scenario.toml"
+PRESS = ROOT / "validation" / "data" / "togglepress_scenario.toml"
 #: the FMUs of the four systems, and how each is built
 BUILDS = {"FourBar": ["seed000"], "FourBarSpeed": ["seed000", "--causality", "speed"],
           "Drive": ["dc_pi", "--drive"], "DriveSpeed": ["dc_pi", "--drive", "--causality", "speed"],

@@ -29,7 +29,8 @@ from crankfmu.scenario import load_scenario
 from switches import away_from_switches
 
 USER = Path(__file__).resolve().parent / "data" / "user"
-CASES = [("seed002", None), ("seed003", None), ("seed004", None), (str(USER / "togglepress_scenario.toml"), -500.0),
+PRESS = Path(__file__).resolve().parents[1] / "validation" / "data" / "togglepress_scenario.toml"
+CASES = [("seed002", None), ("seed003", None), ("seed004", None), (str(PRESS), -500.0),
          (str(USER / "whitworth_scenario.toml"), None)]
 
 

@@ -21,7 +21,7 @@ from crankfmu.scenario import Scenario, load_scenario
 
 HERE = Path(__file__).resolve().parent
 #: the knuckle-joint press of the user's guide tests, with a ram port along +y at E
-PRESS = HERE / "data" / "user" / "togglepress_scenario.toml"
+PRESS = HERE.parent / "validation" / "data" / "togglepress_scenario.toml"
 
 
 def _variant(path, **changes) -> Scenario:

@@ -17,7 +17,7 @@ from crankfmu.cli import main
 pytest.importorskip("ecospy")
 pytest.importorskip("libcosimpy")
 
-PRESS = Path(__file__).resolve().parent / "data" / "user" / "togglepress_scenario.toml"
+PRESS = Path(__file__).resolve().parents[1] / "validation" / "data" / "togglepress_scenario.toml"
 STOP = 3.0
 
 

@@ -23,7 +23,7 @@ from crankfmu.fmi.python.slave import REACTION_TOLERANCE
 from switches import away_from_switches
 from crankfmu.scenario import Scenario, load_scenario
 
-PRESS = Path(__file__).resolve().parent / "data" / "user" / "togglepress_scenario.toml"
+PRESS = Path(__file__).resolve().parents[1] / "validation" / "data" / "togglepress_scenario.toml"
 
 
 @pytest.fixture(scope="module")

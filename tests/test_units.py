@@ -99,7 +99,7 @@ def test_every_unit_crankfmu_declares_reads():
 
 def test_a_bad_unit_is_refused_by_check_with_the_file_line_and_parameter(tmp_path, capsys):
     for name in ("togglepress.toml", "togglepress_scenario.toml"):
-        shutil.copy(USER / name, tmp_path / name)
+        shutil.copy(USER.parents[2] / "validation" / "data" / name, tmp_path / name)
     scenario = tmp_path / "togglepress_scenario.toml"
     text = scenario.read_text()
     line = next(i for i, l in enumerate(text.splitlines(), start=1) if l.startswith("k_cushion"))

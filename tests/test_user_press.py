@@ -1,4 +1,4 @@
-"""A user's knuckle-joint press (tests/data/user/togglepress*.toml), written from the guide alone:
+"""A user's knuckle-joint press (validation/data/togglepress*.toml, where the harness's coupled press scene reads it too), written from the guide alone:
 two contours, a vertical ram, a spring-damper cushion, a pressing force that depends on the ram's
 direction and a torsion spring on a toggle link, its parameters in units a press designer writes
 (N/m, N.m/rad, Pa, m2, kg/m3, m3: none in crankfmu's old fixed table of units). It passes the
@@ -17,7 +17,7 @@ from crankfmu.check import check_scenario
 from crankfmu.cli import main
 from conftest import assert_two_integrators_agree_and_energy_closes
 
-SCENARIO = Path(__file__).resolve().parent / "data" / "user" / "togglepress_scenario.toml"
+SCENARIO = Path(__file__).resolve().parents[1] / "validation" / "data" / "togglepress_scenario.toml"
 
 #: the units of the old fixed table (contract.BASE_UNITS before units.py): the press must go beyond
 OLD_TABLE = {"1", "s", "m", "rad", "rad/s", "rad/s2", "N.m", "J", "kg.m2", "kg/m", "N.m.s/rad", "m/s2", "m/s",

@@ -34,8 +34,9 @@ from crankfmu.fmi.ssp import SYSTEMS, drive_values
 from crankfmu.validation.cosim import Coupling, cosimulate
 from crankfmu.validation.coupling import coupled_reference, machine_inertia, shaft_damping, shaft_reference
 
-#: the knuckle-joint press of the tests, a user's scenario file (PressCushion.ssp's press)
-PRESS = Path(__file__).resolve().parents[1] / "tests" / "data" / "user" / "togglepress_scenario.toml"
+#: the knuckle-joint press, a user's scenario file beside the harness (PressCushion.ssp's press;
+#: the tests read it there too): installed with crankfmu.validation, so the harness finds it anywhere
+PRESS = Path(__file__).resolve().parent / "data" / "togglepress_scenario.toml"
 #: the native FMUs the scenes use: name -> crankfmu fmu's arguments (FMI 2.0)
 BUILDS = {
     "FourBar": ["seed000", "--native"],

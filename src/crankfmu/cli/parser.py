@@ -216,7 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
                                                          "PressCushion", "PumpingWell", "well"),
                    help="which SSP (default: FourBarDrive and FourBarDriveSpeed; DriveShaftFourBar needs DriveSpeed.fmu, "
                         "ElasticShaft.fmu and FourBar.fmu; PressCushion needs TogglePress.fmu, "
-                        "built from tests/data/user/togglepress_scenario.toml, and DieCushion.fmu; PumpingWell, or well: PumpJack.fmu "
+                        "built from validation/data/togglepress_scenario.toml, and DieCushion.fmu; PumpingWell, or well: PumpJack.fmu "
                         "and RodString.fmu)")
     p.set_defaults(func=cmd_ssp)
 
