@@ -200,3 +200,25 @@ def test_the_default_experiments_output_follows_the_machines_speed(name):
     run = crankfmu.simulate(scenario, method="fast")
     step = scenario.experiment.output_interval
     assert math.degrees(float(np.max(np.abs(run.omega1))) * step) <= 3.0, (name, step, float(np.max(run.omega1)))
+
+
+def test_a_title_wider_than_its_figure_is_drawn_smaller_until_it_fits(tmp_path):
+    """A long title over a panel narrowed by its legend outside ran off the figure's left edge
+    (engine1's flywheel figure): save_figure draws it again smaller until it fits."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from crankfmu.atomic import save_figure
+    from crankfmu.plots import legend_outside
+
+    fig, ax = plt.subplots(figsize=(8, 4), constrained_layout=True)
+    ax.plot([0, 1], [0, 1], label="a legend label long enough to narrow the panel")
+    legend_outside(ax)
+    ax.set_title("a title far wider than the panel under it " * 4)
+    size = ax.title.get_fontsize()
+    save_figure(fig, tmp_path / "long.png", dpi=120)
+    box = ax.title.get_window_extent(fig.canvas.get_renderer())
+    assert box.x0 >= -0.5 and box.x1 <= fig.bbox.width + 0.5
+    assert ax.title.get_fontsize() < size
+    plt.close(fig)

@@ -49,4 +49,28 @@ def save_figure(fig, path, caption: str = "", scenario: str = "", **savefig) -> 
                                "Description": caption, "Source": scenario}
     with replacing(path) as temporary:
         fig.savefig(temporary, format=path.suffix.lstrip(".") or None, **savefig)
+        # a title wider than the figure (a long one over a panel narrowed by its legend) runs off
+        # its edge: drawn again smaller until it fits, where the first drawing shows it does not
+        for _ in range(0 if savefig.get("bbox_inches") == "tight" else 8):    # (tight: the page grows)
+            if not _shrink_titles_off_the_figure(fig):
+                break
+            fig.savefig(temporary, format=path.suffix.lstrip(".") or None, **savefig)
     return path
+
+
+def _shrink_titles_off_the_figure(fig) -> bool:
+    """Make each title that the last drawing put partly outside the figure 10 % smaller; whether
+    there was one."""
+    renderer = fig.canvas.get_renderer()
+    width = fig.bbox.width
+    titles = [fig._suptitle] if fig._suptitle is not None else []
+    titles += [t for ax in fig.axes for t in (ax.title, ax._left_title, ax._right_title)]
+    shrunk = False
+    for text in titles:
+        if not text.get_text() or not text.get_visible():
+            continue
+        box = text.get_window_extent(renderer)
+        if box.x0 < -0.5 or box.x1 > width + 0.5:
+            text.set_fontsize(text.get_fontsize() * 0.9)
+            shrunk = True
+    return shrunk

@@ -121,7 +121,9 @@ def plot_movement(study, path: Path) -> Path:
         legend_outside(ax, fontsize=8)
     J = float(scenario["J_flywheel"])
     start = f"from omega1 = {reference.omega1[0]:g} rad/s {flywheel_words(J, study.design.baseline_J_flywheel)}"
-    a1.set_title(f"{scenario.name}: {start}{paper_figures(scenario, 5, 6)}")
+    # over the figure, not the first panel: the panels are narrowed by their legends outside, and a
+    # title centred on one ran off the figure's left edge
+    fig.suptitle(f"{scenario.name}: {start}{paper_figures(scenario, 5, 6)}")
     settled = study.movement.get("settled_within_1e-3_at_deg")
     save_figure(fig, path, dpi=120, scenario=scenario.name,
                 caption=f"The run {start} (the flywheel the design starts from): crank speed by the reference and by "
@@ -145,7 +147,7 @@ def plot_flywheel(study, path: Path) -> Path:
     a1.set_ylabel("omega1 [rad/s]")
     a2.set_ylabel("epsilon1 [rad/s2]")
     turn_axis(a2, angle_label(offset) + " (steady cycle)", design.without.angle)
-    a1.set_title(f"{scenario.name}: the steady cycle {base}\nand {sized}{paper_figures(scenario, 7)}: peaks of omega1 "
+    fig.suptitle(f"{scenario.name}: the steady cycle {base}\nand {sized}{paper_figures(scenario, 7)}: peaks of omega1 "
                  f"-{100 * design.omega_peak_reduction:.2f} %, of |epsilon1| -{100 * design.epsilon_peak_reduction:.1f} %")
     for ax in (a1, a2):
         ax.grid(alpha=0.3)
@@ -203,7 +205,7 @@ def plot_turning_moment(study, path: Path) -> Path:
     a1.fill_between(deg, driving, resisting, where=driving < resisting, color="tab:red", alpha=0.35,
                     interpolate=True, label="energy from it")
     a1.set_ylabel("torque on the crank [N.m]")
-    a1.set_title(f"{scenario.name}: turning moment at omega_m = {omega:.4g} rad/s")
+    fig.suptitle(f"{scenario.name}: turning moment at omega_m = {omega:.4g} rad/s")
     a2.plot(deg, swing, color="black", lw=1.2, label="the energy stored:\nthe driving less the\nresisting work")
     lo, hi = int(np.argmin(swing)), int(np.argmax(swing))
     a2.plot([deg[lo], deg[hi]], [swing[lo], swing[hi]], "o", color="tab:blue", ms=5,
