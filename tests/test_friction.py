@@ -229,3 +229,22 @@ def test_bad_friction_options_exit_with_one_line(tmp_path, capsys, args, message
     assert main(["equilibrium", "seed001", "--out", str(tmp_path / "x"), *args]) == 1
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_joint_whose_links_never_turn_relative_to_each_other_has_no_friction(scenario):
+    """A pin between two links that keep their relative angle (here the slider and the frame: it
+    only translates) does no friction work and has no direction: its rate is exactly 0 and it has
+    no switch angles (round-off's sign would otherwise switch it everywhere)."""
+    from crankfmu.dynamics.friction import JointFriction, JointFrictions
+    from crankfmu.mechanisms.definition import JointDefinition
+
+    model = scenario.build()
+    still = JointFriction(JointDefinition("X", "revolute", "B", ("ground", "slider")), 0, 0.1, 0.01)
+    moving = model.reduced.friction.frictions[2]                      # pin B: the rod on the slider
+    frictions = JointFrictions(model.mechanism, model.reduced.links, [still, moving])
+    assert list(frictions.moving) == [False, True]
+    kin = model.mechanism.kinematics(np.linspace(0.1, 6.0, 9))
+    rates = frictions.rates(kin)
+    assert np.all(rates[0] == 0.0) and np.all(frictions.signs(kin, 1.0)[:, 0] == 0.0)
+    # pin B turns round where the rod is square to the guide's axis: at 90 and 270 deg
+    np.testing.assert_allclose(np.degrees(frictions.switch_angles()), [90.0, 270.0], atol=1e-9)

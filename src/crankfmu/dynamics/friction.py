@@ -129,6 +129,7 @@ class JointFrictions:
         self.centres = {link.name: link.centre for link in links}
         self.coefficients = np.array([f.coefficient for f in self.frictions])
         self._switch = None
+        self._moving = None           # (n_f,) whether each joint's links move relative to each other
 
     def __len__(self) -> int:
         return len(self.frictions)
@@ -147,8 +148,23 @@ class JointFrictions:
         q = kin.link_angle(link)[1]
         return c.dx - q * (p.y - c.y), c.dy + q * (p.x - c.x)
 
+    @property
+    def moving(self) -> np.ndarray:
+        """(n_f,) whether each joint's two links move relative to each other somewhere in the turn
+        (found once, on 720 angles)."""
+        if self._moving is None:
+            scan = self._raw_rates(self.mechanism.kinematics(np.linspace(0.0, 2.0 * math.pi, 720, endpoint=False)))
+            peak = np.max(np.abs(scan), axis=1)
+            self._moving = peak > 1e-12 * max(1.0, float(np.max(peak)))
+        return self._moving
+
     def rates(self, kin) -> np.ndarray:
-        """k_i (n_f, n): each friction's relative rate per crank speed, rad/rad or m/rad."""
+        """k_i (n_f, n): each friction's relative rate per crank speed, rad/rad or m/rad; exactly 0
+        for a joint whose two links never move relative to each other (its friction does no work
+        and has no direction: none, rather than one of round-off's sign)."""
+        return self._raw_rates(kin) * self.moving[:, None]
+
+    def _raw_rates(self, kin) -> np.ndarray:
         out = []
         for friction in self.frictions:
             joint = friction.joint
@@ -167,8 +183,9 @@ class JointFrictions:
         turns round there (found once)."""
         if self._switch is None:
             found = []
-            for i in range(len(self.frictions)):
-                found += [angle for angle, _, _ in self.mechanism.crossings(lambda kin, i=i: self.rates(kin)[i], [0.0])]
+            for i in np.flatnonzero(self.moving):
+                found += [angle for angle, _, _ in self.mechanism.crossings(lambda kin, i=i: self._raw_rates(kin)[i],
+                                                                           [0.0])]
             self._switch = sorted(found)
         return self._switch
 
