@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import DefinitionError, ParameterError, SchemeError
+from ..errors import ParameterError, SchemeError
 from .loads import AppliedLoad
 
 #: Newton's iterations on the frictions at most (it converges quadratically: 3 to 5 in practice)

@@ -64,7 +64,7 @@ class LoadClauses:
     """What the scenario compiler (program_scenario._Compiler) knows of the loads."""
 
     def _value(self, spec, key, at):
-        """A load's magnitude register, checked >= 0 at binding (Scenario._load_value)."""
+        """A load's magnitude register, checked >= 0 at binding (scenario_loads.load_value)."""
         reg = self.c.expression(spec[key], self.env, f"{at} {key}")
         self.checks.append((reg, f"{at}: the load's {key} {spec[key]}"))
         return reg
