@@ -40,7 +40,11 @@ def _guide_scenario(tmp_path_factory):
 
 
 PRESS = Path(__file__).resolve().parents[1] / "validation" / "data" / "togglepress_scenario.toml"
-SCENARIOS = [*available_scenarios(), *sorted(str(p) for p in USER.glob("*_scenario.toml")), str(PRESS), "guide"]
+# a scenario with joint friction is not the C model's yet (issue 69: the fast path, the tables and the FMUs
+# refuse it by name, tests/test_friction.py)
+SCENARIOS = [*available_scenarios(),
+             *sorted(str(p) for p in USER.glob("*_scenario.toml") if "friction" not in load_scenario(p).data),
+             str(PRESS), "guide"]
 
 
 @pytest.fixture(scope="module")

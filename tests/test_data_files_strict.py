@@ -24,9 +24,11 @@ from crankfmu.schema import SCHEMAS, schema_json
 ROOT = Path(__file__).resolve().parents[1]
 ENGINE = ROOT / "tests" / "data" / "user" / "engine2s_scenario.toml"
 FILES = {
-    "scenario": glob.glob(str(ROOT / "src/crankfmu/scenarios/*.toml")) + glob.glob(str(ROOT / "tests/data/user/*_scenario.toml")),
+    "scenario": glob.glob(str(ROOT / "src/crankfmu/scenarios/*.toml")) + glob.glob(str(ROOT / "tests/data/user/*_scenario.toml"))
+    + glob.glob(str(ROOT / "validation/data/*_scenario.toml")),
     "mechanism": glob.glob(str(ROOT / "src/crankfmu/mechanisms/files/*.toml"))
-    + [f for f in glob.glob(str(ROOT / "tests/data/user/*.toml")) if not f.endswith("_scenario.toml")],
+    + [f for f in glob.glob(str(ROOT / "tests/data/user/*.toml")) + glob.glob(str(ROOT / "validation/data/*.toml"))
+       if not f.endswith("_scenario.toml")],
     "drive": glob.glob(str(ROOT / "src/crankfmu/drives/*.toml")),
     "cushion": glob.glob(str(ROOT / "src/crankfmu/elements/*.toml")),
     "shaft": glob.glob(str(ROOT / "src/crankfmu/shafts/*.toml")),
