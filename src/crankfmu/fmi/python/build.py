@@ -52,7 +52,7 @@ PACKAGE = HERE.parents[1]       # the crankfmu package, shipped in every FMU's r
 #: slave. Studies, plots, sweeps, the CLI, the harness, the build step and the scipy-based
 #: integrators stay out (tests/test_fmu_dropin.py runs the FMUs where scipy cannot be imported).
 RUNTIME = ("__init__.py", "cache.py", "contract.py", "errors.py", "expressions.py", "numerics.py", "scenario.py",
-           "units.py",
+           "scenario_loads.py", "units.py",
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "native",
            "fmi/__init__.py", "fmi/python/__init__.py", "fmi/python/core.py", "fmi/python/slave.py",
