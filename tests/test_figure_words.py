@@ -23,8 +23,9 @@ FOREIGN = {"seed003": ("gas", "generator", "piston", "the file's flywheel"),
 
 
 def figure_texts(fig) -> list[str]:
-    """Every word a reader sees: the titles, the axis labels, the legends' entries, annotations."""
-    texts = []
+    """Every word a reader sees: the titles (the figure's and its panels'), the axis labels, the
+    legends' entries, annotations."""
+    texts = [fig._suptitle.get_text()] if fig._suptitle is not None else []
     for ax in fig.axes:
         texts += [ax.get_title(), ax.get_xlabel(), ax.get_ylabel()]
         legend = ax.get_legend()
