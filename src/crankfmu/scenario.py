@@ -246,12 +246,7 @@ class Scenario:
         friction_entries = self.friction_entries(definition)
         frictions = joint_frictions(definition, friction_entries, values, self.where) if friction_entries else []
         prepared = table_built = None
-        if table is not None and frictions:
-            raise DefinitionError(
-                f"{self.where}: joint friction ({in_words([f.name for f in frictions])}) is held by the reference, "
-                "radau and dopri5 methods and the joint reactions so far: the fast path, the tables and the FMUs "
-                "do not take it yet (issue 69); simulate with method='reference', or set its mu to 0")
-        if table is not None:
+        if table is not None and not frictions:     # (the C model takes no joint friction yet: the engine's tables)
             from .dynamics.tabulated import c_model, c_table
             prepared = c_model(self, values)
             table_built = prepared and c_table(self, values, table, prepared)

@@ -351,11 +351,21 @@ class MovementEquation:
         for port, value in zip(self.ports, self.port_values(times)):
             loads += port.applied(kin, value)
         ne.applied(b, loads)
-        signs = self.friction.signs(kin, omega1)
-        extra, f, _, generalised = self.friction.forward(ne, b, J + np.zeros_like(phi1), signs)
+        J = J + np.zeros_like(phi1)
+        # at rest the frictions are those of the motion that follows, as the integrators take them
+        # (modes.direction_at_rest): forward where the crank accelerates forward with them
+        direction = np.sign(omega1)
+        rest = direction == 0.0
+        if np.any(rest):
+            eps_forward = epsilon1 + self.friction.forward(ne, b, J, self.friction.signs(kin, 1.0))[0]
+            eps_backward = epsilon1 + self.friction.forward(ne, b, J, self.friction.signs(kin, -1.0))[0]
+            direction = np.where(rest, np.where(eps_forward > 0.0, 1.0, np.where(eps_backward < 0.0, -1.0, 0.0)),
+                                 direction)
+        signs = self.friction.signs(kin, direction)
+        extra, f, _, generalised = self.friction.forward(ne, b, J, signs)
         # where the speed is held, the motion is prescribed: the frictions of eps = 0
         if np.any(sliding):
-            _, f_held, _, g_held = self.friction.forward(ne, b, J + np.zeros_like(phi1), signs, held=True)
+            _, f_held, _, g_held = self.friction.forward(ne, b, J, signs, held=True)
             f, generalised = np.where(sliding[:, None], f_held, f), np.where(sliding, g_held, generalised)
             extra = np.where(sliding, 0.0, extra)
         rates = self.friction.rates(kin)

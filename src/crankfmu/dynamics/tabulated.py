@@ -76,11 +76,14 @@ class ReducedTable:
     powers: np.ndarray | None = None
     #: the laws g(omega1) of the columns of power LAW (speed_laws.ColumnLaws), None where none has one
     laws: object = None
+    #: the joints' friction (friction_table.FrictionTable), None without any
+    friction: object = None
 
     def arrays(self) -> tuple:
-        """(coefficients, switch_angles, forces, n_ports, period, powers, laws): the table as the C
-        kernel takes it (native.Tables)."""
-        return self.coefficients, self.switch_angles, self.forces, self.n_ports, self.period, self.powers, self.laws
+        """(coefficients, switch_angles, forces, n_ports, period, powers, laws, friction): the table
+        as the C kernel takes it (native.Tables)."""
+        return (self.coefficients, self.switch_angles, self.forces, self.n_ports, self.period, self.powers, self.laws,
+                self.friction)
 
     @property
     def n_intervals(self) -> int:
@@ -239,6 +242,14 @@ def table_of(reduced: ReducedModel, tolerance: float = 1e-11) -> ReducedTable:
     in the flywheel or the motor share one table.
     """
     tables = _TABLES.setdefault(reduced, {})
+    if tolerance not in tables and reduced.friction is not None:
+        # the joints' friction: its switch angles and its table are the Python engine's (the C
+        # model does not take friction yet)
+        from .friction_table import tabulate_frictions
+        table = tabulate(reduced, tolerance)
+        table.friction = tabulate_frictions(reduced, tolerance)
+        table.error_bound = max(table.error_bound, table.friction.error_bound)
+        tables[tolerance] = table
     if tolerance not in tables:
         source = getattr(reduced, "source", None)
         table = c_table(*source, tolerance, getattr(reduced, "c_model", None)) if source is not None else None
@@ -345,7 +356,7 @@ class ReactionTable:
     coefficients  (n_components n_terms, n, 4): component-major, terms in the order REACTION_TERMS,
                   the switched loads' columns (the reduced table's order), the ports
     names         the components' output names (dynamics.reactions.reaction_outputs' order)
-    n_terms       4 + switched columns + ports
+    n_terms       4 + switched columns + ports (+ one per joint friction: its value)
     error_bound   the checked largest relative difference from the Newton-Euler solve
     """
 
@@ -357,12 +368,15 @@ class ReactionTable:
     period: float = TWO_PI       # rad: the machine's cycle (the loads' terms repeat over it)
 
 
-def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: int = 1 << 16,
-                       loosest: float = 1e-8) -> ReactionTable:
-    """The coefficients of every joint reaction (ReactionTable) as periodic cubics, to
-    ``tolerance`` relative to each function's largest magnitude, by the reduced table's
-    constructions. Each term is one Newton-Euler solve with that part of the loads alone."""
+def reaction_terms(reduced: ReducedModel):
+    """(names, n_terms, terms, solve): the joint reactions' outputs, their number of terms (the
+    kernel's reaction weights: REACTION_TERMS, the switched columns, the ports, and with joint
+    friction one per friction, its value: ck_reaction_values), ``terms(phi1)`` (components, terms,
+    angles) by one Newton-Euler solve per term with that part of the loads alone, and
+    ``solve(phi1, extra=...)`` (components, angles) for other applied loads alone."""
     from .reactions import joint_reactions, reaction_arrays, reaction_outputs
+
+    n_f = 0 if reduced.friction is None else len(reduced.friction)
 
     names = tuple(name for name, _, _ in reaction_outputs(reduced.mechanism.definition))
     fixed = [load for load in reduced.loads if load.position_only]
@@ -397,14 +411,29 @@ def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: i
             out.append(solve(phi1, extra=lambda kin, load=load, j=j: load.column_applied(kin, j)))
         for port in reduced.ports:
             out.append(solve(phi1, extra=lambda kin, port=port: port.applied(kin, 1.0)))
+        for i in range(n_f):                        # each joint friction at value 1 alone
+            out.append(solve(phi1, extra=lambda kin, i=i: reduced.friction.unit_loads(kin, i)))
         return np.stack(out, axis=1)                # (components, terms, angles)
 
-    n_terms = len(REACTION_TERMS) + len(columns) + len(reduced.ports)
-    # a term a component does not have (a damper's on a pin it does not load, a port's on a joint
-    # it bypasses) is zero up to the solve's round-off: exactly zero in the table, so that round-off
-    # is not tabulated to a relative tolerance
-    probe = terms(np.linspace(0.0, reduced.period, 97 * reduced.cycle_turns)[:-1])
-    keep = np.max(np.abs(probe), axis=2) > 1e-12 * np.max(np.abs(probe), axis=(0, 2))[None, :]
+    return names, len(REACTION_TERMS) + len(columns) + len(reduced.ports) + n_f, terms, solve
+
+
+def zero_terms(terms, period: float, cycle_turns: int) -> np.ndarray:
+    """(components, terms) whether each term of ``terms(phi1)`` is kept: a term a component does
+    not have (a damper's on a pin it does not load, a port's on a joint it bypasses) is zero up to
+    the solve's round-off, and exactly zero in the table, so that round-off is not tabulated to a
+    relative tolerance (a probe of 96 angles per turn)."""
+    probe = terms(np.linspace(0.0, period, 97 * cycle_turns)[:-1])
+    return np.max(np.abs(probe), axis=2) > 1e-12 * np.max(np.abs(probe), axis=(0, 2))[None, :]
+
+
+def tabulate_reactions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: int = 1 << 16,
+                       loosest: float = 1e-8) -> ReactionTable:
+    """The coefficients of every joint reaction (ReactionTable) as periodic cubics, to
+    ``tolerance`` relative to each function's largest magnitude, by the reduced table's
+    constructions. Each term is one Newton-Euler solve with that part of the loads alone."""
+    names, n_terms, terms, _ = reaction_terms(reduced)
+    keep = zero_terms(terms, reduced.period, reduced.cycle_turns)
 
     def engine(phi1):
         return (terms(phi1) * keep[:, :, None]).reshape(len(names) * n_terms, -1)

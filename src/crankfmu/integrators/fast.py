@@ -75,6 +75,9 @@ class FastIntegrator(Integrator):
         else:
             ramp = np.array([t0, t_end])
         rows = np.zeros((times.size, kernel.OUT_SIZE))
+        friction = equation.friction is not None
+        # with joint friction: each output time's frictions and their generalised force (n_f + 1)
+        frictions = np.zeros((times.size, len(equation.friction) + 1)) if friction else None
         i_out = 0
         stores, events, modes = [S[None, :].copy()], [], [(float(t0), _mode_name(S))]
         k = 0
@@ -84,8 +87,14 @@ class FastIntegrator(Integrator):
             store = np.empty((self.chunk, kernel.STATE_SIZE))     # the kernel fills each row it counts
             ev = np.empty((self.chunk, 3))
             md = np.empty((self.chunk, 4))
+            i_first = i_out
             status, i_out, n_store, n_ev, n_md = kernel.run_chunk(
                 S, float(ramp[k + 1]), times, i_out, rows, store, 0, ev, 0, md, 0, stepper.tables, stepper.P)
+            if friction and i_out > i_first:
+                # (from the chunk's steps and the one before: an output at the chunk's start is there)
+                steps = np.concatenate([stores[-1][-1:], store[:n_store]])
+                frictions[i_first:i_out] = kernel.friction_values(steps, times[i_first:i_out], stepper.tables,
+                                                                  stepper.P)
             stores.append(store[:n_store])
             events += [(float(t), hybrid.event_name(int(slot), motor)) for t, slot, motor in ev[:n_ev]]
             modes += [(float(r[0]), _mode_name(r[1:], row=True)) for r in md[:n_md]]
@@ -99,15 +108,38 @@ class FastIntegrator(Integrator):
             if status != 1:                     # 1: a buffer is full, the next chunk continues
                 refused(status, S)
         store = np.concatenate(stores)
-        trajectory = Trajectory(t=store[:, kernel.T].copy(), y=store[:, kernel.Y:kernel.Y + 5].T.copy(),
-                                dense=lambda tt: dense_from_store(store, tt), events=events, modes=modes,
+        n_y = equation.state_size           # (W_friction is a state with joint friction)
+        trajectory = Trajectory(t=store[:, kernel.T].copy(), y=store[:, kernel.Y:kernel.Y + n_y].T.copy(),
+                                dense=lambda tt: dense_from_store(store, tt)[:n_y], events=events, modes=modes,
                                 n_rhs=int(S[kernel.N_RHS]), n_steps=int(S[kernel.N_STEPS]))
         if output_times is not None:
-            outputs = dict(zip(kernel.ROW_FIELDS[5:], rows[:, 5:].T))
-            trajectory.outputs = {"state": rows[:, :5].T, **outputs,
+            plain = kernel.N_PLAIN
+            outputs = dict(zip(kernel.PLAIN_ROW_FIELDS[plain:], rows[:, plain:len(kernel.PLAIN_ROW_FIELDS)].T))
+            state = rows[:, :plain].T
+            if friction:
+                state = np.vstack([state, rows[:, kernel.ROW_FIELDS.index("W_friction")]])
+                outputs.update(_friction_outputs(equation, table, rows, frictions))
+            trajectory.outputs = {"state": state, **outputs,
                                   "E_kin": hybrid.kinetic_energy(outputs["J_red"], rows[:, 1])}
         trajectory.table = table
         return trajectory
+
+
+def _friction_outputs(equation, table, rows, frictions) -> dict:
+    """The joints' friction's outputs (dynamics.friction.friction_outputs: M_friction, each joint's
+    friction and its power) at the output rows, from the kernel's frictions there and the rates'
+    table (the friction table's first functions)."""
+    from ..dynamics.cubics import evaluate_cubics
+
+    n_f = len(equation.friction)
+    rates = evaluate_cubics(table.friction.coefficients[:n_f], rows[:, 0], table.period)
+    omega1 = rows[:, 1]
+    out = {"M_friction": rows[:, kernel.ROW_FIELDS.index("M_friction")]}
+    for i, joint in enumerate(equation.friction.frictions):
+        suffix, _ = joint.output
+        out[f"{joint.name}_{suffix}"] = frictions[:, i]
+        out[f"{joint.name}_Pf"] = frictions[:, i] * rates[i] * omega1
+    return out
 
 
 def refused(status: int, state) -> None:

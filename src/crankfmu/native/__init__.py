@@ -121,6 +121,7 @@ def _load() -> ctypes.CDLL:
         "cc_string_grid": (None, [ctypes.c_int, D, D, D, D, D, D]),
         "ck_quantity_values": (None, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int, D, D, ctypes.c_double,
                                       ctypes.c_double, ctypes.c_double, D, D]),
+        "ck_friction_values": (ctypes.c_int, [D, ctypes.c_double, D, T, D, D]),
         "ck_reaction_values": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, ctypes.c_int, D, ctypes.c_double,
                                               ctypes.c_double, ctypes.c_double, ctypes.c_double, T, D, D, D]),
         "ck_interval_of_rule": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_double, ctypes.c_double, D]),
@@ -149,7 +150,14 @@ class _Tables(ctypes.Structure):
                 ("n", ctypes.c_int), ("switch_angles", ctypes.c_void_p), ("m", ctypes.c_int),
                 ("forces", ctypes.c_void_p), ("n_sliders", ctypes.c_int), ("n_ports", ctypes.c_int),
                 ("period", ctypes.c_double), ("powers", ctypes.c_void_p), ("law", ctypes.c_void_p),
-                ("law_context", ctypes.c_void_p)]
+                ("law_context", ctypes.c_void_p), ("friction", ctypes.c_void_p)]
+
+
+class _Friction(ctypes.Structure):
+    """crank_kernel.h's CkFriction."""
+    _fields_ = [("n_f", ctypes.c_int), ("n_terms", ctypes.c_int), ("coefficients", ctypes.c_void_p),
+                ("n", ctypes.c_int), ("components", ctypes.c_void_p), ("c", ctypes.c_void_p),
+                ("signs", ctypes.c_void_p)]
 
 
 #: crank_kernel.h's CkLaw: g(omega1) of a column of power LAW
@@ -173,7 +181,8 @@ LIBRARY = _load()
 LIBRARY_PATH = Path(LIBRARY._name)
 _LAYOUT_NAMES = ("T", "Y", "F_", "H", "MOTOR", "DIRECTION", "INTERVAL", "PHI_LO", "PHI_HI", "T_PREV", "Y_PREV", "K",
                  "N_RHS", "STEP_MOTOR", "STEP_DIRECTION", "STEP_INTERVAL", "N_STEPS", "STATE_SIZE", "N_Y",
-                 "PARAM_SIZE", "OUT_SIZE", "STEADY_SIZE", "N_STAGES", "N_SLOTS", "MAX_FUNCTIONS")
+                 "PARAM_SIZE", "OUT_SIZE", "STEADY_SIZE", "N_STAGES", "N_SLOTS", "MAX_FUNCTIONS", "N_PLAIN",
+                 "MAX_FRICTIONS", "MAX_FRICTION_FUNCTIONS")
 
 
 def layout() -> dict[str, int]:
@@ -184,13 +193,15 @@ def layout() -> dict[str, int]:
 
 
 _LAYOUT = layout()
-# ---- the state array: t, y[5] (phi1, omega1, W_motor, W_load, W_ext), f[5], the proposed step, the
-# mode (motor branch, direction, switch interval and its bounds), the last step (start, start
-# state, 7x5 stages) for dense output, counters
+# ---- the state array: t, y[6] (phi1, omega1, W_motor, W_load, W_ext, W_friction), f[6], the proposed
+# step, the mode (motor branch, direction, switch interval and its bounds), the last step (start,
+# start state, 7x6 stages) for dense output, counters
 T, Y, F_, H = _LAYOUT["T"], _LAYOUT["Y"], _LAYOUT["F_"], _LAYOUT["H"]
 MOTOR, DIRECTION, INTERVAL = _LAYOUT["MOTOR"], _LAYOUT["DIRECTION"], _LAYOUT["INTERVAL"]
 T_PREV, Y_PREV, K = _LAYOUT["T_PREV"], _LAYOUT["Y_PREV"], _LAYOUT["K"]
 N_RHS, N_STEPS, STATE_SIZE, N_Y = _LAYOUT["N_RHS"], _LAYOUT["N_STEPS"], _LAYOUT["STATE_SIZE"], _LAYOUT["N_Y"]
+#: y's states without joint friction (the sixth, W_friction, stays 0 without it)
+N_PLAIN = _LAYOUT["N_PLAIN"]
 STEP_MOTOR, STEP_DIRECTION = _LAYOUT["STEP_MOTOR"], _LAYOUT["STEP_DIRECTION"]
 PARAM_SIZE, OUT_SIZE, STEADY_SIZE = _LAYOUT["PARAM_SIZE"], _LAYOUT["OUT_SIZE"], _LAYOUT["STEADY_SIZE"]
 # ---- the parameter array (crank_kernel.h's order): the motor line, the inputs (value at T_INPUT
@@ -200,8 +211,12 @@ A_, B_, A_LOW, B_LOW, OMEGA_SWITCH, TAU_EXT, J_FLYWHEEL, RTOL, ATOL, H_MAX, T_IN
 PORT_INPUT, PORT_RATE = 12, 12 + MAX_PORTS
 assert PARAM_SIZE == 12 + 2 * MAX_PORTS
 # ---- the output row: the state, then the contract outputs the tables give, then the external torque
-# on the crank (tau_ext and the ports', N.m: W_ext's rate over omega1)
-ROW_FIELDS = ("phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor", "M_load", "J_red", "tau_e")
+# on the crank (tau_ext and the ports', N.m: W_ext's rate over omega1), the joints' friction's work and
+# its generalised force on the crank (J, N.m; 0 without friction)
+ROW_FIELDS = ("phi1", "omega1", "W_motor", "W_load", "W_ext", "epsilon1", "M_motor", "M_load", "J_red", "tau_e",
+              "W_friction", "M_friction")
+#: the row's fields a model without joint friction has (the last two are 0 there)
+PLAIN_ROW_FIELDS = ROW_FIELDS[:10]
 assert OUT_SIZE == len(ROW_FIELDS)
 #: the output row in speed causality (ck_speed_*): the same layout, the drive in the motor's place
 SPEED_ROW_FIELDS = tuple({"W_motor": "W_drive", "M_motor": "tau_drive"}.get(n, n) for n in ROW_FIELDS)
@@ -262,7 +277,7 @@ class Tables:
     """A design's tables as the C kernel takes them; keeps the arrays alive while in use."""
 
     def __init__(self, coefficients, switch_angles, forces, n_ports: int = 0, period: float = 2.0 * math.pi,
-                 powers=None, laws=None):
+                 powers=None, laws=None, friction=None):
         forces = np.ascontiguousarray(forces, dtype=float)
         columns = forces.shape[2] if forces.ndim == 3 else 0
         self.arrays = (np.ascontiguousarray(coefficients, dtype=float),
@@ -286,10 +301,32 @@ class Tables:
             except Unsupported:     # a law the C model's instructions do not hold: through a callback
                 self.law = _law_callback(laws)
                 function = ctypes.cast(self.law, ctypes.c_void_p).value
+        self.friction = None if friction is None else _friction_struct(friction, sw.shape[0])
         self.struct = _Tables(_d(C), C.shape[0], C.shape[1], _d(sw), sw.shape[0], _d(fo),
                               fo.shape[2] if fo.ndim == 3 else 0, n_ports, period, pw.ctypes.data,
-                              function, context)
+                              function, context,
+                              None if self.friction is None else ctypes.addressof(self.friction[0]))
         self.pointer = ctypes.addressof(self.struct)
+
+
+def _friction_struct(friction, m: int):
+    """(CkFriction, its arrays) of a FrictionTable (dynamics.tabulated), checked against the kernel's
+    bounds."""
+    coefficients = np.ascontiguousarray(friction.coefficients, dtype=float)
+    components = np.ascontiguousarray(friction.components, dtype=np.int32)
+    c = np.ascontiguousarray(friction.c, dtype=float)
+    signs = np.ascontiguousarray(friction.signs, dtype=float)
+    n_f = components.size
+    if n_f > _LAYOUT["MAX_FRICTIONS"] or coefficients.shape[0] > _LAYOUT["MAX_FRICTION_FUNCTIONS"]:
+        raise CrankfmuError(f"the C kernel takes at most {_LAYOUT['MAX_FRICTIONS']} joint frictions and "
+                            f"{_LAYOUT['MAX_FRICTION_FUNCTIONS']} tabulated friction functions, got {n_f} and "
+                            f"{coefficients.shape[0]}")
+    functions = n_f + int(components.sum()) * (friction.n_terms + n_f)
+    if signs.shape != (max(m, 1), n_f) or coefficients.shape[0] != functions:
+        raise CrankfmuError("the friction table does not match the reduced table (its signs or its functions)")
+    struct = _Friction(n_f, friction.n_terms, _d(coefficients), coefficients.shape[1], components.ctypes.data,
+                       _d(c), _d(signs))
+    return struct, (coefficients, components, c, signs)
 
 
 class Bound:
@@ -314,6 +351,24 @@ class Bound:
     def speed_advance(self, t_target: float, omega1: float, rate: float | None) -> int:
         return LIBRARY.ck_speed_advance(self.S, t_target, omega1, 0.0 if rate is None else rate, rate is not None,
                                         self.tables, self.P, self.row)
+
+
+def friction_values(store: np.ndarray, times, tables: "Tables", P) -> np.ndarray:
+    """(len(times), n_f + 1): the frictions f_i (N.m or N) and their generalised force on the crank
+    (N.m) at each time, from the kernel's stored steps (one state per row, in time order; each
+    time within one of their steps), in that step's mode (ck_friction_values)."""
+    n_f = int(tables.friction[0].n_f)
+    out = np.zeros((len(times), n_f + 1))
+    y, row = np.zeros(N_Y), np.zeros(n_f + 1)
+    ends = store[:, T]
+    for i, t in enumerate(np.asarray(times, dtype=float)):
+        k = min(int(np.searchsorted(ends, t, side="left")), len(ends) - 1)
+        S = np.ascontiguousarray(store[k])
+        LIBRARY.ck_dense(_d(S), float(t), _d(y))
+        if LIBRARY.ck_friction_values(_d(S), float(t), _d(y), tables.pointer, _d(P), _d(row)) != n_f:
+            raise CrankfmuError("the kernel's state is corrupted")
+        out[i] = row
+    return out
 
 
 def dense(S, t, out):

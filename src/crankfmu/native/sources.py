@@ -25,11 +25,12 @@ def _in(folder: str, names: tuple) -> tuple:
     return tuple(f"{folder}/{name}" for name in names)
 
 
-#: the mechanism's kernel: its stepper (crank_kernel.c), the drivers callers run (crank_drivers.c),
+#: the mechanism's kernel: its stepper (crank_kernel.c), the joints' friction's solve (crank_friction.c),
+#: the drivers callers run (crank_drivers.c),
 #: the speed-causal step (crank_speed.c), Model Exchange (crank_me.c), the outputs read from their
 #: tables (crank_outputs.c), its constants and rules one by one (crank_facts.c); numbers in messages
-KERNEL = _in("kernel", ("crank_kernel.c", "crank_drivers.c", "crank_speed.c", "crank_me.c", "crank_outputs.c",
-                        "crank_facts.c", "crank_kernel.h", "crank_kernel_internal.h", "crank_modes.h",
+KERNEL = _in("kernel", ("crank_kernel.c", "crank_friction.c", "crank_drivers.c", "crank_speed.c", "crank_me.c",
+                        "crank_outputs.c", "crank_facts.c", "crank_kernel.h", "crank_kernel_internal.h", "crank_modes.h",
                         "crank_tableau.h", "crank_numbers.c", "crank_numbers.h"))
 #: the components' physics (the drive, the cushion, the rod string)
 COMPONENTS = _in("components", ("crank_components.c", "crank_components.h"))

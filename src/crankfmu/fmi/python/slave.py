@@ -90,8 +90,9 @@ def output_tables(scenario, model) -> tuple:
     and the Python FMU's read costs a few multiply-adds, not a Newton-Euler solve."""
     quantities = output_quantities(scenario, model.reduced.ports)
     reactions = bool(reaction_variables(scenario))
-    # by the C model, as the native FMU builds them (the Python engine where it cannot)
-    built = c_output_tables(scenario, model.reduced.source[1], quantities, TABLE_TOLERANCE, REACTION_TOLERANCE,
+    # by the C model, as the native FMU builds them (the Python engine where it cannot, and with joint
+    # friction, whose unit terms the C model does not tabulate yet)
+    built = None if model.reduced.friction is not None else c_output_tables(scenario, model.reduced.source[1], quantities, TABLE_TOLERANCE, REACTION_TOLERANCE,
                             reactions, getattr(model.reduced, "c_model", None))
     if built is not None:
         return built
@@ -116,6 +117,19 @@ def quantity_variables(scenario) -> list:
     definition = scenario.mechanism_definition()
     return [Variable(q.name, q.unit(definition), q.description, depends=QUANTITY_DEPENDS[q.order])
             for q in output_quantities(scenario)]
+
+
+def friction_variables(scenario) -> list:
+    """The joints' friction's outputs (dynamics.friction.friction_outputs) of a scenario whose
+    joints have friction (0 where a design's mu is 0); none otherwise."""
+    from ...dynamics.friction import JointFriction, friction_outputs
+
+    entries = scenario.friction_entries()
+    if not entries:
+        return []
+    joints = [JointFriction(joint, k, 0.0, None) for k, joint in enumerate(scenario.mechanism_definition().joints)
+              if joint.name in entries]
+    return [Variable(*v, depends=REACTION_DEPENDS) for v in friction_outputs(joints)]
 
 
 def reaction_variables(scenario) -> list:
@@ -146,7 +160,7 @@ def declared(scenario) -> Declared:
     and its ports' outputs, the inputs tau_ext and one per port, the scenario's parameters and the
     integrator's rtol."""
     definition = scenario.mechanism_definition()
-    outputs = [*OUTPUTS, *quantity_variables(scenario), *reaction_variables(scenario)]
+    outputs = [*OUTPUTS, *quantity_variables(scenario), *reaction_variables(scenario), *friction_variables(scenario)]
     inputs = [Parameter(TAU_EXT.name, 0.0, TAU_EXT.unit, TAU_EXT.description),
               *(Parameter(p.input_name, 0.0, p.input_unit, p.input_description) for p in scenario.ports)]
     parameters = [*scenario.parameters.values(), rtol_parameter(scenario.experiment.tolerance)]
@@ -240,14 +254,43 @@ def lazy_outputs(core, motion):
         phi1, omega1, epsilon1 = motion()
         return core.reads[1].values(core.time, float(phi1), float(omega1), float(epsilon1)).tolist()
 
-    caches = (Lazy(quantities), Lazy(reactions))
+    def frictions():
+        return friction_now(core)
+
+    caches = (Lazy(quantities), Lazy(reactions), Lazy(frictions))
 
     def getter(cache, k):
         return lambda: cache()[k] if core.model is not None else 0.0
 
     getters = {q.name: getter(caches[0], k) for k, q in enumerate(core.quantities)}
     getters.update({v.name: getter(caches[1], k) for k, v in enumerate(reaction_variables(core.scenario))})
+    getters.update({v.name: getter(caches[2], k) for k, v in enumerate(friction_variables(core.scenario))})
     return caches, getters
+
+
+def friction_now(core) -> list:
+    """The joints' friction's outputs now (friction_variables' order): M_friction and W_friction from
+    the kernel's output row, each joint's friction by the kernel's solve at the state now
+    (ck_friction_values) and its power with the rate's table; zeros for a design whose mu are 0."""
+    from ...native import friction_values
+    from ...dynamics.cubics import evaluate_cubics
+
+    names = [v.name for v in friction_variables(core.scenario)]
+    reduced = core.model.reduced
+    if reduced.friction is None:
+        return [0.0] * len(names)
+    row = core.row
+    values = {"M_friction": float(row[ROW_FIELDS.index("M_friction")]),
+              "W_friction": float(row[ROW_FIELDS.index("W_friction")])}
+    stepper, table = core.stepper, core.stepper.table
+    f = friction_values(stepper.state[None, :], [core.time], stepper.tables, stepper.P)[0]
+    n_f = len(reduced.friction)
+    rates = evaluate_cubics(table.friction.coefficients[:n_f], np.array([row[0]]), table.period)[:, 0]
+    for i, joint in enumerate(reduced.friction.frictions):
+        suffix, _ = joint.output
+        values[f"{joint.name}_{suffix}"] = float(f[i])
+        values[f"{joint.name}_Pf"] = float(f[i] * rates[i] * row[1])
+    return [values.get(name, 0.0) for name in names]
 
 
 def output_reads(design: Design, quantities, stepper) -> tuple:

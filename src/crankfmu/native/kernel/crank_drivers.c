@@ -154,7 +154,7 @@ static void step_extremes(const double* S, double t_end, const CkTables* T, cons
 static int one_cycle(double* S, double phi_start, double omega_start, double t_max, const CkTables* T,
                     const double* P, Scratch* w, double* stats, double* extremes)
 {
-    for (int j = 0; j < 5; j++) w->y[j] = 0.0;
+    for (int j = 0; j < CK_N_Y; j++) w->y[j] = 0.0;
     w->y[0] = phi_start;
     w->y[1] = omega_start;
     for (int j = 0; j < CK_STATE_SIZE; j++) S[j] = 0.0;

@@ -78,7 +78,8 @@ int ck_layout(int* out, int n)
     const int values[] = {CK_T, CK_Y, CK_F, CK_H, CK_MOTOR, CK_DIRECTION, CK_INTERVAL, CK_PHI_LO, CK_PHI_HI,
                           CK_T_PREV, CK_Y_PREV, CK_K, CK_N_RHS, CK_STEP_MOTOR, CK_STEP_DIRECTION, CK_STEP_INTERVAL,
                           CK_N_STEPS, CK_STATE_SIZE, CK_N_Y, CK_PARAM_SIZE, CK_OUT_SIZE, CK_STEADY_SIZE,
-                          CK_N_STAGES, CK_N_SLOTS, CK_MAX_FUNCTIONS};
+                          CK_N_STAGES, CK_N_SLOTS, CK_MAX_FUNCTIONS, CK_N_PLAIN, CK_MAX_FRICTIONS,
+                          CK_MAX_FRICTION_FUNCTIONS};
     int count = (int)(sizeof values / sizeof values[0]);
     for (int i = 0; i < count && i < n; i++) out[i] = values[i];
     return count;

@@ -57,9 +57,10 @@ static double external_torque(double t, const CkTables* T, const double* P, cons
 }
 
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
- * torque at time t */
-void kernel_coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,
-                         const double* P, double* work, double* J, double* half_dJ, double* Q, double* tau)
+ * torque at time t, without the joints' friction */
+static void coefficients_free(double t, double phi, double omega, double direction, double interval,
+                              const CkTables* T, const double* P, double* work, double* J, double* half_dJ, double* Q,
+                              double* tau)
 {
     table_values(T, phi, work);
     *J = work[0] + P[CK_J_FLYWHEEL];
@@ -75,55 +76,91 @@ void kernel_coefficients(double t, double phi, double omega, double direction, d
     *tau = external_torque(t, T, P, work);
 }
 
+/* kernel_coefficients: with joint friction, Q holds the friction's generalised force at the speed
+ * held (epsilon1 = 0: what the motor's switch and its sliding weigh), as the reference's
+ * coefficients do */
+void kernel_coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,
+                         const double* P, double* work, double* J, double* half_dJ, double* Q, double* tau)
+{
+    coefficients_free(t, phi, omega, direction, interval, T, P, work, J, half_dJ, Q, tau);
+    if (T->friction != NULL && direction != 0.0)
+        *Q += kernel_friction(t, phi, omega, direction, interval, T, P, *J, 0.0, 1, NULL);
+}
+
 static double motor_torque(double omega, int high, const double* P)
 {
     if (high) return ck_line_torque(P[CK_A_], P[CK_B_], omega);
     return ck_line_torque(P[CK_A_LOW], P[CK_B_LOW], omega);
 }
 
-/* d/dt (phi1, omega1, W_motor, W_load, W_ext) into out; returns epsilon1, M, Q, J, tau_e via pointers */
+/* what a right-hand side gives besides dy/dt (rhs' extras; NULL: nothing) */
+typedef struct {
+    double M, Q, J, tau, friction;   /* N.m, N.m, kg.m2, N.m, N.m (the friction's generalised force) */
+    double* f;                       /* the frictions (n_f), NULL: not wanted */
+} RhsExtras;
+
+/* d/dt (phi1, omega1, W_motor, W_load, W_ext, W_friction) into out; returns epsilon1 */
 static double rhs(double t, double phi, double omega, double motor, double direction, double interval,
-                  const CkTables* T, const double* P, double* work, double* out, double* M_out, double* Q_out,
-                  double* J_out, double* tau_out)
+                  const CkTables* T, const double* P, double* work, double* out, RhsExtras* x)
 {
-    double J, half_dJ, Q, M, eps, tau;
-    kernel_coefficients(t, phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
+    double J, half_dJ, Q, M, eps, tau, friction = 0.0;
+    coefficients_free(t, phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
     if (direction == 0.0) {
         M = motor_torque(0.0, motor == CK_HIGH, P);
         eps = 0.0;
         omega = 0.0;
+        if (x && x->f && T->friction)
+            for (int i = 0; i < T->friction->n_f; i++) x->f[i] = 0.0;
     } else if (motor == CK_SLIDE) {
-        M = ck_equivalent_torque(half_dJ, Q, tau, omega);
+        if (T->friction) friction = kernel_friction(t, phi, omega, direction, interval, T, P, J, 0.0, 1, x ? x->f : NULL);
+        M = ck_equivalent_torque(half_dJ, Q + friction, tau, omega);
         eps = 0.0;
     } else {
         M = motor_torque(omega, motor == CK_HIGH, P);
         eps = ck_acceleration(J, half_dJ, Q, M, tau, omega);
+        if (T->friction) {
+            friction = kernel_friction(t, phi, omega, direction, interval, T, P, J, eps, 0, x ? x->f : NULL);
+            eps += friction / J;
+        }
     }
     out[0] = omega;
     out[1] = eps;
     out[2] = M * omega;
     out[3] = Q * omega;
     out[4] = tau * omega;
-    if (M_out) *M_out = M;
-    if (Q_out) *Q_out = Q;
-    if (J_out) *J_out = J;
-    if (tau_out) *tau_out = tau;
+    out[5] = friction * omega;
+    if (x) {
+        x->M = M;
+        x->Q = Q;
+        x->J = J;
+        x->tau = tau;
+        x->friction = friction;
+    }
     return eps;
+}
+
+double kernel_friction_at(double t, double phi, double omega, double motor, double direction, double interval,
+                          const CkTables* T, const double* P, double* f_out)
+{
+    double work[CK_MAX_FUNCTIONS], out[CK_N_Y];
+    RhsExtras x = {0.0, 0.0, 0.0, 0.0, 0.0, f_out};
+    rhs(t, phi, omega, motor, direction, interval, T, P, work, out, &x);
+    return x.friction;
 }
 
 void ck_dense(const double* S, double t, double* out)
 {
     double h = S[CK_T] - S[CK_T_PREV];
     if (t == S[CK_T] || h == 0.0) {
-        for (int j = 0; j < 5; j++) out[j] = S[CK_Y + j];
+        for (int j = 0; j < CK_N_Y; j++) out[j] = S[CK_Y + j];
         return;
     }
     double x = (t - S[CK_T_PREV]) / h;
     double p0 = x, p1 = x * x, p2 = x * x * x, p3 = x * x * x * x;
-    for (int j = 0; j < 5; j++) {
+    for (int j = 0; j < CK_N_Y; j++) {
         double acc = 0.0;
         for (int s = 0; s < CK_N_STAGES + 1; s++)
-            acc += S[CK_K + 5 * s + j] * (CK_P[s][0] * p0 + CK_P[s][1] * p1 + CK_P[s][2] * p2 + CK_P[s][3] * p3);
+            acc += S[CK_K + CK_N_Y * s + j] * (CK_P[s][0] * p0 + CK_P[s][1] * p1 + CK_P[s][2] * p2 + CK_P[s][3] * p3);
         out[j] = S[CK_Y_PREV + j] + h * acc;
     }
 }
@@ -142,8 +179,8 @@ static double mode_on_switch(double t, double phi, double direction, double inte
 void kernel_rest_accelerations(double t, double phi, double motor, double interval, const CkTables* T,
                                const double* P, double* work, double* f, double* eps)
 {
-    eps[0] = rhs(t, phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL, NULL, NULL, NULL);
-    eps[1] = rhs(t, phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL, NULL, NULL, NULL);
+    eps[0] = rhs(t, phi, 0.0, motor, 1.0, interval, T, P, work, f, NULL);
+    eps[1] = rhs(t, phi, 0.0, motor, -1.0, interval, T, P, work, f, NULL);
 }
 
 double kernel_direction_at_rest(double t, double phi, double motor, double interval, const CkTables* T,
@@ -172,7 +209,7 @@ void kernel_set_mode(double* S, const double* y, const CkTables* T, const double
     double direction = ck_direction_of_speed(omega);
     kernel_set_interval(S, T, y[0], direction);
     if (omega == ws) motor = mode_on_switch(t, y[0], direction, S[CK_INTERVAL], T, P, w->work);
-    if (omega == 0.0 && T->n_sliders > 0) {
+    if (omega == 0.0 && ck_switched(T)) {
         direction = kernel_direction_at_rest(t, y[0], motor, S[CK_INTERVAL], T, P, w->work, w->f);
         kernel_set_interval(S, T, y[0], direction != 0.0 ? direction : 1.0);
     }
@@ -183,20 +220,20 @@ void kernel_set_mode(double* S, const double* y, const CkTables* T, const double
 void kernel_start(double* S, double t, const double* y, const CkTables* T, const double* P, Scratch* w)
 {
     S[CK_T] = t;
-    for (int j = 0; j < 5; j++) {
+    for (int j = 0; j < CK_N_Y; j++) {
         S[CK_Y + j] = y[j];
         S[CK_Y_PREV + j] = y[j];
     }
     S[CK_T_PREV] = t;
     kernel_set_mode(S, y, T, P, w);
     double motor = S[CK_MOTOR], direction = S[CK_DIRECTION];
-    rhs(t, y[0], y[1], motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL, NULL, NULL);
-    for (int j = 0; j < 5; j++) {
+    rhs(t, y[0], y[1], motor, direction, S[CK_INTERVAL], T, P, w->work, w->f, NULL);
+    for (int j = 0; j < CK_N_Y; j++) {
         S[CK_F + j] = w->f[j];
-        for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = s == CK_N_STAGES ? w->f[j] : 0.0;
+        for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + CK_N_Y * s + j] = s == CK_N_STAGES ? w->f[j] : 0.0;
     }
     double d0 = 0.0, d1 = 0.0;
-    for (int j = 0; j < 5; j++) {
+    for (int j = 0; j < CK_N_PLAIN; j++) {
         double scale = P[CK_ATOL] + P[CK_RTOL] * fabs(y[j]);
         d0 += (y[j] / scale) * (y[j] / scale);
         d1 += (w->f[j] / scale) * (w->f[j] / scale);
@@ -216,36 +253,36 @@ static void rk_step(const double* S, double t, const double* y, const double* f,
                     const double* P, Scratch* w)
 {
     double motor = S[CK_MOTOR], direction = S[CK_DIRECTION], interval = S[CK_INTERVAL];
-    for (int j = 0; j < 5; j++) w->Kst[0][j] = f[j];
+    for (int j = 0; j < CK_N_Y; j++) w->Kst[0][j] = f[j];
     for (int s = 1; s < CK_N_STAGES; s++) {
-        for (int j = 0; j < 5; j++) {
+        for (int j = 0; j < CK_N_Y; j++) {
             double acc = 0.0;
             for (int r = 0; r < s; r++) acc += w->Kst[r][j] * CK_A[s][r];
             w->tmp[j] = y[j] + h * acc;
         }
-        rhs(t + CK_C[s] * h, w->tmp[0], w->tmp[1], motor, direction, interval, T, P, w->work, w->Kst[s], NULL, NULL,
-            NULL, NULL);
+        rhs(t + CK_C[s] * h, w->tmp[0], w->tmp[1], motor, direction, interval, T, P, w->work, w->Kst[s], NULL);
     }
-    for (int j = 0; j < 5; j++) {
+    for (int j = 0; j < CK_N_Y; j++) {
         double acc = 0.0;
         for (int r = 0; r < CK_N_STAGES; r++) acc += w->Kst[r][j] * CK_B[r];
         w->ynew[j] = y[j] + h * acc;
     }
-    rhs(t + h, w->ynew[0], w->ynew[1], motor, direction, interval, T, P, w->work, w->Kst[CK_N_STAGES], NULL, NULL,
-        NULL, NULL);
+    rhs(t + h, w->ynew[0], w->ynew[1], motor, direction, interval, T, P, w->work, w->Kst[CK_N_STAGES], NULL);
 }
 
-static double error_norm(const double* y, const double* ynew, const Scratch* w, double h, const double* P)
+static double error_norm(const double* y, const double* ynew, const Scratch* w, double h, const double* P, int n_norm)
 {
+    /* W_friction joins the norm only where there is friction: without, the norm is the one the
+     * kernel had before friction existed (and steps bit for bit as then) */
     double acc = 0.0;
-    for (int j = 0; j < 5; j++) {
+    for (int j = 0; j < n_norm; j++) {
         double e = 0.0;
         for (int s = 0; s < CK_N_STAGES + 1; s++) e += w->Kst[s][j] * CK_E[s];
         double scale = P[CK_ATOL] + P[CK_RTOL] * fmax(fabs(y[j]), fabs(ynew[j]));
         double r = h * e / scale;
         acc += r * r;
     }
-    return sqrt(acc / 5.0);
+    return sqrt(acc / n_norm);
 }
 
 /* event functions of S's mode at (t, y) into g; inactive slots get NaN */
@@ -261,7 +298,7 @@ void kernel_events(const double* S, double t, const double* y, const CkTables* T
         m_low = motor_torque(ws, 0, P);
         m_high = motor_torque(ws, 1, P);
     }
-    int has_sliders = T->n_sliders > 0;
+    int has_sliders = ck_switched(T);
     for (int slot = 0; slot < CK_N_SLOTS; slot++) {
         if (ck_event_active(slot, motor, direction, S[CK_PHI_HI], has_sliders, ws))
             g[slot] = ck_event_value(slot, y[0], y[1], motor, S[CK_PHI_LO], S[CK_PHI_HI], ws, m_low, m_high,
@@ -288,7 +325,7 @@ void kernel_transition(double* S, int slot, double t, double* y, const CkTables*
     }
     y[1] = slot == CK_REST ? 0.0 : ws;
     if (slot == CK_REST) S[CK_MOTOR] = ck_motor_at_rest(S[CK_MOTOR], ws);
-    if (ck_turns_forces(slot, ws, T->n_sliders > 0))
+    if (ck_turns_forces(slot, ws, ck_switched(T)))
         S[CK_DIRECTION] = kernel_direction_at_rest(t, y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, work, f);
     if (slot == CK_REST) return;
     if (S[CK_MOTOR] == CK_SLIDE)
@@ -302,7 +339,7 @@ double kernel_omega_slope(const double* S, double x)
 {
     double acc = 0.0;
     for (int s = 0; s < CK_N_STAGES + 1; s++)
-        acc += S[CK_K + 5 * s + 1] * (CK_P[s][0] + x * (2.0 * CK_P[s][1] + x * (3.0 * CK_P[s][2] + x * 4.0 * CK_P[s][3])));
+        acc += S[CK_K + CK_N_Y * s + 1] * (CK_P[s][0] + x * (2.0 * CK_P[s][1] + x * (3.0 * CK_P[s][2] + x * 4.0 * CK_P[s][3])));
     return acc;
 }
 
@@ -361,7 +398,7 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
 {
     if (!kernel_mode_ok(S, T)) return CK_BAD_STATE;
     double t = S[CK_T];
-    for (int j = 0; j < 5; j++) {
+    for (int j = 0; j < CK_N_Y; j++) {
         w->y[j] = S[CK_Y + j];
         w->f0[j] = S[CK_F + j];
     }
@@ -377,7 +414,7 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
         if (h <= 1e-14 * fmax(1.0, fabs(t))) return CK_UNDERFLOW;
         rk_step(S, t, w->y, w->f0, h, T, P, w);
         n_rhs += CK_N_STAGES;
-        err = error_norm(w->y, w->ynew, w, h, P);
+        err = error_norm(w->y, w->ynew, w, h, P, T->friction ? CK_N_Y : CK_N_PLAIN);
         if (err <= 1.0) break;
         h *= fmax(MIN_FACTOR, SAFETY * pow(err, ERROR_EXPONENT));
     }
@@ -393,10 +430,10 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
     kernel_events(S, t_new, w->ynew, T, P, w->work, w->g1);
     S[CK_T_PREV] = t;
     S[CK_T] = t_new;
-    for (int j = 0; j < 5; j++) {
+    for (int j = 0; j < CK_N_Y; j++) {
         S[CK_Y_PREV + j] = w->y[j];
         S[CK_Y + j] = w->ynew[j];
-        for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = w->Kst[s][j];
+        for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + CK_N_Y * s + j] = w->Kst[s][j];
     }
     S[CK_STEP_MOTOR] = S[CK_MOTOR];
     S[CK_STEP_DIRECTION] = S[CK_DIRECTION];
@@ -415,7 +452,7 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
         }
     }
     if (first_slot < 0) {
-        for (int j = 0; j < 5; j++) S[CK_F + j] = w->Kst[CK_N_STAGES][j];
+        for (int j = 0; j < CK_N_Y; j++) S[CK_F + j] = w->Kst[CK_N_STAGES][j];
         S[CK_H] = h_next;
         S[CK_N_RHS] = n_rhs;
         S[CK_N_STEPS] += 1.0;
@@ -426,12 +463,11 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
     rk_step(S, t, w->y, w->f0, h_event, T, P, w);
     n_rhs += CK_N_STAGES;
     S[CK_T] = first_t;
-    for (int j = 0; j < 5; j++)
-        for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + 5 * s + j] = w->Kst[s][j];
+    for (int j = 0; j < CK_N_Y; j++)
+        for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + CK_N_Y * s + j] = w->Kst[s][j];
     kernel_transition(S, first_slot, first_t, w->ynew, T, P, w->work, w->f);
-    rhs(first_t, w->ynew[0], w->ynew[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w->work, w->f, NULL, NULL,
-        NULL, NULL);
-    for (int j = 0; j < 5; j++) {
+    rhs(first_t, w->ynew[0], w->ynew[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w->work, w->f, NULL);
+    for (int j = 0; j < CK_N_Y; j++) {
         S[CK_Y + j] = w->ynew[j];
         S[CK_F + j] = w->f[j];
     }
@@ -446,13 +482,15 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
 void kernel_complete_row(double t, double motor, double direction, double interval, const CkTables* T,
                          const double* P, double* work, double* f, double* row)
 {
-    double M, Q, J, tau;
-    double eps = rhs(t, row[0], row[1], motor, direction, interval, T, P, work, f, &M, &Q, &J, &tau);
+    RhsExtras x = {0.0, 0.0, 0.0, 0.0, 0.0, NULL};
+    row[CK_OUT_W_FRICTION] = row[CK_W_FRICTION];
+    double eps = rhs(t, row[0], row[1], motor, direction, interval, T, P, work, f, &x);
     row[5] = eps;
-    row[6] = M;
-    row[7] = Q;
-    row[8] = J;
-    row[9] = tau;
+    row[6] = x.M;
+    row[7] = x.Q;
+    row[8] = x.J;
+    row[9] = x.tau;
+    row[CK_OUT_M_FRICTION] = x.friction;
 }
 
 void kernel_output_row(const double* S, double t, const CkTables* T, const double* P, double* work, double* f,

@@ -12,6 +12,8 @@
 #include "crank_modes.h"
 #include "crank_tableau.h"
 
+#include <stddef.h>
+
 /* exported from the Python binding's library; the native FMU compiles the kernel in with
  * -DCK_API= so that its binary exports the FMI functions only */
 #ifndef CK_API
@@ -23,13 +25,18 @@
 #endif
 
 /* ---- the state array */
+/* y: phi1, omega1, W_motor, W_load, W_ext, and W_friction (the joints' friction's work: 0 without
+ * any, and then left out of the error norm, so that a model without friction steps as it did
+ * before friction existed, bit for bit) */
 enum {
-    CK_T = 0, CK_Y = 1, CK_F = 6, CK_H = 11,                        /* t s, y[5], f[5], proposed step s */
-    CK_MOTOR = 12, CK_DIRECTION = 13, CK_INTERVAL = 14, CK_PHI_LO = 15, CK_PHI_HI = 16,   /* the mode */
-    CK_T_PREV = 17, CK_Y_PREV = 18, CK_K = 23,                      /* last step: start, state, 7x5 stages */
-    CK_N_RHS = 58, CK_STEP_MOTOR = 59, CK_STEP_DIRECTION = 60, CK_STEP_INTERVAL = 61, CK_N_STEPS = 62,
-    CK_STATE_SIZE = 63,
-    CK_N_Y = 5                                                      /* phi1, omega1, W_motor, W_load, W_ext */
+    CK_T = 0, CK_Y = 1, CK_F = 7, CK_H = 13,                        /* t s, y[6], f[6], proposed step s */
+    CK_MOTOR = 14, CK_DIRECTION = 15, CK_INTERVAL = 16, CK_PHI_LO = 17, CK_PHI_HI = 18,   /* the mode */
+    CK_T_PREV = 19, CK_Y_PREV = 20, CK_K = 26,                      /* last step: start, state, 7x6 stages */
+    CK_N_RHS = 68, CK_STEP_MOTOR = 69, CK_STEP_DIRECTION = 70, CK_STEP_INTERVAL = 71, CK_N_STEPS = 72,
+    CK_STATE_SIZE = 73,
+    CK_N_Y = 6,
+    CK_N_PLAIN = 5,                                                 /* the states of a model without friction */
+    CK_W_FRICTION = 5
 };
 
 /* ---- the parameter array. The inputs (tau_ext on the crank, then one per port: a force's F or a
@@ -41,8 +48,10 @@ enum { CK_A_ = 0, CK_B_, CK_A_LOW, CK_B_LOW, CK_OMEGA_SWITCH, CK_TAU_EXT, CK_J_F
        CK_PARAM_SIZE = CK_PORT_RATE + CK_MAX_PORTS };
 
 /* ---- the output row: phi1, omega1, W_motor, W_load, W_ext, epsilon1, M_motor, M_load, J_red,
- * tau_e (the external torque on the crank: tau_ext and the ports', what W_ext integrates times omega1) */
-enum { CK_OUT_SIZE = 10 };
+ * tau_e (the external torque on the crank: tau_ext and the ports', what W_ext integrates times omega1),
+ * W_friction and M_friction (the joints' friction's work, and its generalised force on the crank:
+ * 0 without friction) */
+enum { CK_OUT_SIZE = 12, CK_OUT_W_FRICTION = 10, CK_OUT_M_FRICTION = 11 };
 
 /* ---- steady cycles: omega1_mean, omega1_min, omega1_max, delta, period, turns, status */
 enum { CK_SLOPE_SAMPLES = 8, CK_STEADY_SIZE = 7 };
@@ -78,6 +87,26 @@ enum { CK_MAX_FUNCTIONS = 64 };
  * in either direction and at rest (the forces are not read). */
 enum { CK_LAW = 3 };
 typedef double (*CkLaw)(const void* context, int column, double omega);
+/* Joint friction (dynamics/friction.py; its table: dynamics/tabulated.py, FrictionTable): n_f
+ * Coulomb frictions f_i = -c_i s_i |R_i| in joints, c_i = mu r (a pin, |R| the reaction's magnitude)
+ * or mu (a slide, |N| its normal force), s_i the sign of the joint's relative rate k_i times
+ * omega1's: signs[interval][i] on each switch interval forward (the zeros of the k_i are switch
+ * angles), the opposite backward. coefficients: n_f + (sum of components) x (n_terms + n_f)
+ * periodic cubics on n intervals of the tables' period: the rates k_i (rad/rad or m/rad), then each
+ * friction's reaction components (a pin's two, a slide's normal force) as ck_reaction_weights'
+ * n_terms terms followed by one term per unit friction. The movement equation gains sum k_i f_i,
+ * and the reactions depend on the acceleration and the frictions: each right-hand side solves for
+ * them together by Newton's method (a few iterations). */
+enum { CK_MAX_FRICTIONS = 8, CK_MAX_FRICTION_FUNCTIONS = 2048 };
+typedef struct {
+    int n_f, n_terms;
+    const double* coefficients;
+    int n;
+    const int* components;           /* n_f: 2 (a pin) or 1 (a slide) */
+    const double* c;                 /* n_f: mu r (m) or mu */
+    const double* signs;             /* max(m, 1) x n_f */
+} CkFriction;
+
 typedef struct {
     const double* coefficients;
     int n_functions, n;
@@ -90,7 +119,11 @@ typedef struct {
     const int* powers;
     CkLaw law;                       /* g(omega1) of the columns of power CK_LAW (NULL: none has one) */
     const void* law_context;
+    const CkFriction* friction;      /* the joints' friction (NULL: none) */
 } CkTables;
+
+/* whether something switches at angles or at rest: slider forces (switched columns) or friction */
+static inline int ck_switched(const CkTables* T) { return T->n_sliders > 0 || T->friction != NULL; }
 
 /* omega1 to column s's power (1 where it has none), or its law at omega1 (NaN without one: the
  * step is then refused as not finite) */
@@ -149,6 +182,12 @@ CK_API void ck_quantity_values(const double* coefficients, int n_coordinates, in
 CK_API int ck_reaction_values(const double* coefficients, int n_reactions, int n_terms, int n, const double* S,
                               double t, double phi, double omega, double epsilon, const CkTables* tables,
                               const double* P, double* scratch, double* out);
+
+/* the frictions f_i (N.m or N) at t within S's last step (or at its end) with the state y there
+ * (ck_dense), in that step's mode, into out[0:n_f], and their generalised force on the crank
+ * (sum k_i f_i, N.m) into out[n_f]; returns n_f (0 without friction) or CK_BAD_STATE */
+CK_API int ck_friction_values(const double* S, double t, const double* y, const CkTables* tables, const double* P,
+                              double* out);
 
 CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
 CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,

@@ -13,6 +13,20 @@ typedef struct {
     double ynew[CK_N_Y], tmp[CK_N_Y], f[CK_N_Y], g0[CK_N_SLOTS], g1[CK_N_SLOTS], y[CK_N_Y], f0[CK_N_Y];
 } Scratch;
 
+/* the values the joint reactions' terms multiply (ck_reaction_weights) in the mode (direction,
+ * interval): 1, epsilon1, omega1^2, omega1, the switched columns' values, the ports' inputs at t */
+int kernel_reaction_weights(double t, double omega, double epsilon, double direction, double interval,
+                            const CkTables* T, const double* P, double* out);
+/* the joints' frictions at one state (crank_friction.c): f into f_out (n_f; may be NULL) and their
+ * generalised force sum k_i f_i (N.m) returned, eps0 the frictionless acceleration (rad/s2) and
+ * held: the motion does not respond (the motor sliding on its switch, or a drive imposing it); NaN
+ * where they do not settle (friction that locks the mechanism) */
+double kernel_friction(double t, double phi, double omega, double direction, double interval, const CkTables* T,
+                       const double* P, double J, double eps0, int held, double* f_out);
+/* the frictions f (n_f, into f_out) and their generalised force (returned) at a state of the mode
+ * (motor, direction, interval), as the right-hand side solves them */
+double kernel_friction_at(double t, double phi, double omega, double motor, double direction, double interval,
+                          const CkTables* T, const double* P, double* f_out);
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
  * torque at time t */
 void kernel_coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,
@@ -44,7 +58,7 @@ double kernel_locate(const double* S, int slot, double level, double lo, double 
 int kernel_mode_ok(const double* S, const CkTables* T);
 /* one accepted step, not beyond t_limit, ending on the first event crossed */
 int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, Scratch* w);
-/* the rest of an output row whose state row[0:5] at time t is set, in the given mode */
+/* the rest of an output row whose state row[0:6] (y, W_friction in row[5]) at time t is set, in the given mode */
 void kernel_complete_row(double t, double motor, double direction, double interval, const CkTables* T,
                          const double* P, double* work, double* f, double* row);
 /* the mode (motor, direction, interval) at t in the last step: S's own at its end, the step's

@@ -74,7 +74,7 @@ int ck_me_indicators(const double* S, const double* y, const CkTables* T, const 
         double b = band(slot, S, P);
         z[slot] = ck_event_rising(slot, S[CK_MOTOR], S[CK_DIRECTION]) ? g - b : g + b;
     }
-    if (S[CK_DIRECTION] == 0.0 && T->n_sliders > 0)
+    if (S[CK_DIRECTION] == 0.0 && ck_switched(T))
         z[CK_REST] = unstick_value(S, y, T, P, &w) - CK_HYSTERESIS;
     return 0;
 }
@@ -86,7 +86,7 @@ int ck_me_update(double* S, double* y, const CkTables* T, const double* P)
     int transitions = 0;
     for (int round = 0; round < 4 * CK_N_SLOTS; round++) {
         if (S[CK_DIRECTION] == 0.0) {
-            if (T->n_sliders == 0) return transitions;
+            if (!ck_switched(T)) return transitions;
             double direction = kernel_direction_at_rest(S[CK_T], y[0], S[CK_MOTOR], S[CK_INTERVAL], T, P, w.work, w.f);
             if (direction == 0.0) return transitions;
             S[CK_DIRECTION] = direction;

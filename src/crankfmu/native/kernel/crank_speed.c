@@ -53,6 +53,8 @@ static void speed_row(double* S, const CkTables* T, const double* P, double* wor
     double J, half_dJ, Q, tau;
     kernel_coefficients(t, phi, omega, direction, S[CK_INTERVAL], T, P, work, &J, &half_dJ, &Q, &tau);
     for (int j = 0; j < CK_N_Y; j++) row[j] = S[CK_Y + j];
+    row[CK_OUT_W_FRICTION] = 0.0;        /* (speed causality takes no joint friction: refused before) */
+    row[CK_OUT_M_FRICTION] = 0.0;
     row[5] = epsilon;
     row[6] = ck_drive_torque(J, half_dJ, Q, tau, omega, epsilon);
     row[7] = Q;

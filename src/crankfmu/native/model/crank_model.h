@@ -38,7 +38,7 @@ typedef struct {
                                       (Model Exchange: at the next event update) */
     int row_stale;                 /* Co-Simulation: an input was set since the row was computed:
                                       the next read computes it at the inputs set (cm_get) */
-    double dydt[N_STATES];         /* Model Exchange: the derivatives at the current state */
+    double dydt[CK_N_Y];           /* Model Exchange: the derivatives at the current state */
     double input_rate[CM_MAX_INPUTS];   /* Co-Simulation: each input's first derivative (1/s), from
                                       fmi2SetRealInputDerivatives; 0 (held) once the input is set */
     int rate_given[CM_MAX_INPUTS];    /* whether the host gave it since it last set the input (speed

@@ -1,0 +1,124 @@
+"""Joint friction in the C kernel (issue 69): the fast path and the Python FMU solve the frictions
+from their tables (dynamics/friction_table.py, native/kernel/crank_friction.c), checked against the
+independent body-by-body Newton-Euler of tests/friction_reference.py and against the reference
+engine's own rule (dynamics.friction)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import crankfmu
+from crankfmu.dynamics.reactions import joint_reactions
+from crankfmu.errors import CrankfmuError
+from crankfmu.simulation import simulate
+
+from friction_reference import SliderCrankWithFriction
+
+SCENARIO = Path(__file__).parent / "data" / "user" / "slidercrank_friction_scenario.toml"
+TIMES = np.linspace(0.0, 3.0, 301)
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return crankfmu.load_scenario(SCENARIO)
+
+
+@pytest.fixture(scope="module")
+def expected():
+    """The independent reference's 3 s from rest (DOP853 at rtol 1e-12, every dead centre located)."""
+    return SliderCrankWithFriction().run(3.0, TIMES)
+
+
+@pytest.fixture(scope="module")
+def fast(scenario):
+    return simulate(scenario, t_end=3.0, method="fast", output_times=TIMES)
+
+
+def test_the_fast_path_follows_the_independent_newton_euler(fast, expected):
+    # the fast path's default rtol (1e-11) and tables checked to 1e-11: omega1 to 5.8e-9 rad/s here
+    assert np.max(np.abs(fast.omega1 - expected[1])) < 1e-8
+    assert np.max(np.abs(fast.phi1 - expected[0])) < 1e-8
+    # the friction's work (72 J, 4 % of the motor's): its state integrated by the kernel
+    assert abs(fast.W_friction[-1] - expected[5][-1]) < 1e-8 * abs(expected[5][-1])
+
+
+def test_the_fast_paths_energy_balance_holds_with_the_frictions_dissipation(fast):
+    balance = fast.energy_balance()
+    closing = balance["W_motor"] + balance["W_load"] + balance["W_friction"] - balance["dE_kin"]
+    assert abs(closing) < 1e-9 * balance["W_motor"]
+    assert balance["W_friction"] < -0.04 * balance["W_motor"]
+
+
+def test_the_kernels_frictions_are_the_engines(scenario, fast):
+    """The kernel's solve from the tables against the engine's Newton-Euler solve at the same
+    states (Equation.outputs): each joint's friction and power, their generalised force, the
+    acceleration and the motor's torque. Away from rest (t = 0 starts on a dead centre, where the
+    slide's rate is zero and its friction set-valued)."""
+    model = scenario.build()
+    moving = TIMES > 0.0
+    state = np.array([fast.phi1, fast.omega1])[:, moving]
+    engine = model.equation.outputs(state[0], state[1], t=TIMES[moving])
+    for name, value in fast.friction.items():
+        scale = np.max(np.abs(engine[name]))
+        assert np.max(np.abs(value[moving] - engine[name])) < 1e-7 * scale, name
+    # the tables are checked to 1e-11, the frictions' Newton to round-off
+    assert np.max(np.abs(fast.epsilon1[moving] - engine["epsilon1"])) < 1e-7 * np.max(np.abs(engine["epsilon1"]))
+    assert np.max(np.abs(fast.friction["slide_Ff"])) > 20.0       # the guide's friction: up to 26 N here
+
+
+def test_the_fast_path_holds_a_crank_that_friction_holds(scenario):
+    """At rest the kernel's frictions are those of the motion that would follow: a motor torque
+    the friction can carry leaves the crank still, 30 N.m more starts it (the engine's own test of
+    the same state: test_friction.py)."""
+    phi = 1.3
+    at_rest = lambda model, signs: model.solve(phi, 0.0, signs)[0]     # noqa: E731
+    forward = {"O": 1.0, "A": -1.0, "B": 1.0, "slide": -1.0, "work": 0.0}
+    free = [at_rest(SliderCrankWithFriction(A=a, B=0.0, mu_pin=0.0, mu_guide=0.0), forward) for a in (0.0, 1.0)]
+    A_hold = -free[0] / (free[1] - free[0])
+    still = scenario.with_params(A=A_hold, A_low=A_hold, B=0.0, B_low=0.0, phi1_start=phi, omega1_start=0.0)
+    r = simulate(still, t_end=0.2, method="fast")
+    assert np.all(r.omega1 == 0.0) and np.all(r.phi1 == phi)
+    moving = simulate(still.with_params(A=A_hold + 30.0, A_low=A_hold + 30.0), t_end=0.2, method="fast")
+    assert moving.omega1[-1] > 1.0
+
+
+def test_the_python_fmu_runs_the_friction(scenario, expected, tmp_path):
+    from fmpy import simulate_fmu
+
+    from crankfmu.fmi.python.build import build
+
+    fmu = build("scenario", str(SCENARIO), tmp_path, name="SliderFriction")
+    outputs = ["phi1", "omega1", "epsilon1", "W_motor", "W_load", "W_friction", "E_kin", "M_friction", "slide_Ff",
+               "slide_Pf", "O_Mf", "A_Fx", "A_Fy", "slide_N"]
+    r = simulate_fmu(str(fmu), stop_time=3.0, output_interval=0.01, start_values={"rtol": 1e-12}, output=outputs)
+    assert np.max(np.abs(r["omega1"] - expected[1])) < 1e-8
+    closing = r["W_motor"][-1] + r["W_load"][-1] + r["W_friction"][-1] - (r["E_kin"][-1] - r["E_kin"][0])
+    assert abs(closing) < 1e-9 * r["W_motor"][-1]
+    # the joints' reactions it reads (their tables with one term per friction) are the engine's
+    # Newton-Euler with the frictions of the motion at the FMU's states
+    model = scenario.build()
+    for k in (37, 150, 299):
+        found = joint_reactions(model.reduced, np.array([r["phi1"][k]]), r["omega1"][k], r["epsilon1"][k])
+        assert r["A_Fx"][k] == pytest.approx(found.force["A"][0][0], rel=1e-6)
+        assert r["A_Fy"][k] == pytest.approx(found.force["A"][1][0], rel=1e-6)
+        assert r["slide_N"][k] == pytest.approx(found.normal["slide"][0], rel=1e-6)
+        assert r["slide_Ff"][k] == pytest.approx(found.friction["slide"][0], rel=1e-6)
+        assert r["O_Mf"][k] == pytest.approx(found.friction["O"][0], rel=1e-6)
+
+
+def test_the_native_fmu_refuses_friction_by_name(scenario):
+    from crankfmu.fmi.native.model import native_program
+
+    with pytest.raises(CrankfmuError, match=r"joint friction \(O, A, B, slide\) .* native FMUs do not take it"):
+        native_program(scenario)
+
+
+def test_speed_causality_refuses_friction_by_name(tmp_path):
+    from crankfmu.fmi.python.build import build
+
+    with pytest.raises(CrankfmuError, match="joint friction .* speed causality"):
+        build("scenario", str(SCENARIO), tmp_path, name="SliderFriction", causality="speed")
+    assert not list(tmp_path.iterdir())
