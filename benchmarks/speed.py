@@ -361,6 +361,11 @@ def main(argv=None) -> int:
               for t, m, ok in fmi3_step.targets(fmi3)]
     lines += ["", "## Targets (issues 58 and 68: loads of the speed)", "", "| target | measured | met |", "|---|---|---|"]
     lines += [f"| {t} | {m} | {'MET' if ok else 'NOT MET'} |" for t, m, ok in speed_loads.targets(loads)]
+    import friction
+    frictions = friction.measure(3 if args.quick else 7)
+    lines += ["", "## Targets (issue 69: joint friction)", "", "| target | measured | met |", "|---|---|---|"]
+    lines += [f"| {t} | {m} | {'-' if ok is None else 'MET' if ok else 'NOT MET'} |"
+              for t, m, ok in friction.targets(frictions)]
     text = "\n".join(lines) + "\n"
     print(text)
     (out / "speed.md").write_text(text)
@@ -370,7 +375,7 @@ def main(argv=None) -> int:
                                                                   for n, b in breakdowns.items()},
                                                 "imports_s": imports, "first_run_s": first, "c_rk4_limit": c_limit,
                                                 "every_output": every, "well": wells, "fmi3": fmi3,
-                                                "speed_loads_us_per_step": loads,
+                                                "speed_loads_us_per_step": loads, "friction": frictions,
                                                 "targets_issue_17": [{"target": t, "measured": m, "met": ok}
                                                                      for t, m, ok in targets17],
                                                 "targets": [{"target": t, "measured": m, "met": ok}

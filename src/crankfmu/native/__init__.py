@@ -312,19 +312,20 @@ class Tables:
 def _friction_struct(friction, m: int):
     """(CkFriction, its arrays) of a FrictionTable (dynamics.tabulated), checked against the kernel's
     bounds."""
-    coefficients = np.ascontiguousarray(friction.coefficients, dtype=float)
+    # interval-major for the kernel (crank_kernel.h, CkFriction)
+    coefficients = np.ascontiguousarray(np.asarray(friction.coefficients, dtype=float).transpose(1, 0, 2))
     components = np.ascontiguousarray(friction.components, dtype=np.int32)
     c = np.ascontiguousarray(friction.c, dtype=float)
     signs = np.ascontiguousarray(friction.signs, dtype=float)
     n_f = components.size
-    if n_f > _LAYOUT["MAX_FRICTIONS"] or coefficients.shape[0] > _LAYOUT["MAX_FRICTION_FUNCTIONS"]:
+    if n_f > _LAYOUT["MAX_FRICTIONS"] or coefficients.shape[1] > _LAYOUT["MAX_FRICTION_FUNCTIONS"]:
         raise CrankfmuError(f"the C kernel takes at most {_LAYOUT['MAX_FRICTIONS']} joint frictions and "
                             f"{_LAYOUT['MAX_FRICTION_FUNCTIONS']} tabulated friction functions, got {n_f} and "
-                            f"{coefficients.shape[0]}")
+                            f"{coefficients.shape[1]}")
     functions = n_f + int(components.sum()) * (friction.n_terms + n_f)
-    if signs.shape != (max(m, 1), n_f) or coefficients.shape[0] != functions:
+    if signs.shape != (max(m, 1), n_f) or coefficients.shape[1] != functions:
         raise CrankfmuError("the friction table does not match the reduced table (its signs or its functions)")
-    struct = _Friction(n_f, friction.n_terms, _d(coefficients), coefficients.shape[1], components.ctypes.data,
+    struct = _Friction(n_f, friction.n_terms, _d(coefficients), coefficients.shape[0], components.ctypes.data,
                        _d(c), _d(signs))
     return struct, (coefficients, components, c, signs)
 

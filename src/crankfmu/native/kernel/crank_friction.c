@@ -50,6 +50,25 @@ static int solve_small(double* A, double* b, int n)
     return 0;
 }
 
+/* every function of the friction table at phi into out: the table is interval-major (its functions
+ * at one interval contiguous: a few cache lines per state, where the reduced table's function-major
+ * layout would touch one line per function, each far from the last) */
+static void interval_cubics(const double* coefficients, int n_functions, int n, double period, double phi,
+                            double* out)
+{
+    double h = period / n;
+    double wrapped = phi - period * floor(phi / period);
+    if (!isfinite(wrapped)) {
+        for (int f = 0; f < n_functions; f++) out[f] = NAN;
+        return;
+    }
+    double x = wrapped / h;
+    int i = x <= 0.0 ? 0 : (x >= n ? n - 1 : (int)x);
+    double u = wrapped - i * h;
+    const double* c = coefficients + (size_t)i * n_functions * 4;
+    for (int f = 0; f < n_functions; f++, c += 4) out[f] = c[0] + u * (c[1] + u * (c[2] + u * c[3]));
+}
+
 double kernel_friction(double t, double phi, double omega, double direction, double interval, const CkTables* T,
                        const double* P, double J, double eps0, int held, double* f_out)
 {
@@ -60,7 +79,7 @@ double kernel_friction(double t, double phi, double omega, double direction, dou
     double cs[CK_MAX_FRICTIONS], A[CK_MAX_FRICTIONS * CK_MAX_FRICTIONS], step[CK_MAX_FRICTIONS];
     int n_components = 0;
     for (int i = 0; i < nf; i++) n_components += F->components[i];
-    ck_periodic_cubics(F->coefficients, nf + n_components * per, F->n, T->period, phi, values);
+    interval_cubics(F->coefficients, nf + n_components * per, F->n, T->period, phi, values);
     const double* k = values;
     kernel_reaction_weights(t, omega, eps0, direction, interval, T, P, w);
     const double* sign = F->signs + (size_t)interval * nf;

@@ -92,7 +92,8 @@ typedef double (*CkLaw)(const void* context, int column, double omega);
  * or mu (a slide, |N| its normal force), s_i the sign of the joint's relative rate k_i times
  * omega1's: signs[interval][i] on each switch interval forward (the zeros of the k_i are switch
  * angles), the opposite backward. coefficients: n_f + (sum of components) x (n_terms + n_f)
- * periodic cubics on n intervals of the tables' period: the rates k_i (rad/rad or m/rad), then each
+ * periodic cubics on n intervals of the tables' period, interval-major ([interval][function][4]: the
+ * functions a state reads are contiguous): the rates k_i (rad/rad or m/rad), then each
  * friction's reaction components (a pin's two, a slide's normal force) as ck_reaction_weights'
  * n_terms terms followed by one term per unit friction. The movement equation gains sum k_i f_i,
  * and the reactions depend on the acceleration and the frictions: each right-hand side solves for
