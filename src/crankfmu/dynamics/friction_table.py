@@ -37,6 +37,15 @@ class FrictionTable:
     n_terms: int
     error_bound: float
     construction: str
+    _interval_major: np.ndarray | None = None
+
+    @property
+    def interval_major(self) -> np.ndarray:
+        """The coefficients as the kernel reads them, (n, functions, 4) contiguous (crank_kernel.h,
+        CkFriction): copied once per table, not once per run."""
+        if self._interval_major is None:
+            self._interval_major = np.ascontiguousarray(np.asarray(self.coefficients, dtype=float).transpose(1, 0, 2))
+        return self._interval_major
 
 
 def tabulate_frictions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: int = 1 << 16,

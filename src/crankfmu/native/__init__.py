@@ -312,8 +312,7 @@ class Tables:
 def _friction_struct(friction, m: int):
     """(CkFriction, its arrays) of a FrictionTable (dynamics.tabulated), checked against the kernel's
     bounds."""
-    # interval-major for the kernel (crank_kernel.h, CkFriction)
-    coefficients = np.ascontiguousarray(np.asarray(friction.coefficients, dtype=float).transpose(1, 0, 2))
+    coefficients = friction.interval_major            # (crank_kernel.h, CkFriction: interval-major)
     components = np.ascontiguousarray(friction.components, dtype=np.int32)
     c = np.ascontiguousarray(friction.c, dtype=float)
     signs = np.ascontiguousarray(friction.signs, dtype=float)

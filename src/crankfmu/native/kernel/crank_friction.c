@@ -107,7 +107,7 @@ double kernel_friction(double t, double phi, double omega, double direction, dou
             double magnitude, grad[CK_MAX_FRICTIONS];
             if (F->components[i] == 2) {
                 double rx = R[c], ry = R[c + 1];
-                magnitude = hypot(rx, ry);
+                magnitude = sqrt(rx * rx + ry * ry);      /* (reactions far from hypot's overflow) */
                 for (int j = 0; j < nf; j++)
                     grad[j] = magnitude > 0.0 ? (rx * H[c][j] + ry * H[c + 1][j]) / magnitude : 0.0;
             } else {
