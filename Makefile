@@ -102,6 +102,8 @@ fmu-python: $(STAMP)
 	@for s in seed000 seed001 seed002 seed003 seed004 pumpjack engine1 engine4 jansen; do $(BIN)/crankfmu fmu $$s --out build/fmus || exit 1; done
 	@$(BIN)/crankfmu fmu dc_pi --drive --out build/fmus
 	@$(BIN)/crankfmu fmu seed000 --causality speed --out build/fmus
+	@# issue 69's slider-crank with joint friction (the harness checks its energy balance with W_friction)
+	@$(BIN)/crankfmu fmu validation/data/slidercrank_friction_scenario.toml --out build/fmus
 	@$(BIN)/crankfmu fmu dc_pi --drive --causality speed --out build/fmus
 	@$(BIN)/crankfmu fmu die_cushion --cushion --out build/fmus
 	@$(BIN)/crankfmu fmu elastic_shaft --shaft --out build/fmus

@@ -1,4 +1,4 @@
-"""Joint friction's cost in the kernel (issue 69): issue 69's slider-crank (tests/data/user/
+"""Joint friction's cost in the kernel (issue 69): issue 69's slider-crank (validation/data/
 slidercrank_friction_scenario.toml: friction in its three pins and its guide) against the same
 machine with mu = 0 (no friction: the kernel's frictionless path), each run 3 s from rest on the
 fast path at its default rtol. The cost per accepted step and per right-hand side, the fastest of
@@ -15,7 +15,7 @@ from pathlib import Path
 
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENARIO = ROOT / "tests" / "data" / "user" / "slidercrank_friction_scenario.toml"
+SCENARIO = ROOT / "validation" / "data" / "slidercrank_friction_scenario.toml"
 BOUND = 1.5
 
 

@@ -17,7 +17,7 @@ from crankfmu.studies.flywheel import SteadyCycle, cycle_works
 
 from friction_reference import SliderCrankWithFriction
 
-SCENARIO = Path(__file__).parent / "data" / "user" / "slidercrank_friction_scenario.toml"
+SCENARIO = Path(__file__).resolve().parents[1] / "validation" / "data" / "slidercrank_friction_scenario.toml"
 
 
 @pytest.fixture(scope="module")

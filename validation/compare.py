@@ -29,14 +29,16 @@ def relative_error(a, b) -> float:
 
 
 def energy_residual(values) -> float:
-    """max over the run of |W_motor + W_load + W_ext - (E_kin - E_kin(0))| over the work scale.
+    """max over the run of |W_motor + W_load + W_ext + W_friction - (E_kin - E_kin(0))| over the work
+    scale (W_friction: the joints' friction's work, where the FMU has joint friction).
 
     The works are integrated with the state, so this measures the integration error only; the
-    scale is the largest |W_motor| + |W_load| + |W_ext| reached (the energy that flowed).
+    scale is the largest |W_motor| + |W_load| + |W_ext| + |W_friction| reached (the energy that flowed).
     """
+    works = [np.asarray(values[name]) for name in ("W_motor", "W_load", "W_ext", "W_friction") if name in values]
     E = np.asarray(values["E_kin"])
-    W = np.asarray(values["W_motor"]) + np.asarray(values["W_load"]) + np.asarray(values["W_ext"])
-    scale = float(np.max(np.abs(values["W_motor"]) + np.abs(values["W_load"]) + np.abs(values["W_ext"])))
+    W = sum(works)
+    scale = float(np.max(sum(np.abs(w) for w in works)))
     gap = np.abs(W - (E - E[0]))
     if np.isnan(gap).any():
         return float("nan")

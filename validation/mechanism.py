@@ -124,12 +124,12 @@ def expected_units(scenario) -> dict[str, str]:
     """The unit each output of a mechanism FMU of ``scenario`` must declare: the contract's, the
     [[outputs]]' and the ports' (from their coordinates), the joint reactions'."""
     from crankfmu.contract import OUTPUTS, SPEED_OUTPUTS
-    from crankfmu.fmi.python.slave import output_quantities, reaction_variables
+    from crankfmu.fmi.python.slave import friction_variables, output_quantities, reaction_variables
 
     definition = scenario.mechanism_definition()
     units = {v.name: v.unit for v in (*SPEED_OUTPUTS, *OUTPUTS)}
     units.update({q.name: q.unit(definition) for q in output_quantities(scenario)})
-    units.update({v.name: v.unit for v in reaction_variables(scenario)})
+    units.update({v.name: v.unit for v in (*reaction_variables(scenario), *friction_variables(scenario))})
     return units
 
 
@@ -148,14 +148,19 @@ def check_units(fmu, scenario, checks, prefix: str):
 def model_at_states(scenario, model, phi1, omega1, epsilon1) -> tuple[dict, dict]:
     """The in-process model of ``scenario`` (``model``, built) at given states: ({output: array}, {output: group}) for
     M_load, J_red, E_kin and epsilon1 ("model"), the [[outputs]] and ports ("quantity") and the
-    joint reactions ("reaction"). epsilon1 is the free motion's (a crank held on the motor's switch
+    joint reactions and frictions ("reaction"). epsilon1 is the free motion's (a crank held on the motor's switch
     or stuck at rest has another)."""
     from crankfmu.fmi.python.slave import output_quantities, reaction_variables
     from crankfmu.mechanisms.quantities import evaluate_all
 
-    values = {k: v for k, v in model.equation.outputs(phi1, omega1).items()
-              if k in ("M_load", "J_red", "E_kin", "epsilon1")}
+    outputs = model.equation.outputs(phi1, omega1)
+    values = {k: v for k, v in outputs.items() if k in ("M_load", "J_red", "E_kin", "epsilon1")}
     groups = dict.fromkeys(values, "model")
+    # joint friction's outputs (not its work, a state): the free motion's frictions, Newton-Euler at the
+    # FMU's states, as the reactions (they are their part)
+    friction = {k: v for k, v in outputs.items() if k in model.equation.friction_names and k != "W_friction"}
+    values.update(friction)
+    groups.update(dict.fromkeys(friction, "reaction"))
     quantities = output_quantities(scenario)
     reactions = reaction_variables(scenario)
     kin = model.mechanism.kinematics(phi1) if quantities or reactions else None

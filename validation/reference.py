@@ -51,6 +51,8 @@ def reference_run(scenario, times, method: str = "reference", rtol: float | None
                  output_times=times, progress=progress)
     wall = time.perf_counter() - started
     values = {c: np.asarray(getattr(r, c)) for c in COLUMNS if c != "time"}
+    if r.W_friction is not None:           # joint friction: its work and outputs (dynamics.friction)
+        values.update(W_friction=np.asarray(r.W_friction), **{k: np.asarray(v) for k, v in r.friction.items()})
     return with_outputs(ReferenceRun(method, times, values, wall, dict(r.settings), r), r.model, scenario)
 
 

@@ -130,6 +130,7 @@ class JointFrictions:
         self.coefficients = np.array([f.coefficient for f in self.frictions])
         self._switch = None
         self._moving = None           # (n_f,) whether each joint's links move relative to each other
+        self._peak = None             # (n_f,) each rate's largest |k_i| over the turn
 
     def __len__(self) -> int:
         return len(self.frictions)
@@ -156,6 +157,7 @@ class JointFrictions:
             scan = self._raw_rates(self.mechanism.kinematics(np.linspace(0.0, 2.0 * math.pi, 720, endpoint=False)))
             peak = np.max(np.abs(scan), axis=1)
             self._moving = peak > 1e-12 * max(1.0, float(np.max(peak)))
+            self._peak = peak
         return self._moving
 
     def rates(self, kin) -> np.ndarray:
@@ -246,8 +248,18 @@ class JointFrictions:
             "lower mu or the pin radii")
 
     def signs(self, kin, direction) -> np.ndarray:
-        """s_i (n, n_f) where the crank turns in ``direction`` (its sign, an array or a number)."""
-        return (np.sign(self.rates(kin)) * np.sign(direction)).T
+        """s_i (n, n_f) where the crank turns in ``direction`` (its sign, an array or a number). On a
+        zero of k_i (a dead centre, to 1e-9 of k_i's peak) the sign is that of the motion that
+        follows, k_i's a microradian further in ``direction``, as the integrators take it (the
+        switch interval entered); a crank at rest (direction 0) has none."""
+        rates = self.rates(kin)
+        direction = np.sign(direction) + np.zeros(kin.phi1.shape)
+        found = np.sign(rates)
+        near = (np.abs(rates) <= 1e-9 * self._peak[:, None]) & self.moving[:, None]
+        if np.any(near):
+            ahead = self.rates(self.mechanism.kinematics(kin.phi1 + 1e-6 * np.where(direction < 0.0, -1.0, 1.0)))
+            found = np.where(near, np.sign(ahead), found)
+        return (found * direction).T
 
     def prescribed(self, ne, x, direction):
         """(x, f): the unknowns x (n, size) of a prescribed motion (reactions.joint_reactions)

@@ -70,7 +70,7 @@ static void interval_cubics(const double* coefficients, int n_functions, int n, 
 }
 
 double kernel_friction(double t, double phi, double omega, double direction, double interval, const CkTables* T,
-                       const double* P, double J, double eps0, int held, double* f_out)
+                       const double* P, double J, double eps0, int held, double* f_out, double* normals)
 {
     const CkFriction* F = T->friction;
     int nf = F->n_f, nt = F->n_terms, per = nt + nf;
@@ -129,16 +129,20 @@ double kernel_friction(double t, double phi, double omega, double direction, dou
         }
         if (settled) {
             double generalised = 0.0;
-            for (int i = 0; i < nf; i++) {
+            for (int i = 0, c = 0; i < nf; c += F->components[i], i++) {
                 generalised += k[i] * f[i];
                 if (f_out) f_out[i] = f[i];
+                /* (the normal force at the frictions before this last update: what |N| was taken of) */
+                if (normals) normals[i] = F->components[i] == 1 ? R[c] : NAN;
             }
             return generalised;
         }
     }
     /* the frictions do not settle: friction large enough to lock the mechanism. NaN: the step is
      * refused as not finite */
-    if (f_out)
-        for (int i = 0; i < nf; i++) f_out[i] = NAN;
+    for (int i = 0; i < nf; i++) {
+        if (f_out) f_out[i] = NAN;
+        if (normals) normals[i] = NAN;
+    }
     return NAN;
 }

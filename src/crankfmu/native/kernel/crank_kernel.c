@@ -11,6 +11,8 @@
 #include <string.h>
 
 static const double SAFETY = 0.9, MIN_FACTOR = 0.2, MAX_FACTOR = 10.0;
+/* kernel_locate's slot for the zero of slide friction 0's normal force (FRICTION_KINK - i: friction i) */
+enum { FRICTION_KINK = -3 };
 #define ERROR_EXPONENT (-1.0 / (CK_ERROR_ESTIMATOR_ORDER + 1))
 
 /* (static: the hot path inlines it; ck_periodic_cubics is its exported face) */
@@ -84,7 +86,7 @@ void kernel_coefficients(double t, double phi, double omega, double direction, d
 {
     coefficients_free(t, phi, omega, direction, interval, T, P, work, J, half_dJ, Q, tau);
     if (T->friction != NULL && direction != 0.0)
-        *Q += kernel_friction(t, phi, omega, direction, interval, T, P, *J, 0.0, 1, NULL);
+        *Q += kernel_friction(t, phi, omega, direction, interval, T, P, *J, 0.0, 1, NULL, NULL);
 }
 
 static double motor_torque(double omega, int high, const double* P)
@@ -97,6 +99,7 @@ static double motor_torque(double omega, int high, const double* P)
 typedef struct {
     double M, Q, J, tau, friction;   /* N.m, N.m, kg.m2, N.m, N.m (the friction's generalised force) */
     double* f;                       /* the frictions (n_f), NULL: not wanted */
+    double* normals;                 /* the slides' normal forces (n_f), NULL: not wanted */
 } RhsExtras;
 
 /* d/dt (phi1, omega1, W_motor, W_load, W_ext, W_friction) into out; returns epsilon1 */
@@ -109,17 +112,23 @@ static double rhs(double t, double phi, double omega, double motor, double direc
         M = motor_torque(0.0, motor == CK_HIGH, P);
         eps = 0.0;
         omega = 0.0;
-        if (x && x->f && T->friction)
-            for (int i = 0; i < T->friction->n_f; i++) x->f[i] = 0.0;
+        if (x && T->friction)
+            for (int i = 0; i < T->friction->n_f; i++) {
+                if (x->f) x->f[i] = 0.0;
+                if (x->normals) x->normals[i] = NAN;
+            }
     } else if (motor == CK_SLIDE) {
-        if (T->friction) friction = kernel_friction(t, phi, omega, direction, interval, T, P, J, 0.0, 1, x ? x->f : NULL);
+        if (T->friction)
+            friction = kernel_friction(t, phi, omega, direction, interval, T, P, J, 0.0, 1, x ? x->f : NULL,
+                                       x ? x->normals : NULL);
         M = ck_equivalent_torque(half_dJ, Q + friction, tau, omega);
         eps = 0.0;
     } else {
         M = motor_torque(omega, motor == CK_HIGH, P);
         eps = ck_acceleration(J, half_dJ, Q, M, tau, omega);
         if (T->friction) {
-            friction = kernel_friction(t, phi, omega, direction, interval, T, P, J, eps, 0, x ? x->f : NULL);
+            friction = kernel_friction(t, phi, omega, direction, interval, T, P, J, eps, 0, x ? x->f : NULL,
+                                       x ? x->normals : NULL);
             eps += friction / J;
         }
     }
@@ -143,9 +152,22 @@ double kernel_friction_at(double t, double phi, double omega, double motor, doub
                           const CkTables* T, const double* P, double* f_out)
 {
     double work[CK_MAX_FUNCTIONS], out[CK_N_Y];
-    RhsExtras x = {0.0, 0.0, 0.0, 0.0, 0.0, f_out};
+    RhsExtras x = {0.0, 0.0, 0.0, 0.0, 0.0, f_out, NULL};
     rhs(t, phi, omega, motor, direction, interval, T, P, work, out, &x);
     return x.friction;
+}
+
+int kernel_friction_normals(const double* S, double t, const double* y, const CkTables* T, const double* P,
+                            double* normals)
+{
+    const CkFriction* F = T->friction;
+    int slides = 0;
+    for (int i = 0; F && i < F->n_f; i++) slides += F->components[i] == 1;
+    if (!slides) return 0;
+    double work[CK_MAX_FUNCTIONS], out[CK_N_Y];
+    RhsExtras x = {0.0, 0.0, 0.0, 0.0, 0.0, NULL, normals};
+    rhs(t, y[0], y[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, work, out, &x);
+    return 1;
 }
 
 void ck_dense(const double* S, double t, double* out)
@@ -344,7 +366,8 @@ double kernel_omega_slope(const double* S, double x)
 }
 
 /* time in [lo, hi] of the last step where g changes sign, by Illinois on the dense output: g is
- * event slot `slot` of S's mode, phi1 - level for slot -1, the slope of omega1 for slot -2 */
+ * event slot `slot` of S's mode, phi1 - level for slot -1, the slope of omega1 for slot -2, the
+ * normal force of slide friction i for slot FRICTION_KINK - i */
 double kernel_locate(const double* S, int slot, double level, double lo, double hi, double glo, double ghi,
                      const CkTables* T, const double* P, double* work, double* tmp, double* g)
 {
@@ -357,6 +380,11 @@ double kernel_locate(const double* S, int slot, double level, double lo, double 
             gm = kernel_omega_slope(S, (tm - S[CK_T_PREV]) / (S[CK_T] - S[CK_T_PREV]));
         else if (slot == -1)
             gm = tmp[0] - level;
+        else if (slot <= FRICTION_KINK) {
+            double normals[CK_MAX_FRICTIONS];
+            kernel_friction_normals(S, tm, tmp, T, P, normals);
+            gm = normals[FRICTION_KINK - slot];
+        }
         else {
             kernel_events(S, tm, tmp, T, P, work, g);
             gm = g[slot];
@@ -391,6 +419,31 @@ int kernel_mode_ok(const double* S, const CkTables* T)
 {
     return mode_ok(S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T)
            && mode_ok(S[CK_STEP_MOTOR], S[CK_STEP_DIRECTION], S[CK_STEP_INTERVAL], T);
+}
+
+/* the slide friction whose normal force crosses zero first in the step just taken (S holds it: t to
+ * t_new) before t_before, its time into w->g1[0]; -1: none. A zero at the step's start is the last
+ * step's end (it ended on it): not found again. */
+static int kink_in_step(const double* S, double t, double t_new, Scratch* w, const CkTables* T, const double* P,
+                        double t_before)
+{
+    double n0[CK_MAX_FRICTIONS], n1[CK_MAX_FRICTIONS];
+    if (!kernel_friction_normals(S, t, w->y, T, P, n0)) return -1;
+    kernel_friction_normals(S, t_new, w->ynew, T, P, n1);
+    int found = -1;
+    double first = t_before;
+    for (int i = 0; i < T->friction->n_f; i++) {
+        if (!(isfinite(n0[i]) && isfinite(n1[i])) || !((n0[i] < 0.0 && n1[i] > 0.0) || (n0[i] > 0.0 && n1[i] < 0.0)))
+            continue;
+        double at = kernel_locate(S, FRICTION_KINK - i, 0.0, t, t_new, n0[i], n1[i], T, P, w->work, w->tmp, w->g0);
+        /* (a zero within a millionth of the step from its start: the one the last step ended on,
+         * N's round-off on the wrong side of it) */
+        if (at - t <= fmax(1e-12 * fmax(1.0, fabs(t)), 1e-6 * (t_new - t)) || at >= first) continue;
+        found = i;
+        first = at;
+    }
+    if (found >= 0) w->g1[0] = first;
+    return found;
 }
 
 /* one accepted step, not beyond t_limit, ending on the first event crossed */
@@ -451,7 +504,16 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
             first_t = hi;
         }
     }
-    if (first_slot < 0) {
+    /* a slide's friction mu |N| has a kink where its normal force N passes through zero (several
+     * times a turn in a slider-crank): not a switch (|N| is continuous, and nothing in the mode
+     * changes), but a step across it loses the method's order, and where the error control then
+     * lands decides the result to 1e-8. The step ends on it instead, located as an event is. */
+    int kink = kink_in_step(S, t, t_new, w, T, P, first_slot < 0 ? t_new : first_t);
+    if (kink >= 0) {
+        first_t = w->g1[0];
+        first_slot = -1;
+    }
+    if (first_slot < 0 && kink < 0) {
         for (int j = 0; j < CK_N_Y; j++) S[CK_F + j] = w->Kst[CK_N_STAGES][j];
         S[CK_H] = h_next;
         S[CK_N_RHS] = n_rhs;
@@ -465,7 +527,7 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
     S[CK_T] = first_t;
     for (int j = 0; j < CK_N_Y; j++)
         for (int s = 0; s < CK_N_STAGES + 1; s++) S[CK_K + CK_N_Y * s + j] = w->Kst[s][j];
-    kernel_transition(S, first_slot, first_t, w->ynew, T, P, w->work, w->f);
+    if (first_slot >= 0) kernel_transition(S, first_slot, first_t, w->ynew, T, P, w->work, w->f);
     rhs(first_t, w->ynew[0], w->ynew[1], S[CK_MOTOR], S[CK_DIRECTION], S[CK_INTERVAL], T, P, w->work, w->f, NULL);
     for (int j = 0; j < CK_N_Y; j++) {
         S[CK_Y + j] = w->ynew[j];
@@ -474,7 +536,7 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
     S[CK_H] = fmax(h_next, h_event);
     S[CK_N_RHS] = n_rhs + 1.0;
     S[CK_N_STEPS] += 1.0;
-    return first_slot;
+    return first_slot >= 0 ? first_slot : CK_NO_EVENT;
 }
 
 /* the rest of an output row whose state row[0:5] at time t is set, in the given mode: epsilon1,
@@ -482,7 +544,7 @@ int kernel_step(double* S, double t_limit, const CkTables* T, const double* P, S
 void kernel_complete_row(double t, double motor, double direction, double interval, const CkTables* T,
                          const double* P, double* work, double* f, double* row)
 {
-    RhsExtras x = {0.0, 0.0, 0.0, 0.0, 0.0, NULL};
+    RhsExtras x = {0.0, 0.0, 0.0, 0.0, 0.0, NULL, NULL};
     row[CK_OUT_W_FRICTION] = row[CK_W_FRICTION];
     double eps = rhs(t, row[0], row[1], motor, direction, interval, T, P, work, f, &x);
     row[5] = eps;

@@ -20,9 +20,14 @@ int kernel_reaction_weights(double t, double omega, double epsilon, double direc
 /* the joints' frictions at one state (crank_friction.c): f into f_out (n_f; may be NULL) and their
  * generalised force sum k_i f_i (N.m) returned, eps0 the frictionless acceleration (rad/s2) and
  * held: the motion does not respond (the motor sliding on its switch, or a drive imposing it); NaN
- * where they do not settle (friction that locks the mechanism) */
+ * where they do not settle (friction that locks the mechanism). normals (n_f; may be NULL): each
+ * slide's normal force N (a pin's: NaN), whose zeros are the kinks of |N| */
 double kernel_friction(double t, double phi, double omega, double direction, double interval, const CkTables* T,
-                       const double* P, double J, double eps0, int held, double* f_out);
+                       const double* P, double J, double eps0, int held, double* f_out, double* normals);
+/* each slide friction's normal force (N; a pin's NaN) at (t, y) in S's mode, into normals; 1 where
+ * some friction is a slide's (0: none, nothing written) */
+int kernel_friction_normals(const double* S, double t, const double* y, const CkTables* T, const double* P,
+                            double* normals);
 /* the frictions f (n_f, into f_out) and their generalised force (returned) at a state of the mode
  * (motor, direction, interval), as the right-hand side solves them */
 double kernel_friction_at(double t, double phi, double omega, double motor, double direction, double interval,
