@@ -123,3 +123,13 @@ def test_speed_causality_refuses_friction_by_name(tmp_path):
     with pytest.raises(CrankfmuError, match="joint friction .* speed causality"):
         build("scenario", str(SCENARIO), tmp_path, name="SliderFriction", causality="speed")
     assert not list(tmp_path.iterdir())
+
+
+def test_the_studies_not_checked_with_friction_refuse_it_by_name(scenario, tmp_path):
+    from crankfmu.studies.flywheel import flywheel_study
+    from crankfmu.studies.sweep import SweepAxis, run_sweep
+
+    with pytest.raises(CrankfmuError, match=r"joint friction \(O, A, B and slide\) is not taken by the flywheel"):
+        flywheel_study(scenario.with_params(omega1_start=15.0), 0.05)
+    with pytest.raises(CrankfmuError, match="joint friction .* steady-cycle sweep"):
+        run_sweep(scenario, [SweepAxis("J_flywheel", [4.0, 5.0])], tmp_path, study="steady")
