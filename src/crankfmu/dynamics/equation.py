@@ -28,7 +28,7 @@ import numpy as np
 from . import modes
 from .modes import HIGH, SLIDE, SLIDING, STUCK
 from .motor import MotorLine
-from .friction import friction_outputs
+from .friction import friction_outputs, joint_values
 from .loads import AppliedLoad
 from .reactions import NewtonEuler
 from .reduced import ReducedModel
@@ -89,6 +89,7 @@ class MovementEquation:
             offsets[id(load)] = offset
             offset += len(load.column_names)
         self._slider_offsets = [(load, offsets[id(load)]) for load in self.sliders]
+        self._switched_offsets = {id(load): s for load, s in self._slider_offsets}
         self._smooth_velocity_loads = [load for load in reduced.loads
                                        if not load.position_only and load not in self.sliders]
         #: the joints' friction (dynamics.friction.JointFrictions) or None
@@ -158,7 +159,7 @@ class MovementEquation:
         """Every load as the joints see it (loads.AppliedLoad) at one state, the switched loads'
         values those of ``mode`` (as ``coefficients`` takes them), the ports' inputs at time t."""
         out = []
-        switched = {id(load): s for load, s in self._slider_offsets}
+        switched = self._switched_offsets
         _, forces = self.reduced.slider_schedule() if self.sliders else (None, None)
         for load in self.reduced.loads:
             if id(load) not in switched:
@@ -369,9 +370,4 @@ class MovementEquation:
             f, generalised = np.where(sliding[:, None], f_held, f), np.where(sliding, g_held, generalised)
             extra = np.where(sliding, 0.0, extra)
         rates = self.friction.rates(kin)
-        names = iter(name for name, _, _ in friction_outputs(self.friction.frictions)[2:])
-        out = {"M_friction": generalised}
-        for i in range(len(self.friction)):
-            out[next(names)] = f[:, i]
-            out[next(names)] = f[:, i] * rates[i] * omega1
-        return extra, out
+        return extra, {"M_friction": generalised, **joint_values(self.friction.frictions, f, rates, omega1)}

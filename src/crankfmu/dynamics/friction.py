@@ -75,17 +75,36 @@ class JointFriction:
         return ("Mf", "N.m") if self.joint.kind == "revolute" else ("Ff", "N")
 
 
+    @property
+    def names(self) -> tuple[str, str]:
+        """Its outputs' names: its friction (``output``) and its power ``<joint>_Pf``."""
+        suffix, _ = self.output
+        return f"{self.name}_{suffix}", f"{self.name}_Pf"
+
+
 def friction_outputs(frictions: list[JointFriction]) -> list[tuple[str, str, str]]:
     """(name, unit, description) of the outputs joint friction gives: one home for their names."""
     out = [("M_friction", "N.m", "the joints' friction reduced to the crank (its generalised force, <= 0 forward)"),
            ("W_friction", "J", "the joints' friction's work since the start (<= 0)")]
     for friction in frictions:
-        suffix, unit = friction.output
+        _, unit = friction.output
+        force, power = friction.names
         what = "moment" if friction.joint.kind == "revolute" else "force along the slide"
         first, second = friction.joint.links
-        out += [(f"{friction.name}_{suffix}", unit, f"joint {friction.name}: friction {what} on {second} "
-                                                    f"(the opposite on {first})"),
-                (f"{friction.name}_Pf", "W", f"joint {friction.name}: friction power (<= 0)")]
+        out += [(force, unit, f"joint {friction.name}: friction {what} on {second} (the opposite on {first})"),
+                (power, "W", f"joint {friction.name}: friction power (<= 0)")]
+    return out
+
+
+def joint_values(frictions: list[JointFriction], f, rates, omega1) -> dict:
+    """Each joint's friction output and its power (W: f_i k_i omega1) by name, from the frictions f
+    (n, n_f), the rates k_i (n_f, n) and omega1 (n,): what every path reports (the engine, the fast
+    path, the Python FMU)."""
+    out = {}
+    for i, friction in enumerate(frictions):
+        force, power = friction.names
+        out[force] = f[:, i]
+        out[power] = f[:, i] * rates[i] * omega1
     return out
 
 

@@ -130,16 +130,12 @@ def _friction_outputs(equation, table, rows, frictions) -> dict:
     friction and its power) at the output rows, from the kernel's frictions there and the rates'
     table (the friction table's first functions)."""
     from ..dynamics.cubics import evaluate_cubics
+    from ..dynamics.friction import joint_values
 
     n_f = len(equation.friction)
     rates = evaluate_cubics(table.friction.coefficients[:n_f], rows[:, 0], table.period)
-    omega1 = rows[:, 1]
-    out = {"M_friction": rows[:, kernel.ROW_FIELDS.index("M_friction")]}
-    for i, joint in enumerate(equation.friction.frictions):
-        suffix, _ = joint.output
-        out[f"{joint.name}_{suffix}"] = frictions[:, i]
-        out[f"{joint.name}_Pf"] = frictions[:, i] * rates[i] * omega1
-    return out
+    return {"M_friction": rows[:, kernel.ROW_FIELDS.index("M_friction")],
+            **joint_values(equation.friction.frictions, frictions, rates, rows[:, 1])}
 
 
 def refused(status: int, state) -> None:

@@ -272,8 +272,9 @@ def friction_now(core) -> list:
     """The joints' friction's outputs now (friction_variables' order): M_friction and W_friction from
     the kernel's output row, each joint's friction by the kernel's solve at the state now
     (ck_friction_values) and its power with the rate's table; zeros for a design whose mu are 0."""
-    from ...native import friction_values
     from ...dynamics.cubics import evaluate_cubics
+    from ...dynamics.friction import joint_values
+    from ...native import friction_values
 
     names = [v.name for v in friction_variables(core.scenario)]
     reduced = core.model.reduced
@@ -283,14 +284,11 @@ def friction_now(core) -> list:
     values = {"M_friction": float(row[ROW_FIELDS.index("M_friction")]),
               "W_friction": float(row[ROW_FIELDS.index("W_friction")])}
     stepper, table = core.stepper, core.stepper.table
-    f = friction_values(stepper.state[None, :], [core.time], stepper.tables, stepper.P)[0]
+    f = friction_values(stepper.state[None, :], [core.time], stepper.tables, stepper.P)[:, :-1]
     n_f = len(reduced.friction)
-    rates = evaluate_cubics(table.friction.coefficients[:n_f], np.array([row[0]]), table.period)[:, 0]
-    for i, joint in enumerate(reduced.friction.frictions):
-        suffix, _ = joint.output
-        values[f"{joint.name}_{suffix}"] = float(f[i])
-        values[f"{joint.name}_Pf"] = float(f[i] * rates[i] * row[1])
-    return [values.get(name, 0.0) for name in names]
+    rates = evaluate_cubics(table.friction.coefficients[:n_f], np.array([row[0]]), table.period)
+    values.update(joint_values(reduced.friction.frictions, f, rates, np.array([row[1]])))
+    return [float(np.ravel(values.get(name, 0.0))[0]) for name in names]
 
 
 def output_reads(design: Design, quantities, stepper) -> tuple:
