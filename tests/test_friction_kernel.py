@@ -86,12 +86,17 @@ def test_the_fast_path_holds_a_crank_that_friction_holds(scenario):
     assert moving.omega1[-1] > 1.0
 
 
-def test_the_python_fmu_runs_the_friction(scenario, expected, tmp_path):
-    from fmpy import simulate_fmu
-
+@pytest.fixture(scope="module")
+def python_fmu(tmp_path_factory):
     from crankfmu.fmi.python.build import build
 
-    fmu = build("scenario", str(SCENARIO), tmp_path)
+    return build("scenario", str(SCENARIO), tmp_path_factory.mktemp("friction_fmu"))
+
+
+def test_the_python_fmu_runs_the_friction(scenario, expected, python_fmu):
+    from fmpy import simulate_fmu
+
+    fmu = python_fmu
     outputs = ["phi1", "omega1", "epsilon1", "W_motor", "W_load", "W_friction", "E_kin", "M_friction", "slide_Ff",
                "slide_Pf", "O_Mf", "A_Fx", "A_Fy", "slide_N"]
     r = simulate_fmu(str(fmu), stop_time=3.0, output_interval=0.01, start_values={"rtol": 1e-12}, output=outputs)
@@ -108,6 +113,28 @@ def test_the_python_fmu_runs_the_friction(scenario, expected, tmp_path):
         assert r["slide_N"][k] == pytest.approx(found.normal["slide"][0], rel=1e-6)
         assert r["slide_Ff"][k] == pytest.approx(found.friction["slide"][0], rel=1e-6)
         assert r["O_Mf"][k] == pytest.approx(found.friction["O"][0], rel=1e-6)
+
+
+@pytest.mark.parametrize("values", [{"mu_pin": 0.0, "mu_guide": 0.0}, {"mu_pin": 0.2, "r_pin": 0.02, "mu_guide": 0.05}])
+def test_the_python_fmus_friction_parameters_are_set_before_initialisation(scenario, python_fmu, values):
+    """mu and the pins' radius are parameters of the FMU like any other: set by the host before
+    initialisation, the FMU runs the machine the fast path runs with the same values (the same kernel
+    and tables: what is left is where the two stop their steps), and with every mu at 0 it has no
+    friction at all."""
+    from fmpy import simulate_fmu
+
+    r = simulate_fmu(str(python_fmu), stop_time=1.0, output_interval=0.01, start_values={"rtol": 1e-11, **values},
+                     output=["omega1", "W_friction", "M_friction"])
+    same = simulate(scenario.with_params(**values), t_end=1.0, method="fast", rtol=1e-11, output_times=r["time"])
+    assert np.max(np.abs(r["omega1"] - same.omega1)) < 1e-8
+    if values["mu_pin"] == 0.0:
+        assert np.all(r["W_friction"] == 0.0) and np.all(r["M_friction"] == 0.0) and same.W_friction is None
+    else:
+        assert abs(r["W_friction"][-1] - same.W_friction[-1]) < 1e-8 * abs(same.W_friction[-1])
+        # the pins' friction circles four times the file's (mu 0.2 on 20 mm pins): more work lost
+        # than with the file's values, though the guide's mu is halved
+        base = simulate(scenario, t_end=1.0, method="fast", rtol=1e-11, output_times=r["time"])
+        assert same.W_friction[-1] < 1.2 * base.W_friction[-1]
 
 
 def test_the_native_fmu_refuses_friction_by_name(scenario):
