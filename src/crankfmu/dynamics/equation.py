@@ -180,9 +180,7 @@ class MovementEquation:
         the acceleration the joints' friction adds to the frictionless ``epsilon1``, the
         frictions, the Newton-Euler unknowns and the friction's generalised force on the crank."""
         ne = NewtonEuler(self.reduced, kin)
-        b = ne.rhs()
-        ne.inertia(b, omega1, epsilon1)
-        ne.applied(b, self._applied_in_mode(kin, t, omega1, mode))
+        b = ne.loaded(self._applied_in_mode(kin, t, omega1, mode), omega1, epsilon1)
         signs = self.reduced.friction_signs()[mode.interval] * mode.direction
         return self.friction.forward(ne, b, np.atleast_1d(J), signs[None, :], held)
 
@@ -344,14 +342,11 @@ class MovementEquation:
         generalised force on the crank), each joint's ``<joint>_Mf`` (N.m) or ``<joint>_Ff`` (N)
         and its power ``<joint>_Pf`` (W, <= 0). Where ``sliding`` the speed is held (eps = 0)."""
         ne = NewtonEuler(self.reduced, kin)
-        b = ne.rhs()
-        eps_free = np.where(sliding, 0.0, epsilon1)
-        ne.inertia(b, omega1, eps_free)
         loads = [f for load in self.reduced.loads for f in load.applied(kin, omega1)]
         times = np.zeros_like(phi1) if t is None else np.asarray(t, dtype=float)
         for port, value in zip(self.ports, self.port_values(times)):
             loads += port.applied(kin, value)
-        ne.applied(b, loads)
+        b = ne.loaded(loads, omega1, np.where(sliding, 0.0, epsilon1))
         J = J + np.zeros_like(phi1)
         # at rest the frictions are those of the motion that follows, as the integrators take them
         # (modes.direction_at_rest): forward where the crank accelerates forward with them

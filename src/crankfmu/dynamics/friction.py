@@ -292,9 +292,7 @@ class JointFrictions:
         """Right-hand sides (n, size, first + n_f): the frictions at value 1 in the last n_f."""
         b = np.zeros((ne.kin.phi1.size, ne.size, first + len(self.frictions)))
         for i in range(len(self.frictions)):
-            column = ne.rhs()
-            ne.applied(column, self.unit_loads(ne.kin, i))
-            b[:, :, first + i] = column
+            b[:, :, first + i] = ne.loaded(self.unit_loads(ne.kin, i))
         return b
 
     def forward(self, ne, b_free, J, signs, held: bool = False):
@@ -308,9 +306,7 @@ class JointFrictions:
         b = self._unit_rhs(ne, 2)
         b[:, :, 0] = b_free
         if not held:
-            per_eps = ne.rhs()
-            ne.inertia(per_eps, 0.0, 1.0)
-            b[:, :, 1] = per_eps
+            b[:, :, 1] = ne.loaded(omega1=0.0, epsilon1=1.0)
         X = ne.solve(b)
         H = X[:, :, 2:]
         k = self.rates(ne.kin).T                        # (n, n_f)

@@ -145,6 +145,15 @@ class NewtonEuler:
         """A zero right-hand side."""
         return np.zeros((self.kin.phi1.size, self.size))
 
+    def loaded(self, forces=(), omega1=None, epsilon1=None):
+        """The right-hand side of a motion: the inertia of (omega1, epsilon1) where given (none:
+        the statics), less the applied loads ``forces`` (loads.AppliedLoad)."""
+        b = self.rhs()
+        if omega1 is not None:
+            self.inertia(b, omega1, epsilon1)
+        self.applied(b, forces)
+        return b
+
     def solve(self, b):
         """The unknowns for the right-hand side(s) ``b``: (n, size) or (n, size, k) columns."""
         if b.ndim == 2:
@@ -187,11 +196,8 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
         kin = reduced.mechanism.kinematics(phi1)
     ne = NewtonEuler(reduced, kin)
     # right-hand side: m a - applied forces; I eps - applied moments
-    b = ne.rhs()
-    if inertia:
-        ne.inertia(b, omega1, epsilon1)
-    ne.applied(b, [f for load in (reduced.loads if loads is None else loads) for f in load.applied(kin, omega1)])
-    ne.applied(b, extra(kin) if extra else ())
+    forces = [f for load in (reduced.loads if loads is None else loads) for f in load.applied(kin, omega1)]
+    b = ne.loaded(forces + list(extra(kin) if extra else ()), *((omega1, epsilon1) if inertia else ()))
     x = ne.solve(b)
     friction = getattr(reduced, "friction", None)
     if friction is None or loads is not None:
