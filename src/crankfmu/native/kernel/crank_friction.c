@@ -94,6 +94,11 @@ double kernel_friction(double t, double phi, double omega, double direction, dou
         R0[c] = r;
         for (int j = 0; j < nf; j++) H[c][j] = terms[nt + j] + (held ? 0.0 : terms[1] * k[j] / J);
     }
+    /* Newton starts from the frictions of the frictionless reactions (-c s |R0|, one fixed-point
+     * step from 0): the frictions are a small part of the reactions, so it starts an iteration
+     * closer */
+    for (int i = 0, c = 0; i < nf; c += F->components[i], i++)
+        f[i] = -cs[i] * (F->components[i] == 2 ? sqrt(R0[c] * R0[c] + R0[c + 1] * R0[c + 1]) : fabs(R0[c]));
     for (int it = 0; it < MAX_ITERATIONS; it++) {
         double R[2 * CK_MAX_FRICTIONS], largest = 0.0;
         for (int c = 0; c < n_components; c++) {
