@@ -171,7 +171,7 @@ class CoupledWell:
         self.string = RodString(design, dt=dt or 0.0)
         self.dt = self.string.dt
         self.t = 0.0
-        self.y = np.array(self.model.y0, dtype=float)
+        self.y = kernel.state_vector(self.model.y0)       # (the kernel's N_Y: crank_well.c writes them all)
         self.y[0], self.y[1] = v["phi1_start"], v["omega1_start"]
         s0 = self.rope.position(self.y[0])
         self.string.hang(0.0, s0)

@@ -183,7 +183,7 @@ class FastStepper:
     def start(self, t: float, y) -> np.ndarray:
         """Initialise at (t, y) and return the output row there."""
         self.state[:] = 0.0
-        self.bound.begin(float(t), np.ascontiguousarray(y, dtype=float))
+        self.bound.begin(float(t), y)
         return self.row
 
     def restart(self, t: float):

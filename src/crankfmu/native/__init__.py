@@ -341,9 +341,9 @@ class Bound:
     def advance(self, t_target: float, t_limit: float) -> int:
         return self._advance(self.S, t_target, t_limit, self.tables, self.P, self.row)
 
-    def begin(self, t: float, y: np.ndarray):
-        """ck_begin at (t, y) with the bound arrays (y: a float64 array of the kernel's N_Y)."""
-        LIBRARY.ck_begin(self.S, t, _d(y), self.tables, self.P, self.row)
+    def begin(self, t: float, y):
+        """ck_begin at (t, y) with the bound arrays (y: the state, W_friction 0 where it is left out)."""
+        LIBRARY.ck_begin(self.S, t, _d(state_vector(y)), self.tables, self.P, self.row)
 
     def speed_begin(self, t: float, phi1: float, omega1: float):
         LIBRARY.ck_speed_begin(self.S, t, phi1, omega1, self.tables, self.P, self.row)
@@ -371,7 +371,22 @@ def friction_values(store: np.ndarray, times, tables: "Tables", P) -> np.ndarray
     return out
 
 
+def state_vector(y) -> np.ndarray:
+    """y as the kernel reads and writes it: N_Y float64s (phi1, omega1, W_motor, W_load, W_ext,
+    W_friction), W_friction 0 where ``y`` has the five states of a model without friction. The
+    kernel reads and writes all N_Y: a shorter array would be read and written past its end."""
+    y = np.asarray(y, dtype=float).ravel()
+    if y.size > N_Y:
+        raise CrankfmuError(f"a kernel state has {N_Y} values, got {y.size}")
+    out = np.zeros(N_Y)
+    out[:y.size] = y
+    return out
+
+
 def dense(S, t, out):
+    """The state at t within S's last step into ``out`` (N_Y float64s: ck_dense writes them all)."""
+    if not (out.dtype == np.float64 and out.flags.c_contiguous and out.size >= N_Y):
+        raise CrankfmuError(f"ck_dense writes {N_Y} float64s, got an array of {out.size} {out.dtype}")
     LIBRARY.ck_dense(_d(S), t, _d(out))
 
 
