@@ -320,7 +320,7 @@ def _friction_struct(friction, m: int):
     if n_f > _LAYOUT["MAX_FRICTIONS"] or coefficients.shape[1] > _LAYOUT["MAX_FRICTION_FUNCTIONS"]:
         raise CrankfmuError(f"the C kernel takes at most {_LAYOUT['MAX_FRICTIONS']} joint frictions and "
                             f"{_LAYOUT['MAX_FRICTION_FUNCTIONS']} tabulated friction functions, got {n_f} and "
-                            f"{coefficients.shape[1]}")
+                            f"{coefficients.shape[1]}: simulate with method='reference'")
     functions = n_f + int(components.sum()) * (friction.n_terms + n_f)
     if signs.shape != (max(m, 1), n_f) or coefficients.shape[1] != functions:
         raise CrankfmuError("the friction table does not match the reduced table (its signs or its functions)")

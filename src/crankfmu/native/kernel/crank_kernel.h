@@ -98,7 +98,7 @@ typedef double (*CkLaw)(const void* context, int column, double omega);
  * n_terms terms followed by one term per unit friction. The movement equation gains sum k_i f_i,
  * and the reactions depend on the acceleration and the frictions: each right-hand side solves for
  * them together by Newton's method (a few iterations). */
-enum { CK_MAX_FRICTIONS = 8, CK_MAX_FRICTION_FUNCTIONS = 2048 };
+enum { CK_MAX_FRICTIONS = 16, CK_MAX_FRICTION_FUNCTIONS = 4096 };
 typedef struct {
     int n_f, n_terms;
     const double* coefficients;
