@@ -313,7 +313,8 @@ def scenario_documentation(name: str, scenario, model_description: bytes, parame
     contours = "\n".join(f'<div class="equation">{math(text + " == 0")}<p class="note">contour '
                          f"{html.escape(cname)}</p></div>" for cname, text in definition.contour_sources)
     plot = ""
-    if reference_csv is not None:
+    # (a speed-causal FMU whose input starts at 0 has no reference: a drive holding the crank still)
+    if reference_csv:
         files["documentation/default_experiment.png"] = experiment_plot(
             reference_csv, f"{name}.fmu, default experiment (reference result)")
         plot = ('<p><img src="default_experiment.png" alt="the reference result over the default experiment"></p>')

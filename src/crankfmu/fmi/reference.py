@@ -87,7 +87,13 @@ def speed_reference(scenario) -> str:
     phi = values["phi1_start"] + omega * (times - exp.start_time)
     m = equilibrium_moment(model.reduced, phi, omega)
     J = model.reduced.coefficients(phi)[0]
-    columns = {"time": times, "phi1": phi, "epsilon1": np.zeros_like(phi), "tau_drive": m.total,
+    tau_drive = m.total
+    if model.reduced.friction is not None:
+        # with joint friction the drive also takes the frictions of the motion: Newton-Euler's drive
+        # moment with them (the power balance alone does not know the reactions)
+        from ..dynamics.reactions import joint_reactions
+        tau_drive = joint_reactions(model.reduced, phi, omega, 0.0).driving_moment
+    columns = {"time": times, "phi1": phi, "epsilon1": np.zeros_like(phi), "tau_drive": tau_drive,
                "M_load": -(m.weights + m.technological), "J_red": J, "E_kin": 0.5 * J * omega * omega}
     lines = [",".join(f'"{c}"' for c in columns)]
     lines += [",".join(f"{columns[c][i]:.17g}" for c in columns) for i in range(times.size)]

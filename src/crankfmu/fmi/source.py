@@ -69,10 +69,6 @@ def source_of(kind: str, name: str, fmu_name: str | None = None, causality: str 
             raise CrankfmuError(f"--causality must be one of {', '.join(CAUSALITIES)}, got {causality!r}")
         own = scenario.causality
         causality = causality or own
-        if causality == "speed" and scenario.friction_entries():
-            raise CrankfmuError(f"{scenario.where}: joint friction ({', '.join(scenario.friction_entries())}) is not "
-                                "taken in speed causality yet (the drive's torque with the frictions of an imposed "
-                                "motion, issue 69): build the FMU in torque causality")
         definition = scenario.mechanism_definition()
         groups = {"*geometry": sorted(set(definition.geometry_parameters) | set(definition.mass_parameters)),
                   "*loads": sorted(scenario.load_parameters())}

@@ -93,8 +93,8 @@ class FastIntegrator(Integrator):
             if friction and i_out > i_first:
                 # (from the chunk's steps and the one before: an output at the chunk's start is there)
                 steps = np.concatenate([stores[-1][-1:], store[:n_store]])
-                frictions[i_first:i_out] = kernel.friction_values(steps, times[i_first:i_out], stepper.tables,
-                                                                  stepper.P)
+                frictions[i_first:i_out] = kernel.friction_values(steps, times[i_first:i_out], rows[i_first:i_out, 5],
+                                                                  stepper.tables, stepper.P)
             stores.append(store[:n_store])
             events += [(float(t), hybrid.event_name(int(slot), motor)) for t, slot, motor in ev[:n_ev]]
             modes += [(float(r[0]), _mode_name(r[1:], row=True)) for r in md[:n_md]]

@@ -121,7 +121,7 @@ def _load() -> ctypes.CDLL:
         "cc_string_grid": (None, [ctypes.c_int, D, D, D, D, D, D]),
         "ck_quantity_values": (None, [D, ctypes.c_int, ctypes.c_int, D, ctypes.c_int, D, D, ctypes.c_double,
                                       ctypes.c_double, ctypes.c_double, D, D]),
-        "ck_friction_values": (ctypes.c_int, [D, ctypes.c_double, D, T, D, D]),
+        "ck_friction_values": (ctypes.c_int, [D, ctypes.c_double, D, ctypes.c_double, T, D, D]),
         "ck_reaction_values": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_int, ctypes.c_int, D, ctypes.c_double,
                                               ctypes.c_double, ctypes.c_double, ctypes.c_double, T, D, D, D]),
         "ck_interval_of_rule": (ctypes.c_int, [D, ctypes.c_int, ctypes.c_double, ctypes.c_double, D]),
@@ -353,19 +353,20 @@ class Bound:
                                         self.tables, self.P, self.row)
 
 
-def friction_values(store: np.ndarray, times, tables: "Tables", P) -> np.ndarray:
+def friction_values(store: np.ndarray, times, epsilon, tables: "Tables", P) -> np.ndarray:
     """(len(times), n_f + 1): the frictions f_i (N.m or N) and their generalised force on the crank
-    (N.m) at each time, from the kernel's stored steps (one state per row, in time order; each
-    time within one of their steps), in that step's mode (ck_friction_values)."""
+    (N.m) at each time, the crank's acceleration there ``epsilon`` (rad/s2, the output rows'), from
+    the kernel's stored steps (one state per row, in time order; each time within one of their
+    steps), in that step's mode (ck_friction_values)."""
     n_f = int(tables.friction[0].n_f)
     out = np.zeros((len(times), n_f + 1))
     y, row = np.zeros(N_Y), np.zeros(n_f + 1)
     ends = store[:, T]
-    for i, t in enumerate(np.asarray(times, dtype=float)):
+    for i, (t, eps) in enumerate(zip(np.asarray(times, dtype=float), np.asarray(epsilon, dtype=float))):
         k = min(int(np.searchsorted(ends, t, side="left")), len(ends) - 1)
         S = np.ascontiguousarray(store[k])
         LIBRARY.ck_dense(_d(S), float(t), _d(y))
-        if LIBRARY.ck_friction_values(_d(S), float(t), _d(y), tables.pointer, _d(P), _d(row)) != n_f:
+        if LIBRARY.ck_friction_values(_d(S), float(t), _d(y), float(eps), tables.pointer, _d(P), _d(row)) != n_f:
             raise CrankfmuError("the kernel's state is corrupted")
         out[i] = row
     return out

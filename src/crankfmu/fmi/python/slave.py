@@ -284,7 +284,8 @@ def friction_now(core) -> list:
     values = {"M_friction": float(row[ROW_FIELDS.index("M_friction")]),
               "W_friction": float(row[ROW_FIELDS.index("W_friction")])}
     stepper, table = core.stepper, core.stepper.table
-    f = friction_values(stepper.state[None, :], [core.time], stepper.tables, stepper.P)[:, :-1]
+    epsilon = row[ROW_FIELDS.index("epsilon1")]
+    f = friction_values(stepper.state[None, :], [core.time], [epsilon], stepper.tables, stepper.P)[:, :-1]
     n_f = len(reduced.friction)
     rates = evaluate_cubics(table.friction.coefficients[:n_f], np.array([row[0]]), table.period)
     values.update(joint_values(reduced.friction.frictions, f, rates, np.array([row[1]])))

@@ -24,8 +24,8 @@ from ...integrators.fast import SpeedStepper
 from ...native import SPEED_ROW_FIELDS
 from ...parameters import Parameter
 from .core import Declared, SlaveCore
-from .slave import (RowOutputs, build_design, fmu_scenario, lazy_outputs, output_quantities, output_reads,
-                    quantity_variables, reaction_variables)
+from .slave import (RowOutputs, build_design, fmu_scenario, friction_variables, lazy_outputs, output_quantities,
+                    output_reads, quantity_variables, reaction_variables)
 
 (OMEGA1,) = SPEED_INPUTS
 #: parameters the speed-causal FMU does not have: the motor line (the drive is outside) and the
@@ -35,7 +35,8 @@ NOT_DECLARED = (*MOTOR_PARAMETERS, "omega1_start")
 
 def declared(scenario) -> Declared:
     """The variables of the speed-causal FMU of ``scenario``."""
-    outputs = [*SPEED_OUTPUTS, *quantity_variables(scenario), *reaction_variables(scenario)]
+    outputs = [*SPEED_OUTPUTS, *quantity_variables(scenario), *reaction_variables(scenario),
+               *friction_variables(scenario)]
     inputs = [Parameter(OMEGA1.name, scenario.parameters["omega1_start"].value, OMEGA1.unit, OMEGA1.description),
               *(Parameter(p.input_name, 0.0, p.input_unit, p.input_description) for p in scenario.ports)]
     parameters = [p for n, p in scenario.parameters.items() if n not in NOT_DECLARED]

@@ -151,3 +151,15 @@ double kernel_friction(double t, double phi, double omega, double direction, dou
     }
     return NAN;
 }
+
+double kernel_friction_imposed(double t, double phi, double omega, double epsilon, double direction, double interval,
+                               const CkTables* T, const double* P, double* f_out)
+{
+    if (T->friction == NULL) return 0.0;
+    if (direction == 0.0) {          /* at rest, the crank held: no Coulomb force (ck_direction_imposed) */
+        for (int i = 0; f_out && i < T->friction->n_f; i++) f_out[i] = 0.0;
+        return 0.0;
+    }
+    /* held: the acceleration is given, so the frictions move the reactions alone (J is not read) */
+    return kernel_friction(t, phi, omega, direction, interval, T, P, 1.0, epsilon, 1, f_out, NULL);
+}

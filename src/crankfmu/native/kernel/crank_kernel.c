@@ -60,7 +60,7 @@ static double external_torque(double t, const CkTables* T, const double* P, cons
 
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
  * torque at time t, without the joints' friction */
-static void coefficients_free(double t, double phi, double omega, double direction, double interval,
+void kernel_coefficients_free(double t, double phi, double omega, double direction, double interval,
                               const CkTables* T, const double* P, double* work, double* J, double* half_dJ, double* Q,
                               double* tau)
 {
@@ -84,7 +84,7 @@ static void coefficients_free(double t, double phi, double omega, double directi
 void kernel_coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,
                          const double* P, double* work, double* J, double* half_dJ, double* Q, double* tau)
 {
-    coefficients_free(t, phi, omega, direction, interval, T, P, work, J, half_dJ, Q, tau);
+    kernel_coefficients_free(t, phi, omega, direction, interval, T, P, work, J, half_dJ, Q, tau);
     if (T->friction != NULL && direction != 0.0)
         *Q += kernel_friction(t, phi, omega, direction, interval, T, P, *J, 0.0, 1, NULL, NULL);
 }
@@ -107,7 +107,7 @@ static double rhs(double t, double phi, double omega, double motor, double direc
                   const CkTables* T, const double* P, double* work, double* out, RhsExtras* x)
 {
     double J, half_dJ, Q, M, eps, tau, friction = 0.0;
-    coefficients_free(t, phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
+    kernel_coefficients_free(t, phi, omega, direction, interval, T, P, work, &J, &half_dJ, &Q, &tau);
     if (direction == 0.0) {
         M = motor_torque(0.0, motor == CK_HIGH, P);
         eps = 0.0;
@@ -146,15 +146,6 @@ static double rhs(double t, double phi, double omega, double motor, double direc
         x->friction = friction;
     }
     return eps;
-}
-
-double kernel_friction_at(double t, double phi, double omega, double motor, double direction, double interval,
-                          const CkTables* T, const double* P, double* f_out)
-{
-    double work[CK_MAX_FUNCTIONS], out[CK_N_Y];
-    RhsExtras x = {0.0, 0.0, 0.0, 0.0, 0.0, f_out, NULL};
-    rhs(t, phi, omega, motor, direction, interval, T, P, work, out, &x);
-    return x.friction;
 }
 
 int kernel_friction_normals(const double* S, double t, const double* y, const CkTables* T, const double* P,

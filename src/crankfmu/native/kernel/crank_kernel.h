@@ -185,10 +185,12 @@ CK_API int ck_reaction_values(const double* coefficients, int n_reactions, int n
                               const double* P, double* scratch, double* out);
 
 /* the frictions f_i (N.m or N) at t within S's last step (or at its end) with the state y there
- * (ck_dense), in that step's mode, into out[0:n_f], and their generalised force on the crank
- * (sum k_i f_i, N.m) into out[n_f]; returns n_f (0 without friction) or CK_BAD_STATE */
-CK_API int ck_friction_values(const double* S, double t, const double* y, const CkTables* tables, const double* P,
-                              double* out);
+ * (ck_dense) and the crank's acceleration epsilon (rad/s2, the output row's), in that step's mode,
+ * into out[0:n_f], and their generalised force on the crank (sum k_i f_i, N.m) into out[n_f];
+ * returns n_f (0 without friction) or CK_BAD_STATE. The motion given, the frictions are those that
+ * move the reactions alone: what the movement equation solved them to, whichever causality */
+CK_API int ck_friction_values(const double* S, double t, const double* y, double epsilon, const CkTables* tables,
+                              const double* P, double* out);
 
 CK_API void ck_begin(double* S, double t, const double* y, const CkTables* tables, const double* P, double* row);
 CK_API int ck_advance(double* S, double t_target, double t_limit, const CkTables* tables, const double* P,

@@ -32,6 +32,15 @@ int kernel_friction_normals(const double* S, double t, const double* y, const Ck
  * (motor, direction, interval), as the right-hand side solves them */
 double kernel_friction_at(double t, double phi, double omega, double motor, double direction, double interval,
                           const CkTables* T, const double* P, double* f_out);
+/* kernel_coefficients without the joints' friction (Q the loads' alone) */
+void kernel_coefficients_free(double t, double phi, double omega, double direction, double interval,
+                              const CkTables* T, const double* P, double* work, double* J, double* half_dJ, double* Q,
+                              double* tau);
+/* the joints' frictions where the motion (phi1, omega1, epsilon1) is given: a drive imposing it, or a
+ * state whose acceleration is known (f into f_out, may be NULL; their generalised force returned;
+ * 0 without friction or at rest) */
+double kernel_friction_imposed(double t, double phi, double omega, double epsilon, double direction, double interval,
+                               const CkTables* T, const double* P, double* f_out);
 /* (J, 0.5 J', Q) with the slider forces of the given interval and direction, and the external
  * torque at time t */
 void kernel_coefficients(double t, double phi, double omega, double direction, double interval, const CkTables* T,

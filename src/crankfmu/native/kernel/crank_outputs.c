@@ -32,13 +32,14 @@ int ck_reaction_weights(const double* S, double t, double omega, double epsilon,
                                    within ? S[CK_STEP_INTERVAL] : S[CK_INTERVAL], T, P, out);
 }
 
-int ck_friction_values(const double* S, double t, const double* y, const CkTables* T, const double* P, double* out)
+int ck_friction_values(const double* S, double t, const double* y, double epsilon, const CkTables* T,
+                       const double* P, double* out)
 {
     if (T->friction == NULL) return 0;
     if (!kernel_mode_ok(S, T)) return CK_BAD_STATE;
     const double* mode = kernel_mode_at(S, t);
     int nf = T->friction->n_f;
-    out[nf] = kernel_friction_at(t, y[0], y[1], mode[0], mode[1], mode[2], T, P, out);
+    out[nf] = kernel_friction_imposed(t, y[0], y[1], epsilon, mode[1], mode[2], T, P, out);
     return nf;
 }
 
@@ -65,9 +66,8 @@ int ck_reaction_values(const double* coefficients, int n_reactions, int n_terms,
         /* with joint friction, each friction's value weighs its unit term (the mode at t as the
          * weights take it) */
         int within = t < S[CK_T];
-        kernel_friction_at(t, phi, omega, within ? S[CK_STEP_MOTOR] : S[CK_MOTOR],
-                           within ? S[CK_STEP_DIRECTION] : S[CK_DIRECTION],
-                           within ? S[CK_STEP_INTERVAL] : S[CK_INTERVAL], T, P, weights + n_weights);
+        kernel_friction_imposed(t, phi, omega, epsilon, within ? S[CK_STEP_DIRECTION] : S[CK_DIRECTION],
+                                within ? S[CK_STEP_INTERVAL] : S[CK_INTERVAL], T, P, weights + n_weights);
         n_weights += T->friction->n_f;
     }
     if (n_weights != n_terms) return -1;

@@ -32,13 +32,14 @@ static void gauss_legendre5(double* nodes, double* weights)
 }
 
 /* (J, 0.5 J', Q, tau_e) at an imposed (phi1, omega1) and time t: the slider forces on the side
- * omega1's sign gives (ck_direction_imposed), in the switch interval holding phi1 */
+ * omega1's sign gives (ck_direction_imposed), in the switch interval holding phi1 (Q without the
+ * joints' friction, which the imposed acceleration decides: kernel_friction_imposed) */
 static void imposed_coefficients(double t, double phi, double omega, const CkTables* T, const double* P,
                                  double* work, double* J, double* half_dJ, double* Q, double* tau)
 {
     double direction = ck_direction_imposed(omega), lo, hi;
     int k = ck_interval_of(T->switch_angles, T->m, phi, direction != 0.0 ? direction : 1.0, &lo, &hi);
-    kernel_coefficients(t, phi, omega, direction, (double)k, T, P, work, J, half_dJ, Q, tau);
+    kernel_coefficients_free(t, phi, omega, direction, (double)k, T, P, work, J, half_dJ, Q, tau);
 }
 
 /* the state's mode and the output row at S's time and state, epsilon1 = S[CK_F + 1] */
@@ -51,12 +52,14 @@ static void speed_row(double* S, const CkTables* T, const double* P, double* wor
     S[CK_PHI_LO] = lo;
     S[CK_PHI_HI] = hi;
     double J, half_dJ, Q, tau;
-    kernel_coefficients(t, phi, omega, direction, S[CK_INTERVAL], T, P, work, &J, &half_dJ, &Q, &tau);
+    kernel_coefficients_free(t, phi, omega, direction, S[CK_INTERVAL], T, P, work, &J, &half_dJ, &Q, &tau);
+    /* the joints' friction of the imposed motion: the drive takes it too */
+    double friction = kernel_friction_imposed(t, phi, omega, epsilon, direction, S[CK_INTERVAL], T, P, NULL);
     for (int j = 0; j < CK_N_Y; j++) row[j] = S[CK_Y + j];
-    row[CK_OUT_W_FRICTION] = 0.0;        /* (speed causality takes no joint friction: refused before) */
-    row[CK_OUT_M_FRICTION] = 0.0;
+    row[CK_OUT_W_FRICTION] = S[CK_Y + CK_W_FRICTION];
+    row[CK_OUT_M_FRICTION] = friction;
     row[5] = epsilon;
-    row[6] = ck_drive_torque(J, half_dJ, Q, tau, omega, epsilon);
+    row[6] = ck_drive_torque(J, half_dJ, Q + friction, tau, omega, epsilon);
     row[7] = Q;
     row[8] = J;
     row[9] = tau;
@@ -109,8 +112,9 @@ static double line_time(double phi0, double omega, double slope, double theta, d
 }
 
 /* the works over [sa, sb] of the step from (t, phi0), where the powers are smooth (the slider
- * forces' side and switch interval k hold: the caller found them): W[0..2] += the drive's, the
- * loads' and the external torque's */
+ * forces' side and switch interval k hold: the caller found them; the joints' frictions' signs too,
+ * their zeros being switch angles): W[0..3] += the drive's, the loads', the external torque's and
+ * the joints' friction's (a slide's |N| may kink inside a piece: pieces are at most a degree) */
 static void smooth_works(double t, double phi0, double omega, double slope, double sa, double sb, double direction,
                          int k, const CkTables* T, const double* P, const double* nodes, const double* weights,
                          double* work, double* W)
@@ -123,10 +127,12 @@ static void smooth_works(double t, double phi0, double omega, double slope, doub
         for (int i = 0; i < 5; i++) {
             double s = sa + ((double)p + nodes[i]) * hp, wq = weights[i] * hp;
             double w_s = omega + slope * s, phi = line_angle(phi0, omega, slope, s);
-            kernel_coefficients(t + s, phi, w_s, direction, (double)k, T, P, work, &J, &half_dJ, &Q, &tau);
-            W[0] += wq * ck_drive_torque(J, half_dJ, Q, tau, w_s, slope) * w_s;
+            kernel_coefficients_free(t + s, phi, w_s, direction, (double)k, T, P, work, &J, &half_dJ, &Q, &tau);
+            double friction = kernel_friction_imposed(t + s, phi, w_s, slope, direction, (double)k, T, P, NULL);
+            W[0] += wq * ck_drive_torque(J, half_dJ, Q + friction, tau, w_s, slope) * w_s;
             W[1] += wq * Q * w_s;
             W[2] += wq * tau * w_s;
+            W[3] += wq * friction * w_s;
         }
 }
 
@@ -138,7 +144,7 @@ int ck_speed_advance(double* S, double t_target, double omega, double rate, int 
     if (!(h > 0.0) || !isfinite(t_target) || !isfinite(omega) || !isfinite(rate)) return CK_BAD_STATE;
     double slope = ck_speed_slope(S, omega, rate, rate_given);
     double phi0 = S[CK_Y], J, half_dJ, Q, tau;
-    double W[3] = {S[CK_Y + 2], S[CK_Y + 3], S[CK_Y + 4]};
+    double W[4] = {S[CK_Y + 2], S[CK_Y + 3], S[CK_Y + 4], S[CK_Y + CK_W_FRICTION]};
     /* the step's segments where phi1 is monotone: split where omega1 changes sign */
     double s_turn = slope != 0.0 ? -omega / slope : -1.0;
     double ends[3] = {0.0, h, h};
@@ -181,6 +187,7 @@ int ck_speed_advance(double* S, double t_target, double omega, double rate, int 
     S[CK_Y + 2] = W[0];
     S[CK_Y + 3] = W[1];
     S[CK_Y + 4] = W[2];
+    S[CK_Y + CK_W_FRICTION] = W[3];
     S[CK_F] = S[CK_Y + 1];
     S[CK_F + 1] = slope;
     S[CK_N_STEPS] += 1.0;
