@@ -72,8 +72,8 @@ def tabulation(repeats: int) -> list[dict]:
     builds at initialisation (the reduced one, the [[outputs]] and ports' kinematics, the joint
     reactions' terms), each with the model build and checks before it, C against Python."""
     from crankfmu.dynamics.tabulated import c_model, c_output_tables, c_table, tabulate
-    from crankfmu.fmi.python.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, output_quantities, output_tables, \
-        reaction_variables
+    from crankfmu.fmi.python.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, output_tables
+    from crankfmu.fmi.variables import output_quantities, reaction_variables
     from crankfmu.scenario import load_scenario
 
     def python_all(scenario):

@@ -21,7 +21,8 @@ import pytest
 from crankfmu.contract import MOTOR_PARAMETERS
 from crankfmu.dynamics import MotorLine
 from crankfmu.dynamics.reactions import joint_reactions, reaction_arrays
-from crankfmu.fmi.python.slave import REACTION_TOLERANCE, build_design, output_quantities, output_reads, reaction_variables
+from crankfmu.fmi.python.slave import REACTION_TOLERANCE, build_design, output_reads
+from crankfmu.fmi.variables import output_quantities, reaction_variables
 from crankfmu.integrators.fast import FastStepper
 from crankfmu.mechanisms.quantities import evaluate_all
 from crankfmu.native import QuantityReads

@@ -124,7 +124,7 @@ def expected_units(scenario) -> dict[str, str]:
     """The unit each output of a mechanism FMU of ``scenario`` must declare: the contract's, the
     [[outputs]]' and the ports' (from their coordinates), the joint reactions'."""
     from crankfmu.contract import OUTPUTS, SPEED_OUTPUTS
-    from crankfmu.fmi.python.slave import friction_variables, output_quantities, reaction_variables
+    from crankfmu.fmi.variables import friction_variables, output_quantities, reaction_variables
 
     definition = scenario.mechanism_definition()
     units = {v.name: v.unit for v in (*SPEED_OUTPUTS, *OUTPUTS)}
@@ -150,7 +150,7 @@ def model_at_states(scenario, model, phi1, omega1, epsilon1) -> tuple[dict, dict
     M_load, J_red, E_kin and epsilon1 ("model"), the [[outputs]] and ports ("quantity") and the
     joint reactions and frictions ("reaction"). epsilon1 is the free motion's (a crank held on the motor's switch
     or stuck at rest has another)."""
-    from crankfmu.fmi.python.slave import output_quantities, reaction_variables
+    from crankfmu.fmi.variables import output_quantities, reaction_variables
     from crankfmu.mechanisms.quantities import evaluate_all
 
     outputs = model.equation.outputs(phi1, omega1)
@@ -343,7 +343,7 @@ def check_native_against_python(native, python, scenario, checks, native_run, py
     """The two builds of one scenario file (either causality), both in Co-Simulation on the same
     run: every output they share, to NATIVE_PYTHON_TOLERANCE of its scale by kind of output (the
     kinds from the scenario file: its joint reactions, its [[outputs]] and ports)."""
-    from crankfmu.fmi.python.slave import output_quantities, reaction_variables
+    from crankfmu.fmi.variables import output_quantities, reaction_variables
 
     reactions = {v.name for v in reaction_variables(scenario)}
     quantities = {q.name for q in output_quantities(scenario)}

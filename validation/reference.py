@@ -106,7 +106,7 @@ def with_outputs(run: ReferenceRun, model, scenario) -> ReferenceRun:
     """The run with every other output a mechanism FMU declares, at the reference's states: the
     scenario's [[outputs]] and the ports' s, v, a (the analytic kinematics), and the joint
     reactions (Newton-Euler, the ports' inputs zero as the harness leaves them)."""
-    from crankfmu.fmi.python.slave import output_quantities, reaction_variables
+    from crankfmu.fmi.variables import output_quantities, reaction_variables
     from crankfmu.mechanisms.quantities import evaluate_all
 
     values = run.values

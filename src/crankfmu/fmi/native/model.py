@@ -122,7 +122,7 @@ class NativeModel:
     """What a native FMU is generated from: the scenario, its tables and its variables."""
 
     def __init__(self, source, scenario_name, causality: str = "torque"):
-        from ..python.slave import output_quantities, reaction_variables, rtol_parameter
+        from ..variables import output_quantities, reaction_variables, rtol_parameter
         from ...scenario import load_scenario
 
         self.source = source
@@ -214,7 +214,7 @@ class NativeModel:
         """Each output's and state derivative's direct dependencies: names of the continuous states
         (Model Exchange's, declared with their derivatives in both interfaces; none in speed
         causality) and of the inputs."""
-        from ..python.slave import quantity_variables
+        from ..variables import quantity_variables
 
         inputs = [self.input.name, *(p.input_name for p in self.ports)]
         states = [name for name, _ in self.derivatives()]

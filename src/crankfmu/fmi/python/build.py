@@ -55,7 +55,7 @@ RUNTIME = ("__init__.py", "cache.py", "contract.py", "errors.py", "expressions.p
            "scenario_loads.py", "units.py",
            "mechanisms", "dynamics", "scenarios",
            "integrators/__init__.py", "integrators/base.py", "integrators/fast.py", "native",
-           "fmi/__init__.py", "fmi/python/__init__.py", "fmi/python/core.py", "fmi/python/slave.py",
+           "fmi/__init__.py", "fmi/variables.py", "fmi/python/__init__.py", "fmi/python/core.py", "fmi/python/slave.py",
            "fmi/python/speed.py", "fmi/python/drive.py", "fmi/python/cushion.py", "fmi/python/shaft.py",
            "fmi/python/rodstring.py", "parameters.py", "datafiles.py", "schema.py", "drives", "elements",
            "shafts", "wells")

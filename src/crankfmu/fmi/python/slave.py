@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS, QUANTITY_DEPENDS, REACTION_DEPENDS, Variable
+from ...contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS
 from ...dynamics import MotorLine
 from ...dynamics import modes
 from ...dynamics.tabulated import c_output_tables, table_of, tabulate_quantities, tabulate_reactions
@@ -39,6 +39,8 @@ from ...integrators.fast import TABLE_TOLERANCE, FastStepper
 from ...native import ROW_FIELDS, QuantityReads, ReactionReads
 from ...parameters import Parameter
 from ...scenario import load_scenario
+from ..variables import (friction_variables, output_quantities, quantity_variables, reaction_variables,
+                         rtol_parameter)
 from .core import Declared, SlaveCore
 
 (TAU_EXT,) = INPUTS
@@ -102,57 +104,6 @@ def output_tables(scenario, model) -> tuple:
     # movement equation's); the kernel supplies the terms' weights
     reaction_table = tabulate_reactions(model.reduced, REACTION_TOLERANCE) if reactions else None
     return quantity_table, reaction_table
-
-
-def output_quantities(scenario, ports=None) -> list:
-    """The mechanism quantities an FMU of ``scenario`` outputs: its [[outputs]], then each port's
-    position, velocity and acceleration (dynamics.ports). ``ports``: those of a model as built,
-    whose parameters may differ from the file's (a rope's lever is a length of the design)."""
-    return [*scenario.quantities, *(q for port in (scenario.ports if ports is None else ports)
-                                    for q in port.quantities)]
-
-
-def quantity_variables(scenario) -> list:
-    """The outputs of output_quantities, each depending at once on what its order needs."""
-    definition = scenario.mechanism_definition()
-    return [Variable(q.name, q.unit(definition), q.description, depends=QUANTITY_DEPENDS[q.order])
-            for q in output_quantities(scenario)]
-
-
-def friction_variables(scenario) -> list:
-    """The joints' friction's outputs (dynamics.friction.friction_outputs) of a scenario whose
-    joints have friction (0 where a design's mu is 0); none otherwise."""
-    from ...dynamics.friction import JointFriction, friction_outputs
-
-    entries = scenario.friction_entries()
-    if not entries:
-        return []
-    joints = [JointFriction(joint, k, 0.0, None) for k, joint in enumerate(scenario.mechanism_definition().joints)
-              if joint.name in entries]
-    return [Variable(*v, depends=REACTION_DEPENDS) for v in friction_outputs(joints)]
-
-
-def reaction_variables(scenario) -> list:
-    """The joint reactions' outputs (dynamics.reactions.reaction_outputs) of a mechanism file that
-    declares its [[joints]]; none otherwise."""
-    from ...dynamics.reactions import reaction_outputs
-
-    definition = scenario.mechanism_definition()
-    return ([Variable(*v, depends=REACTION_DEPENDS) for v in reaction_outputs(definition)]
-            if definition.joints else [])
-
-
-#: the FMU's integrator tolerance: below 1e-14 the error control asks for steps near the kernel's
-#: underflow guard, so a step of the host would take unbounded time (rtol = 4e-213 made one
-#: fmi2DoStep of 0.1 s run for hours: found by the FMI fuzzer, tests/fuzz/fmi2_fuzzer.c)
-RTOL_MIN, RTOL_MAX = 1e-14, 0.1
-
-
-def rtol_parameter(tolerance: float, tunable: bool = False) -> Parameter:
-    """The FMUs' parameter rtol, starting at ``tolerance``: fixed in the Python FMU, tunable in the
-    native one (its shell loads it into the kernel at each restart)."""
-    return Parameter("rtol", tolerance, "1", "relative tolerance of the FMU's internal integrator "
-                     "(Dormand-Prince 5(4), the C kernel)", min=RTOL_MIN, max=RTOL_MAX, tunable=tunable)
 
 
 def declared(scenario) -> Declared:

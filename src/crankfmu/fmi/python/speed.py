@@ -24,8 +24,8 @@ from ...integrators.fast import SpeedStepper
 from ...native import SPEED_ROW_FIELDS
 from ...parameters import Parameter
 from .core import Declared, SlaveCore
-from .slave import (RowOutputs, build_design, fmu_scenario, friction_variables, lazy_outputs, output_quantities,
-                    output_reads, quantity_variables, reaction_variables)
+from ..variables import friction_variables, output_quantities, quantity_variables, reaction_variables
+from .slave import RowOutputs, build_design, fmu_scenario, lazy_outputs, output_reads
 
 (OMEGA1,) = SPEED_INPUTS
 #: parameters the speed-causal FMU does not have: the motor line (the drive is outside) and the
