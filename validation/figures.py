@@ -8,6 +8,7 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
+from matplotlib.ticker import NullLocator
 
 from crankfmu.atomic import save_figure
 from crankfmu.plots import pyplot
@@ -46,6 +47,9 @@ def plot_outputs(run, ref, names, tolerances: dict, path: Path, title: str) -> P
             bottom.axhline(tol, color="k", ls="--", lw=0.8)
         bottom.set_ylim(1e-17, max(1.0, 10 * (tol or 0)))
         bottom.set_yticks([1e-15, 1e-10, 1e-5, 1.0])
+        # no minor ticks on the 17 decades: 136 tick marks per panel too small to read, and most of the
+        # figure's drawing time (a 36-output figure took 5.3 s)
+        bottom.yaxis.set_minor_locator(NullLocator())
         bottom.tick_params(labelsize=9)
         bottom.grid(alpha=0.3, which="major")
         if c == 0:
