@@ -329,3 +329,24 @@ def test_the_papers_graphical_values_are_checked_with_their_verdict():
     paper.check_paper(scenario, scenario.build(), None, checks, "S")
     graphical = [c for c in checks.items if c.name.endswith("_at_30deg")]
     assert len(graphical) >= 6 and all(c.verdict == "agrees" and c.published for c in graphical)
+
+
+def test_the_demo_subset_proves_each_fmu_without_the_hard_cases(fmu_path, tmp_path):
+    """make demo's subset (--demo): the FMU's own checks (fmpy's validation, units, the default
+    experiment against the reference, the paper's numbers), none of the hard cases or the speed
+    against error the --quick subset runs on seed000, and the report and checks.json say which
+    subset ran."""
+    import json
+
+    assert [c for c in cases.load_cases("seed000").cases if c.quick], "seed000 has quick hard cases to leave out"
+    assert cases.load_cases("seed000").work_precision
+    checks, report = harness.validate([fmu_path], tmp_path, echo=None, jobs=1, demo=True)
+    assert checks.failed == 0, [c.line() for c in checks.items if not c.passed and not c.skipped]
+    names = [c.name for c in checks.items]
+    assert "FourBar.python.fmpy_validate" in names
+    assert any(n.startswith("FourBar.python.cs.default.") for n in names)
+    assert any(n.startswith("FourBar.python.paper.") for n in names)
+    assert not [n for n in names if ".hard." in n or "work_precision" in n or n.startswith("coupled.")]
+    assert "the --demo subset" in report.read_text()
+    record = json.loads((tmp_path / "checks.json").read_text())
+    assert record["subset"] == "demo" and record["quick"] and "--demo" in record["subset_name"]

@@ -238,7 +238,7 @@ def test_validate_fails_when_nothing_passed(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setattr(harness, "readable_fmu", lambda path: None)
 
-    def nothing(paths, out, quick, jobs=None):
+    def nothing(paths, out, quick, jobs=None, demo=False):
         checks = CheckList(echo=None)
         checks.skip("X.python.cs.all", "cannot")
         (out / "report.md").write_text("")

@@ -1,4 +1,4 @@
-"""``crankfmu validate [--fmu PATH ...] [--out DIR] [--quick] [--jobs N] [--junit FILE]``: every FMU
+"""``crankfmu validate [--fmu PATH ...] [--out DIR] [--quick | --demo] [--jobs N] [--junit FILE]``: every FMU
 against the in-process reference, closed forms and the papers. One line per check, then ``N
 passed, M failed`` with each other verdict counted (disagree, fitted, not comparable, skipped);
 ``DIR/report.md`` (and .html) with a summary and plots. Exit status: 0 when no check failed and
@@ -74,7 +74,7 @@ def plan(paths) -> tuple[list[list[str]], list[tuple[str, str]]]:
 
 
 # ------------------------------------------------------------------------------------ one group
-def run_group(paths: list[str], out: str, quick: bool) -> dict:
+def run_group(paths: list[str], out: str, quick: bool, demo: bool = False) -> dict:
     """Validate the FMUs of one data file (in a worker process): their sections, checks and the
     FMUs found not validatable inside."""
     from .fmu_runner import FmuUnderTest
@@ -93,7 +93,7 @@ def run_group(paths: list[str], out: str, quick: bool) -> dict:
         for fmu in fmus:
             started, n_before = time.perf_counter(), len(checks.items)
             try:
-                section = _validate_one(fmu, checks, out, quick)
+                section = _validate_one(fmu, checks, out, quick, demo)
             except Exception as exc:      # a bug in a check, or a crash of the FMU: a failed check, go on
                 checks.holds(f"{fmu.name}.{fmu.kind.build}.harness_ran", False,
                              note=f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3)[-400:]}")
@@ -107,7 +107,8 @@ def run_group(paths: list[str], out: str, quick: bool) -> dict:
         for build in by_build:
             if build.startswith("native") and "python" in by_build:
                 _native_against_python(by_build[build], by_build["python"], checks)
-        _work_precision(fmus, sections, checks, out, quick)
+        if not demo:                # speed against error: timed runs, make validate's and make test's
+            _work_precision(fmus, sections, checks, out, quick)
     finally:
         for fmu in fmus:
             fmu.close()
@@ -123,7 +124,7 @@ def run_group(paths: list[str], out: str, quick: bool) -> dict:
     return {"sections": sections, "not_validated": not_validated, "checks": checks.items}
 
 
-def _validate_one(fmu, checks, out, quick) -> dict:
+def _validate_one(fmu, checks, out, quick, demo: bool = False) -> dict:
     from crankfmu.scenario import load_scenario
 
     kind = fmu.kind
@@ -133,7 +134,7 @@ def _validate_one(fmu, checks, out, quick) -> dict:
             from .speed import check_speed_fmu
             return check_speed_fmu(fmu, scenario, checks, out, quick)
         from .mechanism import check_model
-        return check_model(fmu, scenario, checks, out, quick)
+        return check_model(fmu, scenario, checks, out, quick, demo)
     from . import components
     check = {"drive": components.check_drive, "cushion": components.check_cushion, "shaft": components.check_shaft,
              "well": components.check_rod_string}.get(kind.kind)
@@ -313,8 +314,13 @@ class StatusLine:
             self.stream.flush()
 
 
-def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None = None) -> tuple[CheckList, Path]:
+def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None = None,
+             demo: bool = False) -> tuple[CheckList, Path]:
+    """``quick``: the CI subset; ``demo`` (implies ``quick``): make demo's, each FMU's own checks without
+    the hard cases, the speed against error and the coupled scenes (SUBSETS says what each runs)."""
     from .report import write_report
+
+    quick = quick or demo
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -322,20 +328,21 @@ def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None =
     started = time.perf_counter()
     groups, not_validated = plan(fmu_paths)
     # the coupled scenes first: the longest group where their FMUs are validated
-    tasks = [(run_coupled_group, built) for built in [coupled_group(fmu_paths)] if built] \
+    tasks = [(run_coupled_group, built) for built in [coupled_group(fmu_paths)] if built and not demo] \
         + [(run_group, group) for group in groups]
     results = []
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks) or 1))
     if jobs == 1:
         for task, arg in tasks:
-            results.append(task(arg, str(out), quick))
+            results.append(task(arg, str(out), quick, **({"demo": demo} if task is run_group else {})))
             checks.extend(results[-1]["checks"])
     else:
         context = multiprocessing.get_context("spawn")      # fmpy's and matplotlib's state stay per worker
         queue, status = context.Queue(), {}
         line = StatusLine(len(tasks))
         with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_init, initargs=(queue,)) as pool:
-            pending = {pool.submit(task, arg, str(out), quick) for task, arg in tasks}
+            pending = {pool.submit(task, arg, str(out), quick, **({"demo": demo} if task is run_group else {}))
+                       for task, arg in tasks}
             done = 0
             while pending:
                 finished = {f for f in pending if f.done()}
@@ -359,7 +366,8 @@ def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None =
         not_validated += r["not_validated"]
     for name, why in not_validated:
         checks.skip(f"{Path(name).name}.not_validated", why)
-    report = write_report(out, sections, not_validated, checks, quick, time.perf_counter() - started)
+    report = write_report(out, sections, not_validated, checks, "demo" if demo else "quick" if quick else "full",
+                          time.perf_counter() - started)
     return checks, report
 
 
@@ -372,6 +380,11 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
                         help="directory for report.md and the plots (default: build/validation)")
     parser.add_argument("--quick", action="store_true", help="the CI subset: shorter hard cases, fewer "
                                                              "speed-against-error points")
+    parser.add_argument("--demo", action="store_true",
+                        help="make demo's subset: every FMU's fmpy validation, units, default experiment in each "
+                             "interface against the reference, published numbers and native-against-Python "
+                             "checks, without the hard cases, the speed against error and the coupled scenes "
+                             "(make validate runs them all)")
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
                         help="worker processes, one data file's FMUs each (default: the machine's cores)")
     parser.add_argument("--junit", default=None, metavar="FILE",
@@ -416,7 +429,7 @@ def run_from_args(args) -> int:
     if args.junit:
         check_output(args.junit, is_file=True)
     started = time.perf_counter()
-    checks, report = validate(paths, out, args.quick, jobs=args.jobs)
+    checks, report = validate(paths, out, args.quick, jobs=args.jobs, demo=args.demo)
     if args.junit:
         from .junit import write_junit
         write_junit(args.junit, checks.items, time.perf_counter() - started)

@@ -67,7 +67,13 @@ COUNT_HEADS = {"passed": "passed", "failed": "failed", "disagrees": "disagree", 
 SHORT = {"CoSimulation": "CS", "ModelExchange": "ME"}
 
 
-def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str, str]], checks, quick: bool,
+#: what each subset of the harness is called in the report and the results page
+SUBSETS = {"full": "the full harness", "quick": "the --quick subset (make test's: shorter hard cases, fewer "
+           "speed-against-error points)", "demo": "the --demo subset (make demo's: no hard cases, no speed against "
+           "error, no coupled scenes; make validate runs them)"}
+
+
+def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str, str]], checks, subset: str,
                  elapsed: float) -> Path:
     counts = count(checks.items)
     shown = [st for st in STATUSES if st in ("passed", "failed") or counts[st]]
@@ -76,7 +82,7 @@ def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str,
         "",
         f"**{checks.summary()}**: {len(sections)} FMU{'s' if len(sections) != 1 else ''} validated (each build of "
         f"each data file apart), {len(not_validated)} not validated "
-        f"({'the --quick subset' if quick else 'the full harness'}, {elapsed:.0f} s, "
+        f"({SUBSETS[subset]}, {elapsed:.0f} s, "
         f"{time.strftime('%Y-%m-%d %H:%M')} on {platform.node()}, {platform.machine()}, {os.cpu_count()} cores).",
         "",
         "A run fails (exit status 1) on any failed check, and when nothing passed. A published number that "
@@ -121,7 +127,7 @@ def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str,
     write_text(path, text)
     # the same report for a browser (the results page links it), and its checks for a program
     write_text(out / "report.html", page("crankfmu validation report", markdown(text)).decode())
-    write_text(out / "checks.json", json.dumps(checks_record(sections, not_validated, checks, quick), indent=1,
+    write_text(out / "checks.json", json.dumps(checks_record(sections, not_validated, checks, subset), indent=1,
                                                default=_json_number) + "\n")
     return path
 
@@ -275,7 +281,7 @@ def _hard(secs) -> list[str]:
     return lines + [""]
 
 
-def checks_record(sections: list[dict], not_validated, checks, quick: bool) -> dict:
+def checks_record(sections: list[dict], not_validated, checks, subset: str) -> dict:
     """What a program (the results page) reads of a harness run: each FMU validated (its name,
     build, kind, data file and counts) and every check with its fields."""
     fmus = []
@@ -286,7 +292,8 @@ def checks_record(sections: list[dict], not_validated, checks, quick: bool) -> d
                      "interfaces": list(s["interfaces"]), "passed": c["passed"], "skipped": c["skipped"],
                      "failed": c["failed"], "disagrees": c["disagrees"], "fitted": c["fitted"],
                      "not_comparable": c["not comparable"]})
-    return {"summary": checks.summary(), "counts": checks.counts(), "quick": quick, "versions": versions(), "fmus": fmus,
+    return {"summary": checks.summary(), "counts": checks.counts(), "quick": subset != "full", "subset": subset,
+            "subset_name": SUBSETS[subset], "versions": versions(), "fmus": fmus,
             "not_validated": [{"name": n, "why": w} for n, w in not_validated],
             "checks": [dataclasses.asdict(c) for c in checks.items]}
 

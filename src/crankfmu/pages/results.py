@@ -316,7 +316,7 @@ def write_page(root, validation=None, out=None) -> Path:
     if checks:
         report = Path(os.path.relpath(validation / "report.html", out.parent)).as_posix()
         body.append(f'<p><strong>Validation: {html.escape(checks.get("summary", ""))}</strong> on '
-                    f'{len(checks.get("fmus", []))} FMUs ({"the --quick subset" if checks.get("quick") else "full"}). '
+                    f'{len(checks.get("fmus", []))} FMUs ({html.escape(checks.get("subset_name") or ("the --quick subset" if checks.get("quick") else "full"))}). '
                     f'<a href="{html.escape(report)}">The validation report</a> shows every FMU against the in-process '
                     "reference, the closed forms and the papers.</p>")
     body.append("<nav><ul>" + "".join(f'<li><a href="#{html.escape(n)}">{html.escape(groups[n].title or n)}</a> '
