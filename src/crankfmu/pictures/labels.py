@@ -67,7 +67,7 @@ def label(ax, text: str, xy, **style):
     """An annotation at ``xy`` (data coordinates), placed later by ``place_labels``; a thin leader
     line joins it to its point when it had to move away (hidden under the text when near). A
     white box behind the text keeps it readable over a line it crosses (a guide, a grid)."""
-    leader = dict(arrowstyle="-", lw=0.5, color="0.55", shrinkA=0, shrinkB=2)
+    leader = dict(arrowstyle="-", lw=0.5, color="0.55", shrinkA=0, shrinkB=2, patchA=None)
     style.setdefault("bbox", dict(boxstyle="square,pad=0.1", fc="white", ec="none", alpha=0.8))
     return ax.annotate(text, xy=xy, xytext=(RADII[0], 0), textcoords="offset points",
                        ha="center", va="center", annotation_clip=False, arrowprops=leader, **style)
