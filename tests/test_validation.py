@@ -350,3 +350,31 @@ def test_the_demo_subset_proves_each_fmu_without_the_hard_cases(fmu_path, tmp_pa
     assert "the --demo subset" in report.read_text()
     record = json.loads((tmp_path / "checks.json").read_text())
     assert record["subset"] == "demo" and record["quick"] and "--demo" in record["subset_name"]
+
+
+def test_the_default_reference_is_the_one_the_build_made(tmp_path, monkeypatch):
+    """The harness reads the reference run the FMU's build made of the default experiment (kept in
+    the per-user cache) instead of integrating it again: the same numbers as its own run of it (the
+    same integrator; the build ends at the experiment's stop time, the harness at the grid's last
+    point, which may differ by an ulp), and the other outputs at its states alike. Another grid,
+    and a mechanism with joint friction, are integrated in process."""
+    from pathlib import Path
+
+    from crankfmu.fmi.reference import default_grid
+    from crankfmu.scenario import load_scenario
+    from crankfmu.validation.reference import built_reference
+
+    monkeypatch.setenv("CRANKFMU_CACHE", str(tmp_path))
+    scenario = load_scenario("seed002")
+    grid = default_grid(scenario.experiment)
+    built = built_reference(scenario, grid)
+    assert built is not None and built.result is None and built.model is not None
+    assert list((tmp_path / "references").glob("*.csv")), "the run is kept where the build keeps it"
+    own = reference_run(scenario, grid)
+    assert set(own.values) == set(built.values) and len(own.values) > 10
+    for name, values in own.values.items():
+        scale = float(np.max(np.abs(values))) or 1.0
+        assert np.max(np.abs(built[name] - values)) <= 1e-12 * scale, name
+    assert built_reference(scenario, grid[:-1]) is None
+    friction = load_scenario(str(Path(harness.__file__).parent / "data" / "slidercrank_friction_scenario.toml"))
+    assert built_reference(friction, default_grid(friction.experiment)) is None

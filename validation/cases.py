@@ -200,10 +200,10 @@ def run_case(fmu, scenario, case: HardCase, g: float, quick: bool, checks, inter
                 refused, why = True, str(exc)
             checks.holds(f"{prefix}.{method}_refuses", refused, note=why[:200])
     if case.transmission_below_deg is not None:
-        mu = min_transmission_deg(ref.result.model, case.transmission_links)
+        mu = min_transmission_deg(ref.model, case.transmission_links)
         checks.below(f"{prefix}.min_transmission_angle", mu, case.transmission_below_deg, "deg")
         row["note"] = (f"min transmission angle {mu:.2f} deg, Jacobian conditioning "
-                       f"{ref.result.model.conditioning:.3f}")
+                       f"{ref.model.conditioning:.3f}")
     row["checks"] = checks.items[n_before:]
     return row
 

@@ -26,7 +26,9 @@ LS_REF_MANIFEST = """<?xml version="1.0" encoding="UTF-8"?>
 def reference_result(scenario) -> str:
     """The default experiment's outputs (CSV, quoted header) from the in-process reference: run once
     per design and code (``make fmu`` builds three FMUs of each scenario), then read from the
-    per-user cache (or the installation's) under its design_digest."""
+    per-user cache (or the installation's) under its design_digest and its grid."""
+    import hashlib
+
     import numpy as np
 
     from crankfmu import COLUMNS, simulate
@@ -34,14 +36,38 @@ def reference_result(scenario) -> str:
     from ..cache import kept
 
     def run() -> str:
-        exp = scenario.experiment
-        n = int(round((exp.stop_time - exp.start_time) / exp.output_interval))
-        times = exp.start_time + exp.output_interval * np.arange(n + 1)
-        result = simulate(scenario, t_end=exp.stop_time, output_times=times)
+        times = default_grid(scenario.experiment)
+        result = simulate(scenario, t_end=scenario.experiment.stop_time, output_times=times)
         lines = [",".join(f'"{c}"' for c in COLUMNS)]
         lines += [",".join(f"{getattr(result, c)[i]:.17g}" for c in COLUMNS) for i in range(times.size)]
         return "\n".join(lines) + "\n"
-    return kept("references", f"{design_digest(scenario)}.csv", run, encoding="utf-8")
+    # under the design and the experiment's grid: a caller may change a loaded scenario's experiment
+    # (the harness's tests shorten it), which its data no longer says
+    exp = scenario.experiment
+    grid = hashlib.sha256(repr((exp.start_time, exp.stop_time, exp.output_interval)).encode()).hexdigest()[:12]
+    return kept("references", f"{design_digest(scenario)}-{grid}.csv", run, encoding="utf-8")
+
+
+def default_grid(experiment):
+    """The default experiment's output times (s): start, start + step, ..., stop, as fmpy reports a
+    Co-Simulation run of it (the validation harness compares on them)."""
+    import numpy as np
+
+    n = int(round((experiment.stop_time - experiment.start_time) / experiment.output_interval))
+    return experiment.start_time + experiment.output_interval * np.arange(n + 1)
+
+
+def reference_values(scenario) -> dict:
+    """reference_result's columns as arrays ({name: values}; the text holds each number to 17
+    digits, so these are the integrator's own floats)."""
+    import io
+
+    import numpy as np
+
+    from crankfmu import COLUMNS
+
+    data = np.loadtxt(io.StringIO(reference_result(scenario)), delimiter=",", skiprows=1, ndmin=2)
+    return {name: data[:, i] for i, name in enumerate(COLUMNS)}
 
 
 def design_digest(scenario) -> str:
