@@ -147,7 +147,7 @@ class Expression:
         try:
             scope = {name: env[name] for name in self.names}
         except KeyError:
-            missing = self.names - env.keys()
+            missing = {name for name in self.names if name not in env}     # (a lazy env computes on `in`)
             raise DefinitionError(
                 f"{self.where}: {self.source!r} uses undefined name(s) {', '.join(sorted(missing))}"
             ) from None

@@ -43,21 +43,48 @@ from ..mechanisms import Kinematics, Mechanism
 from .loads import TECHNOLOGICAL, AppliedLoad
 
 
+class _LoadNames(dict):
+    """The names a load expression may read (position_env), each point coordinate and speed
+    computed when an expression first reads it: an engine's gas force reads a few of a mechanism's
+    dozens of points, at every step of a crank-angle scheme."""
+
+    def __init__(self, mechanism: Mechanism, kin: Kinematics, omega1):
+        super().__init__(mechanism.parameters)
+        self.update(mechanism.constants)
+        self["phi1"] = kin.phi1
+        self.update(kin.q)
+        self._points, self._unknowns = set(mechanism.point_names), set(mechanism.unknown_names)
+        self._kin, self._omega1 = kin, omega1
+        if omega1 is not None:
+            self["omega1"] = np.broadcast_to(np.asarray(omega1, dtype=float), np.shape(kin.phi1))
+
+    def __missing__(self, name: str):
+        owner, _, what = name.rpartition("_")
+        kin, omega1 = self._kin, self._omega1
+        if what in ("x", "y") and owner in self._points:
+            value = kin.point(owner)["xy".index(what)]
+        elif omega1 is not None and what in ("vx", "vy") and owner in self._points:
+            value = kin.point(owner)[2 + "xy".index(what[1])] * omega1
+        elif omega1 is not None and what == "dot" and owner in self._unknowns:
+            value = kin.dq[owner] * omega1
+        else:
+            raise KeyError(name)
+        self[name] = value
+        return value
+
+    def __contains__(self, name) -> bool:
+        try:
+            self[name]
+        except KeyError:
+            return False
+        return True
+
+
 def position_env(mechanism: Mechanism, kin: Kinematics, omega1=None) -> dict:
     """Names a load expression may use: parameters, constants, phi1, unknowns, P_x and P_y; with
-    ``omega1`` also the speeds (speed_names)."""
-    env = {**mechanism.parameters, **mechanism.constants, "phi1": kin.phi1}
-    env.update(kin.q)
-    for p in mechanism.point_names:
-        x, y, dx, dy = kin.point(p)[:4]
-        env[f"{p}_x"], env[f"{p}_y"] = x, y
-        if omega1 is not None:
-            env[f"{p}_vx"], env[f"{p}_vy"] = dx * omega1, dy * omega1
-    if omega1 is not None:
-        env["omega1"] = np.broadcast_to(np.asarray(omega1, dtype=float), np.shape(kin.phi1))
-        for u in mechanism.unknown_names:
-            env[f"{u}_dot"] = kin.dq[u] * omega1
-    return env
+    ``omega1`` also the speeds (speed_names): P_vx, P_vy and U_dot. The points' coordinates and the
+    speeds are computed on first read, as the expressions read them."""
+    return _LoadNames(mechanism, kin, omega1)
 
 
 def speed_names(mechanism: Mechanism) -> set[str]:

@@ -52,6 +52,27 @@ class OnDemand(Mapping):
         return len(self._all())
 
 
+class Picked(Mapping):
+    """Another mapping's values at some angles, each sliced when first read: a crank-angle scheme
+    takes one angle's kinematics per step (its speed loads), which read a few of a mechanism's
+    points (an engine has dozens)."""
+
+    def __init__(self, source: Mapping, pick):
+        self._source, self._pick, self._items = source, pick, {}
+
+    def __getitem__(self, key):
+        found = self._items.get(key)
+        if found is None:
+            found = self._items[key] = self._pick(self._source[key])
+        return found
+
+    def __iter__(self):
+        return iter(self._source)
+
+    def __len__(self) -> int:
+        return len(self._source)
+
+
 @dataclass
 class Kinematics:
     """Positions and transfer functions at an array of crank angles.
@@ -81,6 +102,6 @@ class Kinematics:
         pick = lambda d: {k: v[sel] for k, v in d.items()}  # noqa: E731
         return Kinematics(
             phi1=self.phi1[sel], q=pick(self.q), dq=pick(self.dq), ddq=pick(self.ddq),
-            points={k: PointMotion(*(a[sel] for a in v)) for k, v in self.points.items()},
-            link_angles={k: tuple(a[sel] for a in v) for k, v in self.link_angles.items()},
+            points=Picked(self.points, lambda v: PointMotion(*(a[sel] for a in v))),
+            link_angles=Picked(self.link_angles, lambda v: tuple(a[sel] for a in v)),
         )
