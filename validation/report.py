@@ -68,9 +68,10 @@ SHORT = {"CoSimulation": "CS", "ModelExchange": "ME"}
 
 
 #: what each subset of the harness is called in the report and the results page
-SUBSETS = {"full": "the full harness", "quick": "the --quick subset (make test's: shorter hard cases, fewer "
-           "speed-against-error points)", "demo": "the --demo subset (make demo's: no hard cases, no speed against "
-           "error, no coupled scenes; make validate runs them)"}
+SUBSETS = {"full": "the full harness",
+           "quick": "the --quick subset, make test's: shorter hard cases and fewer speed-against-error points",
+           "demo": "the --demo subset, make demo's: no hard cases, no speed against error and no coupled scenes, "
+                   "which make validate runs"}
 
 
 def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str, str]], checks, subset: str,
@@ -81,9 +82,9 @@ def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str,
         "# crankfmu validation report",
         "",
         f"**{checks.summary()}**: {len(sections)} FMU{'s' if len(sections) != 1 else ''} validated (each build of "
-        f"each data file apart), {len(not_validated)} not validated "
-        f"({SUBSETS[subset]}, {elapsed:.0f} s, "
-        f"{time.strftime('%Y-%m-%d %H:%M')} on {platform.node()}, {platform.machine()}, {os.cpu_count()} cores).",
+        f"each data file apart), {len(not_validated)} not validated, in {elapsed:.0f} s "
+        f"({time.strftime('%Y-%m-%d %H:%M')} on {platform.node()}, {platform.machine()}, {os.cpu_count()} cores). "
+        f"This run is {SUBSETS[subset]}.",
         "",
         "A run fails (exit status 1) on any failed check, and when nothing passed. A published number that "
         "**disagrees** for a reason stated in its data file, or was **fitted** (the data set was chosen to give it), "

@@ -315,8 +315,10 @@ def write_page(root, validation=None, out=None) -> Path:
             "of the paper's figures it reproduces; click one for its full size.</p>"]
     if checks:
         report = Path(os.path.relpath(validation / "report.html", out.parent)).as_posix()
+        # which subset ran (validation.report.SUBSETS; a checks.json older than the name says quick or not)
+        ran = checks.get("subset_name") or ("the --quick subset" if checks.get("quick") else "the full harness")
         body.append(f'<p><strong>Validation: {html.escape(checks.get("summary", ""))}</strong> on '
-                    f'{len(checks.get("fmus", []))} FMUs ({html.escape(checks.get("subset_name") or ("the --quick subset" if checks.get("quick") else "full"))}). '
+                    f'{len(checks.get("fmus", []))} FMUs, by {html.escape(ran)}. '
                     f'<a href="{html.escape(report)}">The validation report</a> shows every FMU against the in-process '
                     "reference, the closed forms and the papers.</p>")
     body.append("<nav><ul>" + "".join(f'<li><a href="#{html.escape(n)}">{html.escape(groups[n].title or n)}</a> '
