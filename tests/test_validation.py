@@ -378,3 +378,46 @@ def test_the_default_reference_is_the_one_the_build_made(tmp_path, monkeypatch):
     assert built_reference(scenario, grid[:-1]) is None
     friction = load_scenario(str(Path(harness.__file__).parent / "data" / "slidercrank_friction_scenario.toml"))
     assert built_reference(friction, default_grid(friction.experiment)) is None
+
+
+def test_an_output_figure_drawn_again_into_its_layout_is_the_figure_drawn_anew(tmp_path):
+    """plot_outputs fills a layout it drew before (the FMUs of one data file share their panels):
+    after a longer run with other values and bars, the picture is the one a new figure gives, pixel
+    for pixel."""
+    from types import SimpleNamespace
+
+    import matplotlib.image as mpimg
+
+    from crankfmu.validation import figures
+
+    def runs(span, scale):
+        t = np.linspace(0.0, span, 501)
+        values = {"omega1": scale * np.sin(t), "phi1": scale * t, "E_kin": scale * t ** 2}
+        fmu = SimpleNamespace(time=t, values=values, units={"omega1": "rad/s"})
+        ref = SimpleNamespace(time=t, values={k: v * (1 + 1e-9) for k, v in values.items()})
+        return fmu, ref
+
+    class Run(SimpleNamespace):
+        def __getitem__(self, name):
+            return self.values[name]
+
+    def wrap(pair):
+        return tuple(Run(**vars(x)) for x in pair)
+
+    names = ["omega1", "phi1", "E_kin"]
+    short, long_ = wrap(runs(2.0, 1.0)), wrap(runs(9.0, 40.0))
+    figures._LAYOUTS.clear()
+    figures.plot_outputs(*short, names, {"omega1": 1e-8}, tmp_path / "new.png", "a run")
+    figures.plot_outputs(*long_, names, {"phi1": 1e-3, "E_kin": 1e-5}, tmp_path / "other.png", "another run")
+    assert len(figures._LAYOUTS) == 1
+    (_, panels, _), = figures._LAYOUTS.values()
+    for (top, bottom, *_), name in zip(panels, names):       # each panel's limits follow its data
+        assert top.get_xlim() == pytest.approx((-0.45, 9.45)) and bottom.get_xlim() == top.get_xlim()
+        low, high = top.get_ylim()
+        assert low <= long_[0][name].min() and high >= long_[0][name].max() and high - low < 1.2 * np.ptp(
+            long_[0][name]) + 1e-9
+    figures.plot_outputs(*short, names, {"omega1": 1e-8}, tmp_path / "again.png", "a run")
+    assert panels[0][0].get_xlim() == pytest.approx((-0.1, 2.1))
+    new, other, again = (mpimg.imread(tmp_path / f"{n}.png") for n in ("new", "other", "again"))
+    assert new.shape == again.shape and np.array_equal(new, again)
+    assert not np.array_equal(new, other)

@@ -14,12 +14,51 @@ from crankfmu.atomic import save_figure
 from crankfmu.plots import pyplot
 
 
+#: the figures of plot_outputs kept in this process, by their outputs' names (the Python and native
+#: FMUs of one data file, in each interface, draw the same panels): building a figure's axes is
+#: about 40 % of its time, so a layout drawn before is filled again. At most LAYOUTS_KEPT, the
+#: oldest closed first.
+_LAYOUTS: dict = {}
+LAYOUTS_KEPT = 4
+
+
 def plot_outputs(run, ref, names, tolerances: dict, path: Path, title: str) -> Path:
     """One small multiple per output: the FMU's value over the reference's (top), and below it the
     error relative to the output's scale on a log axis with the check's tolerance as a dashed line.
     The legend is the figure's title line, not a box over the data."""
-    plt = pyplot()
     names = [n for n in names if n in run.values and n in ref.values]     # every compared output
+    key = tuple(names)
+    if key not in _LAYOUTS:
+        if len(_LAYOUTS) >= LAYOUTS_KEPT:
+            pyplot().close(_LAYOUTS.pop(next(iter(_LAYOUTS)))[0])
+        _LAYOUTS[key] = _layout(names)
+    fig, panels, heading = _LAYOUTS[key]
+    units = getattr(run, "units", {})
+    for name, (top, bottom, reference_line, fmu_line, label, error_line, bar_line) in zip(names, panels):
+        a, b = np.asarray(run[name], dtype=float), np.asarray(ref[name], dtype=float)
+        reference_line.set_data(ref.time, b)
+        fmu_line.set_data(run.time, a)
+        label.set_text(f"{name} [{units.get(name) or '1'}]")
+        scale = float(np.max(np.abs(b))) or 1.0
+        error_line.set_data(run.time, np.maximum(np.abs(a - b) / scale, 1e-17))
+        tol = tolerances.get(name)
+        bar_line.set_ydata([tol or 1.0, tol or 1.0])
+        bar_line.set_visible(bool(tol))
+        top.relim()
+        bottom.relim()              # (the time axis is shared: both panels' data set its limits)
+        top.autoscale_view()
+        bottom.set_ylim(1e-17, max(1.0, 10 * (tol or 0)))
+    heading.set_text(f"{title}\ngrey: in-process reference; blue: FMU through fmpy; red: relative error; "
+                     "dashed: the check's bar")
+    heading.set_fontsize(10)                 # (save_figure shrinks a title that runs past the edge)
+    save_figure(fig, path, dpi=80)
+    return path
+
+
+def _layout(names):
+    """(figure, per output (top and bottom axes, reference, FMU, name, error and bar artists), the
+    figure's title) for plot_outputs, the artists empty."""
+    plt = pyplot()
     # 3 columns of 4.8 in at 80 dpi: 1152 px, the report's width, so its text (9 pt and up: 10 px
     # and up) is shown at its own size
     cols = min(3, max(1, len(names)))
@@ -28,31 +67,25 @@ def plot_outputs(run, ref, names, tolerances: dict, path: Path, title: str) -> P
     fig = plt.figure(figsize=(4.8 * cols, 3.4 * rows + head))
     outer = fig.add_gridspec(rows, cols, hspace=0.42, wspace=0.38, top=1.0 - head / (3.4 * rows + head),
                              bottom=0.5 / (3.4 * rows + head), left=0.07, right=0.98)
+    panels = []
     for k, name in enumerate(names):
         r, c = divmod(k, cols)
         cell = outer[r, c].subgridspec(2, 1, height_ratios=[2.0, 1.0], hspace=0.08)
         top = fig.add_subplot(cell[0])
         bottom = fig.add_subplot(cell[1], sharex=top)
-        a, b = np.asarray(run[name], dtype=float), np.asarray(ref[name], dtype=float)
-        unit = getattr(run, "units", {}).get(name)
-        top.plot(ref.time, b, lw=2.6, color="0.75")
-        top.plot(run.time, a, lw=0.9, color="C0")
+        reference_line, = top.plot([], [], lw=2.6, color="0.75")
+        fmu_line, = top.plot([], [], lw=0.9, color="C0")
         # the panel's name as a plain text over it, not an axes title: matplotlib moves each title
         # clear of the axes' decorations at every draw, a quarter of a 36-output figure's time
-        top.text(0.5, 1.03, f"{name} [{unit or '1'}]", fontsize=10, ha="center", va="bottom",
-                 transform=top.transAxes)
+        label = top.text(0.5, 1.03, "", fontsize=10, ha="center", va="bottom", transform=top.transAxes)
         top.tick_params(labelsize=9, labelbottom=False)
         # at most 5 ticks on each axis (the bottom panel shares the time axis): matplotlib makes each
         # tick as an object of its own, most of a 36-output figure's drawing time
         top.xaxis.set_major_locator(MaxNLocator(5, steps=[1, 2, 2.5, 5, 10]))
         top.yaxis.set_major_locator(MaxNLocator(5, steps=[1, 2, 2.5, 5, 10]))
         top.grid(alpha=0.3)
-        scale = float(np.max(np.abs(b))) or 1.0
-        bottom.semilogy(run.time, np.maximum(np.abs(a - b) / scale, 1e-17), lw=0.7, color="C3")
-        tol = tolerances.get(name)
-        if tol:
-            bottom.axhline(tol, color="k", ls="--", lw=0.8)
-        bottom.set_ylim(1e-17, max(1.0, 10 * (tol or 0)))
+        error_line, = bottom.semilogy([], [], lw=0.7, color="C3")
+        bar_line = bottom.axhline(1.0, color="k", ls="--", lw=0.8)
         bottom.set_yticks([1e-15, 1e-10, 1e-5, 1.0])
         # no minor ticks on the 17 decades: 136 tick marks per panel too small to read, and most of the
         # figure's drawing time (a 36-output figure took 5.3 s)
@@ -62,12 +95,9 @@ def plot_outputs(run, ref, names, tolerances: dict, path: Path, title: str) -> P
         if c == 0:
             bottom.set_ylabel("|error| / max|ref| [1]", fontsize=9)
         bottom.set_xlabel("time [s]", fontsize=9)
-    fig.suptitle(f"{title}\ngrey: in-process reference; blue: FMU through fmpy; red: relative error; "
-                 "dashed: the check's bar", fontsize=10, y=1.0 - 0.12 / (3.4 * rows + head))
-    save_figure(fig, path, dpi=80)
-    plt.close(fig)
-    return path
-
+        panels.append((top, bottom, reference_line, fmu_line, label, error_line, bar_line))
+    heading = fig.suptitle("", fontsize=10, y=1.0 - 0.12 / (3.4 * rows + head))
+    return fig, panels, heading
 
 
 #: the speed-against-error study's panels, each a family of methods (at most six series and the peer)
