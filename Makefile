@@ -76,6 +76,10 @@ $(DEV_STAMP): $(STAMP)
 	@# the pages (the results page, the FMUs' documentation) are checked in a real browser: headless Chromium
 	@command -v chromium >/dev/null || { apt-get update -qq && apt-get install -y -qq chromium; } \
 	  || echo "make: could not install chromium (apt-get, as root): the pages' browser tests will fail"
+	@# the FMUs built before this (make demo's, on a machine that had no cross compilers then) lack the
+	@# win64 and aarch64 binaries: make fmu builds them again (its stamp names this one only when it
+	@# existed as make started)
+	@rm -f $(FMU_STAMP)
 	@touch $(DEV_STAMP)
 
 venv: $(STAMP)
