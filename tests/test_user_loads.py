@@ -111,3 +111,46 @@ def test_bad_user_loads_are_refused_with_a_message(case):
 
     with pytest.raises(DefinitionError, match=pattern):
         Scenario(data, scenario.where, scenario.path).build()
+
+
+# the engines' gas laws, the well's polished-rod load, Jansen's ground contact; seed003's closed form
+@pytest.mark.parametrize("name", ["engine1", "engine4", "pumpjack", "jansen", "seed003"])
+def test_a_load_at_one_crank_angle_is_its_value_in_an_array_to_the_bit(name):
+    """The reference integrator evaluates the load expressions and closed-form positions at one crank
+    angle on numpy scalars (a third of the cost of one-element arrays); an array of angles evaluates
+    the same text on arrays (the tables, the figures). The same kinematics must give the same
+    numbers to the bit either way, ** included (numpy's array power takes 2, 0.5 and -1 by other
+    ufuncs than pow())."""
+    from crankfmu.dynamics.user_loads import ExpressionLoad
+
+    model = load_scenario(name).build()
+    rng = np.random.default_rng(7)
+    phis = rng.uniform(0.0, 2.0 * np.pi * model.reduced.cycle_turns, 48)
+    mechanism = model.mechanism
+    if mechanism._closed_form is not None:
+        together = mechanism._closed_form_positions(phis.copy())
+        alone = np.vstack([mechanism._closed_form_positions(phis[i:i + 1].copy()) for i in range(phis.size)])
+        assert np.array_equal(together.view(np.int64), alone.view(np.int64))
+    kin = mechanism.kinematics(phis)
+    loads = [load for load in model.reduced.loads if isinstance(load, ExpressionLoad)]
+    assert loads or mechanism._closed_form is not None, f"{name}: nothing written as expressions to compare"
+    for load in loads:
+        omega = None if load.position_only else np.linspace(-40.0, 90.0, phis.size)
+        together = np.asarray(load.torque(kin, omega) if omega is not None else load.torque(kin))
+        for i in range(phis.size):
+            one = kin.subset(i)
+            value = load.torque(one, omega[i:i + 1]) if omega is not None else load.torque(one)
+            assert np.asarray(value).shape == (1,)
+            assert np.asarray(value)[0].tobytes() == together[i].tobytes(), (name, load.link, i)
+
+
+def test_a_power_on_a_numpy_scalar_is_numpys_power_on_an_array():
+    from crankfmu.expressions import Expression
+
+    x = np.random.default_rng(3).uniform(1e-3, 1e3, 4000)
+    for exponent in ("2", "0.5", "-1", "3", "1.5", "n"):
+        expression = Expression(f"x**{exponent}")
+        together = expression.evaluate({"x": x, "n": 2.0})
+        alone = np.array([expression.evaluate({"x": value, "n": 2.0}) for value in x])   # numpy scalars
+        assert np.array_equal(together, alone), exponent
+        assert np.array_equal(together, x ** (2.0 if exponent == "n" else float(exponent)))

@@ -119,13 +119,40 @@ def _compile(source: str, where: str, functions: Mapping):
                     f"{where}: unknown function {node.func.id!r} in {source!r} "
                     f"(known: {', '.join(sorted(functions))})"
                 )
-        hit = (frozenset(free_names(tree)), compile(tree, f"<{where}>", "eval"))
+        hit = (frozenset(free_names(tree)), compile(ast.fix_missing_locations(_PowerCalls().visit(tree)), f"<{where}>", "eval"))
         if len(_COMPILED) < 100_000:
             _COMPILED[key] = hit
     return hit
 
 
-_DEFAULT_GLOBALS = {"__builtins__": {}, **FUNCTIONS, **CONSTANTS}
+#: numpy's ``**`` on a float array takes these exponents by other ufuncs (its fast scalar powers);
+#: on a numpy scalar it calls pow(), which differs from them in the last bit now and then
+_ARRAY_POWERS = {2.0: np.square, 0.5: np.sqrt, -1.0: np.reciprocal}
+_POWER = "__power"
+
+
+def _power(base, exponent):
+    """``base ** exponent`` as numpy computes it on an array, for a numpy scalar too: the reference
+    integrator evaluates at one crank angle on numpy scalars (contour, user_loads), and its numbers
+    are then those of the same expression on an array of angles, to the bit."""
+    if type(base) is np.float64 and type(exponent) in (float, np.float64):
+        fast = _ARRAY_POWERS.get(exponent)
+        if fast is not None:
+            return fast(base)
+    return base ** exponent
+
+
+class _PowerCalls(ast.NodeTransformer):
+    """a ** b -> __power(a, b) (_power), on a compiled copy: the checked tree stays as written."""
+
+    def visit_BinOp(self, node):
+        node = self.generic_visit(node)
+        if isinstance(node.op, ast.Pow):
+            return ast.copy_location(ast.Call(ast.Name(_POWER, ast.Load()), [node.left, node.right], []), node)
+        return node
+
+
+_DEFAULT_GLOBALS = {"__builtins__": {}, **FUNCTIONS, **CONSTANTS, _POWER: _power}
 
 
 class Expression:
@@ -141,7 +168,7 @@ class Expression:
         # so an evaluation (a closed-form position is evaluated ~100 times a model build) copies
         # nothing but the names it reads
         self._globals = (_DEFAULT_GLOBALS if self.functions is FUNCTIONS
-                         else {"__builtins__": {}, **self.functions, **CONSTANTS})
+                         else {"__builtins__": {}, **self.functions, **CONSTANTS, _POWER: _power})
 
     def evaluate(self, env: Mapping[str, object]):
         try:

@@ -46,29 +46,43 @@ from .loads import TECHNOLOGICAL, AppliedLoad
 class _LoadNames(dict):
     """The names a load expression may read (position_env), each point coordinate and speed
     computed when an expression first reads it: an engine's gas force reads a few of a mechanism's
-    dozens of points, at every step of a crank-angle scheme."""
+    dozens of points, at every step of a crank-angle scheme.
+
+    At one crank angle (the reference integrator's right-hand side) every motion name is bound as
+    a numpy scalar, not a one-element array: the same IEEE operations and the same ufunc loops, so
+    the same numbers to the bit (tests/test_user_loads.py holds it), at a third of the cost of an
+    engine's gas law (each operation on an array allocates one)."""
 
     def __init__(self, mechanism: Mechanism, kin: Kinematics, omega1):
         super().__init__(mechanism.parameters)
         self.update(mechanism.constants)
-        self["phi1"] = kin.phi1
-        self.update(kin.q)
-        self._points, self._unknowns = set(mechanism.point_names), set(mechanism.unknown_names)
-        self._kin, self._omega1 = kin, omega1
+        self._one = one = kin.phi1.shape == (1,)
+        self["phi1"] = kin.phi1[0] if one else kin.phi1
+        self.update({u: v[0] for u, v in kin.q.items()} if one else kin.q)
+        self._mechanism = mechanism
+        self._kin = kin
         if omega1 is not None:
-            self["omega1"] = np.broadcast_to(np.asarray(omega1, dtype=float), np.shape(kin.phi1))
+            omega1 = np.broadcast_to(np.asarray(omega1, dtype=float), np.shape(kin.phi1))
+            if one:
+                omega1 = omega1[0]
+            self["omega1"] = omega1
+        self._omega1 = omega1
 
     def __missing__(self, name: str):
         owner, _, what = name.rpartition("_")
-        kin, omega1 = self._kin, self._omega1
-        if what in ("x", "y") and owner in self._points:
+        kin, omega1, names = self._kin, self._omega1, self._mechanism.motion_names
+        if what in ("x", "y") and owner in names.points:
             value = kin.point(owner)["xy".index(what)]
-        elif omega1 is not None and what in ("vx", "vy") and owner in self._points:
-            value = kin.point(owner)[2 + "xy".index(what[1])] * omega1
-        elif omega1 is not None and what == "dot" and owner in self._unknowns:
-            value = kin.dq[owner] * omega1
+        elif omega1 is not None and what in ("vx", "vy") and owner in names.points:
+            value = kin.point(owner)[2 + "xy".index(what[1])]
+        elif omega1 is not None and what == "dot" and owner in names.unknowns:
+            value = kin.dq[owner]
         else:
             raise KeyError(name)
+        if self._one:
+            value = value[0]
+        if what != "x" and what != "y":
+            value = value * omega1
         self[name] = value
         return value
 
@@ -122,7 +136,7 @@ class ExpressionLoad:
         return self.decreasing is None
 
     # ---------------------------------------------------------------- evaluation
-    def _components(self, kin, which: dict, omega1=None):
+    def _env(self, kin, omega1):
         # one environment per kinematics and speed, shared by the loads evaluated at them (an engine's
         # four gas forces read the same names at every step)
         key = (id(self.mechanism), None if omega1 is None else np.asarray(omega1, dtype=float).tobytes())
@@ -130,11 +144,25 @@ class ExpressionLoad:
         env = cache.get(key)
         if env is None:
             env = cache[key] = position_env(self.mechanism, kin, omega1)
+        return env
+
+    def _components(self, kin, which: dict, omega1=None):
+        env = self._env(kin, omega1)
         zero = np.zeros_like(kin.phi1)
         return tuple(np.broadcast_to(np.asarray(which[k].evaluate(env), dtype=float), kin.phi1.shape) if k in which
                      else zero for k in ("fx", "fy", "moment"))
 
     def _torque_of(self, kin, which: dict, omega1=None):
+        if kin.phi1.shape == (1,):
+            # one crank angle (the reference integrator's right-hand side): the same operations in
+            # the same order on Python floats, the same numbers to the bit without an array each
+            env = self._env(kin, omega1)
+            fx, fy, m = (float(which[k].evaluate(env)) if k in which else 0.0 for k in ("fx", "fy", "moment"))
+            out = m * float(kin.link_angle(self.link)[1][0])
+            if self.point is not None:
+                _, _, dx, dy, _, _ = kin.point(self.point)
+                out = out + fx * float(dx[0]) + fy * float(dy[0])
+            return np.array([out])
         fx, fy, m = self._components(kin, which, omega1)
         q = kin.link_angle(self.link)[1]
         out = m * q

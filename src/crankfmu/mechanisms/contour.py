@@ -35,7 +35,7 @@ assembly.py's, and what the engine gives at a set of angles is kinematics.py's.
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from typing import Mapping, NamedTuple
 
 import numpy as np
 
@@ -44,6 +44,11 @@ from ..expressions import Expression
 from .assembly import TWO_PI, TurnChecks
 from .definition import MechanismDefinition
 from .kinematics import Kinematics, PointMotion, OnDemand
+
+class MotionNames(NamedTuple):
+    points: frozenset
+    unknowns: frozenset
+
 
 #: angles of the turn table (Mechanism.turn_table) that positions are made continuous by
 TURN_POINTS = 720
@@ -70,6 +75,9 @@ class Mechanism(TurnChecks):
         # chains: contours first (their rows form F), then points
         chain_terms = [t for _, t in definition.contours]        # definition._TermSource lists
         self.point_names = list(definition.points)
+        #: the points and unknowns as sets, for the load expressions' names (P_x, P_vx, U_dot) that
+        #: every right-hand side of an engine looks up
+        self.motion_names = MotionNames(frozenset(self.point_names), frozenset(self.unknown_names))
         chain_terms += [definition.points[p][0] for p in self.point_names]
         coef, li, ai, off, owner = [], [], [], [], []
         for c, terms in enumerate(chain_terms):
@@ -206,11 +214,14 @@ class Mechanism(TurnChecks):
         """q from the file's closed form, its angles as the expressions give them (an atan2 stays
         in (-pi, pi]): :meth:`_count_turns` makes them continuous."""
         env = dict(self._env)
-        env["phi1"] = phi1
+        # at one crank angle (the reference integrator's right-hand side) a numpy scalar: the same
+        # ufunc loops, the same numbers to the bit, without an array for each operation
+        one = phi1.shape == (1,)
+        env["phi1"] = phi1[0] if one else phi1
         with np.errstate(invalid="ignore", divide="ignore"):
             for name, expr in self._closed_form:
                 value = expr.evaluate(env)
-                env[name] = value if np.shape(value) == phi1.shape else np.broadcast_to(value, phi1.shape)
+                env[name] = value if one or np.shape(value) == phi1.shape else np.broadcast_to(value, phi1.shape)
         q = np.empty((phi1.size, 1 + len(self.unknown_names)))
         q[:, 0] = phi1
         for j, u in enumerate(self.unknown_names, start=1):
