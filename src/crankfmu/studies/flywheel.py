@@ -500,7 +500,8 @@ def eq3_stability(scenario, steps_deg, turns: int = 20, steady: SteadyCycle | No
     J = model.reduced.coefficients(steady.phi1)[0]
     slope = model.motor.B if steady.omega1.min() > model.motor.omega_switch else model.motor.B_low
     estimate = float(np.degrees(np.min(2.0 * J * steady.omega1 / slope))) if slope > 0 else math.inf
-    t_end = turns * steady.period * 1.05 + 1.0
+    # the turns and a machine cycle more (a second more made an engine at 3600 rpm run 30 cycles more)
+    t_end = (turns * 1.05 + 1.0) * steady.period
     calls = [0]
 
     def run(step):
