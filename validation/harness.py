@@ -31,6 +31,7 @@ import sys
 import time
 import traceback
 from concurrent.futures import ProcessPoolExecutor
+from functools import partial
 from pathlib import Path
 
 from crankfmu.cli.arguments import described
@@ -328,21 +329,21 @@ def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None =
     started = time.perf_counter()
     groups, not_validated = plan(fmu_paths)
     # the coupled scenes first: the longest group where their FMUs are validated
-    tasks = [(run_coupled_group, built) for built in [coupled_group(fmu_paths)] if built and not demo] \
-        + [(run_group, group) for group in groups]
+    tasks = [partial(run_coupled_group, built, str(out), quick)
+             for built in [coupled_group(fmu_paths)] if built and not demo] \
+        + [partial(run_group, group, str(out), quick, demo) for group in groups]
     results = []
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks) or 1))
     if jobs == 1:
-        for task, arg in tasks:
-            results.append(task(arg, str(out), quick, **({"demo": demo} if task is run_group else {})))
+        for task in tasks:
+            results.append(task())
             checks.extend(results[-1]["checks"])
     else:
         context = multiprocessing.get_context("spawn")      # fmpy's and matplotlib's state stay per worker
         queue, status = context.Queue(), {}
         line = StatusLine(len(tasks))
         with ProcessPoolExecutor(jobs, mp_context=context, initializer=_worker_init, initargs=(queue,)) as pool:
-            pending = {pool.submit(task, arg, str(out), quick, **({"demo": demo} if task is run_group else {}))
-                       for task, arg in tasks}
+            pending = {pool.submit(task) for task in tasks}
             done = 0
             while pending:
                 finished = {f for f in pending if f.done()}
