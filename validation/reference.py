@@ -54,7 +54,7 @@ def reference_run(scenario, times, method: str = "reference", rtol: float | None
     values = {c: np.asarray(getattr(r, c)) for c in COLUMNS if c != "time"}
     if r.W_friction is not None:           # joint friction: its work and outputs (dynamics.friction)
         values.update(W_friction=np.asarray(r.W_friction), **{k: np.asarray(v) for k, v in r.friction.items()})
-    return with_outputs(ReferenceRun(method, times, values, wall, dict(r.settings), r, r.model), r.model, scenario)
+    return with_outputs(ReferenceRun(method, times, values, wall, dict(r.settings), r, r.model), scenario)
 
 
 def built_reference(scenario, times) -> ReferenceRun | None:
@@ -70,10 +70,9 @@ def built_reference(scenario, times) -> ReferenceRun | None:
         return None
     started = time.perf_counter()
     values = {name: v for name, v in reference_values(scenario).items() if name != "time"}
-    model = scenario.build()
     settings = {"method": "reference (the FMU build's run of the default experiment)", "rtol": 1e-12}
     return with_outputs(ReferenceRun("reference", times, values, time.perf_counter() - started, settings, None,
-                                     model), model, scenario)
+                                     scenario.build()), scenario)
 
 
 def _run_key(scenario, times: np.ndarray) -> tuple:
@@ -124,14 +123,15 @@ def second_method_gap(scenario, times) -> float:
     return _GAPS[key]
 
 
-def with_outputs(run: ReferenceRun, model, scenario) -> ReferenceRun:
-    """The run with every other output a mechanism FMU declares, at the reference's states: the
-    scenario's [[outputs]] and the ports' s, v, a (the analytic kinematics), and the joint
-    reactions (Newton-Euler, the ports' inputs zero as the harness leaves them)."""
+def with_outputs(run: ReferenceRun, scenario) -> ReferenceRun:
+    """The run with every other output a mechanism FMU declares, at the reference's states (of
+    ``run.model``, the model it ran): the scenario's [[outputs]] and the ports' s, v, a (the analytic
+    kinematics), and the joint reactions (Newton-Euler, the ports' inputs zero as the harness leaves
+    them)."""
     from crankfmu.fmi.variables import output_quantities, reaction_variables
     from crankfmu.mechanisms.quantities import evaluate_all
 
-    values = run.values
+    values, model = run.values, run.model
     phi1, omega1, epsilon1 = (np.asarray(values[n], dtype=float) for n in ("phi1", "omega1", "epsilon1"))
     quantities = output_quantities(scenario)
     kin = model.mechanism.kinematics(phi1) if quantities or reaction_variables(scenario) else None
@@ -191,4 +191,4 @@ def periodic_reference(scenario, times, settle_time: float = 12.0, progress=None
                 "cycles_extended": cycles,
                 "phase_uncertainty": cycles * period_error * float(np.max(np.abs(y[OMEGA])))}
     return with_outputs(ReferenceRun("reference (periodic)", times, values, time.perf_counter() - started,
-                                      settings, r, r.model), r.model, scenario)
+                                      settings, r, r.model), scenario)

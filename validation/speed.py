@@ -43,8 +43,8 @@ def constant_speed_reference(scenario, times, omega1: float) -> ReferenceRun:
     values = {"phi1": phi1, "omega1": np.full_like(phi1, omega1), "epsilon1": np.zeros_like(phi1),
               "tau_drive": me.total, "M_load": -(me.weights + me.technological), "J_red": J,
               "E_kin": 0.5 * J * omega1 ** 2}
-    run = ReferenceRun("inverse dynamics at constant omega1", np.asarray(times), values, 0.0)
-    return with_outputs(run, model, scenario)
+    return with_outputs(ReferenceRun("inverse dynamics at constant omega1", np.asarray(times), values, 0.0,
+                                     model=model), scenario)
 
 
 def check_speed_fmu(fmu, scenario, checks, out, quick: bool) -> dict:
