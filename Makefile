@@ -145,16 +145,10 @@ fmu-native-b: $(STAMP)
 
 # the main job: every FMU, the papers' studies and the pumping well (two lines of work on the two
 # cores), the harness's --demo subset on every FMU, and a summary of what was made
-demo: $(STAMP)
-	@# the two lines of work side by side, each with one live line (its log in $(OUT)/logs), and beside
-	@# them make fmu's three lanes when the FMUs are out of date: five lanes on two cores end about
-	@# together, where the FMUs then the studies each waited for their longest lane (25 s of 417)
-	@lanes="papers:demo-papers well:demo-well"; \
-	  $(MAKE) -q --no-print-directory $(FMU_STAMP) 2>/dev/null \
-	  || lanes="python:fmu-python native-a:fmu-native-a native-b:fmu-native-b $$lanes"; \
-	  $(BIN)/python -m crankfmu.cli.lanes --logs $(OUT)/logs --make-var OUT=$(OUT) --make-var BIN=$(BIN) --make-var STAMP= \
-	    $$lanes || exit 1; \
-	  case "$$lanes" in python:*) touch $(FMU_STAMP);; esac
+demo: fmu
+	@# the two lines of work side by side, each with one live line (its log in $(OUT)/logs)
+	@$(BIN)/python -m crankfmu.cli.lanes --logs $(OUT)/logs --make-var OUT=$(OUT) --make-var BIN=$(BIN) --make-var STAMP= \
+	  papers:demo-papers well:demo-well
 	$(BIN)/crankfmu validate --demo --out $(OUT)/validation > $(OUT)/validation.log || \
 	  { tail -5 $(OUT)/validation.log; echo "make demo: the harness found failures ($(OUT)/validation/report.html)"; exit 1; }
 	@$(BIN)/crankfmu page $(OUT) --validation $(OUT)/validation > /dev/null
