@@ -119,26 +119,32 @@ def _compile(source: str, where: str, functions: Mapping):
                     f"{where}: unknown function {node.func.id!r} in {source!r} "
                     f"(known: {', '.join(sorted(functions))})"
                 )
-        hit = (frozenset(free_names(tree)), compile(ast.fix_missing_locations(_PowerCalls().visit(tree)), f"<{where}>", "eval"))
+        names = frozenset(free_names(tree))
+        code = compile(ast.fix_missing_locations(tree), f"<{where}>", "eval")
+        # the copy for one crank angle (numpy scalars) differs only where the expression has a power
+        powers = any(isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow) for node in ast.walk(tree))
+        one_angle_code = (compile(ast.fix_missing_locations(_PowerCalls().visit(tree)), f"<{where}>", "eval")
+                          if powers else code)
+        hit = (names, code, one_angle_code)
         if len(_COMPILED) < 100_000:
             _COMPILED[key] = hit
     return hit
 
 
-#: numpy's ``**`` on a float array takes these exponents by other ufuncs (its fast scalar powers);
-#: on a numpy scalar it calls pow(), which differs from them in the last bit now and then
-_ARRAY_POWERS = {2.0: np.square, 0.5: np.sqrt, -1.0: np.reciprocal}
 _POWER = "__power"
 
 
 def _power(base, exponent):
     """``base ** exponent`` as numpy computes it on an array, for a numpy scalar too: the reference
     integrator evaluates at one crank angle on numpy scalars (contour, user_loads), and its numbers
-    are then those of the same expression on an array of angles, to the bit."""
-    if type(base) is np.float64 and type(exponent) in (float, np.float64):
-        fast = _ARRAY_POWERS.get(exponent)
-        if fast is not None:
-            return fast(base)
+    are then those of the same expression on an array of angles, to the bit. A numpy scalar's ``**``
+    calls the C library's pow(); an array's runs the power ufunc's loop, which takes 2, 0.5 and -1
+    by square, sqrt and reciprocal and, where the CPU has AVX-512, every other exponent by a
+    vectorised pow: the two differ in the last bit for 5 % of numbers there. np.power on the scalar
+    runs the array's loop. Only Expression.evaluate(env, one_angle=True) calls it: an array or a
+    Python float takes ``**``."""
+    if type(base) is np.float64:
+        return np.power(base, exponent)
     return base ** exponent
 
 
@@ -162,7 +168,7 @@ class Expression:
         self.source = source if isinstance(source, str) else repr(float(source))
         self.where = where
         self.functions = FUNCTIONS if functions is None else dict(functions)
-        names, self._code = _compile(self.source, where, self.functions)
+        names, self._code, self._one_angle_code = _compile(self.source, where, self.functions)
         self.names = set(names)
         # functions and constants are the globals of the evaluation and the bound names its locals,
         # so an evaluation (a closed-form position is evaluated ~100 times a model build) copies
@@ -170,7 +176,10 @@ class Expression:
         self._globals = (_DEFAULT_GLOBALS if self.functions is FUNCTIONS
                          else {"__builtins__": {}, **self.functions, **CONSTANTS, _POWER: _power})
 
-    def evaluate(self, env: Mapping[str, object]):
+    def evaluate(self, env: Mapping[str, object], one_angle: bool = False):
+        """The value with the names bound from ``env``. ``one_angle``: ``env`` binds the motion at
+        one crank angle as numpy scalars, and the value is to the bit that of the same expression
+        on an array of angles (a power by numpy's array rules, _power)."""
         try:
             scope = {name: env[name] for name in self.names}
         except KeyError:
@@ -179,7 +188,8 @@ class Expression:
                 f"{self.where}: {self.source!r} uses undefined name(s) {', '.join(sorted(missing))}"
             ) from None
         try:
-            return eval(self._code, self._globals, scope)  # noqa: S307 - tree checked in parse()
+            return eval(self._one_angle_code if one_angle else self._code,  # noqa: S307 - tree checked in parse()
+                        self._globals, scope)
         except OverflowError:
             raise DefinitionError(f"{self.where}: {self.source!r} overflows: its value is beyond the largest "
                                   "floating-point number (1.8e308)") from None

@@ -117,6 +117,14 @@ def known_names(mechanism: Mechanism) -> set[str]:
             | {f"{p}_{a}" for p in mechanism.point_names for a in "xy"})
 
 
+def _first(values):
+    return float(values[0])
+
+
+def _whole(values):
+    return values
+
+
 @dataclass
 class ExpressionLoad:
     """A force at a point (fx, fy) and/or a couple (moment) on ``link``, from expressions; with
@@ -153,23 +161,21 @@ class ExpressionLoad:
                      else zero for k in ("fx", "fy", "moment"))
 
     def _torque_of(self, kin, which: dict, omega1=None):
-        if kin.phi1.shape == (1,):
-            # one crank angle (the reference integrator's right-hand side): the same operations in
-            # the same order on Python floats, the same numbers to the bit without an array each
+        # at one crank angle (the reference integrator's right-hand side) the same operations in the
+        # same order on Python floats: the same numbers to the bit, without an array for each
+        one = kin.phi1.shape == (1,)
+        if one:
             env = self._env(kin, omega1)
-            fx, fy, m = (float(which[k].evaluate(env)) if k in which else 0.0 for k in ("fx", "fy", "moment"))
-            out = m * float(kin.link_angle(self.link)[1][0])
-            if self.point is not None:
-                _, _, dx, dy, _, _ = kin.point(self.point)
-                out = out + fx * float(dx[0]) + fy * float(dy[0])
-            return np.array([out])
-        fx, fy, m = self._components(kin, which, omega1)
-        q = kin.link_angle(self.link)[1]
-        out = m * q
+            fx, fy, m = (float(which[k].evaluate(env, one_angle=True)) if k in which else 0.0
+                         for k in ("fx", "fy", "moment"))
+        else:
+            fx, fy, m = self._components(kin, which, omega1)
+        at = _first if one else _whole
+        out = m * at(kin.link_angle(self.link)[1])
         if self.point is not None:
             _, _, dx, dy, _, _ = kin.point(self.point)
-            out = out + fx * dx + fy * dy
-        return out
+            out = out + fx * at(dx) + fy * at(dy)
+        return np.array([out]) if one else out
 
     def _rate(self, kin):
         """d(chosen coordinate)/dphi1."""
@@ -266,7 +272,9 @@ class KinkedLoad(ExpressionLoad):
     def signs(self, kin: Kinematics) -> list:
         """Each argument > 0 at the kinematics' angles (booleans)."""
         env = position_env(self.mechanism, kin)
-        return [np.broadcast_to(np.asarray(a.evaluate(env), dtype=float) > 0.0, kin.phi1.shape) for a in self.arguments]
+        one = kin.phi1.shape == (1,)
+        return [np.broadcast_to(np.asarray(a.evaluate(env, one_angle=one), dtype=float) > 0.0, kin.phi1.shape)
+                for a in self.arguments]
 
     def values(self, kin: Kinematics, omega1) -> list:
         """1 for the pattern of the arguments' signs at each angle, 0 for the others."""

@@ -45,6 +45,7 @@ from .assembly import TWO_PI, TurnChecks
 from .definition import MechanismDefinition
 from .kinematics import Kinematics, PointMotion, OnDemand
 
+
 class MotionNames(NamedTuple):
     points: frozenset
     unknowns: frozenset
@@ -220,7 +221,7 @@ class Mechanism(TurnChecks):
         env["phi1"] = phi1[0] if one else phi1
         with np.errstate(invalid="ignore", divide="ignore"):
             for name, expr in self._closed_form:
-                value = expr.evaluate(env)
+                value = expr.evaluate(env, one_angle=one)
                 env[name] = value if one or np.shape(value) == phi1.shape else np.broadcast_to(value, phi1.shape)
         q = np.empty((phi1.size, 1 + len(self.unknown_names)))
         q[:, 0] = phi1
