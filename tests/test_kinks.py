@@ -89,18 +89,29 @@ def reference(p, times, speed_torque=lambda w: 0.0, ram_force=None):
             Q += ram_force(y[0], xB, y[1]) * ram_rate(y[0], p)
         return [y[1], (motor(y[1]) + Q - half_dJ * y[1] ** 2) / J]
 
-    def contact(t, y):
-        return lagrange_terms(y[0], p)[3] - p["x_w"]
+    # the contact angles in the turn (the gap's roots; phi1 only grows): each piece is integrated
+    # twice, once to find the time phi1 reaches the next one, then again on a span that ends there,
+    # so that no step evaluates the right-hand side past the kink (a step across it would mix both
+    # sides' forces into its stages and its dense output)
+    gap = lambda phi: lagrange_terms(phi, p)[3] - p["x_w"]          # noqa: E731
+    grid = np.linspace(0.0, 2 * math.pi, 721)
+    gaps = [gap(a) for a in grid]
+    kinks = [brentq(gap, grid[i], grid[i + 1], xtol=1e-15) for i in range(grid.size - 1)
+             if np.sign(gaps[i]) != np.sign(gaps[i + 1])]
+
+    def next_kink(phi):
+        turn = math.floor(phi / (2 * math.pi)) * 2 * math.pi
+        return min(k + turn + 2 * math.pi * lap for k in kinks for lap in (0, 1) if k + turn + 2 * math.pi * lap > phi + 1e-9)
     pieces, t, y = [], 0.0, [p["phi1_start"], p["omega1_start"]]
     while t < STOP:
-        run = solve_ivp(rhs, (t, STOP), y, method="DOP853", rtol=1e-13, atol=1e-12, dense_output=True,
-                        events=contact)
-        crossed = [e for e in run.t_events[0] if e > t + 1e-12]
-        end = crossed[0] if crossed else STOP
-        if not crossed and run.status == 1:          # stopped on the start's own contact: go on past it
-            run = solve_ivp(rhs, (t, STOP), y, method="DOP853", rtol=1e-13, atol=1e-12, dense_output=True)
+        target = next_kink(y[0])
+        reach = lambda t, y: y[0] - target          # noqa: E731
+        reach.terminal = True
+        probe = solve_ivp(rhs, (t, STOP), y, method="DOP853", rtol=1e-13, atol=1e-12, events=reach)
+        end = probe.t_events[0][0] if probe.t_events[0].size else STOP
+        run = solve_ivp(rhs, (t, end), y, method="DOP853", rtol=1e-13, atol=1e-12, dense_output=True)
         pieces.append((t, end, run.sol))
-        t, y = end, run.sol(end)
+        t, y = end, run.y[:, -1]
     return np.array([next(sol(x)[1] for a, b, sol in pieces if a <= x <= b) for x in times])
 
 
