@@ -165,12 +165,10 @@ def plot_turning_moment(study, path: Path) -> Path:
     loads that do work on the crank (driving) against those that take it (resisting), the motor's
     mean share added to the driving side where it works, the areas between them (the energy the
     flywheel stores and gives back) and the energy's swing, whose range is eq. 17's dW_max."""
-    from ..studies.flywheel import energy_swing
-
     plt = pyplot()
     design, scenario, model = study.design, study.scenario, study.model
     omega = design.omega_m
-    dW, grid, swing = energy_swing(model, omega1=omega)
+    dW, (grid, swing) = design.dW_max, design.swing
     kin = model.mechanism.kinematics(grid)
     speed = np.full_like(grid, omega)
     torques = [np.broadcast_to(np.asarray(load.torque(kin, speed), dtype=float), grid.shape)

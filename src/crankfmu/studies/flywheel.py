@@ -40,6 +40,12 @@ TWO_PI = 2.0 * math.pi
 #: this fraction of w: there a secant step on the smooth g shrinks |g| unless the integration's
 #: own error has the last word (steady_cycle stops on the first step that does not)
 NEAR_ROOT = 1e-6
+#: the shooting stops where the secant's next correction of w is within this many rtol of w: the
+#: integration's own error over a cycle moves g by about that much (engine4 at rtol 1e-11 without a
+#: flywheel: g wanders within 1e-7 rad/s at 291 rad/s, and the secant's w within 3e-9 of itself, from
+#: one step to the next), so steps below it move w by that error, not towards the root. The secant's
+#: correction, not |g|: with a heavy flywheel g is nearly flat in w, and a small g is no small error
+SHOOTING_RTOLS = 1000.0
 
 
 @dataclass
@@ -93,6 +99,9 @@ class FlywheelDesign:
     #: what in this machine eq. 17 leaves out (it takes J constant and the torques independent of
     #: the speed): why its flywheel differs from the simulated one
     eq17_departures: list = field(default_factory=list)
+    #: (phi1 rad, dW J) over the machine's cycle at omega_m: energy_swing's curve, whose range is
+    #: dW_max (the turning moment diagram draws it)
+    swing: tuple = field(default=None, repr=False)
 
     UNITS = {"J_*": "kg.m2", "dW_max": "J", "omega_*": "rad/s", "epsilon_*": "rad/s2", "delta*": "1",
              "steady_cycle_solves": "batch calls of the fast kernel (one or many flywheels each)",
@@ -258,7 +267,8 @@ def steady_cycle(model, phi0: float = 0.0, rtol: float = 1e-11, n_samples: int =
     a, ga, b, gb = w, w1 - w, w1, w2 - w1
     best, g_best = (a, ga) if abs(ga) < abs(gb) else (b, gb)
     for _ in range(30):
-        if gb == 0.0 or abs(gb) <= 1e-13 * abs(b):
+        if gb == 0.0 or (gb != ga and abs(gb * (b - a) / (gb - ga)) <= SHOOTING_RTOLS * rtol * abs(b)):
+            best, g_best = b, gb
             break
         c = b - gb * (b - a) / (gb - ga) if gb != ga else b + gb
         gc = _one_cycle(model, phi0, c, pieces, rtol)[0][0] - c
@@ -357,7 +367,7 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
     if progress is not None:
         progress(1)
     omega_m = free.omega_mean
-    dW, _, _ = energy_swing(model, omega1=omega_m)
+    dW, swing_grid, swing = energy_swing(model, omega1=omega_m)
     J_eq17 = dW / (omega_m ** 2 * delta)
 
     # delta(J_F) of many flywheels at once on the fast kernel, the table built once
@@ -428,6 +438,7 @@ def design_flywheel(scenario, delta: float, phi0: float | None = None, rtol: flo
         baseline_J_flywheel=J_base,
         baseline_reason=reason,
         eq17_departures=eq17_departures(base, model, J_e, J_sim, omega_m),
+        swing=(swing_grid, swing),
     )
 
 
