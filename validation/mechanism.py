@@ -211,13 +211,14 @@ def check_default(fmu, scenario, checks, out, interface: str) -> dict:
 
     def bars_of(attempt):
         if judged[0] is not attempt:
-            judged[:] = attempt, output_bars(fmu, scenario, model, attempt, cached_reference(scenario, attempt.time), me)
+            judged[:] = attempt, output_bars(fmu, scenario, model, attempt,
+                                             cached_reference(scenario, attempt.time, model=model), me)
         return judged[1]
 
     rtol_note = ""
     if me:
         def worst_of(attempt):
-            ref = cached_reference(scenario, attempt.time)
+            ref = cached_reference(scenario, attempt.time, model=model)
             return max([energy_residual(attempt.values) / ME_ENERGY_TOLERANCE,
                         *(relative_error(attempt[n], ref[n]) / bar for n, bar in bars_of(attempt)[0].items())])
 
@@ -228,7 +229,7 @@ def check_default(fmu, scenario, checks, out, interface: str) -> dict:
     if run.error:
         checks.holds(f"{prefix}.ran", False, note=run.error)
         return {"interface": interface}
-    ref = cached_reference(scenario, run.time)
+    ref = cached_reference(scenario, run.time, model=model)
     bars, at_state, groups = bars_of(run)
     gap = second_method_gap(scenario, run.time)
     rows = compare_outputs(prefix, fmu, run, ref, checks, bars,

@@ -57,13 +57,14 @@ def reference_run(scenario, times, method: str = "reference", rtol: float | None
     return with_outputs(ReferenceRun(method, times, values, wall, dict(r.settings), r, r.model), scenario)
 
 
-def built_reference(scenario, times) -> ReferenceRun | None:
+def built_reference(scenario, times, model=None) -> ReferenceRun | None:
     """The reference run the FMU's build made of the default experiment (fmi.reference: this
     integrator at the same settings, kept in the per-user cache under the design's digest, or
     carried by the installation for a packaged scenario) where ``times`` is that experiment's grid,
     with the other outputs at its states as reference_run adds them: the harness does not
     integrate it a second time (engine4's took 32 s). None where it is not that run: another grid,
-    or joint friction (its outputs are not in the build's columns)."""
+    or joint friction (its outputs are not in the build's columns). ``model``: the scenario's,
+    where the caller has built it."""
     from crankfmu.fmi.reference import default_grid, reference_values
 
     if scenario.friction_entries() or not np.array_equal(times, default_grid(scenario.experiment)):
@@ -72,7 +73,7 @@ def built_reference(scenario, times) -> ReferenceRun | None:
     values = {name: v for name, v in reference_values(scenario).items() if name != "time"}
     settings = {"method": "reference (the FMU build's run of the default experiment)", "rtol": 1e-12}
     return with_outputs(ReferenceRun("reference", times, values, time.perf_counter() - started, settings, None,
-                                     scenario.build()), scenario)
+                                     scenario.build() if model is None else model), scenario)
 
 
 def _run_key(scenario, times: np.ndarray) -> tuple:
@@ -86,13 +87,14 @@ def _run_key(scenario, times: np.ndarray) -> tuple:
 _RUNS: dict = {}
 
 
-def cached_reference(scenario, times, method: str = "reference") -> ReferenceRun:
+def cached_reference(scenario, times, method: str = "reference", model=None) -> ReferenceRun:
     """``reference_run`` once per scenario (its file and every value), time grid and method; on the
-    default experiment's grid, the run the FMU's build made (built_reference)."""
+    default experiment's grid, the run the FMU's build made (built_reference; ``model``: the
+    scenario's, where the caller has built it)."""
     times = np.asarray(times, dtype=float)
     key = (*_run_key(scenario, times), method)
     if key not in _RUNS:
-        built = built_reference(scenario, times) if method == "reference" else None
+        built = built_reference(scenario, times, model) if method == "reference" else None
         _RUNS[key] = built if built is not None else reference_run(scenario, times, method) \
             if method != "periodic" else periodic_reference(scenario, times)
     return _RUNS[key]
