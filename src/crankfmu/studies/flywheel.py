@@ -565,9 +565,10 @@ def flywheel_study(scenario, delta: float, steps_deg=None, progress=None) -> Fly
     from ..simulation import simulate
 
     scenario = load_scenario(scenario)
-    scenario.refuse_friction("the flywheel study", "the fast kernel's batch of steady cycles that sizes the "
-                             "flywheel leaves the frictions out (on the slider-crank with friction its flywheel "
-                             "for delta 0.05 gives 0.0533 on the engine's steady cycle, which does include them)")
+    scenario.refuse_friction("the flywheel study", "its eq. 3 stability study runs the paper's crank-angle "
+                             "scheme, which takes no joint friction, and its eq. 17 and turning moment count the "
+                             "loads' work alone; crankfmu sweep --param J_flywheel=LO:HI:N gives each flywheel's "
+                             "delta with the friction")
     spec = scenario.data.get("flywheel", {})
     offset = float(spec.get("angle_offset", 0.0))
     design = design_flywheel(scenario, delta, phi0=offset, progress=progress)

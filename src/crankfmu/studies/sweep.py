@@ -183,9 +183,6 @@ def run_sweep(scenario, axes: list[SweepAxis], out: Path, progress=None, resume:
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
         raise CrankfmuError(f"each --param may appear once, got {names}")
-    if study != "kinematic":
-        scenario.refuse_friction("the steady-cycle sweep", "its batch of steady cycles is not checked against "
-                                 "friction's")
     if study == "kinematic":
         ks = study_settings(scenario)
         quantities = list(ks.get("sweep_quantities", []))
