@@ -47,6 +47,17 @@ class FrictionTable:
             self._interval_major = np.ascontiguousarray(np.asarray(self.coefficients, dtype=float).transpose(1, 0, 2))
         return self._interval_major
 
+    def joint_outputs(self, friction, frictions, phi1, omega1, period: float) -> dict:
+        """Each joint's friction and its power (dynamics.friction.joint_values) at crank angles
+        ``phi1`` (rad) and speeds ``omega1`` (rad/s), from the kernel's ``frictions`` there: the
+        relative rates are this table's first functions. ``friction``: the design's joint friction
+        (dynamics.friction), ``period``: the reduced table's (rad)."""
+        from .cubics import evaluate_cubics
+        from .friction import joint_values
+
+        rates = evaluate_cubics(self.coefficients[:len(friction)], phi1, period)
+        return joint_values(friction.frictions, frictions, rates, omega1)
+
 
 def tabulate_frictions(reduced: ReducedModel, tolerance: float = 1e-11, n_max: int = 1 << 16,
                        loosest: float = 1e-8) -> FrictionTable:

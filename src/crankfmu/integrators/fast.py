@@ -129,13 +129,8 @@ def _friction_outputs(equation, table, rows, frictions) -> dict:
     """The joints' friction's outputs (dynamics.friction.friction_outputs: M_friction, each joint's
     friction and its power) at the output rows, from the kernel's frictions there and the rates'
     table (the friction table's first functions)."""
-    from ..dynamics.cubics import evaluate_cubics
-    from ..dynamics.friction import joint_values
-
-    n_f = len(equation.friction)
-    rates = evaluate_cubics(table.friction.coefficients[:n_f], rows[:, 0], table.period)
     return {"M_friction": rows[:, kernel.ROW_FIELDS.index("M_friction")],
-            **joint_values(equation.friction.frictions, frictions, rates, rows[:, 1])}
+            **table.friction.joint_outputs(equation.friction, frictions, rows[:, 0], rows[:, 1], table.period)}
 
 
 def refused(status: int, state) -> None:

@@ -223,8 +223,6 @@ def friction_now(core) -> list:
     """The joints' friction's outputs now (friction_variables' order): M_friction and W_friction from
     the kernel's output row, each joint's friction by the kernel's solve at the state now
     (ck_friction_values) and its power with the rate's table; zeros for a design whose mu are 0."""
-    from ...dynamics.cubics import evaluate_cubics
-    from ...dynamics.friction import joint_values
     from ...native import friction_values
 
     names = [v.name for v in friction_variables(core.scenario)]
@@ -237,9 +235,7 @@ def friction_now(core) -> list:
     stepper, table = core.stepper, core.stepper.table
     epsilon = row[ROW_FIELDS.index("epsilon1")]
     f = friction_values(stepper.state[None, :], [core.time], [epsilon], stepper.tables, stepper.P)[:, :-1]
-    n_f = len(reduced.friction)
-    rates = evaluate_cubics(table.friction.coefficients[:n_f], np.array([row[0]]), table.period)
-    values.update(joint_values(reduced.friction.frictions, f, rates, np.array([row[1]])))
+    values.update(table.friction.joint_outputs(reduced.friction, f, np.array([row[0]]), np.array([row[1]]), table.period))
     return [float(np.ravel(values.get(name, 0.0))[0]) for name in names]
 
 
