@@ -55,11 +55,8 @@ def native_program(scenario):
     from ...native.mechanism import QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
     from ..python.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
 
-    if scenario.friction_entries():
-        joints = ", ".join(scenario.friction_entries())
-        raise CrankfmuError(f"{scenario.name}: joint friction ({joints}) is not in the C mechanism model yet: the "
-                            "native FMUs do not take it (issue 69); use the Python FMU (crankfmu fmu without "
-                            "--native), whose kernel solves it")
+    scenario.refuse_friction("the native FMUs", "the C mechanism model does not tabulate it",
+                             instead="build the Python FMU (crankfmu fmu without --native), whose kernel solves it")
     program = compile_scenario(scenario)
     if program is None:
         raise CrankfmuError(f"{scenario.name}: a load or port of this scenario is not one the C mechanism model "
