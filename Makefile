@@ -205,9 +205,10 @@ demo-well: $(STAMP)
 	$(BIN)/crankfmu draw jansen --out $(OUT)/jansen/mechanism.png
 	$(BIN)/crankfmu animate jansen --result $(OUT)/jansen --out $(OUT)/jansen/run.gif
 
-# one test file per worker: a file's module fixtures (the fuzz children, the drop-in venvs) run once
+# one test file per worker: a file's module fixtures (the fuzz children, the drop-in venvs) run once;
+# the 15 slowest tests listed at the end (the suite's time on two cores is watched: about 15 minutes)
 test: $(DEV_STAMP) fmu
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --durations=15
 	$(BIN)/crankfmu validate --quick --out build/validation-quick
 
 validate: fmu
