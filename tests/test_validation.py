@@ -340,7 +340,7 @@ def test_the_demo_subset_proves_each_fmu_without_the_hard_cases(fmu_path, tmp_pa
 
     assert [c for c in cases.load_cases("seed000").cases if c.quick], "seed000 has quick hard cases to leave out"
     assert cases.load_cases("seed000").work_precision
-    checks, report = harness.validate([fmu_path], tmp_path, echo=None, jobs=1, demo=True)
+    checks, report = harness.validate([fmu_path], tmp_path, "demo", echo=None, jobs=1)
     assert checks.failed == 0, [c.line() for c in checks.items if not c.passed and not c.skipped]
     names = [c.name for c in checks.items]
     assert "FourBar.python.fmpy_validate" in names

@@ -80,10 +80,11 @@ def plan(paths) -> tuple[list[list[str]], list[tuple[str, str]]]:
 
 
 # ------------------------------------------------------------------------------------ one group
-def run_group(paths: list[str], out: str, quick: bool, demo: bool = False) -> dict:
-    """Validate the FMUs of one data file (in a worker process): their sections, checks and the
-    FMUs found not validatable inside."""
+def run_group(paths: list[str], out: str, subset: str) -> dict:
+    """Validate the FMUs of one data file (in a worker process) in ``subset`` (report.SUBSETS):
+    their sections, checks and the FMUs found not validatable inside."""
     from .fmu_runner import FmuUnderTest
+    from .report import shortened
 
     out = Path(out)
     checks = CheckList(echo=None)
@@ -99,7 +100,7 @@ def run_group(paths: list[str], out: str, quick: bool, demo: bool = False) -> di
         for fmu in fmus:
             started, n_before = time.perf_counter(), len(checks.items)
             try:
-                section = _validate_one(fmu, checks, out, quick, demo)
+                section = _validate_one(fmu, checks, out, subset)
             except Exception as exc:      # a bug in a check, or a crash of the FMU: a failed check, go on
                 checks.holds(f"{fmu.name}.{fmu.kind.build}.harness_ran", False,
                              note=f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=3)[-400:]}")
@@ -113,8 +114,8 @@ def run_group(paths: list[str], out: str, quick: bool, demo: bool = False) -> di
         for build in by_build:
             if build.startswith("native") and "python" in by_build:
                 _native_against_python(by_build[build], by_build["python"], checks)
-        if not demo:                # speed against error: timed runs, make validate's and make test's
-            _work_precision(fmus, sections, checks, out, quick)
+        if subset != "demo":        # speed against error: timed runs, make validate's and make test's
+            _work_precision(fmus, sections, checks, out, shortened(subset))
     finally:
         for fmu in fmus:
             fmu.close()
@@ -130,9 +131,12 @@ def run_group(paths: list[str], out: str, quick: bool, demo: bool = False) -> di
     return {"sections": sections, "not_validated": not_validated, "checks": checks.items}
 
 
-def _validate_one(fmu, checks, out, quick, demo: bool = False) -> dict:
+def _validate_one(fmu, checks, out, subset: str) -> dict:
     from crankfmu.scenario import load_scenario
 
+    from .report import shortened
+
+    quick = shortened(subset)
     kind = fmu.kind
     if kind.kind == "scenario":
         scenario = load_scenario(fmu.scenario_source)
@@ -140,7 +144,7 @@ def _validate_one(fmu, checks, out, quick, demo: bool = False) -> dict:
             from .speed import check_speed_fmu
             return check_speed_fmu(fmu, scenario, checks, out, quick)
         from .mechanism import check_model
-        return check_model(fmu, scenario, checks, out, quick, demo)
+        return check_model(fmu, scenario, checks, out, subset)
     from . import components
     check = {"drive": components.check_drive, "cushion": components.check_cushion, "shaft": components.check_shaft,
              "well": components.check_rod_string}.get(kind.kind)
@@ -320,13 +324,14 @@ class StatusLine:
             self.stream.flush()
 
 
-def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None = None,
-             demo: bool = False) -> tuple[CheckList, Path]:
-    """``quick``: the CI subset; ``demo`` (implies ``quick``): make demo's, each FMU's own checks without
-    the hard cases, the speed against error and the coupled scenes (SUBSETS says what each runs)."""
-    from .report import write_report
+def validate(fmu_paths, out, subset: str = "full", echo=print, jobs: int | None = None) -> tuple[CheckList, Path]:
+    """Every FMU of ``fmu_paths`` in ``subset`` (report.SUBSETS says what each runs): "full", make
+    validate's; "quick", the CI subset; "demo", make demo's, each FMU's own checks without the hard
+    cases, the speed against error and the coupled scenes."""
+    from .report import SUBSETS, shortened, write_report
 
-    quick = quick or demo
+    if subset not in SUBSETS:
+        raise CrankfmuError(f"the harness's subset {subset!r} is none of {', '.join(SUBSETS)}")
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -334,9 +339,9 @@ def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None =
     started = time.perf_counter()
     groups, not_validated = plan(fmu_paths)
     # the coupled scenes first: the longest group where their FMUs are validated
-    tasks = [partial(run_coupled_group, built, str(out), quick)
-             for built in [coupled_group(fmu_paths)] if built and not demo] \
-        + [partial(run_group, group, str(out), quick, demo) for group in groups]
+    tasks = [partial(run_coupled_group, built, str(out), shortened(subset))
+             for built in [coupled_group(fmu_paths)] if built and subset != "demo"] \
+        + [partial(run_group, group, str(out), subset) for group in groups]
     results = []
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(tasks) or 1))
     if jobs == 1:
@@ -372,7 +377,7 @@ def validate(fmu_paths, out, quick: bool = False, echo=print, jobs: int | None =
         not_validated += r["not_validated"]
     for name, why in not_validated:
         checks.skip(f"{Path(name).name}.not_validated", why)
-    report = write_report(out, sections, not_validated, checks, "demo" if demo else "quick" if quick else "full",
+    report = write_report(out, sections, not_validated, checks, subset,
                           time.perf_counter() - started)
     return checks, report
 
@@ -435,7 +440,8 @@ def run_from_args(args) -> int:
     if args.junit:
         check_output(args.junit, is_file=True)
     started = time.perf_counter()
-    checks, report = validate(paths, out, args.quick, jobs=args.jobs, demo=args.demo)
+    subset = "demo" if args.demo else "quick" if args.quick else "full"
+    checks, report = validate(paths, out, subset, jobs=args.jobs)
     if args.junit:
         from .junit import write_junit
         write_junit(args.junit, checks.items, time.perf_counter() - started)

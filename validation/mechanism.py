@@ -276,12 +276,16 @@ def check_default(fmu, scenario, checks, out, interface: str) -> dict:
     return section
 
 
-def check_model(fmu, scenario, checks, out, quick: bool, demo: bool = False) -> dict:
+def check_model(fmu, scenario, checks, out, subset: str) -> dict:
     """Everything a torque-causal mechanism FMU gets: fmpy's validation, the default experiment in
     each interface, the paper's numbers (on the Co-Simulation run) and every hard case in each
-    interface (not in the ``demo`` subset). Returns the report's section."""
+    interface (not in the ``demo`` subset; the quick ones over their quick spans in ``quick``).
+    Returns the report's section."""
     from fmpy.validation import validate_fmu
 
+    from .report import shortened
+
+    quick = shortened(subset)
     problems = validate_fmu(str(fmu.path))
     checks.holds(f"{fmu.name}.{fmu.kind.build}.fmpy_validate", not problems, note="; ".join(map(str, problems))[:300])
     check_units(fmu, scenario, checks, f"{fmu.name}.{fmu.kind.build}")
@@ -294,7 +298,7 @@ def check_model(fmu, scenario, checks, out, quick: bool, demo: bool = False) -> 
             check_paper(scenario, scenario.build(), default["run"], checks, f"{fmu.name}.{fmu.kind.build}")
             section["paper"] = checks.items[n_paper:]
     case_file = hard_cases.load_cases(scenario.name)
-    for interface in interfaces(fmu) if not demo else ():
+    for interface in interfaces(fmu) if subset != "demo" else ():
         for case in case_file.cases:
             if quick and not case.quick:
                 continue

@@ -74,6 +74,12 @@ SUBSETS = {"full": "the full harness",
                    "which make validate runs"}
 
 
+def shortened(subset: str) -> bool:
+    """Whether ``subset`` (SUBSETS) runs the hard cases over their quick spans, fewer
+    speed-against-error points and the coupled scenes' barred steps only: quick's and demo's way."""
+    return subset != "full"
+
+
 def write_report(out: Path, sections: list[dict], not_validated: list[tuple[str, str]], checks, subset: str,
                  elapsed: float) -> Path:
     counts = count(checks.items)
