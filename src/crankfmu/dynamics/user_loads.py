@@ -117,14 +117,6 @@ def known_names(mechanism: Mechanism) -> set[str]:
             | {f"{p}_{a}" for p in mechanism.point_names for a in "xy"})
 
 
-def _first(values):
-    return float(values[0])
-
-
-def _whole(values):
-    return values
-
-
 @dataclass
 class ExpressionLoad:
     """A force at a point (fx, fy) and/or a couple (moment) on ``link``, from expressions; with
@@ -170,11 +162,13 @@ class ExpressionLoad:
                          for k in ("fx", "fy", "moment"))
         else:
             fx, fy, m = self._components(kin, which, omega1)
-        at = _first if one else _whole
-        out = m * at(kin.link_angle(self.link)[1])
+        rate = kin.link_angle(self.link)[1]
+        out = m * (float(rate[0]) if one else rate)
         if self.point is not None:
             _, _, dx, dy, _, _ = kin.point(self.point)
-            out = out + fx * at(dx) + fy * at(dy)
+            if one:
+                dx, dy = float(dx[0]), float(dy[0])
+            out = out + fx * dx + fy * dy
         return np.array([out]) if one else out
 
     def _rate(self, kin):
