@@ -246,7 +246,7 @@ class Scenario:
         friction_entries = self.friction_entries(definition)
         frictions = joint_frictions(definition, friction_entries, values, self.where) if friction_entries else []
         prepared = table_built = None
-        if table is not None and not frictions:     # (the C model takes no joint friction yet: the engine's tables)
+        if table is not None:                       # (c_model is None with joint friction: the engine's tables)
             from .dynamics.tabulated import c_model, c_table
             prepared = c_model(self, values)
             table_built = prepared and c_table(self, values, table, prepared)

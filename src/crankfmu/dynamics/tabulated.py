@@ -265,12 +265,19 @@ def keep_table(reduced: ReducedModel, table: ReducedTable) -> None:
 def c_model(scenario, values: dict):
     """The C model (native.mechanism.CModel) of a design, its assembly checked over the turn and
     its loads' switch angles found; None where the scenario does not compile to it, the C model
-    refuses the values (the Python engine then says why) or CRANKFMU_TABLES=python."""
+    refuses the values (the Python engine then says why), the design's joints have friction (the
+    C model tabulates none yet: the engine's tables carry it, table_of) or CRANKFMU_TABLES=python."""
     if os.environ.get("CRANKFMU_TABLES") == "python":
         return None
     from ..native.mechanism import CModel, MechanismError
+    from .friction import joint_frictions
     from .program import parameter_values
     from .program_scenario import compile_scenario
+
+    definition = scenario.mechanism_definition()
+    entries = scenario.friction_entries(definition)
+    if entries and joint_frictions(definition, entries, values, scenario.where):     # (every mu 0: none)
+        return None
 
     program = compile_scenario(scenario)
     if program is None:

@@ -81,18 +81,13 @@ class SteadyBatch:
     def _model(self, key):
         """(initial crank angle rad, table) of a geometry: the C model's table (a few ms), or the
         Python engine's where the C model does not take the scenario or refuses the values (it
-        then says why, as every other command does), or where the joints have friction: the C
-        model does not tabulate it, the engine's table carries it (friction_table), and the
-        kernel's stepper, which the fast path shares, solves it at every step."""
+        then says why, as every other command does), as where the joints have friction (c_model):
+        the engine's table carries it, and the kernel's stepper, which the fast path shares, solves
+        it at every step."""
         if key not in self._models:
             try:
                 scenario = self.scenario.with_params(**dict(key))
                 values = scenario.values
-                if scenario.friction_entries():
-                    model = scenario.build()
-                    if model.reduced.friction is not None:       # (every mu 0: no friction, the C model's table)
-                        self._models[key] = (values["phi1_start"], table_of(model.reduced, TABLE_TOLERANCE))
-                        return self._models[key]
                 table = c_table(scenario, values, TABLE_TOLERANCE)
                 if table is None or not (values["J_flywheel"] > 0 or np.min(table.coefficients[0, :, 0]) > 0):
                     model = scenario.build()
