@@ -270,10 +270,11 @@ def steady_cycle(model, phi0: float = 0.0, rtol: float = 1e-11, n_samples: int =
     a, ga, b, gb = w, w1 - w, w1, w2 - w1
     best, g_best = (a, ga) if abs(ga) < abs(gb) else (b, gb)
     for _ in range(30):
-        if gb == 0.0 or (gb != ga and abs(gb * (b - a) / (gb - ga)) <= SHOOTING_RTOLS * rtol * abs(b)):
-            best, g_best = b, gb
+        step = gb * (b - a) / (gb - ga) if gb != ga else -gb        # the secant's correction of b
+        if gb == 0.0 or (gb != ga and abs(step) <= SHOOTING_RTOLS * rtol * abs(b)):
+            best = b
             break
-        c = b - gb * (b - a) / (gb - ga) if gb != ga else b + gb
+        c = b - step
         gc = _one_cycle(model, phi0, c, pieces, rtol)[0][0] - c
         a, ga, b, gb = b, gb, c, gc
         # the integration's own error (rtol per step, summed over a cycle) bounds how small g gets:
