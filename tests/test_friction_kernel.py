@@ -235,3 +235,43 @@ def test_a_shaper_with_friction_in_its_ten_joints_follows_the_engine():
     assert abs(fast.W_friction[-1] - engine.W_friction[-1]) < 1e-8 * abs(engine.W_friction[-1])
     for name, value in engine.friction.items():
         assert np.max(np.abs(fast.friction[name][1:] - value[1:])) < 1e-7 * np.max(np.abs(value)), name
+
+
+@pytest.mark.parametrize("overrides", [{}, {"mu_guide": 0.0}, {"mu_pin": 0.0}, {"F_work": 0.0, "g": 0.0}],
+                         ids=["all", "pins only", "guide only", "unloaded"])
+def test_the_c_models_friction_table_is_the_engines(scenario, overrides):
+    """The C mechanism model's friction table (crank_engine.c, what the native FMUs tabulate when
+    they initialise) against tabulate_frictions' from the Python engine: the same active
+    frictions (a mu of 0 is none), their coefficients, switch angles and signs, and each function
+    within 1e-10 of its largest (both are checked to 1e-11 of it against their own engine)."""
+    from crankfmu.dynamics import tabulated
+    from crankfmu.dynamics.cubics import evaluate_cubics
+    from crankfmu.dynamics.friction_table import tabulate_frictions
+
+    reduced = scenario.with_params(**overrides).build().reduced
+    engine = tabulate_frictions(reduced)
+    c_table = tabulated.c_table(*reduced.source)
+    assert c_table is not None and "in C" in c_table.friction.construction
+    table = c_table.friction
+    assert table.components.tolist() == engine.components.tolist()
+    assert table.n_terms == engine.n_terms
+    assert np.array_equal(table.c, engine.c)
+    assert np.array_equal(c_table.switch_angles, reduced.slider_schedule()[0])
+    assert np.array_equal(table.signs, engine.signs)
+    phi1 = np.linspace(0.0, reduced.period, 2001)
+    ours = evaluate_cubics(table.coefficients, phi1, reduced.period)
+    theirs = evaluate_cubics(engine.coefficients, phi1, reduced.period)
+    scale = np.maximum(np.max(np.abs(theirs), axis=1, keepdims=True), 1e-300)
+    assert np.max(np.abs(ours - theirs) / scale) < 1e-10
+
+
+def test_without_any_active_friction_the_c_model_tabulates_none(scenario):
+    """Every mu 0: no friction table, and a reaction table without the unit frictions' terms (the
+    kernel's weights then match it: a design without friction runs as before friction existed)."""
+    from crankfmu.dynamics import tabulated
+
+    reduced = scenario.with_params(mu_pin=0.0, mu_guide=0.0).build().reduced
+    assert reduced.friction is None
+    assert tabulated.c_table(*reduced.source).friction is None
+    model = tabulated.c_model(*reduced.source)
+    assert model.reaction_terms == len(model.program.term_inertia) - len(model.program.frictions)

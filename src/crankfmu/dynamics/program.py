@@ -36,7 +36,7 @@ OPS = ("literal", "copy", "add", "sub", "mul", "div", "pow", "neg",
 OP = {name: i for i, name in enumerate(OPS)}
 _BINARY = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div", ast.Pow: "pow"}
 SETUP, CLOSED, ROWS, VALUES, OUTPUTS, REACTIONS, LAWS, FIRST_SEARCH = range(8)
-ROCKER, REVERSALS, BAND, ZEROS = range(4)
+ROCKER, REVERSALS, BAND, ZEROS, FRICTION_RATE = range(5)
 
 
 class Unsupported(Exception):
@@ -103,6 +103,9 @@ class Program:
     law_speed: int = -1
     laws: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     column_laws: tuple = ()
+    #: the joints' friction: (joint index, coefficient register c, relative rate register) each;
+    #: the reaction terms' last len(frictions) are their unit loads (crank_mechanism.h)
+    frictions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int32))
 
 
 class _Code:

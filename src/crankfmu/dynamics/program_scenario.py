@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .program import (CLOSED, FIRST_SEARCH, LAWS, OUTPUTS, REACTIONS, REVERSALS, ROCKER, ROWS, SETUP, VALUES,
-                      Program, Unsupported, _Code, optimise)
+from .program import (CLOSED, FIRST_SEARCH, FRICTION_RATE, LAWS, OUTPUTS, REACTIONS, REVERSALS, ROCKER, ROWS, SETUP,
+                      VALUES, Program, Unsupported, _Code, optimise)
 from .program_loads import LoadClauses
 
 
@@ -106,6 +106,7 @@ class _Compiler(LoadClauses):
         self.omega1 = c.register()
         self.law_speed = c.register()         # the crank speed the LAWS section reads (at each step)
         loads = self._loads_setup()
+        self.frictions = self._friction_setup()
         c.end()
 
         c.begin(CLOSED)
@@ -135,6 +136,12 @@ class _Compiler(LoadClauses):
                 for r in (load["laws"]() if "laws" in load else [-1] * len(load.get("column_names", ())))]
         c.end()
         searches = []
+        for i, (joint, _, _) in enumerate(self.frictions):
+            section = FIRST_SEARCH + len(searches) * 2
+            c.begin(section)
+            c.emit("copy", self._friction_rate(joint))
+            c.end()
+            searches.append((FRICTION_RATE, section, -1, i, -1, -1, -1))
         for load in loads:
             for search in load.get("searches", ()):
                 kind, quantity, aux, *regs = search
@@ -180,6 +187,8 @@ class _Compiler(LoadClauses):
             table_parameters=tuple(sorted(c.used)), found=tuple(self.found),
             coordinates=np.array(coordinates, dtype=np.int32).reshape(-1, 4), coordinate_names=tuple(coordinate_names),
             cycle_turns=self.scenario.cycle_turns, **reactions,
+            frictions=np.array([(self.definition.joints.index(joint), coefficient, rate)
+                                for joint, coefficient, rate in self.frictions], dtype=np.int32).reshape(-1, 3),
         )
         return program
 
@@ -268,6 +277,9 @@ class _Compiler(LoadClauses):
         terms = [("1",), ("epsilon1",), ("omega1^2",), ("omega1",)]
         terms += [("column", load, j) for load in loads if "columns" in load for j in range(len(load["column_names"]))]
         terms += [("port", port) for port in self.scenario.data.get("ports", [])]
+        # each joint friction at value 1 (its unit term), and its relative rate per angle
+        terms += [("friction", joint) for joint, _, _ in self.frictions]
+        self.frictions = [(joint, coefficient, self._friction_rate(joint)) for joint, coefficient, _ in self.frictions]
         inertia = {"epsilon1": (1, 0), "omega1^2": (0, 1)}
         applied = []
         for t, term in enumerate(terms):
@@ -278,6 +290,8 @@ class _Compiler(LoadClauses):
                 records = term[1]["applied"][("column", term[2])]()
             elif term[0] == "port":
                 records = self._port_applied(term[1], f"port {term[1]['name']}")
+            elif term[0] == "friction":
+                records = self._friction_applied(term[1])
             for link, p, fx, fy, m in records:
                 if link == "ground":        # a spring anchored on the frame: the frame carries that end
                     continue
@@ -287,6 +301,73 @@ class _Compiler(LoadClauses):
                 "term_inertia": np.array([inertia.get(term[0], (0, 0)) for term in terms], dtype=np.int32),
                 "applied": np.array(applied, dtype=np.int32).reshape(-1, 6),
                 "reaction_names": tuple(name for name, _, _ in reaction_outputs(d))}
+
+    # ---------------------------------------------------------------- joint friction
+    def _friction_setup(self):
+        """(joint, coefficient register, -1) of each joint with a friction entry, in the joints'
+        order: c = mu r (a pin) or mu (a slide) at binding (dynamics.friction.JointFriction); a
+        friction whose c is 0 is not active (crank_mechanism.h)."""
+        c, d = self.c, self.definition
+        entries = self.scenario.friction_entries(d)
+        out = []
+        for joint in d.joints:
+            entry = entries.get(joint.name)
+            if entry is None:
+                continue
+            at = f"friction of joint {joint.name}"
+            coefficient = c.expression(entry["mu"], self.env, f"{at}: mu")
+            if joint.kind == "revolute":
+                coefficient = c.mul(coefficient, c.expression(entry["radius"], self.env, f"{at}: radius"))
+            self.checks.append((coefficient, f"the {at} (mu r or mu)"))
+            out.append((joint, coefficient, -1))
+        if len(out) > 16:                   # crank_mechanism.h's MM_MAX_FRICTIONS
+            raise Unsupported("more than 16 joints with friction")
+        return out
+
+    def _velocity(self, link, point):
+        """(vx, vy) registers per crank speed (m/rad) of the material point of ``link`` at ``point``
+        (None for the frame), as dynamics.friction.JointFrictions._velocity."""
+        if link == "ground":
+            return None
+        c = self.c
+        centre = self.point(self.links[link][0])
+        at = self.point(point)
+        q = self.link_angle(link)[1]
+        return (c.emit("sub", centre[2], c.mul(q, c.emit("sub", at[1], centre[1]))),
+                c.add(centre[3], c.mul(q, c.emit("sub", at[0], centre[0]))))
+
+    def _friction_rate(self, joint) -> int:
+        """The register of a joint friction's relative rate k (rad/rad or m/rad) at the current
+        angle (dynamics.friction.JointFrictions._raw_rates), emitted in the open section."""
+        c = self.c
+        first, second = joint.links
+        if joint.kind == "revolute":
+            spin = lambda link: self.zero if link == "ground" else self.link_angle(link)[1]    # noqa: E731
+            return c.emit("sub", spin(second), spin(first))
+        axis = self._axis(joint)
+        cos, sin = c.emit("cos", axis), c.emit("sin", axis)
+        v2, v1 = self._velocity(second, joint.point), self._velocity(first, joint.point)
+        dx = v2[0] if v1 is None else (c.emit("neg", v1[0]) if v2 is None else c.emit("sub", v2[0], v1[0]))
+        dy = v2[1] if v1 is None else (c.emit("neg", v1[1]) if v2 is None else c.emit("sub", v2[1], v1[1]))
+        return c.add(c.mul(dx, cos), c.mul(dy, sin))
+
+    def _axis(self, joint) -> int:
+        """The register of a slide's axis angle (rad; Mechanism.angle_of)."""
+        if joint.axis in self.unknowns or joint.axis == "phi1":
+            return self.q(joint.axis)[0]
+        return self.c.expression(joint.axis, self.env, f"joint {joint.name} axis")
+
+    def _friction_applied(self, joint):
+        """A joint friction at value 1 as loads (JointFrictions.unit_loads): 1 N.m on the second
+        link and -1 on the first for a pin, 1 N along the axis at the joint's point for a slide."""
+        c = self.c
+        first, second = joint.links
+        if joint.kind == "revolute":
+            return [(second, None, None, None, self.one), (first, None, None, None, c.literal(-1.0))]
+        axis = self._axis(joint)
+        cos, sin = c.emit("cos", axis), c.emit("sin", axis)
+        return [(second, joint.point, cos, sin, None),
+                (first, joint.point, c.emit("neg", cos), c.emit("neg", sin), None)]
 
     def _port_applied(self, port, at):
         """A port's input at 1 as a load on its link (Port.applied)."""
@@ -308,7 +389,7 @@ def compile_scenario(scenario, optimised: bool = True) -> Program | None:
     one the C model evaluates (the Python engine then tabulates it). ``optimised=False``: the
     instructions as the files' expressions state them (program.optimise's tests compare the two)."""
     d = scenario.mechanism_definition()
-    key = (id(d), repr(scenario.data.get("loads")), repr(scenario.data.get("ports")),
+    key = (id(d), repr(scenario.data.get("loads")), repr(scenario.data.get("ports")), repr(scenario.data.get("friction")),
            repr(scenario.data.get("outputs")), tuple(sorted(scenario.parameters)), scenario.cycle_turns, optimised)
     if key not in _PROGRAMS:
         try:

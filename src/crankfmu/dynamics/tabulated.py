@@ -242,18 +242,16 @@ def table_of(reduced: ReducedModel, tolerance: float = 1e-11) -> ReducedTable:
     in the flywheel or the motor share one table.
     """
     tables = _TABLES.setdefault(reduced, {})
-    if tolerance not in tables and reduced.friction is not None:
-        # the joints' friction: its switch angles and its table are the Python engine's (the C
-        # model does not take friction yet)
-        from .friction_table import tabulate_frictions
-        table = tabulate(reduced, tolerance)
-        table.friction = tabulate_frictions(reduced, tolerance)
-        table.error_bound = max(table.error_bound, table.friction.error_bound)
-        tables[tolerance] = table
     if tolerance not in tables:
         source = getattr(reduced, "source", None)
         table = c_table(*source, tolerance, getattr(reduced, "c_model", None)) if source is not None else None
-        tables[tolerance] = table or tabulate(reduced, tolerance)
+        if table is None:
+            table = tabulate(reduced, tolerance)
+            if reduced.friction is not None:
+                from .friction_table import tabulate_frictions
+                table.friction = tabulate_frictions(reduced, tolerance)
+                table.error_bound = max(table.error_bound, table.friction.error_bound)
+        tables[tolerance] = table
     return tables[tolerance]
 
 
@@ -265,19 +263,12 @@ def keep_table(reduced: ReducedModel, table: ReducedTable) -> None:
 def c_model(scenario, values: dict):
     """The C model (native.mechanism.CModel) of a design, its assembly checked over the turn and
     its loads' switch angles found; None where the scenario does not compile to it, the C model
-    refuses the values (the Python engine then says why), the design's joints have friction (the
-    C model tabulates none yet: the engine's tables carry it, table_of) or CRANKFMU_TABLES=python."""
+    refuses the values (the Python engine then says why) or CRANKFMU_TABLES=python."""
     if os.environ.get("CRANKFMU_TABLES") == "python":
         return None
     from ..native.mechanism import CModel, MechanismError
-    from .friction import joint_frictions
     from .program import parameter_values
     from .program_scenario import compile_scenario
-
-    definition = scenario.mechanism_definition()
-    entries = scenario.friction_entries(definition)
-    if entries and joint_frictions(definition, entries, values, scenario.where):     # (every mu 0: none)
-        return None
 
     program = compile_scenario(scenario)
     if program is None:
@@ -304,6 +295,7 @@ def c_table(scenario, values: dict, tolerance: float = 1e-11, model=None) -> Red
         return None
     try:
         coefficients, switches, forces, error, construction = model.table(tolerance)
+        friction = c_friction_table(model, tolerance)
     except MechanismError:
         return None
     laws = None
@@ -311,10 +303,29 @@ def c_table(scenario, values: dict, tolerance: float = 1e-11, model=None) -> Red
         constants = scenario.mechanism_definition().constant_values(values)
         laws = ColumnLaws(tuple(model.program.column_laws),
                           {k: float(v) for k, v in {**values, **constants}.items() if isinstance(v, (int, float, np.floating))})
-    return ReducedTable(coefficients, switches, forces, error, tolerance, time.perf_counter() - started,
-                        model.program.column_names, construction, model.program.n_ports,
-                        TWO_PI * model.program.cycle_turns, np.asarray(model.program.column_powers, dtype=np.int32),
-                        laws)
+    table = ReducedTable(coefficients, switches, forces, error, tolerance, time.perf_counter() - started,
+                         model.program.column_names, construction, model.program.n_ports,
+                         TWO_PI * model.program.cycle_turns, np.asarray(model.program.column_powers, dtype=np.int32),
+                         laws)
+    if friction is not None:
+        table.friction = friction
+        table.error_bound = max(table.error_bound, friction.error_bound)
+    return table
+
+
+def c_friction_table(model, tolerance: float):
+    """The joints' friction table (friction_table.FrictionTable) of a C model, as tabulate_frictions
+    builds it from the engine (tests/test_friction_kernel.py compares the two); None without any
+    active friction."""
+    from ..native.mechanism import FRICTION
+    from .friction_table import FrictionTable
+
+    found = model.friction()
+    if found is None:
+        return None
+    components, c, signs = found
+    coefficients, error, construction = model.cubics(FRICTION, tolerance)
+    return FrictionTable(coefficients, components, c, signs, model.reaction_terms - len(c), error, construction)
 
 
 def c_output_tables(scenario, values: dict, quantities, tolerance: float, reaction_tolerance: float, reactions: bool,
@@ -338,7 +349,7 @@ def c_output_tables(scenario, values: dict, quantities, tolerance: float, reacti
             quantity_table = QuantityTable(coefficients, program.coordinate_names, model.winding, error, construction)
         if reactions:
             coefficients, error, construction = model.cubics(REACTIONS, reaction_tolerance)
-            reaction_table = ReactionTable(coefficients, program.reaction_names, len(program.term_inertia), error,
+            reaction_table = ReactionTable(coefficients, program.reaction_names, model.reaction_terms, error,
                                            construction, TWO_PI * program.cycle_turns)
     except MechanismError:
         return None

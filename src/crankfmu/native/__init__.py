@@ -132,6 +132,7 @@ def _load() -> ctypes.CDLL:
         "mm_prepare": (ctypes.c_int, [T]),
         "mm_evaluate": (ctypes.c_int, [T, ctypes.c_double]),
         "mm_rows": (ctypes.c_int, [T, ctypes.c_int]),
+        "mm_reaction_terms": (ctypes.c_int, [T]),
         "mm_engine": (ctypes.c_int, [T, ctypes.c_int, D, ctypes.c_int, D]),
         "mm_table_turns": (ctypes.c_int, [T, ctypes.c_int]),
         "mm_tabulate": (ctypes.c_int, [T, ctypes.c_int, ctypes.c_double, T, T, T, T]),

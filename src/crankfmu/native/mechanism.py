@@ -18,9 +18,12 @@ from . import LIBRARY
 
 I, D = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double)
 #: the tables a model gives (crank_mechanism.h's MM_TABLE_...)
-REDUCED, QUANTITIES, REACTIONS = range(3)
+REDUCED, QUANTITIES, REACTIONS, FRICTION = range(4)
 #: what each table holds, as the build's and check's messages name it
-TABLE_NAMES = {REDUCED: "the movement equation", QUANTITIES: "[[outputs]] and ports", REACTIONS: "joint reactions"}
+TABLE_NAMES = {REDUCED: "the movement equation", QUANTITIES: "[[outputs]] and ports", REACTIONS: "joint reactions",
+               FRICTION: "the joints' friction"}
+#: crank_mechanism.h's MM_MAX_SWITCHES and MM_MAX_FRICTIONS
+MAX_SWITCHES, MAX_FRICTIONS = 64, 16
 
 #: crank_mechanism.h's error codes, and what each says (the Python engine's words)
 ERRORS = {
@@ -56,18 +59,22 @@ class MMProgram(ctypes.Structure):
                 ("min_conditioning", ctypes.c_double), ("n_coordinates", ctypes.c_int), ("coordinates", I),
                 ("n_links", ctypes.c_int), ("links", I), ("crank", ctypes.c_int), ("n_joints", ctypes.c_int),
                 ("joints", I), ("n_terms_reaction", ctypes.c_int), ("term_inertia", I), ("n_applied", ctypes.c_int),
-                ("applied", I), ("cycle_turns", ctypes.c_int), ("law_speed", ctypes.c_int), ("laws", I)]
+                ("applied", I), ("cycle_turns", ctypes.c_int), ("law_speed", ctypes.c_int), ("laws", I),
+                ("n_frictions", ctypes.c_int), ("frictions", I)]
 
 
 class MMModel(ctypes.Structure):
     _fields_ = [("program", ctypes.c_void_p), ("registers", D), ("length_scale", ctypes.c_double),
                 ("turn_start", ctypes.c_double), ("turn", D), ("winding", D), ("have_turn", ctypes.c_int),
                 ("error_angle", ctypes.c_double), ("error_value", ctypes.c_double), ("error_index", ctypes.c_int),
-                ("n_switches", ctypes.c_int), ("switches", ctypes.c_double * 64), ("forces", D),
+                ("n_switches", ctypes.c_int), ("switches", ctypes.c_double * MAX_SWITCHES), ("forces", D),
                 ("worst_conditioning", ctypes.c_double), ("worst_angle", ctypes.c_double), ("scan", D),
                 ("coordinate_winding", D), ("reaction_kept", I), ("have_quantity_winding", ctypes.c_int),
                 ("have_reaction_mask", ctypes.c_int), ("error_step", ctypes.c_double), ("error_jumps", ctypes.c_int),
-                ("law_ready", ctypes.c_int)]
+                ("law_ready", ctypes.c_int), ("n_active", ctypes.c_int), ("active", ctypes.c_int * MAX_FRICTIONS),
+                ("moving", ctypes.c_int * MAX_FRICTIONS), ("rate_peak", ctypes.c_double * MAX_FRICTIONS),
+                ("friction_signs", ctypes.c_double * (MAX_SWITCHES * MAX_FRICTIONS)), ("friction_kept", I),
+                ("have_friction_mask", ctypes.c_int)]
 
 
 class MechanismError(Exception):
@@ -118,6 +125,7 @@ def _struct(program) -> tuple:
     s.n_applied, s.applied = len(program.applied), ints(program.applied)
     s.cycle_turns = program.cycle_turns
     s.law_speed, s.laws = program.law_speed, ints(program.laws)
+    s.n_frictions, s.frictions = len(program.frictions), ints(program.frictions)
     program._c_struct = (s, keep)
     return program._c_struct
 
@@ -191,6 +199,29 @@ class CModel:
         switches = np.array(m.switches[:n], dtype=float)
         forces = np.ctypeslib.as_array(m.forces, (max(n, 1) * 2 * max(nc, 1),))[:max(n, 1) * 2 * nc].copy()
         return switches, forces.reshape(max(n, 1), 2, nc)
+
+    @property
+    def reaction_terms(self) -> int:
+        """The reaction table's terms at these values (its loads', then each active friction's)."""
+        return self._lib.mm_reaction_terms(ctypes.byref(self._model))
+
+    @property
+    def active_frictions(self) -> np.ndarray:
+        """The declared joint frictions (Program.frictions' rows) active at these values (mu > 0)."""
+        return np.array(self._model.active[:self._model.n_active], dtype=int)
+
+    def friction(self):
+        """(components (n_f,), c (n_f,), signs (max(m, 1), n_f)) of the active joint frictions, as
+        friction_table.FrictionTable holds them; None without any."""
+        m, n_f = self._model, self._model.n_active
+        if n_f == 0:
+            return None
+        joints = self.program.frictions[self.active_frictions, 0]
+        components = np.where(self.program.joints[joints, 0] == 1, 1, 2).astype(np.int32)
+        r = np.ctypeslib.as_array(m.registers, (self.program.n_registers,))
+        c = r[self.program.frictions[self.active_frictions, 1]].copy()
+        signs = np.array(m.friction_signs[:max(m.n_switches, 1) * n_f], dtype=float).reshape(-1, n_f)
+        return components, c, signs
 
     def table(self, tolerance: float = 1e-11):
         """(coefficients (rows, m, 4), switch angles, forces, checked error bound, construction):

@@ -92,9 +92,8 @@ def output_tables(scenario, model) -> tuple:
     and the Python FMU's read costs a few multiply-adds, not a Newton-Euler solve."""
     quantities = output_quantities(scenario, model.reduced.ports)
     reactions = bool(reaction_variables(scenario))
-    # by the C model, as the native FMU builds them (the Python engine where it cannot, and with joint
-    # friction, whose unit terms the C model does not tabulate yet)
-    built = None if model.reduced.friction is not None else c_output_tables(scenario, model.reduced.source[1], quantities, TABLE_TOLERANCE, REACTION_TOLERANCE,
+    # by the C model, as the native FMU builds them (the Python engine where it cannot)
+    built = c_output_tables(scenario, model.reduced.source[1], quantities, TABLE_TOLERANCE, REACTION_TOLERANCE,
                             reactions, getattr(model.reduced, "c_model", None))
     if built is not None:
         return built

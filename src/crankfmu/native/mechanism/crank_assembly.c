@@ -230,24 +230,34 @@ static int quantity(mm_model *m, int section, double phi1, double *value)
     return MM_OK;
 }
 
-/* where the section's value crosses level over the turn: (angle, rising) appended to roots
- * (sign changes on 720 angles, then the secant kept in its bracket, as numerics.bracketed_roots) */
-static int crossings(mm_model *m, int section, double level, double *roots, int *rising, int *n_roots, int max_roots)
+enum { SCAN_ANGLES = MM_SCAN_POINTS / 2 };
+
+/* the section's value at the scan's SCAN_ANGLES angles (2 pi / 720 apart, from 0) into v; returns
+ * its largest magnitude */
+static double scan_section(mm_model *m, int section, double *v)
 {
-    enum { N = 720 };
-    double v[N + 1], h = TWO_PI / N;
-    int status;
-    double scale = 0.0;
     const mm_program *p = m->program;
     int width = mm_kinematics_width(p);
     int last = p->code[5 * (p->sections[2 * section + 1] - 1) + 1];
-    for (int i = 0; i < N; ++i) {
+    double scale = 0.0;
+    for (int i = 0; i < SCAN_ANGLES; ++i) {
         /* the scan's kinematics at these angles, kept by the assembly check */
         memcpy(m->registers + p->phi1, m->scan + i * width, sizeof(double) * width);
         mm_run(p, m->registers, section);
         v[i] = m->registers[last];
         scale = fmax(scale, fabs(v[i]));
     }
+    return scale;
+}
+
+/* where the section's value crosses level over the turn: (angle, rising) appended to roots
+ * (sign changes on 720 angles, then the secant kept in its bracket, as numerics.bracketed_roots) */
+static int crossings(mm_model *m, int section, double level, double *roots, int *rising, int *n_roots, int max_roots)
+{
+    enum { N = SCAN_ANGLES };
+    double v[N + 1], h = TWO_PI / N;
+    int status;
+    double scale = scan_section(m, section, v);
     v[N] = v[0];
     double ftol = 16.0 * DBL_EPSILON * scale;
     for (int i = 0; i < N; ++i) {
@@ -290,16 +300,77 @@ static int add_switch(mm_model *m, double angle)
     return MM_OK;
 }
 
+/* the active frictions' place among the active ones, by declared index (-1: not active) */
+static int active_place(const mm_model *m, int declared)
+{
+    for (int k = 0; k < m->n_active; ++k)
+        if (m->active[k] == declared) return k;
+    return -1;
+}
+
+/* whether each active friction's joint moves (dynamics.friction.JointFrictions.moving): its rate's
+ * peak on the scan's angles against the largest one's, at least 1 */
+static void friction_motion(mm_model *m)
+{
+    const mm_program *p = m->program;
+    double v[SCAN_ANGLES], largest = 1.0;
+    for (int s = 0; s < p->n_searches; ++s) {
+        const int *f = p->searches + MM_SEARCH_FIELDS * s;
+        int k = f[0] == MM_FRICTION_RATE ? active_place(m, f[3]) : -1;
+        if (k < 0) continue;
+        m->rate_peak[k] = scan_section(m, f[1], v);
+        largest = fmax(largest, m->rate_peak[k]);
+    }
+    for (int k = 0; k < m->n_active; ++k) m->moving[k] = m->rate_peak[k] > 1e-12 * largest;
+}
+
+/* each active friction's relative rate at phi1 (0 where its joint does not move) into rates */
+static int friction_rates(mm_model *m, double phi1, double *rates)
+{
+    const mm_program *p = m->program;
+    int status = mm_kinematics(m, phi1, NULL);
+    if (status) return status;
+    mm_run(p, m->registers, MM_REACTIONS);
+    for (int k = 0; k < m->n_active; ++k)
+        rates[k] = m->moving[k] ? m->registers[p->frictions[3 * m->active[k] + 2]] : 0.0;
+    return MM_OK;
+}
+
+/* each active friction's sign on each switch interval forward (JointFrictions.signs at the
+ * intervals' middles): its rate's, and on a zero of the rate (to 1e-9 of its peak) the sign of
+ * the motion that follows, a microradian further */
+static int friction_signs(mm_model *m, int intervals, const double *mids)
+{
+    double rates[MM_MAX_FRICTIONS], ahead[MM_MAX_FRICTIONS];
+    for (int i = 0; i < intervals; ++i) {
+        int status = friction_rates(m, mids[i], rates);
+        if (status) return status;
+        int near = 0;
+        for (int k = 0; k < m->n_active; ++k) near |= m->moving[k] && fabs(rates[k]) <= 1e-9 * m->rate_peak[k];
+        if (near && (status = friction_rates(m, mids[i] + 1e-6, ahead))) return status;
+        for (int k = 0; k < m->n_active; ++k) {
+            double rate = m->moving[k] && fabs(rates[k]) <= 1e-9 * m->rate_peak[k] ? ahead[k] : rates[k];
+            m->friction_signs[i * m->n_active + k] = (rate > 0.0) - (rate < 0.0);
+        }
+    }
+    return MM_OK;
+}
+
 static int searches(mm_model *m)
 {
     const mm_program *p = m->program;
     double *r = m->registers;
     m->n_switches = 0;
+    friction_motion(m);
     for (int s = 0; s < p->n_searches; ++s) {
         const int *f = p->searches + MM_SEARCH_FIELDS * s;
         double roots[MM_MAX_SWITCHES];
         int rising[MM_MAX_SWITCHES], n = 0, status;
         m->error_index = s;
+        if (f[0] == MM_FRICTION_RATE) {
+            int k = active_place(m, f[3]);
+            if (k < 0 || !m->moving[k]) continue;
+        }
         if (f[0] == MM_BAND) {
             double low = r[f[3]], high = r[f[4]], stroke = high - low;
             double levels[4] = {low + r[f[5]] * stroke, low + r[f[6]] * stroke,
@@ -328,7 +399,7 @@ static int searches(mm_model *m)
         if (n == 0 && f[0] == MM_REVERSALS) return MM_NO_REVERSAL;
         for (int k = 0; k < n; ++k)
             if ((status = add_switch(m, roots[k]))) return status;
-        if (f[3] >= 0) {
+        if (f[0] != MM_FRICTION_RATE && f[3] >= 0) {
             double low = INFINITY, high = -INFINITY;
             for (int k = 0; k < n; ++k) {
                 double x;
@@ -346,10 +417,19 @@ static int searches(mm_model *m)
     int nc = p->n_columns;
     /* no switch: one interval, the whole turn, its values those anywhere on it (a kink whose argument
      * keeps its sign; loads.slider_schedule does the same) */
-    int intervals = m->n_switches > 0 ? m->n_switches : (nc > 0 ? 1 : 0);
+    int intervals = m->n_switches > 0 ? m->n_switches : 1;
+    double mids[MM_MAX_SWITCHES];
     for (int k = 0; k < intervals; ++k) {
         double next = k + 1 < m->n_switches ? m->switches[k + 1] : (m->n_switches ? m->switches[0] + TWO_PI : 0.0);
-        double mid = m->n_switches ? fmod(0.5 * (m->switches[k] + next), TWO_PI) : 0.5 * TWO_PI;
+        mids[k] = m->n_switches ? fmod(0.5 * (m->switches[k] + next), TWO_PI) : 0.5 * TWO_PI;
+    }
+    if (m->n_active > 0) {
+        int status = friction_signs(m, intervals, mids);
+        if (status) return status;
+    }
+    if (nc == 0) return MM_OK;
+    for (int k = 0; k < intervals; ++k) {
+        double mid = mids[k];
         int status = mm_kinematics(m, mid, NULL);
         if (status) return status;
         for (int d = 0; d < 2; ++d) {

@@ -8,12 +8,45 @@
 #include <stdlib.h>
 #include <string.h>
 
+int mm_reaction_terms(const mm_model *m)
+{
+    return m->program->n_terms_reaction - m->program->n_frictions + m->n_active;
+}
+
+/* the joint of active friction k's reaction components: its first column, and their count */
+static int friction_columns(const mm_model *m, int k, int *first)
+{
+    const mm_program *p = m->program;
+    int joint = p->frictions[3 * m->active[k]];
+    *first = 2 * joint;
+    return p->joints[5 * joint] ? 1 : 2;      /* a slide's normal force; a pin's two components */
+}
+
+int mm_friction_components(const mm_model *m)
+{
+    int n = 0, first;
+    for (int k = 0; k < m->n_active; ++k) n += friction_columns(m, k, &first);
+    return n;
+}
+
 int mm_rows(const mm_model *m, int table)
 {
     const mm_program *p = m->program;
     if (table == MM_TABLE_QUANTITIES) return 3 * p->n_coordinates;
-    if (table == MM_TABLE_REACTIONS) return 2 * p->n_joints * p->n_terms_reaction;
+    if (table == MM_TABLE_REACTIONS) return 2 * p->n_joints * mm_reaction_terms(m);
+    if (table == MM_TABLE_FRICTION) return m->n_active + mm_friction_components(m) * mm_reaction_terms(m);
     return p->n_rows;
+}
+
+/* the reaction table's terms among the program's: its loads' terms, then the active frictions'
+ * unit terms (an inactive one's is left out); returns their count */
+static int term_map(const mm_model *m, int *map)
+{
+    const mm_program *p = m->program;
+    int base = p->n_terms_reaction - p->n_frictions, n = 0;
+    for (int t = 0; t < base; ++t) map[n++] = t;
+    for (int k = 0; k < m->n_active; ++k) map[n++] = base + m->active[k];
+    return n;
 }
 
 /* a point's registers (x, y, dx, dy, ddx, ddy) */
@@ -125,6 +158,57 @@ static int reaction_mask(mm_model *m)
     return status;
 }
 
+/* the friction table's functions at phi1 from the reaction terms x (all the program's, as
+ * reactions_at gives them) and the rates in the registers: friction_table.tabulate_frictions' rows,
+ * the terms not kept (friction_mask) zero unless keep is NULL */
+static void friction_rows(const mm_model *m, const double *x, const int *keep, double *out)
+{
+    const mm_program *p = m->program;
+    int map[3 * MAX_LINKS * 64], nt = p->n_terms_reaction, n_terms = term_map(m, map), row = m->n_active, first;
+    for (int k = 0; k < m->n_active; ++k)
+        out[k] = m->moving[k] ? m->registers[p->frictions[3 * m->active[k] + 2]] : 0.0;
+    for (int k = 0; k < m->n_active; ++k) {
+        int count = friction_columns(m, k, &first);
+        for (int c = first; c < first + count; ++c)
+            for (int t = 0; t < n_terms; ++t, ++row) {
+                double v = x[c * nt + map[t]];
+                out[row] = (keep == NULL || keep[row - m->n_active]) ? v : 0.0;
+            }
+    }
+}
+
+/* which terms each friction component has (tabulated.zero_terms on its components: a probe of 96
+ * angles per turn over the machine's cycle, each term against its largest over the components) */
+static int friction_mask(mm_model *m)
+{
+    const mm_program *p = m->program;
+    if (m->have_friction_mask) return MM_OK;
+    int n_terms = mm_reaction_terms(m), rows = mm_rows(m, MM_TABLE_FRICTION) - m->n_active;
+    int n_probe = 97 * (p->cycle_turns > 1 ? p->cycle_turns : 1) - 1;
+    double period = TWO_PI * (p->cycle_turns > 1 ? p->cycle_turns : 1);
+    double *largest = calloc((size_t)rows + 1, sizeof(double)), *term_largest = calloc((size_t)n_terms + 1, sizeof(double));
+    double *x = malloc(sizeof(double) * 2 * p->n_joints * p->n_terms_reaction + 1);
+    double *y = malloc(sizeof(double) * (m->n_active + rows) + 1);
+    free(m->friction_kept);
+    m->friction_kept = malloc(sizeof(int) * rows + 1);
+    int status = (largest && term_largest && x && y && m->friction_kept) ? MM_OK : MM_NO_MEMORY;
+    for (int i = 0; i < n_probe && status == MM_OK; ++i) {
+        /* numpy.linspace(0, period, n_probe + 1)'s points but the last */
+        status = reactions_at(m, i * (period / n_probe), x);
+        if (status) break;
+        friction_rows(m, x, NULL, y);
+        for (int k = 0; k < rows; ++k) {
+            largest[k] = fmax(largest[k], fabs(y[m->n_active + k]));
+            term_largest[k % n_terms] = fmax(term_largest[k % n_terms], fabs(y[m->n_active + k]));
+        }
+    }
+    for (int k = 0; k < rows && status == MM_OK; ++k)
+        m->friction_kept[k] = largest[k] > 1e-12 * term_largest[k % n_terms];
+    if (status == MM_OK) m->have_friction_mask = 1;
+    free(largest); free(term_largest); free(x); free(y);
+    return status;
+}
+
 /* whole turns per crank turn of each angle coordinate (tabulated.tabulate_quantities: its
  * increments on 512 intervals, each taken in (-pi, pi]) */
 static int coordinate_winding(mm_model *m)
@@ -155,21 +239,45 @@ static int coordinate_winding(mm_model *m)
     return MM_OK;
 }
 
+static int engine_rows(mm_model *m, int table, const double *phi1, int n, double *out, int rows, int n_terms,
+                       const int *map, double *x, double *all);
+
 int mm_engine(mm_model *m, int table, const double *phi1, int n, double *out)
 {
     const mm_program *p = m->program;
-    int rows = mm_rows(m, table), status = MM_OK;
-    double x[2 * 3 * MAX_LINKS * 64];
+    int rows = mm_rows(m, table), status = MM_OK, nt = p->n_terms_reaction, map[3 * MAX_LINKS * 64];
+    int n_terms = term_map(m, map);
+    double x[2 * 3 * MAX_LINKS * 64], *all = NULL;     /* all: every program term of every reaction */
+    if (rows > (int)(sizeof x / sizeof x[0])) return MM_NO_MEMORY;
     if (table == MM_TABLE_QUANTITIES) status = coordinate_winding(m);
-    if (table == MM_TABLE_REACTIONS) {
-        if (rows > (int)(sizeof x / sizeof x[0])) return MM_NO_MEMORY;
-        status = reaction_mask(m);
-    }
+    if (table == MM_TABLE_REACTIONS) status = reaction_mask(m);
+    if (table == MM_TABLE_FRICTION) status = friction_mask(m);
     if (status) return status;
+    if (table == MM_TABLE_REACTIONS || table == MM_TABLE_FRICTION) {
+        all = malloc(sizeof(double) * 2 * p->n_joints * nt + 1);
+        if (!all) return MM_NO_MEMORY;
+    }
+    status = engine_rows(m, table, phi1, n, out, rows, n_terms, map, x, all);
+    free(all);
+    return status;
+}
+
+static int engine_rows(mm_model *m, int table, const double *phi1, int n, double *out, int rows, int n_terms,
+                       const int *map, double *x, double *all)
+{
+    const mm_program *p = m->program;
+    int status, nt = p->n_terms_reaction;
     for (int i = 0; i < n; ++i) {
         if (table == MM_TABLE_REACTIONS) {
-            if ((status = reactions_at(m, phi1[i], x))) return status;
-            for (int k = 0; k < rows; ++k) x[k] = m->reaction_kept[k] ? x[k] : 0.0;
+            if ((status = reactions_at(m, phi1[i], all))) return status;
+            for (int c = 0; c < 2 * p->n_joints; ++c)
+                for (int t = 0; t < n_terms; ++t) {
+                    int k = c * nt + map[t];
+                    x[c * n_terms + t] = m->reaction_kept[k] ? all[k] : 0.0;
+                }
+        } else if (table == MM_TABLE_FRICTION) {
+            if ((status = reactions_at(m, phi1[i], all))) return status;
+            friction_rows(m, all, m->friction_kept, x);
         } else {
             if ((status = mm_evaluate(m, phi1[i]))) return status;
             if (table == MM_TABLE_QUANTITIES) {

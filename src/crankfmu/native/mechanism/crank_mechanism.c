@@ -467,8 +467,9 @@ void mm_free(mm_model *m)
     free(m->scan);
     free(m->coordinate_winding);
     free(m->reaction_kept);
+    free(m->friction_kept);
     m->registers = m->turn = m->winding = m->forces = m->scan = m->coordinate_winding = NULL;
-    m->reaction_kept = NULL;
+    m->reaction_kept = m->friction_kept = NULL;
 }
 
 int mm_bind(mm_model *m, const mm_program *p, const double *parameters, int n_parameters)
@@ -476,7 +477,8 @@ int mm_bind(mm_model *m, const mm_program *p, const double *parameters, int n_pa
     memset(m, 0, sizeof *m);
     m->program = p;
     if (p->n_q > MAX_Q || p->n_terms > 256 || p->n_angles > 256 || p->n_links > MAX_LINKS ||
-        2 * p->n_joints * p->n_terms_reaction > 2 * 3 * MAX_LINKS * 64 || p->n_q != 1 + 2 * p->n_contours) return MM_NO_MEMORY;
+        2 * p->n_joints * p->n_terms_reaction > 2 * 3 * MAX_LINKS * 64 || p->n_q != 1 + 2 * p->n_contours ||
+        p->n_frictions > MM_MAX_FRICTIONS || p->n_frictions > p->n_terms_reaction) return MM_NO_MEMORY;
     m->registers = calloc((size_t)p->n_registers, sizeof(double));
     m->turn = malloc(sizeof(double) * (MM_TURN_POINTS + 1) * p->n_q);
     m->winding = calloc((size_t)p->n_q, sizeof(double));
@@ -493,6 +495,10 @@ int mm_bind(mm_model *m, const mm_program *p, const double *parameters, int n_pa
             return MM_CHECK;
         }
     }
+    /* a friction whose mu is 0 is none (dynamics.friction.joint_frictions): a design without
+     * any runs as before friction existed */
+    for (int i = 0; i < p->n_frictions; ++i)
+        if (m->registers[p->frictions[3 * i + 1]] > 0.0) m->active[m->n_active++] = i;
     double scale = 0.0;
     for (int i = 0; i < p->n_terms; ++i) scale = fmax(scale, fabs(m->registers[p->terms[MM_TERM_FIELDS * i + 1]]));
     m->length_scale = p->n_terms ? scale : 1.0;

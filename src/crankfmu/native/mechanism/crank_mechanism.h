@@ -36,8 +36,11 @@ enum mm_op {
 enum { MM_SETUP, MM_CLOSED, MM_ROWS, MM_VALUES, MM_OUTPUTS, MM_REACTIONS, MM_LAWS, MM_FIRST_SEARCH };
 /* the tables a model gives: the reduced model's (J, 0.5 J', the loads, the ports' transfer
  * functions), the [[outputs]] and ports' coordinates (q - winding phi1, q', q'' each), the joint
- * reactions' terms (component-major, dynamics.tabulated.REACTION_TERMS then the columns and ports) */
-enum { MM_TABLE_REDUCED, MM_TABLE_QUANTITIES, MM_TABLE_REACTIONS };
+ * reactions' terms (component-major, dynamics.tabulated.REACTION_TERMS then the columns, the ports
+ * and each active joint friction at value 1), and the joints' friction (friction_table.FrictionTable's
+ * rows, function-major: each active friction's relative rate, then each one's reaction components'
+ * terms as the reactions') */
+enum { MM_TABLE_REDUCED, MM_TABLE_QUANTITIES, MM_TABLE_REACTIONS, MM_TABLE_FRICTION };
 
 /* a search over the turn (its record: kind, section, aux section, a, b, c, d) */
 enum mm_search {
@@ -46,8 +49,11 @@ enum mm_search {
                          section's value there gives its smallest (-> a) and largest (-> b) */
     MM_BAND,          /* the value is a position with extremes in registers a, b: the switch angles
                          where it crosses a + f (b - a) and b - f (b - a), f = the values of c and d */
-    MM_ZEROS          /* the value is a kink's argument (max, min, abs, sign in a load): where it
+    MM_ZEROS,         /* the value is a kink's argument (max, min, abs, sign in a load): where it
                          crosses zero are switch angles; none is allowed (the kink keeps one side) */
+    MM_FRICTION_RATE  /* the value is joint friction a's relative rate (dynamics.friction): where it
+                         crosses zero are switch angles, none where the friction is not active or its
+                         joint's links never move relative to each other */
 };
 #define MM_SEARCH_FIELDS 7
 #define MM_TERM_FIELDS 6     /* chain, coefficient register, length column, angle column, offset register,
@@ -133,11 +139,17 @@ typedef struct {
      * each switched column's law in laws[column] (-1: the column has none) */
     int law_speed;
     const int *laws;                 /* n_columns */
+    /* the joints' friction (dynamics/friction.py): each declared one's joint, the register of its
+     * coefficient c (mu r or mu, SETUP's; 0: the friction is not active at these values) and of its
+     * relative rate (REACTIONS'). The reaction table's last n_frictions terms are their unit loads */
+    int n_frictions;
+    const int *frictions;            /* n_frictions x 3 */
 } mm_program;
 
 #define MM_TURN_POINTS 720
 #define MM_SCAN_POINTS 1440
 #define MM_MAX_SWITCHES 64
+#define MM_MAX_FRICTIONS 16
 
 typedef struct {
     const mm_program *program;
@@ -170,6 +182,18 @@ typedef struct {
     /* the LAWS section ran at the speed in its register (mm_law runs it once per speed, not once
      * per column: its registers are its own, and binding clears this) */
     int law_ready;
+    /* the joints' friction at these values (mm_prepare): the active ones (c > 0), their declared
+     * index; whether each one's links move relative to each other (its rate's peak over the turn,
+     * beyond 1e-12 of the largest, at least 1: a rate that is round-off has no sign); each one's
+     * sign on each switch interval forward (max(n_switches, 1) x n_active); the friction table's
+     * terms kept (as reaction_kept) */
+    int n_active;
+    int active[MM_MAX_FRICTIONS];
+    int moving[MM_MAX_FRICTIONS];
+    double rate_peak[MM_MAX_FRICTIONS];
+    double friction_signs[MM_MAX_SWITCHES * MM_MAX_FRICTIONS];
+    int *friction_kept;
+    int have_friction_mask;
 } mm_model;
 
 /* a model of the program at the parameter values (its first registers): SETUP run, the checks,
@@ -196,6 +220,11 @@ int mm_tabulate(mm_model *model, int table, double tolerance, double **cubics, i
 
 /* free the cubics mm_tabulate gave */
 void mm_release(double *cubics);
+
+/* the reaction table's terms at these values: the program's less its inactive frictions' */
+int mm_reaction_terms(const mm_model *model);
+/* a friction table's reaction components (sum over the active frictions: 2 a pin's, 1 a slide's) */
+int mm_friction_components(const mm_model *model);
 
 /* the law of the speed of switched column ``column`` at omega (the kernel's CkLaw, its context a
  * bound mm_model): the LAWS section run at that speed; NaN where the column has none */
