@@ -93,28 +93,6 @@ def python_fmu(tmp_path_factory):
     return build("scenario", str(SCENARIO), tmp_path_factory.mktemp("friction_fmu"))
 
 
-def test_the_python_fmu_runs_the_friction(scenario, expected, python_fmu):
-    from fmpy import simulate_fmu
-
-    fmu = python_fmu
-    outputs = ["phi1", "omega1", "epsilon1", "W_motor", "W_load", "W_friction", "E_kin", "M_friction", "slide_Ff",
-               "slide_Pf", "O_Mf", "A_Fx", "A_Fy", "slide_N"]
-    r = simulate_fmu(str(fmu), stop_time=3.0, output_interval=0.01, start_values={"rtol": 1e-12}, output=outputs)
-    assert np.max(np.abs(r["omega1"] - expected[1])) < 1e-8
-    closing = r["W_motor"][-1] + r["W_load"][-1] + r["W_friction"][-1] - (r["E_kin"][-1] - r["E_kin"][0])
-    assert abs(closing) < 1e-9 * r["W_motor"][-1]
-    # the joints' reactions it reads (their tables with one term per friction) are the engine's
-    # Newton-Euler with the frictions of the motion at the FMU's states
-    model = scenario.build()
-    for k in (37, 150, 299):
-        found = joint_reactions(model.reduced, np.array([r["phi1"][k]]), r["omega1"][k], r["epsilon1"][k])
-        assert r["A_Fx"][k] == pytest.approx(found.force["A"][0][0], rel=1e-6)
-        assert r["A_Fy"][k] == pytest.approx(found.force["A"][1][0], rel=1e-6)
-        assert r["slide_N"][k] == pytest.approx(found.normal["slide"][0], rel=1e-6)
-        assert r["slide_Ff"][k] == pytest.approx(found.friction["slide"][0], rel=1e-6)
-        assert r["O_Mf"][k] == pytest.approx(found.friction["O"][0], rel=1e-6)
-
-
 @pytest.mark.parametrize("values", [{"mu_pin": 0.0, "mu_guide": 0.0}, {"mu_pin": 0.2, "r_pin": 0.02, "mu_guide": 0.05}])
 def test_the_python_fmus_friction_parameters_are_set_before_initialisation(scenario, python_fmu, values):
     """mu and the pins' radius are parameters of the FMU like any other: set by the host before
@@ -135,13 +113,6 @@ def test_the_python_fmus_friction_parameters_are_set_before_initialisation(scena
         # than with the file's values, though the guide's mu is halved
         base = simulate(scenario, t_end=1.0, method="fast", rtol=1e-11, output_times=r["time"])
         assert same.W_friction[-1] < 1.2 * base.W_friction[-1]
-
-
-def test_the_native_fmu_refuses_friction_by_name(scenario):
-    from crankfmu.fmi.native.model import native_program
-
-    with pytest.raises(CrankfmuError, match=r"joint friction \(O, A, B and slide\) is not taken by the native FMUs .* build the Python FMU"):
-        native_program(scenario)
 
 
 def test_in_speed_causality_the_drive_takes_the_friction(scenario):

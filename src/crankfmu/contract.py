@@ -64,7 +64,9 @@ OUTPUTS = (
 #: what the states' derivatives depend on at once (Model Exchange's y: phi1, omega1 and the works,
 #: whose rates are M_motor omega1, Q omega1 and the external torque times omega1)
 STATE_DERIVATIVE_DEPENDS = {"phi1": ("omega1",), "omega1": ("*acceleration",), "W_motor": ("phi1", "omega1", "*inputs"),
-                            "W_load": ("phi1", "omega1"), "W_ext": ("phi1", "omega1", "*inputs")}
+                            "W_load": ("phi1", "omega1"), "W_ext": ("phi1", "omega1", "*inputs"),
+                            # (joint friction's: M_friction omega1, the frictions solved with the acceleration)
+                            "W_friction": ("phi1", "omega1", "*acceleration", "*inputs")}
 
 #: an [[outputs]] quantity or a port's s, v, a by its order (position, velocity, acceleration), and a
 #: joint reaction (Newton-Euler with the acceleration and the ports' forces)

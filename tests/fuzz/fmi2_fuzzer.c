@@ -168,9 +168,9 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
         }
         case 6:
             if (me) {
-                double x[N_STATES];
-                for (int j = 0; j < N_STATES; j++) x[j] = value(&in, 1.0);
-                CALL(fmi2SetContinuousStates(c, x, N_STATES));
+                double x[CK_N_Y];
+                for (int j = 0; j < model->n_states; j++) x[j] = value(&in, 1.0);
+                CALL(fmi2SetContinuousStates(c, x, (size_t)model->n_states));
             } else {
                 double h = step_size(&in);
                 CALL(fmi2DoStep(c, t, h, fmi2True));
@@ -222,8 +222,8 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
             break;
         case 12:
             if (me) {
-                double dx[N_STATES];
-                CALL(fmi2GetDerivatives(c, dx, N_STATES));
+                double dx[CK_N_Y];
+                CALL(fmi2GetDerivatives(c, dx, (size_t)model->n_states));
             } else {
                 CALL(fmi2Terminate(c));
             }

@@ -33,7 +33,10 @@ def friction_variables(scenario) -> list:
         return []
     joints = [JointFriction(joint, k, 0.0, None) for k, joint in enumerate(scenario.mechanism_definition().joints)
               if joint.name in entries]
-    return [Variable(*v, depends=REACTION_DEPENDS) for v in friction_outputs(joints)]
+    # W_friction rides along in the state, as the other works; the rest are solved with the
+    # acceleration, as the reactions
+    return [Variable(*v, depends=("W_friction",) if v[0] == "W_friction" else REACTION_DEPENDS)
+            for v in friction_outputs(joints)]
 
 
 def reaction_variables(scenario) -> list:

@@ -58,7 +58,8 @@ FMU_COMPILERS = {"gcc": False, WIN64_CC: True, AARCH64_CC: False}
 #: one model API (model/fmu_model.c) and its model file's reader, the mechanism's model and the
 #: components' (components/component_model.c) behind it, and each FMI version's shell (shells/)
 RUNTIME_MODEL = (_in("model", ("fmu_model.c", "model_status.c", "crank_model.c", "crank_model_variables.c",
-                                "crank_model_me.c", "crank_model_refusals.c", "crank_model_file.c", "sha256.c",
+                                "crank_model_me.c", "crank_model_refusals.c", "crank_model_file.c",
+                                "crank_model_location.c", "sha256.c",
                                 "crank_model_derivatives.c", "fmu_derivatives.c", "fmu_model.h", "model_status.h",
                                 "crank_model.h", "crank_model_internal.h", "crank_variables.h", "sha256.h",
                                 "fmu_states.h", "fmu_derivatives.h"))

@@ -38,8 +38,9 @@ TUNABLE = ("A", "B", "A_low", "B_low", "omega_switch", "J_flywheel", "phi1_start
 SPEED_TUNABLE = ("J_flywheel", "phi1_start")
 #: set before initialisation only: they are the initial state
 INITIAL = ("phi1_start", "omega1_start")
-#: the Model Exchange states: the kernel's y (phi1, omega1, W_motor, W_load, W_ext)
-N_STATES = N_PLAIN                # (the native FMUs take no joint friction yet: refused before)
+#: the Model Exchange states: the kernel's y (phi1, omega1, W_motor, W_load, W_ext), and W_friction
+#: where the joints have friction
+STATES = (*ROW_FIELDS[:N_PLAIN], "W_friction")
 #: event indicators: the kernel's event slots (crank_modes.h: the motor kink, its sliding mode,
 #: the two ends of the switch interval, omega1 = 0)
 N_EVENT_INDICATORS = layout()["N_SLOTS"]
@@ -52,11 +53,9 @@ def native_program(scenario):
     the build would; a refusal is the engine's message (the Python build names the cause)."""
     from ...dynamics.program import parameter_values
     from ...dynamics.program_scenario import compile_scenario
-    from ...native.mechanism import QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
+    from ...native.mechanism import FRICTION, QUANTITIES, REACTIONS, REDUCED, CModel, MechanismError
     from ..python.slave import REACTION_TOLERANCE, TABLE_TOLERANCE, build_design
 
-    scenario.refuse_friction("the native FMUs", "the C mechanism model does not tabulate it",
-                             instead="build the Python FMU (crankfmu fmu without --native), whose kernel solves it")
     program = compile_scenario(scenario)
     if program is None:
         raise CrankfmuError(f"{scenario.name}: a load or port of this scenario is not one the C mechanism model "
@@ -66,7 +65,8 @@ def native_program(scenario):
         model = CModel(program, parameter_values(program, scenario.values))
         for table, tolerance, needed in ((REDUCED, TABLE_TOLERANCE, True),
                                          (QUANTITIES, TABLE_TOLERANCE, len(program.coordinates) > 0),
-                                         (REACTIONS, REACTION_TOLERANCE, len(program.joints) > 0)):
+                                         (REACTIONS, REACTION_TOLERANCE, len(program.joints) > 0),
+                                         (FRICTION, TABLE_TOLERANCE, len(model.active_frictions) > 0)):
             if needed:
                 tables[table] = model.cubics(table, tolerance)[1:]
     except MechanismError as exc:
@@ -119,7 +119,7 @@ class NativeModel:
     """What a native FMU is generated from: the scenario, its tables and its variables."""
 
     def __init__(self, source, scenario_name, causality: str = "torque"):
-        from ..variables import output_quantities, reaction_variables, rtol_parameter
+        from ..variables import friction_variables, output_quantities, reaction_variables, rtol_parameter
         from ...scenario import load_scenario
 
         self.source = source
@@ -131,6 +131,8 @@ class NativeModel:
         self.ports = self.scenario.ports
         self.quantity_units = [q.unit(definition) for q in self.quantities]
         self.reactions = reaction_variables(self.scenario)
+        self.frictions = friction_variables(self.scenario)
+        assert len(self.frictions) == (2 + 2 * len(self.program.frictions) if len(self.program.frictions) else 0)
         assert self.program.reaction_names == tuple(v.name for v in self.reactions)
         assert len(self.program.rows) == 4 + len(self.program.columns) + len(self.ports)
         # the file's parameters at the values it is built for (its --set overrides)
@@ -151,7 +153,7 @@ class NativeModel:
         self.fixed = [p for n, p in params.items() if n not in (*tunable, *undeclared)]
         text = repr((self.source.fmu, causality, self.program.code.tobytes(), self.program.literals.tobytes(),
                      [(p.name, p.value) for p in (*self.tunable, *self.fixed)], [q.name for q in self.quantities],
-                     [v.name for v in self.reactions]))
+                     [v.name for v in self.reactions], [v.name for v in self.frictions]))
         digest = hashlib.sha256(text.encode()).hexdigest()
         self.guid = "{" + f"{digest[:8]}-{digest[8:12]}-{digest[12:16]}-{digest[16:20]}-{digest[20:32]}" + "}"
 
@@ -180,6 +182,7 @@ class NativeModel:
         rows += [variable(f"der({name})", "DERIVATIVE", unit=unit) for name, unit in self.derivatives()]
         rows += [variable(p.input_name, "INPUT", 0.0, unit=p.input_unit) for p in self.ports]
         rows += [variable(v.name, "REACTION", unit=v.unit) for v in self.reactions]
+        rows += [variable(v.name, "FRICTION", unit=v.unit) for v in self.frictions]
         program = self.program
         vr_of = {v.name: vr for vr, v in enumerate(self.variables())}
         header = {"identifier": self.source.fmu, "guid": self.guid, "mechanism_name": self.definition.name,
@@ -204,8 +207,8 @@ class NativeModel:
         speed causality: Co-Simulation only)."""
         if self.speed:
             return []
-        units = {v.name: v.unit for v in self.outputs}
-        return [(name, PER_SECOND[units[name]]) for name in ROW_FIELDS[:N_STATES]]
+        units = {v.name: v.unit for v in (*self.outputs, *self.frictions)}
+        return [(name, PER_SECOND[units[name]]) for name in STATES[:N_PLAIN + bool(self.frictions)]]
 
     def dependencies(self) -> dict[str, list[str]]:
         """Each output's and state derivative's direct dependencies: names of the continuous states
@@ -215,7 +218,7 @@ class NativeModel:
 
         inputs = [self.input.name, *(p.input_name for p in self.ports)]
         states = [name for name, _ in self.derivatives()]
-        outputs = [*self.outputs, *quantity_variables(self.scenario), *self.reactions]
+        outputs = [*self.outputs, *quantity_variables(self.scenario), *self.reactions, *self.frictions]
         found = {v.name: direct_dependencies(v.depends, outputs, inputs, states) for v in outputs}
         for name in states:
             found[f"der({name})"] = direct_dependencies(STATE_DERIVATIVE_DEPENDS[name], outputs, inputs, states)
@@ -250,7 +253,7 @@ class NativeModel:
         table += [NativeVariable(p.input_name, p.input_unit, p.input_description, "input", "continuous", start="0.0")
                   for p in self.ports]
         table += [NativeVariable(v.name, v.unit, v.description, "output", "continuous", initial="calculated")
-                  for v in self.reactions]
+                  for v in (*self.reactions, *self.frictions)]
         depends = self.dependencies()
         return [replace(v, depends=depends[v.name]) if v.name in depends else v for v in table]
 

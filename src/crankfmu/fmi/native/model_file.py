@@ -20,18 +20,19 @@ import numpy as np
 NAME = "crankfmu-model.bin"
 MAGIC = b"crankfmu model\0\0"
 #: the layout's version; a runtime reads only its own (crank_variables.h's CM_MODEL_FORMAT)
-FORMAT = 4
+FORMAT = 5
 #: what the file's model is (crank_variables.h's CM_MODEL_...): a mechanism, or a component by its
 #: (data file kind, causality)
 MECHANISM = 1
 COMPONENTS = {("drive", "torque"): 2, ("drive", "speed"): 3, ("cushion", "torque"): 4, ("well", "torque"): 5,
               ("shaft", "torque"): 6}
 #: the variables' kinds (crank_variables.h's KIND_...)
-KINDS = {"OUTPUT": 0, "INPUT": 1, "TUNABLE": 2, "FIXED": 3, "QUANTITY": 4, "DERIVATIVE": 5, "REACTION": 6}
+KINDS = {"OUTPUT": 0, "INPUT": 1, "TUNABLE": 2, "FIXED": 3, "QUANTITY": 4, "DERIVATIVE": 5, "REACTION": 6,
+         "FRICTION": 7}
 #: the program's int arrays and scalars, in the order md_parse reads them (mm_program's fields)
 PROGRAM_ARRAYS = ("code", "sections", "terms", "angles", "chain_constants", "angle_column", "rows", "columns",
                   "searches", "checks", "coordinates", "links", "joints", "term_inertia", "applied", "column_powers",
-                  "laws")
+                  "laws", "frictions")
 PROGRAM_SCALARS = ("n_q", "n_contours", "n_chains", "closed_form", "guess", "phi1", "kinematics", "n_points",
                    "omega1", "crank", "cycle_turns", "law_speed")
 

@@ -89,7 +89,8 @@ int cm_init(Model* m, const char* call, const ModelData* d, int model_exchange, 
      * then a read's quantities and reactions (cm_get) */
     size_t parameters = (size_t)d->n_program_parameters + 1;
     size_t reads = (size_t)d->n_quantities + 3 * (size_t)d->n_quantity_coordinates + (size_t)d->n_reactions +
-                   (size_t)d->n_reactions * (size_t)d->reaction_terms + (size_t)d->reaction_terms + 4;
+                   (size_t)d->n_reactions * (size_t)d->reaction_terms + (size_t)d->reaction_terms + 4 +
+                   (size_t)d->n_friction_outputs + 3 * (size_t)MM_MAX_FRICTIONS + 2;
     m->built_for = (double*)calloc(3 * parameters + reads, sizeof(double));
     if (!m->built_for) {
         cm_free(m);
@@ -113,6 +114,9 @@ void cm_release(Model* m)
         mm_release(m->cubics[k]);
         m->cubics[k] = NULL;
     }
+    free(m->friction_interval_major);
+    m->friction_interval_major = NULL;
+    m->tables.friction = NULL;
     mm_free(&m->mechanism);
     m->have_tables = 0;
 }
@@ -124,6 +128,32 @@ static void program_parameters(const Model* m, double* out)
 {
     for (int i = 0; i < m->d->n_program_parameters; i++)
         out[i] = m->d->program_parameter_vr[i] >= 0 ? m->now.values[m->d->program_parameter_vr[i]] : m->d->program_parameter_value[i];
+}
+
+/* the kernel's joint friction (CkFriction) from the friction table and the model's active
+ * frictions: the table copied interval-major, each friction's components and c */
+static int friction_tables(Model* m)
+{
+    const mm_model* mm = &m->mechanism;
+    const mm_program* p = &m->d->program;
+    int rows = mm_rows(mm, MM_TABLE_FRICTION), n = m->intervals[CM_FRICTION];
+    if (rows > CK_MAX_FRICTION_FUNCTIONS) return MM_NO_MEMORY;
+    m->friction_interval_major = (double*)malloc(sizeof(double) * 4 * (size_t)rows * (size_t)n + 1);
+    if (!m->friction_interval_major) return MM_NO_MEMORY;
+    const double* in = m->cubics[CM_FRICTION];
+    for (int f = 0; f < rows; f++)
+        for (int i = 0; i < n; i++)
+            memcpy(m->friction_interval_major + 4 * ((size_t)i * rows + f), in + 4 * ((size_t)f * n + i),
+                   4 * sizeof(double));
+    for (int k = 0; k < mm->n_active; k++) {
+        const int* f = p->frictions + 3 * mm->active[k];
+        m->friction_components[k] = p->joints[5 * f[0]] ? 1 : 2;
+        m->friction_c[k] = mm->registers[f[1]];
+    }
+    CkFriction friction = {mm->n_active, mm_reaction_terms(mm) - mm->n_active, m->friction_interval_major, n,
+                           m->friction_components, m->friction_c, mm->friction_signs};
+    m->friction = friction;
+    return MM_OK;
 }
 
 /* the tables at the values set now: built once per design, again where the values changed */
@@ -144,14 +174,18 @@ int cm_ensure_tables(Model* m, const char* call)
     cm_release(m);
     int status = mm_bind(&m->mechanism, &m->d->program, values, m->d->n_program_parameters);
     if (status == MM_OK) status = mm_prepare(&m->mechanism);
-    const double tolerance[CM_TABLES] = {m->d->table_tolerance, m->d->table_tolerance, m->d->reaction_tolerance};
-    const int needed[CM_TABLES] = {1, m->d->n_quantity_coordinates > 0, m->d->n_reactions > 0};
+    const double tolerance[CM_TABLES] = {m->d->table_tolerance, m->d->table_tolerance, m->d->reaction_tolerance,
+                                         m->d->table_tolerance};
     for (int k = 0; k < CM_TABLES && status == MM_OK; k++) {
+        /* (the friction table only where some friction is active at these values) */
+        const int needed[CM_TABLES] = {1, m->d->n_quantity_coordinates > 0, m->d->n_reactions > 0,
+                                       m->mechanism.n_active > 0};
         if (!needed[k]) continue;
         double error;
         int series;
         status = mm_tabulate(&m->mechanism, k, tolerance[k], &m->cubics[k], &m->intervals[k], &error, &series);
     }
+    if (status == MM_OK && m->mechanism.n_active > 0) status = friction_tables(m);
     if (status != MM_OK) {
         char text[2048];
         cm_design_refusal(m, call, status, values, text, sizeof text);
@@ -173,6 +207,7 @@ int cm_ensure_tables(Model* m, const char* call)
     m->tables.law_context = &m->mechanism;
     m->tables.n_ports = m->d->n_ports;
     m->tables.period = m->d->cycle_turns * 6.283185307179586;     /* the machine's cycle (a four-stroke: 2 turns) */
+    m->tables.friction = m->mechanism.n_active > 0 ? &m->friction : NULL;
     return CM_OK;
 }
 
@@ -265,7 +300,7 @@ void cm_me_start(Model* m)
 int cm_me_evaluate(Model* m)
 {
     if (ck_me_derivatives(m->now.S, m->now.S + CK_Y, &m->tables, m->now.P, m->now.dydt, m->now.row) != 0) return 0;
-    for (int j = 0; j < N_STATES; j++)
+    for (int j = 0; j < m->d->n_states; j++)
         if (!isfinite(m->now.dydt[j])) return 0;
     return outputs_finite(m);
 }

@@ -53,7 +53,7 @@ typedef struct {
 } Snapshot;
 
 /* the tables the model builds (crank_mechanism.h's MM_TABLE_...) */
-enum { CM_REDUCED, CM_QUANTITIES, CM_REACTIONS, CM_TABLES };
+enum { CM_REDUCED, CM_QUANTITIES, CM_REACTIONS, CM_FRICTION, CM_TABLES };
 
 typedef struct {
     const ModelData* d;            /* the scenario: the model file, read at instantiation */
@@ -72,6 +72,13 @@ typedef struct {
     double* scratch;               /* a read's quantities and reactions, a design's trial values */
     int have_tables;
     int tables_stale;              /* a parameter or the state changed since: compare before the next use */
+    /* the joints' friction the kernel solves (tables.friction: NULL where no friction is active at
+     * these values): its table interval-major (CkFriction's layout; cubics[CM_FRICTION] holds it
+     * function-major, whose first functions, the rates, give each joint's power) */
+    CkFriction friction;
+    double* friction_interval_major;
+    int friction_components[MM_MAX_FRICTIONS];
+    double friction_c[MM_MAX_FRICTIONS];
 } Model;
 
 /* the mechanism of the model file d (read by fmu_model.c, which keeps it) at its start values;

@@ -18,7 +18,7 @@
 
 #include "fmu_derivatives.h"
 
-enum { MAX_Z = N_STATES + CM_MAX_INPUTS };
+enum { MAX_Z = CK_N_Y + CM_MAX_INPUTS };
 
 typedef struct {
     Model base;                 /* the model at the current point: its mode, time and parameters */
@@ -62,9 +62,9 @@ static int evaluate(void* model, const double* z, double* values, double* rates)
             rates[3] = row[ROW_TAU_E] * omega;
         }
     } else {
-        memcpy(S + CK_Y, z, sizeof(double) * N_STATES);
+        memcpy(S + CK_Y, z, sizeof(double) * p->n_states);
         if (ck_me_derivatives(S, S + CK_Y, &t->tables, t->now.P, t->now.dydt, t->now.row) != 0) return -1;
-        if (rates) memcpy(rates, t->now.dydt, sizeof(double) * N_STATES);
+        if (rates) memcpy(rates, t->now.dydt, sizeof(double) * p->n_states);
     }
     for (int j = 0; j < CK_OUT_SIZE; j++)
         if (!isfinite(t->now.row[j])) return -1;
@@ -93,10 +93,10 @@ static int point_of(Model* m, const char* call, Point* p)
         for (int j = 1; j < 4; j++) p->z[j] = S[CK_Y + 1 + j];
         p->scale[0] = 1.0;
     } else {
-        p->n_states = N_STATES;
+        p->n_states = d->n_states;
         /* Co-Simulation: the kernel may have stepped past the communication point */
         if (!m->model_exchange) ck_point(m->now.S, m->now.time, S);
-        memcpy(p->z, S + CK_Y, sizeof(double) * N_STATES);
+        memcpy(p->z, S + CK_Y, sizeof(double) * d->n_states);
         p->scale[0] = 1.0;              /* phi1: the tables' cubics vary over a fraction of a radian */
     }
     for (int j = 1; j < p->n_states; j++) p->scale[j] = fmax(1.0, fabs(p->z[j]));
@@ -117,10 +117,12 @@ static int known_index(void* point, unsigned vr)
     if (vr >= (unsigned)d->n_variables) return -1;
     for (int k = 0; k < p->n_inputs; k++)
         if ((int)vr == input_vr(m, k)) return p->n_states + k;
+    if (!d->causality_speed && d->n_states == CK_N_Y && (int)vr == d->vr_first_friction + FRICTION_W)
+        return CK_W_FRICTION;                    /* W_friction, the friction's state */
     if ((int)vr >= d->n_outputs || d->variables[vr].kind != KIND_OUTPUT) return -1;
     int row = d->output_row[vr];
     if (d->causality_speed) return row == ROW_PHI1 ? 0 : row >= ROW_W_MOTOR && row <= ROW_W_EXT ? row - 1 : -1;
-    return row >= 0 && row < N_STATES ? row : -1;
+    return row >= 0 && row < CK_N_PLAIN ? row : -1;
 }
 
 void* cm_point(Model* m, const char* call, const unsigned* unknowns, size_t n_unknowns, int trajectory, FdModel* f)
@@ -135,7 +137,7 @@ void* cm_point(Model* m, const char* call, const unsigned* unknowns, size_t n_un
             return NULL;
         }
         int kind = m->d->variables[unknowns[i]].kind;
-        if (!(kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_REACTION ||
+        if (!(kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_REACTION || kind == KIND_FRICTION ||
               (!trajectory && kind == KIND_DERIVATIVE))) {
             cm_fail(m, "%s: %s is not %s", call, m->d->variables[unknowns[i]].name,
                     trajectory ? "an output" : "an output or a state's derivative");

@@ -179,11 +179,14 @@ static void place_variables(Reader* r)
     d->vr_first_fixed = d->vr_crank_input + 1 + n_tunable;
     d->vr_first_quantity = d->vr_first_fixed + d->n_fixed;
     d->vr_first_derivative = d->vr_first_quantity + d->n_quantities;
-    d->n_derivatives = d->causality_speed ? 0 : N_STATES;
+    d->n_states = d->program.n_frictions > 0 ? CK_N_Y : CK_N_PLAIN;      /* W_friction with friction */
+    d->n_derivatives = d->causality_speed ? 0 : d->n_states;
     d->vr_first_port = d->vr_first_derivative + d->n_derivatives;
     d->vr_first_reaction = d->vr_first_port + d->n_ports;
+    d->vr_first_friction = d->vr_first_reaction + d->n_reactions;
+    d->n_friction_outputs = d->program.n_frictions > 0 ? FRICTION_JOINTS + 2 * d->program.n_frictions : 0;
     d->n_inputs = 1 + d->n_ports;
-    expect_count(r, "variables", d->n_variables, d->vr_first_reaction + d->n_reactions);
+    expect_count(r, "variables", d->n_variables, d->vr_first_friction + d->n_friction_outputs);
     if (r->failed) return;
     for (int vr = 0; vr < d->n_variables && !r->failed; vr++) {
         int kind = vr < d->vr_crank_input ? KIND_OUTPUT
@@ -192,7 +195,8 @@ static void place_variables(Reader* r)
                  : vr < d->vr_first_quantity ? KIND_FIXED
                  : vr < d->vr_first_derivative ? KIND_QUANTITY
                  : vr < d->vr_first_port ? KIND_DERIVATIVE
-                 : vr < d->vr_first_reaction ? KIND_INPUT : KIND_REACTION;
+                 : vr < d->vr_first_reaction ? KIND_INPUT
+                 : vr < d->vr_first_friction ? KIND_REACTION : KIND_FRICTION;
         if (d->variables[vr].kind != kind)
             refuse(r, "is damaged: variable %d (%s) is of kind %d where kind %d belongs", vr, d->variables[vr].name,
                    d->variables[vr].kind, kind);
@@ -259,6 +263,18 @@ static void check_program(Reader* r, int n_literals)
     within(r, "the joints", p->joints, 5 * p->n_joints, -1, regs);
     within(r, "the reaction terms", p->term_inertia, 2 * p->n_terms_reaction, -1, regs);
     within(r, "the applied loads", p->applied, 6 * p->n_applied, -1, regs);
+    if (!r->failed && (p->n_frictions > MM_MAX_FRICTIONS || p->n_frictions > p->n_terms_reaction))
+        refuse(r, "has %d joint frictions; this binary takes at most %d", p->n_frictions, MM_MAX_FRICTIONS);
+    for (int i = 0; i < p->n_frictions && !r->failed; i++) {
+        const int* f = p->frictions + 3 * i;
+        if (f[0] < 0 || f[0] >= p->n_joints) refuse(r, "is damaged: joint friction %d's joint is out of range", i);
+        else within(r, "the joint frictions' registers", f + 1, 2, 0, regs);
+    }
+    for (int s = 0; s < p->n_searches && !r->failed; s++) {
+        const int* f = p->searches + MM_SEARCH_FIELDS * s;
+        if (f[0] == MM_FRICTION_RATE && (f[3] < 0 || f[3] >= p->n_frictions))
+            refuse(r, "is damaged: search %d's joint friction is out of range", s);
+    }
     for (int t = 0; t < p->n_terms && !r->failed; t++)
         if (p->terms[MM_TERM_FIELDS * t] < 0 || p->terms[MM_TERM_FIELDS * t] >= p->n_chains)
             refuse(r, "is damaged: term %d's chain is out of range", t);
@@ -330,6 +346,9 @@ static void read_mechanism(Reader* r)
     int n_powers, n_laws;
     d->column_powers = read_ints(r, "the program's column powers", &n_powers);
     p->laws = read_ints(r, "the program's laws of the speed", &n_laws);
+    int n_friction_ints;
+    p->frictions = read_ints(r, "the program's joint frictions", &n_friction_ints);
+    p->n_frictions = rows_of(r, "the joint frictions", n_friction_ints, 3);
     int* scalars[] = {&p->n_q, &p->n_contours, &p->n_chains, &p->closed_form, &p->guess, &p->phi1, &p->kinematics,
                       &p->n_points, &p->omega1, &p->crank, &p->cycle_turns, &p->law_speed};
     for (size_t k = 0; k < sizeof scalars / sizeof scalars[0]; k++) *scalars[k] = read_int(r, "the program");
@@ -446,88 +465,4 @@ void md_free(ModelData* d)
     for (int i = 0; i < d->n_blocks; i++) free(d->blocks[i]);
     free(d->blocks);
     free(d);
-}
-
-/* ------------------------------------------------------------------------------ finding it */
-
-static int hex_digit(int c) { return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1; }
-
-/* a file: URI (file:///C:/x, file:/x, file://localhost/x, percent-escapes) to a path; 0 if it is not one */
-static int uri_path(const char* uri, char* out, size_t size)
-{
-    if (strncmp(uri, "file:", 5) != 0) return 0;
-    const char* p = uri + 5;
-    if (p[0] == '/' && p[1] == '/') {                      /* an authority: empty or localhost */
-        p += 2;
-        if (strncmp(p, "localhost", 9) == 0) p += 9;
-        if (*p != '/') return 0;
-    }
-    /* /C:/... is a Windows drive */
-    if (p[0] == '/' && ((p[1] >= 'A' && p[1] <= 'Z') || (p[1] >= 'a' && p[1] <= 'z')) && (p[2] == ':' || p[2] == '|'))
-        p++;
-    size_t n = 0;
-    for (; *p; p++) {
-        int c = (unsigned char)*p;
-        if (c == '%' && hex_digit(p[1]) >= 0 && hex_digit(p[2]) >= 0) {
-            c = hex_digit(p[1]) * 16 + hex_digit(p[2]);
-            p += 2;
-        }
-        if (n + 1 >= size) return 0;
-        out[n++] = (char)c;
-    }
-    out[n] = 0;
-    return 1;
-}
-
-ModelData* md_load(const char* resources, int is_uri, char* why, size_t why_size)
-{
-    char folder[4096], path[4200];
-    if (!resources || !*resources) {
-        snprintf(why, why_size, "no resource location was given: this FMU reads its model from resources/%s",
-                 CM_MODEL_FILE);
-        return NULL;
-    }
-    if (is_uri) {
-        if (!uri_path(resources, folder, sizeof folder)) {
-            snprintf(why, why_size, "the resource location %s is not a file: URI: this FMU reads its model from "
-                     "resources/%s", resources, CM_MODEL_FILE);
-            return NULL;
-        }
-    } else {
-        snprintf(folder, sizeof folder, "%s", resources);
-    }
-    size_t n = strlen(folder);
-    int separated = n > 0 && (folder[n - 1] == '/' || folder[n - 1] == '\\');
-    snprintf(path, sizeof path, "%s%s%s", folder, separated ? "" : "/", CM_MODEL_FILE);
-    FILE* f = fopen(path, "rb");
-    if (!f) {
-        snprintf(why, why_size, "the model file %s is missing (or cannot be opened): this FMU's binary runs the model it "
-                 "reads there", path);
-        return NULL;
-    }
-    unsigned char* bytes = NULL;
-    size_t size = 0, capacity = 0;
-    for (;;) {
-        if (size == capacity) {
-            capacity = capacity ? 2 * capacity : 65536;
-            unsigned char* grown = capacity <= ((size_t)1 << 30) ? (unsigned char*)realloc(bytes, capacity) : NULL;
-            if (!grown) {
-                free(bytes);
-                fclose(f);
-                snprintf(why, why_size, "the model file %s could not be read: too large, or out of memory", path);
-                return NULL;
-            }
-            bytes = grown;
-        }
-        size_t got = fread(bytes + size, 1, capacity - size, f);
-        size += got;
-        if (got == 0) break;
-    }
-    int failed = ferror(f);
-    fclose(f);
-    ModelData* d = NULL;
-    if (failed) snprintf(why, why_size, "the model file %s could not be read", path);
-    else d = md_parse(bytes, size, path, why, why_size);
-    free(bytes);
-    return d;
 }

@@ -61,7 +61,8 @@ int cm_me_set_time(Model* m, const char* call, double time)
 static int states_call(Model* m, const char* call, int initialization_too, const void* array, size_t n)
 {
     if (cm_me_ready(m, call, initialization_too) != CM_OK) return CM_ERROR;
-    if (n != N_STATES) return cm_fail(m, "%s: this FMU has %d continuous states, not %u", call, N_STATES, (unsigned)n);
+    if (n != (size_t)m->d->n_states)
+        return cm_fail(m, "%s: this FMU has %d continuous states, not %u", call, m->d->n_states, (unsigned)n);
     if (!array) return cm_fail(m, "%s: null array", call);
     me_current(m);
     return CM_OK;
@@ -70,10 +71,10 @@ static int states_call(Model* m, const char* call, int initialization_too, const
 int cm_me_set_states(Model* m, const char* call, const double* x, size_t n)
 {
     if (states_call(m, call, 0, x, n) != CM_OK) return CM_ERROR;
-    static const char* const names[N_STATES] = {"phi1", "omega1", "W_motor", "W_load", "W_ext"};
+    static const char* const names[CK_N_Y] = {"phi1", "omega1", "W_motor", "W_load", "W_ext", "W_friction"};
     for (size_t j = 0; j < n; j++)
         if (!isfinite(x[j])) return cm_fail(m, "%s: state %u (%s) is not finite", call, (unsigned)j, names[j]);
-    memcpy(m->now.S + CK_Y, x, N_STATES * sizeof(double));
+    memcpy(m->now.S + CK_Y, x, n * sizeof(double));
     if (!cm_me_evaluate(m))
         return cm_fail(m, "%s: the state at t = %.9g s gives non-finite derivatives", call, m->now.time);
     return CM_OK;
@@ -82,14 +83,14 @@ int cm_me_set_states(Model* m, const char* call, const double* x, size_t n)
 int cm_me_get_states(Model* m, const char* call, double* x, size_t n)
 {
     if (states_call(m, call, 1, x, n) != CM_OK) return CM_ERROR;
-    memcpy(x, m->now.S + CK_Y, N_STATES * sizeof(double));
+    memcpy(x, m->now.S + CK_Y, n * sizeof(double));
     return CM_OK;
 }
 
 int cm_me_get_derivatives(Model* m, const char* call, double* dx, size_t n)
 {
     if (states_call(m, call, 1, dx, n) != CM_OK) return CM_ERROR;
-    memcpy(dx, m->now.dydt, N_STATES * sizeof(double));
+    memcpy(dx, m->now.dydt, n * sizeof(double));
     return CM_OK;
 }
 

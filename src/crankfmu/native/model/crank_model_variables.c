@@ -16,6 +16,8 @@ typedef struct {
     int have_quantities;
     double *reactions, *reaction_scratch;
     int have_reactions;
+    double *frictions;                 /* the friction outputs (FRICTION_M, ...), then scratch */
+    int have_frictions;
 } Reads;
 
 /* a read's arrays, in the model's scratch after a design's values and trial values (cm_init) */
@@ -27,8 +29,38 @@ static Reads reads_of(const Model* m)
     reads.quantity_scratch = reads.quantities + d->n_quantities + 1;
     reads.reactions = reads.quantity_scratch + 3 * d->n_quantity_coordinates + 1;
     reads.reaction_scratch = reads.reactions + d->n_reactions + 1;
-    reads.have_quantities = reads.have_reactions = 0;
+    reads.frictions = reads.reaction_scratch + (size_t)d->n_reactions * d->reaction_terms + d->reaction_terms + 1;
+    reads.have_quantities = reads.have_reactions = reads.have_frictions = 0;
     return reads;
+}
+
+/* the joints' friction's outputs at the current point into out (d->n_friction_outputs): M_friction
+ * and W_friction from the output row, each active joint's friction by the kernel's solve
+ * (ck_friction_values) and its power f k omega1 with its rate from the friction table; 0 for a
+ * declared joint whose mu is 0 here (as the Python FMU's friction_now) */
+static void friction_outputs(const Model* m, double* out)
+{
+    const double* row = m->now.row;
+    const mm_model* mm = &m->mechanism;
+    int n_out = m->d->n_friction_outputs;
+    for (int k = 0; k < n_out; k++) out[k] = 0.0;
+    out[FRICTION_M] = row[CK_OUT_M_FRICTION];
+    out[FRICTION_W] = row[CK_OUT_W_FRICTION];
+    if (m->tables.friction == NULL) return;
+    double* f = out + n_out;                     /* the scratch after them: n_f + 1, then the rates */
+    double* rates = f + MM_MAX_FRICTIONS + 1;
+    double y[CK_N_Y] = {row[ROW_PHI1], row[ROW_OMEGA1]};
+    if (ck_friction_values(m->now.S, m->now.time, y, row[ROW_EPSILON1], &m->tables, m->now.P, f) < 0) {
+        for (int k = FRICTION_JOINTS; k < n_out; k++) out[k] = NAN;
+        return;
+    }
+    ck_periodic_cubics(m->cubics[CM_FRICTION], mm->n_active, m->intervals[CM_FRICTION], m->tables.period,
+                       row[ROW_PHI1], rates);
+    for (int k = 0; k < mm->n_active; k++) {
+        int joint = FRICTION_JOINTS + 2 * mm->active[k];
+        out[joint] = f[k];
+        out[joint + 1] = f[k] * rates[k] * row[ROW_OMEGA1];
+    }
 }
 
 /* the outputs of the output row: the contract's, the scenario's [[outputs]] and the joint
@@ -40,12 +72,20 @@ static double output_value(const Model* m, int vr, Reads* reads)
     const Variable* v = &m->d->variables[vr];
     if (v->kind == KIND_REACTION) {
         if (!reads->have_reactions) {
-            ck_reaction_values(m->cubics[CM_REACTIONS], m->d->n_reactions, m->d->reaction_terms, m->intervals[CM_REACTIONS], m->now.S,
+            ck_reaction_values(m->cubics[CM_REACTIONS], m->d->n_reactions, mm_reaction_terms(&m->mechanism),
+                               m->intervals[CM_REACTIONS], m->now.S,
                                m->now.time, row[ROW_PHI1], row[ROW_OMEGA1], row[ROW_EPSILON1], &m->tables, m->now.P,
                                reads->reaction_scratch, reads->reactions);
             reads->have_reactions = 1;
         }
         return reads->reactions[vr - m->d->vr_first_reaction];
+    }
+    if (v->kind == KIND_FRICTION) {
+        if (!reads->have_frictions) {
+            friction_outputs(m, reads->frictions);
+            reads->have_frictions = 1;
+        }
+        return reads->frictions[vr - m->d->vr_first_friction];
     }
     if (v->kind == KIND_DERIVATIVE) {
         double omega = row[ROW_OMEGA1];
@@ -54,7 +94,8 @@ static double output_value(const Model* m, int vr, Reads* reads)
         case 1: return row[ROW_EPSILON1];
         case 2: return row[ROW_M_MOTOR] * omega;
         case 3: return row[ROW_M_LOAD] * omega;
-        default: return row[ROW_TAU_E] * omega;
+        case 4: return row[ROW_TAU_E] * omega;
+        default: return row[CK_OUT_M_FRICTION] * omega;       /* W_friction's */
         }
     }
     if (v->kind == KIND_QUANTITY) {
@@ -73,7 +114,8 @@ static double output_value(const Model* m, int vr, Reads* reads)
 
 static int is_computed(int kind)
 {
-    return kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_DERIVATIVE || kind == KIND_REACTION;
+    return kind == KIND_OUTPUT || kind == KIND_QUANTITY || kind == KIND_DERIVATIVE || kind == KIND_REACTION ||
+           kind == KIND_FRICTION;
 }
 
 void cm_read_values(const Model* m, const unsigned* vr, size_t n, double* out)

@@ -20,7 +20,7 @@
 
 #define CM_MODEL_FILE "crankfmu-model.bin"      /* its name in resources/ */
 #define CM_MODEL_MAGIC "crankfmu model\0\0"
-#define CM_MODEL_FORMAT 4
+#define CM_MODEL_FORMAT 5
 /* what the file's model is: a mechanism (crank_model.c), or a component (component_model.c): the
  * drive (torque out, speed in), the drive in speed causality (it carries the rotor), the die
  * cushion, the rod string, the elastic shaft */
@@ -30,7 +30,8 @@ enum { CM_MODEL_MECHANISM = 1, CM_MODEL_DRIVE, CM_MODEL_DRIVE_SPEED, CM_MODEL_CU
 #define CM_MAX_VARIABLES 1024
 #define CM_MAX_INPUTS (1 + CK_MAX_PORTS)
 
-enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED, KIND_QUANTITY, KIND_DERIVATIVE, KIND_REACTION, KIND_COUNT };
+enum { KIND_OUTPUT, KIND_INPUT, KIND_TUNABLE, KIND_FIXED, KIND_QUANTITY, KIND_DERIVATIVE, KIND_REACTION, KIND_FRICTION,
+       KIND_COUNT };
 
 typedef struct {
     const char* name;
@@ -47,9 +48,9 @@ typedef struct {
  * M_load, J_red, tau_e; the native package's ROW_FIELDS) */
 enum { ROW_PHI1, ROW_OMEGA1, ROW_W_MOTOR, ROW_W_LOAD, ROW_W_EXT, ROW_EPSILON1, ROW_M_MOTOR, ROW_M_LOAD, ROW_J_RED,
        ROW_TAU_E };
-/* the continuous states a Model Exchange FMU declares: the kernel's without W_friction (the native
- * FMUs take no joint friction yet: refused before) */
-#define N_STATES CK_N_PLAIN
+/* the joints' friction's outputs (dynamics.friction.friction_outputs' order), after the reactions:
+ * M_friction, W_friction, then each declared joint's friction and its power */
+enum { FRICTION_M = 0, FRICTION_W = 1, FRICTION_JOINTS = 2 };
 
 /* A model as the file gives it. A component's variables are its data file's, in the Python FMU's
  * order (its model finds those it needs by name: component_models.c). A mechanism's value
@@ -57,7 +58,9 @@ enum { ROW_PHI1, ROW_OMEGA1, ROW_W_MOTOR, ROW_W_LOAD, ROW_W_EXT, ROW_EPSILON1, R
  * speed causality), the tunables (fmi/native/model.py TUNABLE's order, or SPEED_TUNABLE's), the fixed
  * parameters (n_fixed), the scenario's [[outputs]] and its ports' outputs (n_quantities), the
  * derivatives of the Model Exchange states (phi1, omega1, W_motor, W_load, W_ext: the kernel's y;
- * none in speed causality), the ports' inputs (n_ports) and the joint reactions (n_reactions).
+ * none in speed causality), the ports' inputs (n_ports), the joint reactions (n_reactions) and, where
+ * the program declares joint friction, its outputs (n_friction_outputs: 2 + 2 per joint). The Model
+ * Exchange states (n_states) are the kernel's y: W_friction too where there is friction.
  *
  * Torque causality: the input tau_ext, the motor line, Co-Simulation and Model Exchange. Speed
  * causality: the input omega1, the outputs tau_drive and W_drive in the output row's M_motor and
@@ -99,7 +102,8 @@ typedef struct {
     const char* const* unknown_names;
     /* the value references that follow from the counts */
     int vr_crank_input, vr_first_fixed, vr_first_quantity, vr_first_derivative, vr_first_port, vr_first_reaction;
-    int n_derivatives, n_inputs;
+    int vr_first_friction, n_friction_outputs;
+    int n_derivatives, n_inputs, n_states;
     int vr_a, vr_b, vr_a_low, vr_b_low, vr_omega_switch, vr_j_flywheel, vr_phi1_start, vr_omega1_start, vr_rtol;
     /* what md_free releases */
     void** blocks;

@@ -72,7 +72,7 @@ const char* fm_event_mode_refusal(const FmuModel* f)
 
 int fm_is_model_exchange(const FmuModel* f) { return MECHANISM(f) && f->mechanism.model_exchange; }
 size_t fm_n_indicators(const FmuModel* f) { return MECHANISM(f) ? CK_N_SLOTS : 0; }
-size_t fm_n_states(const FmuModel* f) { return fm_is_model_exchange(f) ? N_STATES : 0; }
+size_t fm_n_states(const FmuModel* f) { return fm_is_model_exchange(f) ? (size_t)f->d->n_states : 0; }
 double fm_time(const FmuModel* f) { return MECHANISM(f) ? f->mechanism.now.time : f->component.now.time; }
 int fm_phase(const FmuModel* f) { return MECHANISM(f) ? f->mechanism.now.phase : f->component.now.phase; }
 
