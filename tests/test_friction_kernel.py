@@ -12,7 +12,6 @@ import pytest
 
 import crankfmu
 from crankfmu.dynamics.reactions import joint_reactions
-from crankfmu.errors import CrankfmuError
 from crankfmu.simulation import simulate
 
 from friction_reference import SliderCrankWithFriction
@@ -162,11 +161,47 @@ def test_the_speed_causal_python_fmu_outputs_the_friction(tmp_path):
     assert abs(closing) < 1e-9 * abs(r["W_drive"][-1]), closing
 
 
-def test_the_flywheel_study_refuses_friction_by_name(scenario):
-    from crankfmu.studies.flywheel import flywheel_study
+def test_the_flywheel_study_sizes_a_flywheel_with_friction(scenario, tmp_path):
+    """crankfmu flywheel with joint friction: the flywheel whose steady cycle has delta 0.05 by the
+    kernel's batch has it by the engine's crank-angle steady cycle too (an independent integrator with
+    the engine's friction solve: measured 9e-10 apart), eq. 17's swing counts the friction at the mean
+    speed, and the paper's eq. 3 scheme, which takes no friction, is left out with the reason (no
+    stability figure)."""
+    from crankfmu.cli import main
+    import json
 
-    with pytest.raises(CrankfmuError, match=r"joint friction \(O, A, B and slide\) is not taken by the flywheel"):
-        flywheel_study(scenario.with_params(omega1_start=15.0), 0.05)
+    out = tmp_path / "flywheel"
+    assert main(["flywheel", str(SCENARIO), "--delta", "0.05", "--set", "omega1_start=15", "--out", str(out)]) == 0
+    found = json.loads((out / "flywheel.json").read_text())
+    assert abs(found["delta_achieved"] - 0.05) < 1e-9
+    assert abs(found["delta_achieved_crank_angle"] - 0.05) < 1e-7
+    assert "takes no joint friction" in found["eq3_stability"]["skipped"]
+    assert found["movement"]["eq3_1deg_max_error_first_3_turns"] is None
+    assert "eq3_stability.png" not in found["plots"] and not (out / "eq3_stability.png").exists()
+    assert any("joints' friction" in words for words in found["eq17_departures"])
+
+
+def test_eq17s_friction_is_the_kernels_at_a_steady_speed(scenario):
+    """The friction eq. 17's swing and the turning moment diagram count (the engine's Newton-Euler
+    with the motion given: omega1 constant, epsilon1 0) against the kernel's own solve from its
+    tables when a drive holds the crank at that speed (the speed-causal step, ck_friction_values'
+    rule): within 1e-9 of its largest over the turn."""
+    from crankfmu import native
+    from crankfmu.dynamics.tabulated import table_of
+    from crankfmu.integrators.fast import TABLE_TOLERANCE, SpeedStepper
+    from crankfmu.studies.flywheel import friction_torque
+
+    omega = 16.0
+    model = scenario.build(table=TABLE_TOLERANCE)
+    stepper = SpeedStepper(table_of(model.reduced, TABLE_TOLERANCE), model.reduced.J_flywheel)
+    stepper.start(0.0, 0.0, omega)
+    rows = np.array([stepper.advance(k * 2e-3, omega, 0.0).copy() for k in range(1, 200)])
+    field = native.SPEED_ROW_FIELDS.index
+    assert np.all(rows[:, field("epsilon1")] == 0.0)
+    kernel = rows[:, field("M_friction")]
+    engine = friction_torque(model, rows[:, 0], omega)
+    assert np.max(np.abs(engine - kernel)) < 1e-9 * np.max(np.abs(kernel))
+    assert np.all(engine <= 0.0) and np.min(engine) < -1.0
 
 
 def test_the_kernels_steady_cycles_carry_the_friction(scenario, tmp_path):

@@ -306,15 +306,6 @@ class Scenario:
         y0[0], y0[1] = values["phi1_start"], values["omega1_start"]
         return Model(self, mechanism, reduced, motor, equation, y0, worst, at)
 
-    def refuse_friction(self, what: str, why: str, instead: str = "simulate with the fast or reference method"
-                        ) -> None:
-        """Refuse joint friction by name where ``what`` (a study, a path) does not take it yet, saying
-        ``why`` and what to do ``instead``."""
-        entries = self.friction_entries()
-        if entries:
-            raise DefinitionError(f"{self.where}: joint friction ({in_words(list(entries))}) is not taken by {what} "
-                                  f"yet ({why}; issue 69): set its mu to 0, or {instead}")
-
     def friction_entries(self, definition: MechanismDefinition | None = None) -> dict:
         """Joint name -> its friction's expressions {"mu": ..., "radius": ...}: the mechanism file's
         ``friction`` on each ``[[joints]]`` entry, replaced joint by joint by the scenario's

@@ -265,7 +265,9 @@ def cmd_flywheel(args) -> int:
           f"-{100 * d.epsilon_peak_reduction:.2f} %")
     estimate = (f"linear estimate {st.linear_estimate_deg:.3f} deg" if math.isfinite(st.linear_estimate_deg)
                 else "no linear estimate: the motor line has no slope, B = 0")
-    if st.limit:
+    if st.skipped:
+        print(f"  eq. 3: not run: {st.skipped}")
+    elif st.limit:
         print(f"  eq. 3 stable up to {st.limit['largest_stable_deg']:.3f} deg, unstable from "
               f"{st.limit['smallest_unstable_deg']:.3f} deg ({estimate})")
     else:

@@ -105,14 +105,17 @@ def plot_movement(study, path: Path) -> Path:
     fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 8.5), constrained_layout=True, sharex=True)
     deg = paper_deg(reference.phi1, offset)
     a1.plot(deg, reference.omega1, lw=1.5, label="reference (DOP853, time domain)")
-    a1.plot(paper_deg(eq3.trajectory.y[0], offset), eq3.trajectory.y[1], lw=1, ls="--",
-            label="eq. 3 (the crank-angle scheme\nof seed 003's paper), 1 deg")
+    if eq3 is not None:               # (none with joint friction, which the scheme does not take)
+        a1.plot(paper_deg(eq3.trajectory.y[0], offset), eq3.trajectory.y[1], lw=1, ls="--",
+                label="eq. 3 (the crank-angle scheme\nof seed 003's paper), 1 deg")
     a1.set_ylabel("omega1 [rad/s]")
     a2.plot(deg, reference.epsilon1, lw=1.2)
     a2.set_ylabel("epsilon1 [rad/s2]")
     a3.plot(deg, reference.M_motor + reference.M_load, lw=1.2, label="M_motor + M_load")
     a3.plot(deg, reference.M_load, lw=0.8,
             label=f"M_load: {scenario.describe_loads(model.reduced, acting(model, study.design.omega_m))}")
+    if reference.friction:
+        a3.plot(deg, reference.friction["M_friction"], lw=0.8, label="M_friction: the joints' friction")
     a3.set_ylabel("torque on the crank [N.m]")
     a3.set_xlabel(angle_label(offset))
     for ax in (a1, a2, a3):
@@ -126,8 +129,9 @@ def plot_movement(study, path: Path) -> Path:
     fig.suptitle(f"{scenario.name}: {start}{paper_figures(scenario, 5, 6)}")
     settled = study.movement.get("settled_within_1e-3_at_deg")
     save_figure(fig, path, dpi=120, scenario=scenario.name,
-                caption=f"The run {start} (the flywheel the design starts from): crank speed by the reference and by "
-                        "the crank-angle scheme of eq. 3, acceleration, and the torques on the crank. "
+                caption=f"The run {start} (the flywheel the design starts from): crank speed by the reference"
+                        + (" and by the crank-angle scheme of eq. 3" if eq3 is not None else "")
+                        + ", acceleration, and the torques on the crank. "
                         + (f"It settles on the steady cycle within 1e-3 rad/s after {settled:.0f} deg."
                            if settled is not None else "It has not settled on the steady cycle by the end."))
     plt.close(fig)
@@ -180,6 +184,10 @@ def plot_turning_moment(study, path: Path) -> Path:
     givers = [i for i in range(len(torques)) if i not in takers]
     resisting = -sum((torques[i] for i in takers), np.zeros_like(grid))
     driving = sum((torques[i] for i in givers), np.zeros_like(grid))
+    # the joints' friction resists, at the mean speed as eq. 17's swing counts it
+    friction = study.friction_torque(grid)
+    if friction is not None:
+        resisting = resisting - friction
     # what a drive supplies on average: the mean the loads leave over the cycle (the motor's share of
     # a machine driven by its motor, a small balance for an engine whose gas drives its generator)
     share = float(np.trapezoid(resisting - driving, grid) / span)
@@ -194,10 +202,13 @@ def plot_turning_moment(study, path: Path) -> Path:
         what_drives.insert(0, f"the motor (its mean over the cycle, {engineering(share, 'N.m')})")
     elif significant:                 # no motor: the loads' small imbalance at the mean speed, levelled
         what_drives.append(f"a level {engineering(share, 'N.m')} (the loads' imbalance at omega_m)")
+    resisting_words = scenario.describe_loads(model.reduced, takers)
+    if friction is not None:
+        resisting_words = (f"{resisting_words} and " if takers else "") + "the joints' friction"
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6.5), constrained_layout=True, sharex=True)
     a1.plot(deg, driving, color="black", lw=1.2, label="driving: " + "\nand ".join(what_drives or ["none"]))
     a1.plot(deg, resisting, color="tab:blue", lw=1.2, ls="--",
-            label=f"resisting: {scenario.describe_loads(model.reduced, takers)}\n(mean {engineering(float(np.mean(resisting)), 'N.m')})")
+            label=f"resisting: {resisting_words}\n(mean {engineering(float(np.mean(resisting)), 'N.m')})")
     a1.fill_between(deg, driving, resisting, where=driving >= resisting, color="tab:green", alpha=0.35,
                     interpolate=True, label="energy to the flywheel")
     a1.fill_between(deg, driving, resisting, where=driving < resisting, color="tab:red", alpha=0.35,
@@ -216,7 +227,7 @@ def plot_turning_moment(study, path: Path) -> Path:
     save_figure(fig, path, dpi=120, scenario=scenario.name,
                 caption=f"The torques on the crank over the machine's cycle at its mean speed: driving "
                         f"({' and '.join(what_drives or ['none'])}) against resisting "
-                        f"({scenario.describe_loads(model.reduced, takers)}). The green areas store energy in the flywheel, "
+                        f"({resisting_words}). The green areas store energy in the flywheel, "
                         f"the red give it back; the largest swing, dW_max = {engineering(dW, 'J')}, is what the "
                         "flywheel is sized from (eq. 17).")
     plt.close(fig)
@@ -260,6 +271,8 @@ def plot_stability(study, path: Path) -> Path:
 def plot_flywheel_study(study, out: Path) -> list[Path]:
     """Every figure of the study, in the order flywheel.json lists them."""
     out = Path(out)
-    return [plot_inertia(study, out / "J_e.png"), plot_movement(study, out / "movement.png"),
-            plot_flywheel(study, out / "flywheel.png"), plot_turning_moment(study, out / "turning_moment.png"),
-            plot_stability(study, out / "eq3_stability.png")]
+    plots = [plot_inertia(study, out / "J_e.png"), plot_movement(study, out / "movement.png"),
+             plot_flywheel(study, out / "flywheel.png"), plot_turning_moment(study, out / "turning_moment.png")]
+    if not study.stability.skipped:
+        plots.append(plot_stability(study, out / "eq3_stability.png"))
+    return plots

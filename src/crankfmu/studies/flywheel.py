@@ -172,6 +172,8 @@ class Eq3Stability:
     limit: dict | None              # largest_stable_deg, smallest_unstable_deg (bisected)
     linear_estimate_deg: float      # 2 J omega1 / B at the cycle's worst point
     J_flywheel: float               # kg.m2
+    #: why the study was not run ("" where it was): the scheme does not take the machine (joint friction)
+    skipped: str = ""
 
 
 @dataclass
@@ -195,6 +197,11 @@ class FlywheelStudy:
         if self._model is None:
             self._model = self.scenario.build()
         return self._model
+
+    def friction_torque(self, phi1) -> np.ndarray | None:
+        """The joints' friction on the crank (N.m) at the crank angles ``phi1`` turning steadily at
+        the design's omega_m, as eq. 17's swing counts it (friction_torque); None without friction."""
+        return friction_torque(self.model, phi1, self.design.omega_m)
 
     def summary(self) -> dict:
         """What flywheel.json holds."""
@@ -325,10 +332,23 @@ def steady_cycle(model, phi0: float = 0.0, rtol: float = 1e-11, n_samples: int =
                        J_flywheel=model.reduced.J_flywheel, angle=cycle)
 
 
+def friction_torque(model, phi1, omega1: float) -> np.ndarray | None:
+    """The joints' friction reduced to the crank (N.m, <= 0) at the crank angles ``phi1`` (rad) of a
+    crank turning at the constant ``omega1`` (rad/s, > 0): eq. 17's machine at its mean speed, epsilon1
+    0, each friction the one that motion's reactions give (dynamics.reactions.joint_reactions, the
+    motion given); None without joint friction."""
+    if model.reduced.friction is None:
+        return None
+    from ..dynamics.reactions import joint_reactions
+
+    found = joint_reactions(model.reduced, np.asarray(phi1, dtype=float), omega1, 0.0)
+    return sum(found.friction_power.values()) / omega1
+
+
 def energy_swing(model, n: int = 20001, omega1: float = 1.0) -> tuple[float, np.ndarray, np.ndarray]:
     """dW_max (J) of eqs. 16-17 and the curve dW(phi1) over the machine's cycle: the loads' work
     against their mean. The loads of the speed at ``omega1`` (rad/s: the cycle's mean speed; a
-    slider force reads only its sign)."""
+    slider force reads only its sign), and the joints' friction there (friction_torque)."""
     breaks = cycle_breaks(model)
     cycle, turns = model.reduced.period, model.reduced.cycle_turns
     x, wts = np.polynomial.legendre.leggauss(8)
@@ -339,6 +359,9 @@ def energy_swing(model, n: int = 20001, omega1: float = 1.0) -> tuple[float, np.
     J, half_dJ, Q, kin = model.reduced.coefficients(nodes)
     if model.reduced.velocity_dependent:
         Q = Q + model.reduced.velocity_load(kin, np.full_like(nodes, omega1))   # forward, at the mean speed
+    friction = friction_torque(model, nodes, omega1)
+    if friction is not None:
+        Q = Q + friction
     work = np.sum(Q.reshape(-1, x.size) * wts[None, :], axis=1) * half
     cumulative = np.concatenate([[0.0], np.cumsum(work)])
     swing = cumulative - cumulative[-1] / cycle * grid
@@ -461,6 +484,9 @@ def eq17_departures(scenario, model, J_e, J_F: float, omega_m: float) -> list[st
     B = float(model.motor.B)
     if B > 0.0:
         out.append(f"the motor line's torque falls with the speed (B = {B:g} N.m.s/rad), which damps the fluctuation")
+    if model.reduced.friction is not None:
+        out.append("the joints' friction follows the reactions, which the speed's fluctuation and the acceleration "
+                   "change; eq. 17 counts it at omega_m with epsilon1 = 0")
     grid = np.linspace(0.0, model.reduced.period, 73)
     kin = model.mechanism.kinematics(grid)
     words = scenario.load_words()
@@ -566,18 +592,22 @@ def flywheel_study(scenario, delta: float, steps_deg=None, progress=None) -> Fly
     from ..simulation import simulate
 
     scenario = load_scenario(scenario)
-    scenario.refuse_friction("the flywheel study", "its eq. 3 stability study runs the paper's crank-angle "
-                             "scheme, which takes no joint friction, and its eq. 17 and turning moment count the "
-                             "loads' work alone; crankfmu sweep --param J_flywheel=LO:HI:N gives each flywheel's "
-                             "delta with the friction")
     spec = scenario.data.get("flywheel", {})
     offset = float(spec.get("angle_offset", 0.0))
     design = design_flywheel(scenario, delta, phi0=offset, progress=progress)
     base = scenario.with_params(J_flywheel=design.baseline_J_flywheel)
     steps = list(spec.get("eq3_steps_deg", [1, 2, 5, 10, 20])) if steps_deg is None else list(steps_deg)
-    # eq. 3 starts at phi1_start: the design's steady cycle is that one where it was taken from there
-    same_start = abs(base["phi1_start"] - offset) < 1e-15
-    stability = eq3_stability(base, steps, steady=design.without if same_start else None)
+    # the paper's crank-angle scheme (eq. 3) takes the loads of the file alone: with joint friction
+    # its study and its run from the start are left out, with the reason
+    friction = base.build().reduced.friction is not None
+    if friction:
+        stability = Eq3Stability(0, [], None, math.nan, float(base["J_flywheel"]), skipped=(
+            "the paper's crank-angle scheme (eq. 3) takes no joint friction, whose moment follows the "
+            "reactions and so the acceleration it steps"))
+    else:
+        # eq. 3 starts at phi1_start: the design's steady cycle is that one where it was taken from there
+        same_start = abs(base["phi1_start"] - offset) < 1e-15
+        stability = eq3_stability(base, steps, steady=design.without if same_start else None)
     if progress is not None:
         progress(4)
     # the movement from the start (Fig. 6): the reference and eq. 3 at 1 deg, three turns
@@ -588,15 +618,17 @@ def flywheel_study(scenario, delta: float, steps_deg=None, progress=None) -> Fly
     fastest = 1.1 * max(float(design.without.omega1.max()), abs(float(base["omega1_start"])))
     samples = int(math.ceil(t_end * fastest / math.radians(0.5))) + 1
     reference = simulate(base, t_end=t_end, output_times=np.linspace(base.experiment.start_time, t_end, samples))
-    eq3 = simulate(base, t_end=t_end, method="lv-eq3", angle_step=math.radians(1.0))
+    eq3 = None if friction else simulate(base, t_end=t_end, method="lv-eq3", angle_step=math.radians(1.0))
     if progress is not None:
         progress(5)
     settled = _settled_angle(reference, design.without, offset)
-    eq3_phi, eq3_omega = eq3.trajectory.y[0], eq3.trajectory.y[1]
-    both = eq3_phi <= reference.phi1[-1]
     movement = {"omega1_start": base["omega1_start"], "settled_within_1e-3_at_deg": settled,
-                "eq3_1deg_max_error_first_3_turns": float(np.max(np.abs(
-                    eq3_omega[both] - reference.omega_at_angle(eq3_phi[both]))))}
+                "eq3_1deg_max_error_first_3_turns": None}
+    if eq3 is not None:
+        eq3_phi, eq3_omega = eq3.trajectory.y[0], eq3.trajectory.y[1]
+        both = eq3_phi <= reference.phi1[-1]
+        movement["eq3_1deg_max_error_first_3_turns"] = float(np.max(np.abs(
+            eq3_omega[both] - reference.omega_at_angle(eq3_phi[both]))))
     return FlywheelStudy(design, stability, movement, base, offset, reference, eq3)
 
 
