@@ -13,7 +13,7 @@ import crankfmu
 from crankfmu.dynamics.reactions import NewtonEuler, joint_reactions
 from crankfmu.errors import CrankfmuError
 from crankfmu.simulation import simulate
-from crankfmu.studies.flywheel import SteadyCycle, cycle_works
+from crankfmu.studies.steady_cycle import SteadyCycle, cycle_works
 
 from friction_reference import SliderCrankWithFriction
 
@@ -79,7 +79,7 @@ def test_the_steady_cycle_is_found_with_friction_and_matches_the_reference(scena
     turn, so each periodic speed is known to about 1e-9 rad/s of 16 (the shooting stops where the
     integration's error has the last word); the efficiency, a ratio of works, to far below the
     issue's 1e-6."""
-    from crankfmu.studies.flywheel import steady_cycle
+    from crankfmu.studies.steady_cycle import steady_cycle
 
     w0, works = reference.steady_turn(16.0)
     expected = -(works["W_work"] + works["W_weights"]) / works["W_motor"]

@@ -1,5 +1,5 @@
 """The native FMU's joint reactions (``<joint>_Fx``, ``_Fy``; ``_N``, ``_M``): read on demand from
-tabulated terms (dynamics.tabulated.tabulate_reactions: Newton-Euler is linear in epsilon1,
+tabulated terms (dynamics.reaction_table.tabulate_reactions: Newton-Euler is linear in epsilon1,
 omega1^2, the dampers' omega1, each switched load's value and each port's input, with
 coefficients that are functions of phi1 alone) times the weights the C kernel gives at the state
 (ck_reaction_weights). Checked against the Newton-Euler solve (dynamics.reactions, what

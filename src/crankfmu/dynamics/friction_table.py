@@ -4,7 +4,7 @@ native/kernel/crank_friction.c; the rule: dynamics.friction).
 At each state the kernel solves the frictions and the crank's acceleration together. What it needs
 of the mechanism is, per friction, its relative rate k_i (rad/rad or m/rad) and its joint's reaction
 components (a pin's two, a slide's normal force) as linear combinations: the joint reactions'
-terms (tabulated.reaction_terms: 1, epsilon1, omega1^2, omega1, the switched columns, the ports),
+terms (reaction_table.reaction_terms: 1, epsilon1, omega1^2, omega1, the switched columns, the ports),
 then one term per unit friction (each friction at value 1 alone, dynamics.friction.unit_loads).
 These are functions of phi1 alone, tabulated once per design as periodic cubics like the reduced
 model; the kernel weighs them at each right-hand side and runs Newton's method on the n_f
@@ -19,7 +19,7 @@ import numpy as np
 
 from .cubics import build_cubics
 from .reduced import ReducedModel
-from .tabulated import REACTION_TERMS, reaction_terms, zero_terms
+from .reaction_table import REACTION_TERMS, reaction_terms, zero_terms
 
 
 @dataclass

@@ -2,7 +2,7 @@
 loads): its torque on the crank (dynamics/loads.py, user_loads.py restated as register
 arithmetic), its switched columns and their values, the searches for its switch angles, and the
 forces and couples it applies link by link (what the joint reactions' Newton-Euler solve needs:
-``AppliedLoad``), term by term of the reaction table (dynamics.tabulated.REACTION_TERMS).
+``AppliedLoad``), term by term of the reaction table (dynamics.reaction_table.REACTION_TERMS).
 
 A load is a dict of closures, each run in the section it belongs to:
 

@@ -252,7 +252,7 @@ class _Compiler(LoadClauses):
 
     def _reactions(self, loads) -> dict:
         """The Newton-Euler solve's tables (dynamics/reactions.py) and the loads each term of the
-        reaction table applies (tabulated.tabulate_reactions: "1" the position-only loads, epsilon1
+        reaction table applies (reaction_table.tabulate_reactions: "1" the position-only loads, epsilon1
         and omega1^2 the inertia, omega1 the viscous loads, then each switched column at value 1
         and each port's input at 1)."""
         from .reactions import reaction_outputs

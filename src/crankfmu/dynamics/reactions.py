@@ -186,7 +186,7 @@ def joint_reactions(reduced: ReducedModel, phi1, omega1, epsilon1=0.0, inertia: 
     ``extra(kin)``: more applied loads (loads.AppliedLoad) at the kinematics, beside the model's
     own: the ports' inputs (dynamics.ports). ``kin``: the kinematics at phi1, where the caller has
     them already. ``loads``: the model's loads that act (default all; the reactions are linear in
-    the loads, and their tables, dynamics.tabulated.tabulate_reactions, take them part by part).
+    the loads, and their tables, dynamics.reaction_table.tabulate_reactions, take them part by part).
     With joint friction (dynamics.friction) the reactions and M_e are those with the friction
     moments and forces of the prescribed motion, turning the way omega1's sign says, or
     ``direction`` where omega1 is 0 (the static friction a start from rest meets).

@@ -460,7 +460,7 @@ class QuantityReads:
 
 
 class ReactionReads:
-    """The joint reactions from their table (dynamics.tabulated.ReactionTable) by the kernel's
+    """The joint reactions from their table (dynamics.reaction_table.ReactionTable) by the kernel's
     ck_reaction_values, the native FMU's rule: the tabulated terms at phi1 times the weights of the
     stepper's mode and inputs at t (``stepper``: its state S, parameters P and tables)."""
 

@@ -34,7 +34,8 @@ import numpy as np
 from ...contract import INPUTS, MOTOR_PARAMETERS as MOTOR, OUTPUTS
 from ...dynamics import MotorLine
 from ...dynamics import modes
-from ...dynamics.tabulated import c_output_tables, table_of, tabulate_quantities, tabulate_reactions
+from ...dynamics.reaction_table import tabulate_reactions
+from ...dynamics.tabulated import c_output_tables, table_of, tabulate_quantities
 from ...integrators.fast import TABLE_TOLERANCE, FastStepper
 from ...native import ROW_FIELDS, QuantityReads, ReactionReads
 from ...parameters import Parameter

@@ -160,7 +160,7 @@ CK_API int ck_layout(int* out, int n);
 CK_API void ck_periodic_cubics(const double* coefficients, int n_functions, int n, double period, double phi,
                                double* out);
 
-/* the values the joint reactions' tabulated terms multiply (dynamics/tabulated.py, ReactionTable),
+/* the values the joint reactions' tabulated terms multiply (dynamics/reaction_table.py, ReactionTable),
  * into out: 1, epsilon1, omega1^2, omega1, each switched load's value in the mode at t (the
  * tables' forces of its interval and direction, 0 at rest; t within S's last step or at its end),
  * each port's input at t; returns the count */

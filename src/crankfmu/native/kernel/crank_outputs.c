@@ -1,6 +1,6 @@
 /* What hosts read besides the state: the [[outputs]] and the ports' coordinates, and the joint
  * reactions, each from its table at the crank angle (crank_kernel.h; the tables: dynamics/
- * tabulated.py's QuantityTable and ReactionTable). A reaction is linear in the crank's
+ * tabulated.py's QuantityTable and reaction_table.py's ReactionTable). A reaction is linear in the crank's
  * acceleration, omega1^2, omega1, the switched loads' values and the ports' inputs, with
  * coefficients that are functions of phi1 alone: its value is their weighted sum. */
 #include "crank_kernel_internal.h"

@@ -57,7 +57,7 @@ static const double *point_registers(const mm_model *m, int point)
 }
 
 /* every joint reaction's terms at phi1 (dynamics/reactions.py, one term at a time as
- * tabulated.tabulate_reactions): out[component * terms + term] */
+ * reaction_table.tabulate_reactions): out[component * terms + term] */
 static int reactions_at(mm_model *m, double phi1, double *out)
 {
     const mm_program *p = m->program;
@@ -134,7 +134,7 @@ static int reactions_at(mm_model *m, double phi1, double *out)
 }
 
 /* which reaction terms a component has: the others are zero up to the solve's round-off, and
- * exactly zero in the table (tabulated.tabulate_reactions' probe of 96 angles) */
+ * exactly zero in the table (reaction_table.tabulate_reactions' probe of 96 angles) */
 static int reaction_mask(mm_model *m)
 {
     const mm_program *p = m->program;
@@ -177,7 +177,7 @@ static void friction_rows(const mm_model *m, const double *x, const int *keep, d
     }
 }
 
-/* which terms each friction component has (tabulated.zero_terms on its components: a probe of 96
+/* which terms each friction component has (reaction_table.zero_terms on its components: a probe of 96
  * angles per turn over the machine's cycle, each term against its largest over the components) */
 static int friction_mask(mm_model *m)
 {

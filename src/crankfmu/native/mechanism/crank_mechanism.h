@@ -36,7 +36,7 @@ enum mm_op {
 enum { MM_SETUP, MM_CLOSED, MM_ROWS, MM_VALUES, MM_OUTPUTS, MM_REACTIONS, MM_LAWS, MM_FIRST_SEARCH };
 /* the tables a model gives: the reduced model's (J, 0.5 J', the loads, the ports' transfer
  * functions), the [[outputs]] and ports' coordinates (q - winding phi1, q', q'' each), the joint
- * reactions' terms (component-major, dynamics.tabulated.REACTION_TERMS then the columns, the ports
+ * reactions' terms (component-major, dynamics.reaction_table.REACTION_TERMS then the columns, the ports
  * and each active joint friction at value 1), and the joints' friction (friction_table.FrictionTable's
  * rows, function-major: each active friction's relative rate, then each one's reaction components'
  * terms as the reactions') */
