@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import crankfmu
 from crankfmu.cli import main
 from crankfmu.dynamics.reactions import joint_reactions
 from crankfmu.simulation import simulate
@@ -147,3 +148,39 @@ def test_the_win64_dll_runs_the_friction_under_wine(native, tmp_path):
     assert remote[2][-1] < -1.0                                   # the friction did its work
     assert np.max(np.abs(remote[1] - reference[1])) < 1e-8
     assert np.max(np.abs(local["omega1"] - reference[1])) < 1e-8
+
+
+def test_a_mu_beyond_1_is_refused_by_name_when_the_fmu_initialises(tmp_path):
+    """A user's scenario whose mu parameter declares no upper bound: the native FMU takes the value
+    (its range is the file's) and refuses the design when initialisation ends, naming the joint and
+    the bound, with logging off, as the engine refuses it (mu in [0, 1]); the instance then takes a
+    good value after a reset."""
+    from fmpy.fmi1 import FMICallException
+
+    from crankfmu.errors import ParameterError
+    from fuzz_host import quiet_slave
+
+    text = SCENARIO.read_text().replace('mu_guide = { value = 0.1, unit = "1", min = 0, max = 1,',
+                                        'mu_guide = { value = 0.1, unit = "1", min = 0,')
+    assert "max = 1, description = \"friction coefficient of the guide" not in text
+    user = tmp_path / "unbounded_scenario.toml"
+    user.write_text(text)
+    assert main(["fmu", str(user), "--native", "--out", str(tmp_path / "fmu")]) == 0
+    with pytest.raises(ParameterError, match=r"friction of joint slide: mu = mu_guide = 1.5 must be in \[0, 1\]"):
+        crankfmu.load_scenario(user).with_params(mu_guide=1.5).build()
+    fmu, vr, messages, keep = quiet_slave(tmp_path / "fmu" / "SliderFriction.fmu", tmp_path / "x", "SliderFriction")
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.setReal([vr["mu_guide"]], [1.5])
+    with pytest.raises(FMICallException):
+        fmu.exitInitializationMode()
+    assert "the friction of joint slide: 1 - mu = -0.5 must be >= 0" in messages[-1], messages
+    fmu.reset()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.setReal([vr["mu_guide"]], [0.5])
+    fmu.exitInitializationMode()
+    fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.1)
+    assert fmu.getReal([vr["W_friction"]])[0] < 0.0
+    fmu.terminate()
+    fmu.freeInstance()

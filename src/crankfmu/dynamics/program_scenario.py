@@ -315,10 +315,15 @@ class _Compiler(LoadClauses):
             if entry is None:
                 continue
             at = f"friction of joint {joint.name}"
-            coefficient = c.expression(entry["mu"], self.env, f"{at}: mu")
+            mu = c.expression(entry["mu"], self.env, f"{at}: mu")
+            # mu in [0, 1], as dynamics.friction.joint_frictions requires of it: a design outside is
+            # refused by name when the FMU initialises, whatever range the parameter declares
+            self.checks += [(mu, f"the {at}: mu"), (c.emit("sub", self.one, mu), f"the {at}: 1 - mu")]
+            coefficient = mu
             if joint.kind == "revolute":
-                coefficient = c.mul(coefficient, c.expression(entry["radius"], self.env, f"{at}: radius"))
-            self.checks.append((coefficient, f"the {at} (mu r or mu)"))
+                radius = c.expression(entry["radius"], self.env, f"{at}: radius")
+                self.checks.append((radius, f"the {at}: the pin's radius"))
+                coefficient = c.mul(mu, radius)
             out.append((joint, coefficient, -1))
         if len(out) > 16:                   # crank_mechanism.h's MM_MAX_FRICTIONS
             raise Unsupported("more than 16 joints with friction")
