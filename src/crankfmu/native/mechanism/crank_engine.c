@@ -160,11 +160,12 @@ static int reaction_mask(mm_model *m)
 
 /* the friction table's functions at phi1 from the reaction terms x (all the program's, as
  * reactions_at gives them) and the rates in the registers: friction_table.tabulate_frictions' rows,
- * the terms not kept (friction_mask) zero unless keep is NULL */
-static void friction_rows(const mm_model *m, const double *x, const int *keep, double *out)
+ * the terms not kept (friction_mask) zero unless keep is NULL; map, n_terms: term_map's */
+static void friction_rows(const mm_model *m, const double *x, const int *keep, const int *map, int n_terms,
+                          double *out)
 {
     const mm_program *p = m->program;
-    int map[3 * MAX_LINKS * 64], nt = p->n_terms_reaction, n_terms = term_map(m, map), row = m->n_active, first;
+    int nt = p->n_terms_reaction, row = m->n_active, first;
     for (int k = 0; k < m->n_active; ++k)
         out[k] = m->moving[k] ? m->registers[p->frictions[3 * m->active[k] + 2]] : 0.0;
     for (int k = 0; k < m->n_active; ++k) {
@@ -183,7 +184,7 @@ static int friction_mask(mm_model *m)
 {
     const mm_program *p = m->program;
     if (m->have_friction_mask) return MM_OK;
-    int n_terms = mm_reaction_terms(m), rows = mm_rows(m, MM_TABLE_FRICTION) - m->n_active;
+    int map[3 * MAX_LINKS * 64], n_terms = term_map(m, map), rows = mm_rows(m, MM_TABLE_FRICTION) - m->n_active;
     int n_probe = 97 * (p->cycle_turns > 1 ? p->cycle_turns : 1) - 1;
     double period = TWO_PI * (p->cycle_turns > 1 ? p->cycle_turns : 1);
     double *largest = calloc((size_t)rows + 1, sizeof(double)), *term_largest = calloc((size_t)n_terms + 1, sizeof(double));
@@ -196,7 +197,7 @@ static int friction_mask(mm_model *m)
         /* numpy.linspace(0, period, n_probe + 1)'s points but the last */
         status = reactions_at(m, i * (period / n_probe), x);
         if (status) break;
-        friction_rows(m, x, NULL, y);
+        friction_rows(m, x, NULL, map, n_terms, y);
         for (int k = 0; k < rows; ++k) {
             largest[k] = fmax(largest[k], fabs(y[m->n_active + k]));
             term_largest[k % n_terms] = fmax(term_largest[k % n_terms], fabs(y[m->n_active + k]));
@@ -277,7 +278,7 @@ static int engine_rows(mm_model *m, int table, const double *phi1, int n, double
                 }
         } else if (table == MM_TABLE_FRICTION) {
             if ((status = reactions_at(m, phi1[i], all))) return status;
-            friction_rows(m, all, m->friction_kept, x);
+            friction_rows(m, all, m->friction_kept, map, n_terms, x);
         } else {
             if ((status = mm_evaluate(m, phi1[i]))) return status;
             if (table == MM_TABLE_QUANTITIES) {
