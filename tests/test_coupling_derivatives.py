@@ -20,12 +20,15 @@ from crankfmu.cli import main
 
 HERE = Path(__file__).resolve().parent
 PRESS = HERE.parent / "validation" / "data" / "togglepress_scenario.toml"
+FRICTION = HERE.parent / "validation" / "data" / "slidercrank_friction_scenario.toml"
 
 #: what each build is made from (crankfmu fmu's arguments) and the input steps a dependency test sets
 BUILDS = {
     "FourBar": ["seed000"],
     "TogglePress": [str(PRESS)],
     "TogglePressSpeed": [str(PRESS), "--causality", "speed"],
+    # joint friction: its outputs solved with the acceleration, W_friction a state
+    "SliderFriction": [str(FRICTION)],
     "Drive": ["dc_pi", "--drive"],
     "DriveSpeed": ["dc_pi", "--drive", "--causality", "speed"],
     "DieCushion": ["die_cushion", "--cushion"],
@@ -186,12 +189,14 @@ def central_difference(evaluate, x0: float, h: float) -> np.ndarray:
     return (4 * d[1] - d[0]) / 3
 
 
-@pytest.mark.parametrize("variant", ["native", "native3"])
-def test_directional_derivatives_match_central_differences_in_co_simulation(built, variant, tmp_path):
-    """The toggle press (ram port, [[outputs]], joints): d(every output)/d(each input) from the FMU
-    against central differences of the outputs with the input set (no step) to 1e-6 relative;
-    FMI 3.0's adjoint against the transposed directional to 1e-12."""
-    fmu, md, vr = slave(built["TogglePress", variant], tmp_path)
+@pytest.mark.parametrize("name,variant", [(n, v) for n in ("TogglePress", "SliderFriction")
+                                          for v in ("native", "native3")])
+def test_directional_derivatives_match_central_differences_in_co_simulation(built, name, variant, tmp_path):
+    """The toggle press (ram port, [[outputs]], joints) and the slider-crank with joint friction (its
+    frictions solved with the acceleration): d(every output)/d(each input) from the FMU against
+    central differences of the outputs with the input set (no step) to 1e-6 relative; FMI 3.0's
+    adjoint against the transposed directional to 1e-12."""
+    fmu, md, vr = slave(built[name, variant], tmp_path)
     try:
         inputs = drive_inputs(md, fmu, vr, steps=37)
         outputs = [u.variable.name for u in md.outputs]
@@ -214,7 +219,7 @@ def test_directional_derivatives_match_central_differences_in_co_simulation(buil
             put(fmu, [vr[name_in]], [x0])
             scale = np.maximum(np.abs(numeric), 1e-9 * np.max(np.abs(numeric)) + 1e-12)
             worst = np.max(np.abs(jacobian[:, k] - numeric) / scale)
-            print(f"TogglePress ({variant}) d/d{name_in}: largest relative difference {worst:.1e}")
+            print(f"{name} ({variant}) d/d{name_in}: largest relative difference {worst:.1e}")
             assert worst < 1e-6, f"d/d{name_in}: relative {worst:.2e}"
         if variant == "native3":
             seed = np.linspace(1.0, 2.0, len(outputs))
@@ -312,7 +317,7 @@ def test_the_shafts_linear_system_and_its_step_on_input_lines(built, variant, tm
 FAN = HERE / "data" / "user" / "engine4s_fan_scenario.toml"
 
 
-@pytest.mark.parametrize("which", ["FourBar", "Engine4SFan", "Engine4SLaw"])
+@pytest.mark.parametrize("which", ["FourBar", "Engine4SFan", "Engine4SLaw", "SliderFriction"])
 def test_directional_derivatives_match_central_differences_in_model_exchange(built, which, tmp_path):
     """FourBar in Model Exchange: d(der(phi1), der(omega1), der(W_...), epsilon1, M_motor, M_load,
     J_red, E_kin)/d(each state and tau_ext) from the FMU against central differences of the same
@@ -321,12 +326,14 @@ def test_directional_derivatives_match_central_differences_in_model_exchange(bui
     a load of degree 2 whose omega1**2 column the kernel weighs by omega1's power) likewise: its
     d der(omega1)/d omega1 carries the fan's -2 c |omega1|; and the engine with its fan as a general
     law of the speed, -c_fan*240**2*tanh(omega1/240) (dynamics/speed_laws.py: its column weighed by
-    the law the program evaluates), its d der(omega1)/d omega1 carrying the law's slope."""
+    the law the program evaluates), its d der(omega1)/d omega1 carrying the law's slope. The
+    slider-crank with joint friction: W_friction the sixth state, der(W_friction) = M_friction omega1
+    with the frictions solved with the acceleration, away from their switches and kinks."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Model
 
-    if which == "FourBar":
-        path = built["FourBar", "native"]
+    if which in ("FourBar", "SliderFriction"):
+        path = built[which, "native"]
     else:
         source = FAN
         if which == "Engine4SLaw":
@@ -342,21 +349,24 @@ def test_directional_derivatives_match_central_differences_in_model_exchange(bui
     vr = {v.name: v.valueReference for v in md.modelVariables}
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
-    put(fmu, [vr["phi1_start"], vr["omega1_start"]], [1.3, 18.0] if which == "FourBar" else [2.1, 240.0])
+    start = [2.1, 240.0] if which.startswith("Engine") else [1.3, 18.0]
+    put(fmu, [vr["phi1_start"], vr["omega1_start"]], start)
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
     fmu.newDiscreteStates()
     fmu.enterContinuousTimeMode()
     try:
-        states = ["phi1", "omega1", "W_motor", "W_load", "W_ext"]
+        friction = "der(W_friction)" in vr
+        states = ["phi1", "omega1", "W_motor", "W_load", "W_ext"] + (["W_friction"] if friction else [])
         knowns = states + ["tau_ext"]
         unknowns = [f"der({s})" for s in states] + ["epsilon1", "M_motor", "M_load", "J_red", "E_kin"]
+        unknowns += ["M_friction", "slide_Ff", "O_Mf"] if friction else []
         from ctypes import c_double
 
         def set_states(y):
             fmu.setContinuousStates((c_double * len(y))(*y), len(y))
 
-        x0 = np.array([1.3, 18.0, 10.0, -5.0, 0.0]) if which == "FourBar" else np.array([2.1, 240.0, 10.0, -5.0, 0.0])
+        x0 = np.array([*start, 10.0, -5.0, 0.0] + ([-3.0] if friction else []))
         set_states(x0)
         u_vrs = [vr[n] for n in unknowns]
         for k, known in enumerate(knowns):

@@ -207,6 +207,39 @@ def _rows(text: str, mark: str = "row ") -> np.ndarray:
                      if line.startswith(mark)])
 
 
+def linux_and_arm_rows(fmu: Path, model: str, steps: int, step: float, out: str, tmp_path: Path,
+                       settings: dict | None = None) -> dict:
+    """{platform: rows (t, out)} of an FMI 3.0 FMU's x86_64-linux binary and its aarch64-linux binary
+    under qemu-aarch64, each in the project's C host (tests/c_host/fmu3_driver.c) for ``steps``
+    Co-Simulation steps of ``step`` s, ``settings`` (name -> value) set before initialisation.
+    Skipped without the cross compiler or qemu (failed on CI: `make` installs them)."""
+    from fmpy import read_model_description
+
+    if not (shutil.which("aarch64-linux-gnu-gcc") and shutil.which("qemu-aarch64")):
+        if os.environ.get("CI"):
+            pytest.fail("aarch64-linux-gnu-gcc or qemu-aarch64 is missing: `make` installs them")
+        pytest.skip("aarch64-linux-gnu-gcc or qemu-aarch64 is not installed (make test installs them)")
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    unzipped = tmp_path / "fmu"
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(unzipped)
+    driver = ROOT / "tests" / "c_host" / "fmu3_driver.c"
+    args = [str(unzipped), model, md.guid, str(steps), repr(step), str(vr[out]),
+            *(f"{vr[name]}={value!r}" for name, value in (settings or {}).items())]
+    runs = {}
+    for platform, compiler, runner in (("x86_64-linux", "gcc", []),
+                                       ("aarch64-linux", "aarch64-linux-gnu-gcc",
+                                        ["qemu-aarch64", "-L", "/usr/aarch64-linux-gnu"])):
+        program = tmp_path / platform
+        subprocess.run([compiler, "-std=c99", "-O2", f"-I{headers()}", "-o", str(program), str(driver), "-ldl"],
+                       check=True, capture_output=True)
+        done = subprocess.run([*runner, str(program), *args], capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stdout[-2000:]
+        runs[platform] = _rows(done.stdout)
+    return runs
+
+
 def test_the_three_binaries_run_in_the_c_host_and_agree(fmus, reference, tmp_path):
     """x86_64-linux under env -i, x86_64-windows under wine, aarch64-linux under qemu-aarch64."""
     from fmpy import read_model_description

@@ -191,36 +191,9 @@ def test_the_aarch64_binary_runs_the_friction_under_qemu(expected, native, tmp_p
     x86_64-linux one beside it), rtol 1e-12 set by the host: omega1 over 3 s at 10 ms steps within
     1e-8 rad/s of the independent reference on both (the friction tabulated on each by its own
     build of the C model; measured 2.8e-10 on each)."""
-    import os
-    import shutil
-    import subprocess
-    import zipfile
+    from test_fmi3 import linux_and_arm_rows
 
-    from fmpy import read_model_description
-
-    from test_fmi3 import _rows, headers
-
-    if not (shutil.which("aarch64-linux-gnu-gcc") and shutil.which("qemu-aarch64")):
-        if os.environ.get("CI"):
-            pytest.fail("aarch64-linux-gnu-gcc or qemu-aarch64 is missing: `make` installs them")
-        pytest.skip("aarch64-linux-gnu-gcc or qemu-aarch64 is not installed (make test installs them)")
-    md = read_model_description(str(native["3"]))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    unzipped = tmp_path / "fmu"
-    with zipfile.ZipFile(native["3"]) as z:
-        z.extractall(unzipped)
-    driver = ROOT / "tests" / "c_host" / "fmu3_driver.c"
-    args = [str(unzipped), "SliderFriction", md.guid, "300", "0.01", str(vr["omega1"]), f"{vr['rtol']}=1e-12"]
-    runs = {}
-    for platform, compiler, runner in (("x86_64-linux", "gcc", []),
-                                       ("aarch64-linux", "aarch64-linux-gnu-gcc",
-                                        ["qemu-aarch64", "-L", "/usr/aarch64-linux-gnu"])):
-        program = tmp_path / platform
-        subprocess.run([compiler, "-std=c99", "-O2", f"-I{headers()}", "-o", str(program), str(driver), "-ldl"],
-                       check=True, capture_output=True)
-        done = subprocess.run([*runner, str(program), *args], capture_output=True, text=True, timeout=600)
-        assert done.returncode == 0, done.stdout[-2000:]
-        runs[platform] = _rows(done.stdout)
+    runs = linux_and_arm_rows(native["3"], "SliderFriction", 300, 0.01, "omega1", tmp_path, {"rtol": 1e-12})
     for platform, rows in runs.items():
         assert rows.shape == (300, 2), platform
         assert np.max(np.abs(rows[:, 1] - expected[1][1:])) < 1e-8, platform

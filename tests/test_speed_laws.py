@@ -187,35 +187,10 @@ def test_the_fmi3_binaries_agree_under_qemu(press, tmp_path):
     """The FMI 3.0 FMU (the contact's kink and both laws) in the project's C host
     (tests/c_host/fmu3_driver.c): its x86_64-linux binary and its aarch64-linux binary under
     qemu-aarch64 agree to 1e-12, and both with the reference to 1e-8."""
-    import os
-    import shutil
-    import subprocess
-    import zipfile
-
-    from fmpy import read_model_description
-
-    from test_fmi3 import _rows, headers
+    from test_fmi3 import linux_and_arm_rows
 
     _, values, fmus = press
-    if not (shutil.which("aarch64-linux-gnu-gcc") and shutil.which("qemu-aarch64")):
-        if os.environ.get("CI"):
-            pytest.fail("aarch64-linux-gnu-gcc or qemu-aarch64 is missing: `make` installs them")
-        pytest.skip("no aarch64 cross compiler or qemu here")
-    md = read_model_description(str(fmus["native3"]))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    unzipped = tmp_path / "fmu"
-    with zipfile.ZipFile(fmus["native3"]) as z:
-        z.extractall(unzipped)
-    driver = Path(__file__).resolve().parent / "c_host" / "fmu3_driver.c"
-    args = [str(unzipped), "PressLaw", md.guid, str(int(round(STOP / 1e-3))), "0.001", str(vr["omega1"])]
-    runs = {}
-    for name, cc, prefix in (("x86_64-linux", "gcc", []),
-                             ("aarch64-linux", "aarch64-linux-gnu-gcc", ["qemu-aarch64", "-L", "/usr/aarch64-linux-gnu"])):
-        subprocess.run([cc, "-std=c99", "-O2", f"-I{headers()}", "-o", str(tmp_path / name), str(driver), "-ldl"],
-                       check=True, capture_output=True)
-        done = subprocess.run([*prefix, str(tmp_path / name), *args], capture_output=True, text=True, timeout=900)
-        assert done.returncode == 0, done.stdout[-2000:]
-        runs[name] = _rows(done.stdout)
+    runs = linux_and_arm_rows(fmus["native3"], "PressLaw", int(round(STOP / 1e-3)), 0.001, "omega1", tmp_path)
     linux, arm = runs["x86_64-linux"], runs["aarch64-linux"]
     expected = reference(values, linux[:, 0])
     scale = np.max(np.abs(expected))
